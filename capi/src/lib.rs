@@ -1,0 +1,1 @@
+//! C API of cmlt (issue 5): not yet exported.

@@ -1,0 +1,1 @@
+//! cmlt front end library.

@@ -1,0 +1,1 @@
+//! PLACEHOLDER: the default BVH (being written).

@@ -1,0 +1,73 @@
+//! The intersector seam: everything that traces rays goes through
+//! [`Intersector`].
+//!
+//! Three kinds of backend plug in here:
+//! - our own BVH ([`bvh`]), the default;
+//! - Embree's `rtcIntersect1/4/8/16` (behind the `embree` feature);
+//! - a host's ray tracer through C callbacks (the C API).
+//!
+//! Packets exist because CMLT's multiple-try step traces k nearby rays at
+//! once (a coherent bundle). A backend without a packet kernel inherits the
+//! lane-by-lane defaults below, which are correct, only slower.
+
+pub mod brute;
+pub mod bvh;
+
+#[cfg(feature = "alloc")]
+pub use brute::BruteForce;
+
+use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
+
+/// Closest-hit and occlusion queries, for single rays and SoA packets.
+///
+/// Contract for every backend:
+/// - hits are reported only for `t` in the open interval `(0, ray.t_max)`;
+/// - `Hit::prim` uses the scene-global triangle numbering;
+/// - triangles are hit from both sides (no back-face culling);
+/// - lanes outside `active` are neither read nor written (their hit is left
+///   untouched; their occlusion bit is returned clear);
+/// - non-finite rays report no hit and never panic.
+pub trait Intersector {
+    /// The closest hit along `ray`, if any.
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+
+    /// Whether anything lies along `ray` in `(0, t_max)`.
+    fn occluded(&self, ray: &Ray) -> bool;
+
+    /// Closest hits for the active lanes of a packet (N = 4, 8 or 16).
+    fn intersect_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask, hits: &mut HitPacket<N>) {
+        for i in active.iter() {
+            hits.set(i, self.intersect(&rays.get(i)));
+        }
+    }
+
+    /// Occlusion for the active lanes of a packet; bit `i` set = occluded.
+    fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
+        let mut out = LaneMask::NONE;
+        for i in active.iter() {
+            if self.occluded(&rays.get(i)) {
+                out.set(i);
+            }
+        }
+        out
+    }
+}
+
+impl<T: Intersector + ?Sized> Intersector for &T {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        (**self).intersect(ray)
+    }
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        (**self).occluded(ray)
+    }
+    #[inline]
+    fn intersect_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask, hits: &mut HitPacket<N>) {
+        (**self).intersect_packet(rays, active, hits)
+    }
+    #[inline]
+    fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
+        (**self).occluded_packet(rays, active)
+    }
+}

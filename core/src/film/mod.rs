@@ -1,0 +1,1 @@
+//! Film (being written).

@@ -1,0 +1,51 @@
+//! # cmlt — Coherent Metropolis Light Transport
+//!
+//! An embeddable rendering core: physically based light transport with
+//! Metropolis sampling and multiple-try perturbations traced as coherent ray
+//! bundles (Segovia, Iehl, Péroche 2007).
+//!
+//! ## How the pieces fit
+//!
+//! ```text
+//!   scene (meshes, materials, lights, camera) ──┐
+//!                                               ▼
+//!   accel::Intersector  ◄── our BVH | Embree | host callbacks
+//!          ▲
+//!          │ rays / packets
+//!   integrator (PT, BDPT)  ──► film (accumulate + splat) ──► resolve
+//!          ▲
+//!   sampler (per-sample RNG streams)
+//! ```
+//!
+//! - [`math`]: colour, frames, warps.
+//! - [`geometry`]: rays, hits, packets, watertight triangles, robust offsets.
+//! - [`accel`]: the intersector seam and the default BVH.
+//! - [`scene`]: validated scene description, camera, lights.
+//! - [`bsdf`]: scattering models evaluated in the local shading frame.
+//! - [`sampler`]: deterministic random streams.
+//! - [`integrator`]: path tracing and bidirectional path tracing.
+//! - [`film`]: pixel accumulation and splatting.
+//!
+//! ## `no_std`
+//!
+//! Without default features the crate is `no_std` and allocation-free: math,
+//! geometry, BSDFs and traversal over borrowed slices. `alloc` adds owned
+//! scenes and films; `std` adds BVH construction (obvhs).
+
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+pub mod accel;
+pub mod bsdf;
+pub mod geometry;
+pub mod math;
+pub mod sampler;
+pub mod scene;
+
+#[cfg(feature = "alloc")]
+pub mod film;
+#[cfg(feature = "alloc")]
+pub mod integrator;
