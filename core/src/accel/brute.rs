@@ -1,7 +1,7 @@
 //! PLACEHOLDER: brute-force intersector (being written).
 
-#[cfg(feature = "alloc")]
 use alloc::vec::Vec;
+
 
 use glam::Vec3;
 
@@ -9,12 +9,10 @@ use super::Intersector;
 use crate::geometry::{Hit, Ray, triangle::intersect_triangle};
 
 /// Tests every triangle; the ground truth the BVH is checked against.
-#[cfg(feature = "alloc")]
 pub struct BruteForce {
     tris: Vec<[Vec3; 3]>,
 }
 
-#[cfg(feature = "alloc")]
 impl BruteForce {
     /// Over triangles in scene-global order.
     pub fn new(tris: impl IntoIterator<Item = [Vec3; 3]>) -> Self {
@@ -22,7 +20,6 @@ impl BruteForce {
     }
 }
 
-#[cfg(feature = "alloc")]
 impl Intersector for BruteForce {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut r = *ray;

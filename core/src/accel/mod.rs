@@ -10,6 +10,7 @@
 //! once (a coherent bundle). A backend without a packet kernel inherits the
 //! lane-by-lane defaults below, which are correct, only slower.
 
+#[cfg(feature = "alloc")]
 pub mod brute;
 pub mod bvh;
 

@@ -7,7 +7,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::math::{Rgb, warp};
-use crate::scene::{Bitmap, Material, MaterialKind};
+use crate::scene::{Material, MaterialKind, Texture};
 
 /// Whether a path carries radiance (camera side) or importance (light side);
 /// refraction scales by 1/η² only for radiance.
@@ -42,10 +42,11 @@ pub struct Bsdf {
 }
 
 impl Bsdf {
-    /// Resolves `material` at surface coordinates `uv`.
-    pub fn new(material: &Material, uv: Vec2, bitmaps: &[Bitmap]) -> Self {
+    /// Resolves `material` at one point; `texture` evaluates a texture
+    /// there (the scene supplies it, so this module needs no bitmaps).
+    pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
         let albedo = match &material.kind {
-            MaterialKind::Diffuse { reflectance } => reflectance.eval(uv, bitmaps),
+            MaterialKind::Diffuse { reflectance } => texture(reflectance),
             _ => Rgb::ZERO,
         };
         Bsdf { albedo, two_sided: material.two_sided }

@@ -1,6 +1,8 @@
 //! Reflectance textures: constant, bitmap and checkerboard (Mitsuba semantics).
 
-use glam::{Affine2, Vec2};
+use glam::Affine2;
+#[cfg(feature = "alloc")]
+use glam::Vec2;
 
 use crate::math::Rgb;
 
