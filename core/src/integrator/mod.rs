@@ -1,1 +1,24 @@
-//! Integrators (being written).
+//! Estimators of the measurement equation: path tracing and bidirectional
+//! path tracing, both with multiple importance sampling.
+
+/// Integrator settings with Mitsuba's meanings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Settings {
+    /// Longest path in segments (Mitsuba `max_depth`): 1 = emitters seen
+    /// directly, 2 = direct lighting, … `None` = unbounded (Mitsuba's −1).
+    pub max_depth: Option<u32>,
+    /// Path length from which Russian roulette may stop a path (Mitsuba
+    /// `rr_depth`, default 5).
+    pub rr_depth: u32,
+    /// Do not show emitters seen directly by the camera (Mitsuba
+    /// `hide_emitters`).
+    pub hide_emitters: bool,
+}
+
+impl Default for Settings {
+    /// Mitsuba's defaults: unbounded depth, roulette from depth 5, emitters
+    /// visible.
+    fn default() -> Self {
+        Settings { max_depth: None, rr_depth: 5, hide_emitters: false }
+    }
+}
