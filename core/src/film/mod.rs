@@ -1,1 +1,174 @@
-//! Film (being written).
+//! The film: per-pixel sums of camera-path samples plus a splat layer for
+//! contributions that land anywhere (light tracing, BDPT t = 1, Metropolis).
+//!
+//! Films are mergeable: workers render into their own film and the host sums
+//! them ([`Film::merge`]) in a fixed order, which keeps the result
+//! independent of scheduling. Sums are kept in f64 so that long renders do
+//! not lose the last digits of noise to f32 rounding.
+//!
+//! Pixel filter: box (one sample belongs to the pixel it falls in), which is
+//! what the references use.
+
+use alloc::vec;
+use alloc::vec::Vec;
+
+use glam::Vec2;
+
+use crate::math::Rgb;
+
+/// Accumulated radiance estimates of one image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    width: u32,
+    height: u32,
+    /// Sum of camera-path samples per pixel (RGB).
+    sum: Vec<[f64; 3]>,
+    /// Sum of splatted contributions per pixel (RGB).
+    splat: Vec<[f64; 3]>,
+    /// Number of passes (one sample per pixel each) accumulated.
+    passes: u64,
+    /// Samples rejected because they were NaN or infinite.
+    nonfinite: u64,
+}
+
+impl Film {
+    /// A black film of `width × height` pixels.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Film {
+            width,
+            height,
+            sum: vec![[0.0; 3]; n],
+            splat: vec![[0.0; 3]; n],
+            passes: 0,
+            nonfinite: 0,
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Number of completed passes.
+    pub fn passes(&self) -> u64 {
+        self.passes
+    }
+
+    /// Samples dropped as non-finite (a correct renderer keeps this at 0;
+    /// the stability tests assert it).
+    pub fn nonfinite(&self) -> u64 {
+        self.nonfinite
+    }
+
+    /// Records that one more pass (one sample in every pixel) is complete.
+    pub fn end_pass(&mut self) {
+        self.passes += 1;
+    }
+
+    /// Adds a camera-path sample to pixel `(x, y)`.
+    #[inline]
+    pub fn add_sample(&mut self, x: u32, y: u32, l: Rgb) {
+        if !l.is_finite() {
+            self.nonfinite += 1;
+            return;
+        }
+        let s = &mut self.sum[y as usize * self.width as usize + x as usize];
+        s[0] += l.r as f64;
+        s[1] += l.g as f64;
+        s[2] += l.b as f64;
+    }
+
+    /// Splats a contribution at continuous raster position `raster`; points
+    /// outside the image are ignored.
+    #[inline]
+    pub fn add_splat(&mut self, raster: Vec2, l: Rgb) {
+        if !l.is_finite() {
+            self.nonfinite += 1;
+            return;
+        }
+        if !(raster.x >= 0.0 && raster.y >= 0.0) {
+            return;
+        }
+        let (x, y) = (raster.x as u32, raster.y as u32);
+        if x >= self.width || y >= self.height {
+            return;
+        }
+        let s = &mut self.splat[y as usize * self.width as usize + x as usize];
+        s[0] += l.r as f64;
+        s[1] += l.g as f64;
+        s[2] += l.b as f64;
+    }
+
+    /// Adds another film of the same size into this one.
+    ///
+    /// # Panics
+    /// When the sizes differ (a programming error of the host).
+    pub fn merge(&mut self, other: &Film) {
+        assert!(
+            self.width == other.width && self.height == other.height,
+            "merging films of different sizes"
+        );
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+        for (a, b) in self.splat.iter_mut().zip(&other.splat) {
+            for c in 0..3 {
+                a[c] += b[c];
+            }
+        }
+        self.passes += other.passes;
+        self.nonfinite += other.nonfinite;
+    }
+
+    /// The image estimate: (samples + splats) / passes per pixel, row-major,
+    /// row 0 at the top. Black before the first pass.
+    pub fn resolve(&self) -> Vec<Rgb> {
+        let inv = if self.passes == 0 {
+            0.0
+        } else {
+            1.0 / self.passes as f64
+        };
+        self.sum
+            .iter()
+            .zip(&self.splat)
+            .map(|(s, p)| {
+                Rgb::new(
+                    ((s[0] + p[0]) * inv) as f32,
+                    ((s[1] + p[1]) * inv) as f32,
+                    ((s[2] + p[2]) * inv) as f32,
+                )
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolve_divides_by_passes_and_merges() {
+        let mut a = Film::new(2, 1);
+        a.add_sample(0, 0, Rgb::splat(1.0));
+        a.add_splat(Vec2::new(1.5, 0.5), Rgb::splat(4.0));
+        a.add_splat(Vec2::new(2.5, 0.5), Rgb::splat(100.0));
+        a.add_sample(1, 0, Rgb::splat(f32::NAN));
+        a.end_pass();
+        let mut b = Film::new(2, 1);
+        b.add_sample(0, 0, Rgb::splat(3.0));
+        b.end_pass();
+        a.merge(&b);
+        let img = a.resolve();
+        assert_eq!(img[0], Rgb::splat(2.0));
+        assert_eq!(img[1], Rgb::splat(2.0));
+        assert_eq!(a.nonfinite(), 1);
+    }
+}

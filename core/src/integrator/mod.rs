@@ -19,6 +19,88 @@ impl Default for Settings {
     /// Mitsuba's defaults: unbounded depth, roulette from depth 5, emitters
     /// visible.
     fn default() -> Self {
-        Settings { max_depth: None, rr_depth: 5, hide_emitters: false }
+        Settings {
+            max_depth: None,
+            rr_depth: 5,
+            hide_emitters: false,
+        }
     }
+}
+
+pub mod bdpt;
+pub mod context;
+pub mod path;
+
+pub use context::{Stats, Tracer};
+
+use glam::Vec2;
+
+use crate::accel::Intersector;
+use crate::film::Film;
+use crate::sampler::SampleStream;
+
+/// Which estimator renders a pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Path tracing with next-event estimation and MIS.
+    Path,
+    /// Bidirectional path tracing with MIS over all strategies.
+    Bdpt,
+}
+
+/// Per-worker state that lives across passes (subpath storage).
+#[derive(Default)]
+pub struct Worker {
+    bdpt: bdpt::Workspace,
+}
+
+impl Worker {
+    /// Fresh worker state.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+/// Renders pass `pass` — one sample in every pixel — into `film`.
+///
+/// The random stream of each sample depends only on `(seed, pass, pixel)`,
+/// so the same passes give the same samples whichever worker renders them;
+/// the host decides which worker renders which passes and merges the films
+/// in a fixed order.
+pub fn render_pass<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    settings: &Settings,
+    method: Method,
+    worker: &mut Worker,
+    seed: u64,
+    pass: u64,
+    film: &mut Film,
+) {
+    let camera = tracer.scene.camera;
+    let (w, h) = (camera.width(), camera.height());
+    for y in 0..h {
+        for x in 0..w {
+            let mut rng = SampleStream::new(seed, pass, y as u64 * w as u64 + x as u64);
+            let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+            match method {
+                Method::Path => {
+                    let ray = camera.generate_ray(raster, rng.next_2d());
+                    let l = path::radiance(tracer, settings, ray, &mut rng);
+                    film.add_sample(x, y, l);
+                }
+                Method::Bdpt => bdpt::sample(
+                    tracer,
+                    settings,
+                    &mut worker.bdpt,
+                    raster,
+                    x,
+                    y,
+                    &mut rng,
+                    film,
+                ),
+            }
+            tracer.stats.samples += 1;
+        }
+    }
+    film.end_pass();
 }

@@ -51,7 +51,9 @@ impl fmt::Display for CameraError {
             CameraError::BadTransform => "camera transform must be finite and invertible",
             CameraError::BadFov => "camera field of view must be in (0, 180) degrees",
             CameraError::BadResolution => "image width and height must be at least 1",
-            CameraError::BadLens => "aperture radius must be >= 0 and focus distance > 0, both finite",
+            CameraError::BadLens => {
+                "aperture radius must be >= 0 and focus distance > 0, both finite"
+            }
         })
     }
 }
@@ -110,7 +112,11 @@ impl Camera {
         if !(fov_degrees.is_finite() && fov_degrees > 0.0 && fov_degrees < 180.0) {
             return Err(CameraError::BadFov);
         }
-        if !(aperture_radius.is_finite() && aperture_radius >= 0.0 && focus_distance.is_finite() && focus_distance > 0.0) {
+        if !(aperture_radius.is_finite()
+            && aperture_radius >= 0.0
+            && focus_distance.is_finite()
+            && focus_distance > 0.0)
+        {
             return Err(CameraError::BadLens);
         }
         if !to_world.is_finite() {
@@ -131,7 +137,12 @@ impl Camera {
             // A mirrored frame (x = −(y × z)) is kept mirrored.
             xn = -xn;
         }
-        let yn = zn.cross(xn) * if xn.dot(y.cross(zn)) >= 0.0 { 1.0 } else { -1.0 };
+        let yn = zn.cross(xn)
+            * if xn.dot(y.cross(zn)) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
         let aspect = width as f32 / height as f32;
         let t = libm::tanf(fov_degrees.to_radians() * 0.5);
         let tan_half = match fov_axis {
@@ -203,7 +214,11 @@ impl Camera {
     fn local_dir(&self, raster: Vec2) -> Vec3 {
         let sx = raster.x / self.width as f32;
         let sy = raster.y / self.height as f32;
-        Vec3::new((1.0 - 2.0 * sx) * self.tan_half.x, (1.0 - 2.0 * sy) * self.tan_half.y, 1.0)
+        Vec3::new(
+            (1.0 - 2.0 * sx) * self.tan_half.x,
+            (1.0 - 2.0 * sy) * self.tan_half.y,
+            1.0,
+        )
     }
 
     /// Raster position of a camera-space direction, if it is in the image.
@@ -215,7 +230,8 @@ impl Camera {
         let sx = 0.5 * (1.0 - d.x / (d.z * self.tan_half.x));
         let sy = 0.5 * (1.0 - d.y / (d.z * self.tan_half.y));
         let r = Vec2::new(sx * self.width as f32, sy * self.height as f32);
-        (r.x >= 0.0 && r.y >= 0.0 && r.x < self.width as f32 && r.y < self.height as f32).then_some(r)
+        (r.x >= 0.0 && r.y >= 0.0 && r.x < self.width as f32 && r.y < self.height as f32)
+            .then_some(r)
     }
 
     /// A primary ray through `raster` (continuous pixel coordinates), using
@@ -256,9 +272,16 @@ impl Camera {
         } else {
             self.raster_of_local(local)?
         };
-        let lens_area = if self.lens_radius > 0.0 { PI * self.lens_radius * self.lens_radius } else { 1.0 };
+        let lens_area = if self.lens_radius > 0.0 {
+            PI * self.lens_radius * self.lens_radius
+        } else {
+            1.0
+        };
         let c2 = cos_theta * cos_theta;
-        Some((1.0 / (self.image_plane_area() * lens_area * c2 * c2), raster))
+        Some((
+            1.0 / (self.image_plane_area() * lens_area * c2 * c2),
+            raster,
+        ))
     }
 
     /// Densities of the ray leaving the lens at `p_lens` in direction `w`:
@@ -269,9 +292,16 @@ impl Camera {
             None => (0.0, 0.0),
             Some(_) => {
                 let cos_theta = (self.rot.transpose() * w).z;
-                let lens_area = if self.lens_radius > 0.0 { PI * self.lens_radius * self.lens_radius } else { 1.0 };
+                let lens_area = if self.lens_radius > 0.0 {
+                    PI * self.lens_radius * self.lens_radius
+                } else {
+                    1.0
+                };
                 // Uniform raster sampling maps to 1/(A cos³θ) per solid angle.
-                (1.0 / lens_area, 1.0 / (self.image_plane_area() * cos_theta * cos_theta * cos_theta))
+                (
+                    1.0 / lens_area,
+                    1.0 / (self.image_plane_area() * cos_theta * cos_theta * cos_theta),
+                )
             }
         }
     }
@@ -293,9 +323,19 @@ impl Camera {
         }
         let w = to / dist;
         let (we, raster) = self.importance(p_lens, w)?;
-        let lens_area = if self.lens_radius > 0.0 { PI * self.lens_radius * self.lens_radius } else { 1.0 };
+        let lens_area = if self.lens_radius > 0.0 {
+            PI * self.lens_radius * self.lens_radius
+        } else {
+            1.0
+        };
         let cos_theta = (self.rot.transpose() * w).z;
-        Some(CameraConnection { p_lens, raster, we, pdf_lens_area: 1.0 / lens_area, cos_theta })
+        Some(CameraConnection {
+            p_lens,
+            raster,
+            we,
+            pdf_lens_area: 1.0 / lens_area,
+            cos_theta,
+        })
     }
 }
 
@@ -305,7 +345,9 @@ mod tests {
 
     fn cam(w: u32, h: u32, lens: f32) -> Camera {
         // Mitsuba's cornell-box sensor: at (0,1,6.8) looking down −z.
-        let m = Mat4::from_cols_array(&[-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 6.8, 1.0]);
+        let m = Mat4::from_cols_array(&[
+            -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 1.0, 6.8, 1.0,
+        ]);
         Camera::perspective(m, 19.5, FovAxis::X, w, h, lens, 6.8).unwrap()
     }
 
@@ -328,7 +370,10 @@ mod tests {
             for &(x, y) in &[(3.5f32, 7.25f32), (60.0, 40.0), (32.0, 24.0)] {
                 let r = c.generate_ray(Vec2::new(x, y), Vec2::new(0.3, 0.8));
                 let (_, raster) = c.importance(r.o, r.d).unwrap();
-                assert!((raster - Vec2::new(x, y)).length() < 1e-2, "{raster} vs {x},{y}");
+                assert!(
+                    (raster - Vec2::new(x, y)).length() < 1e-2,
+                    "{raster} vs {x},{y}"
+                );
             }
         }
     }
@@ -342,7 +387,10 @@ mod tests {
         let n = 200;
         for i in 0..n {
             for j in 0..n {
-                let raster = Vec2::new((i as f32 + 0.5) / n as f32 * 40.0, (j as f32 + 0.5) / n as f32 * 30.0);
+                let raster = Vec2::new(
+                    (i as f32 + 0.5) / n as f32 * 40.0,
+                    (j as f32 + 0.5) / n as f32 * 30.0,
+                );
                 let r = c.generate_ray(raster, Vec2::ZERO);
                 let (we, _) = c.importance(r.o, r.d).unwrap();
                 let (_, pdf) = c.pdf_ray(r.o, r.d);

@@ -59,7 +59,10 @@ fn sample_cdf(cdf: &[f32], u: f32) -> usize {
 impl LightSet {
     /// Builds the light set of the emissive meshes among `meshes`.
     pub fn new(meshes: &[Mesh]) -> Self {
-        let mut set = LightSet { mesh_light: alloc::vec![u32::MAX; meshes.len()], ..Default::default() };
+        let mut set = LightSet {
+            mesh_light: alloc::vec![u32::MAX; meshes.len()],
+            ..Default::default()
+        };
         let mut power = Vec::new();
         for (mi, m) in meshes.iter().enumerate() {
             let Some(le) = m.emission else { continue };
@@ -76,7 +79,11 @@ impl LightSet {
                 continue;
             }
             set.mesh_light[mi] = set.lights.len() as u32;
-            set.lights.push(AreaLight { mesh: mi as u32, area: acc as f32, tri_cdf: cdf.iter().map(|c| (c / acc) as f32).collect() });
+            set.lights.push(AreaLight {
+                mesh: mi as u32,
+                area: acc as f32,
+                tri_cdf: cdf.iter().map(|c| (c / acc) as f32).collect(),
+            });
             power.push(phi);
         }
         let total: f64 = power.iter().sum();
@@ -122,7 +129,11 @@ impl LightSet {
         let lo = if li == 0 { 0.0 } else { self.cdf[li - 1] };
         let pmf = self.pmf[li];
         // Reuse the leftover of u_select for the triangle choice.
-        let u_tri = if pmf > 0.0 { ((u_select - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON) } else { 0.0 };
+        let u_tri = if pmf > 0.0 {
+            ((u_select - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
         let light = &self.lights[li];
         let ti = sample_cdf(&light.tri_cdf, u_tri);
         Some(LightPointSample {

@@ -83,13 +83,21 @@ pub struct Material {
 impl Material {
     /// A two-sided Lambertian material with constant albedo.
     pub const fn diffuse(albedo: Rgb) -> Self {
-        Material { kind: MaterialKind::Diffuse { reflectance: Texture::Constant(albedo) }, two_sided: true }
+        Material {
+            kind: MaterialKind::Diffuse {
+                reflectance: Texture::Constant(albedo),
+            },
+            two_sided: true,
+        }
     }
 
     /// True when every lobe of the material is a Dirac delta, so that no
     /// connection (light sample or BDPT edge) can ever end on it.
     pub fn is_delta(&self) -> bool {
-        matches!(self.kind, MaterialKind::Conductor { .. } | MaterialKind::Dielectric { .. })
+        matches!(
+            self.kind,
+            MaterialKind::Conductor { .. } | MaterialKind::Dielectric { .. }
+        )
     }
 
     /// Checks the parameters a host may hand in; returns what is wrong.
@@ -98,9 +106,11 @@ impl Material {
             match t {
                 Texture::Constant(c) => c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0,
                 Texture::Bitmap { to_uv, .. } => to_uv.is_finite(),
-                Texture::Checkerboard { color0, color1, to_uv } => {
-                    color0.is_finite() && color1.is_finite() && to_uv.is_finite()
-                }
+                Texture::Checkerboard {
+                    color0,
+                    color1,
+                    to_uv,
+                } => color0.is_finite() && color1.is_finite() && to_uv.is_finite(),
             }
         }
         fn fresnel_ok(f: &ConductorFresnel) -> bool {
@@ -110,11 +120,21 @@ impl Material {
             }
         }
         match &self.kind {
-            MaterialKind::Diffuse { reflectance } => tex_ok(reflectance).then_some(()).ok_or("diffuse reflectance must be finite and non-negative"),
-            MaterialKind::Conductor { fresnel, specular_reflectance } => (fresnel_ok(fresnel) && tex_ok(specular_reflectance))
+            MaterialKind::Diffuse { reflectance } => tex_ok(reflectance)
+                .then_some(())
+                .ok_or("diffuse reflectance must be finite and non-negative"),
+            MaterialKind::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => (fresnel_ok(fresnel) && tex_ok(specular_reflectance))
                 .then_some(())
                 .ok_or("conductor parameters must be finite and non-negative"),
-            MaterialKind::RoughConductor { alpha, fresnel, specular_reflectance, .. } => {
+            MaterialKind::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+                ..
+            } => {
                 if !(alpha.is_finite() && *alpha > 0.0) {
                     return Err("roughconductor alpha must be finite and > 0");
                 }
@@ -122,9 +142,9 @@ impl Material {
                     .then_some(())
                     .ok_or("roughconductor parameters must be finite and non-negative")
             }
-            MaterialKind::Dielectric { eta } => {
-                (eta.is_finite() && *eta > 0.0).then_some(()).ok_or("dielectric eta must be finite and > 0")
-            }
+            MaterialKind::Dielectric { eta } => (eta.is_finite() && *eta > 0.0)
+                .then_some(())
+                .ok_or("dielectric eta must be finite and > 0"),
         }
     }
 }

@@ -20,6 +20,6 @@ pub use store::*;
 
 pub use camera::{Camera, CameraError, FovAxis};
 pub use material::{ConductorFresnel, Distribution, Material, MaterialId, MaterialKind};
-pub use texture::{BitmapId, Texture};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
+pub use texture::{BitmapId, Texture};

@@ -83,19 +83,37 @@ impl fmt::Display for SceneError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SceneError::NonFiniteVertex { mesh, vertex } => {
-                write!(f, "mesh {mesh}: vertex {vertex} has a non-finite position, normal or uv")
+                write!(
+                    f,
+                    "mesh {mesh}: vertex {vertex} has a non-finite position, normal or uv"
+                )
             }
             SceneError::IndexOutOfRange { mesh, triangle } => {
-                write!(f, "mesh {mesh}: triangle {triangle} refers to a vertex index out of range")
+                write!(
+                    f,
+                    "mesh {mesh}: triangle {triangle} refers to a vertex index out of range"
+                )
             }
             SceneError::AttributeCount { mesh } => {
-                write!(f, "mesh {mesh}: normals/uvs must be empty or one per position")
+                write!(
+                    f,
+                    "mesh {mesh}: normals/uvs must be empty or one per position"
+                )
             }
-            SceneError::UnknownMaterial { mesh } => write!(f, "mesh {mesh}: material id does not exist"),
-            SceneError::UnknownBitmap { material } => write!(f, "material {material}: bitmap id does not exist"),
-            SceneError::InvalidMaterial { material, reason } => write!(f, "material {material}: {reason}"),
+            SceneError::UnknownMaterial { mesh } => {
+                write!(f, "mesh {mesh}: material id does not exist")
+            }
+            SceneError::UnknownBitmap { material } => {
+                write!(f, "material {material}: bitmap id does not exist")
+            }
+            SceneError::InvalidMaterial { material, reason } => {
+                write!(f, "material {material}: {reason}")
+            }
             SceneError::InvalidEmission { mesh } => {
-                write!(f, "mesh {mesh}: emitted radiance must be finite and non-negative")
+                write!(
+                    f,
+                    "mesh {mesh}: emitted radiance must be finite and non-negative"
+                )
             }
             SceneError::TooManyTriangles => write!(f, "scene has more than 2^32 - 1 triangles"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
@@ -148,11 +166,20 @@ impl SceneBuilder {
     /// Validates everything and builds the scene (light set included).
     pub fn build(self) -> Result<Scene, SceneError> {
         for (i, m) in self.materials.iter().enumerate() {
-            m.validate().map_err(|reason| SceneError::InvalidMaterial { material: i, reason })?;
+            m.validate().map_err(|reason| SceneError::InvalidMaterial {
+                material: i,
+                reason,
+            })?;
             let tex_refs = match &m.kind {
                 super::MaterialKind::Diffuse { reflectance } => [Some(reflectance), None],
-                super::MaterialKind::Conductor { specular_reflectance, .. }
-                | super::MaterialKind::RoughConductor { specular_reflectance, .. } => [Some(specular_reflectance), None],
+                super::MaterialKind::Conductor {
+                    specular_reflectance,
+                    ..
+                }
+                | super::MaterialKind::RoughConductor {
+                    specular_reflectance,
+                    ..
+                } => [Some(specular_reflectance), None],
                 super::MaterialKind::Dielectric { .. } => [None, None],
             };
             for t in tex_refs.into_iter().flatten() {
@@ -166,7 +193,9 @@ impl SceneBuilder {
         let mut total: u64 = 0;
         for (mi, m) in self.meshes.iter().enumerate() {
             let n = m.positions.len();
-            if (!m.normals.is_empty() && m.normals.len() != n) || (!m.uvs.is_empty() && m.uvs.len() != n) {
+            if (!m.normals.is_empty() && m.normals.len() != n)
+                || (!m.uvs.is_empty() && m.uvs.len() != n)
+            {
                 return Err(SceneError::AttributeCount { mesh: mi });
             }
             for v in 0..n {
@@ -174,11 +203,21 @@ impl SceneBuilder {
                     || m.normals.get(v).is_some_and(|x| !x.is_finite())
                     || m.uvs.get(v).is_some_and(|x| !x.is_finite());
                 if bad {
-                    return Err(SceneError::NonFiniteVertex { mesh: mi, vertex: v });
+                    return Err(SceneError::NonFiniteVertex {
+                        mesh: mi,
+                        vertex: v,
+                    });
                 }
             }
-            if let Some(t) = m.indices.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
-                return Err(SceneError::IndexOutOfRange { mesh: mi, triangle: t });
+            if let Some(t) = m
+                .indices
+                .iter()
+                .position(|t| t.iter().any(|&i| i as usize >= n))
+            {
+                return Err(SceneError::IndexOutOfRange {
+                    mesh: mi,
+                    triangle: t,
+                });
             }
             if m.material.0 as usize >= self.materials.len() {
                 return Err(SceneError::UnknownMaterial { mesh: mi });
@@ -201,7 +240,15 @@ impl SceneBuilder {
             tri_mesh.extend(core::iter::repeat_n(mi as u32, m.indices.len()));
         }
         let lights = LightSet::new(&self.meshes);
-        Ok(Scene { meshes: self.meshes, materials: self.materials, bitmaps: self.bitmaps, camera, tri_mesh, first_tri, lights })
+        Ok(Scene {
+            meshes: self.meshes,
+            materials: self.materials,
+            bitmaps: self.bitmaps,
+            camera,
+            tri_mesh,
+            first_tri,
+            lights,
+        })
     }
 }
 
@@ -262,13 +309,23 @@ impl Scene {
         let (mi, ti) = self.locate(prim);
         let m = &self.meshes[mi];
         let [a, b, c] = m.indices[ti];
-        [m.positions[a as usize], m.positions[b as usize], m.positions[c as usize]]
+        [
+            m.positions[a as usize],
+            m.positions[b as usize],
+            m.positions[c as usize],
+        ]
     }
 
     /// Iterates all triangles' vertices in global order (for BVH builders).
     pub fn triangles(&self) -> impl Iterator<Item = [Vec3; 3]> + '_ {
         self.meshes.iter().flat_map(|m| {
-            m.indices.iter().map(|t| [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]])
+            m.indices.iter().map(|t| {
+                [
+                    m.positions[t[0] as usize],
+                    m.positions[t[1] as usize],
+                    m.positions[t[2] as usize],
+                ]
+            })
         })
     }
 
@@ -309,13 +366,37 @@ impl Scene {
         } else {
             m.uvs[idx[0]] * b0 + m.uvs[idx[1]] * b1 + m.uvs[idx[2]] * b2
         };
-        Some(SurfacePoint { p, p_error, ng, ns, uv, mesh: mi as u32, prim })
+        Some(SurfacePoint {
+            p,
+            p_error,
+            ng,
+            ns,
+            uv,
+            mesh: mi as u32,
+            prim,
+        })
     }
 
     /// The surface point of an intersection.
     #[inline]
     pub fn hit_point(&self, hit: &Hit) -> Option<SurfacePoint> {
         self.surface_point(hit.prim, hit.b1, hit.b2)
+    }
+
+    /// Scene-global index of triangle `tri` of mesh `mesh`.
+    #[inline]
+    pub fn global_prim(&self, mesh: usize, tri: usize) -> u32 {
+        self.first_tri[mesh] + tri as u32
+    }
+
+    /// Samples a point on the lights (by power, then area): the point and
+    /// its density per unit area. `None` when nothing emits or the chosen
+    /// point is degenerate.
+    #[inline]
+    pub fn sample_light(&self, u_select: f32, u: Vec2) -> Option<(SurfacePoint, f32)> {
+        let ls = self.lights.sample(u_select, u)?;
+        let sp = self.surface_point(self.global_prim(ls.mesh, ls.triangle), ls.b.x, ls.b.y)?;
+        Some((sp, ls.pdf_area))
     }
 
     /// The material of a surface point.

@@ -32,7 +32,11 @@ impl Bitmap {
             && height > 0
             && texels.len() == width as usize * height as usize
             && texels.iter().all(|t| t.is_finite());
-        ok.then_some(Bitmap { width, height, texels })
+        ok.then_some(Bitmap {
+            width,
+            height,
+            texels,
+        })
     }
 
     /// Width in texels.
@@ -113,12 +117,22 @@ impl Texture {
     pub fn eval(&self, uv: Vec2, bitmaps: &[Bitmap]) -> Rgb {
         match *self {
             Texture::Constant(c) => c,
-            Texture::Bitmap { id, to_uv } => bitmaps[id.0 as usize].eval(to_uv.transform_point2(uv)),
-            Texture::Checkerboard { color0, color1, to_uv } => {
+            Texture::Bitmap { id, to_uv } => {
+                bitmaps[id.0 as usize].eval(to_uv.transform_point2(uv))
+            }
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => {
                 let p = to_uv.transform_point2(uv);
                 let fu = p.x - libm::floorf(p.x);
                 let fv = p.y - libm::floorf(p.y);
-                if (fu > 0.5) == (fv > 0.5) { color0 } else { color1 }
+                if (fu > 0.5) == (fv > 0.5) {
+                    color0
+                } else {
+                    color1
+                }
             }
         }
     }

@@ -1,0 +1,589 @@
+//! Bidirectional path tracing with MIS over all (s, t) strategies
+//! (Veach 1997, ch. 10; the data layout follows pbrt's presentation).
+//!
+//! A camera subpath z₀…z_{t−1} and a light subpath y₀…y_{s−1} are sampled
+//! once per pixel sample, then every connection (s, t) whose path has at most
+//! `max_depth` segments is evaluated:
+//! - s = 0: the camera subpath hits an emitter;
+//! - s = 1: a fresh light sample is connected to z_{t−1} (next-event);
+//! - t = 1: y_{s−1} is connected to a point on the lens and splatted
+//!   wherever it lands (light tracing);
+//! - otherwise y_{s−1} and z_{t−1} are joined by a visibility-tested edge.
+//!
+//! Each vertex stores the area densities of being generated from either
+//! direction (`pdf_fwd`, `pdf_rev`); the power-heuristic weight of a strategy
+//! follows from products of their ratios (Veach 1997, §10.2.1), with the
+//! connection vertices' reverse densities recomputed per strategy.
+
+use alloc::vec::Vec;
+
+use glam::{Vec2, Vec3};
+
+use super::Settings;
+use super::context::{Shading, Tracer};
+use crate::accel::Intersector;
+use crate::bsdf::TransportMode;
+use crate::film::Film;
+use crate::geometry::{Ray, offset};
+use crate::math::{Frame, INV_PI, Rgb, warp};
+use crate::sampler::SampleStream;
+use crate::scene::{Camera, SurfacePoint};
+
+/// Hard cap on subpath length when `max_depth` is unbounded; Russian
+/// roulette ends paths long before this in any scene that absorbs light.
+const UNBOUNDED_DEPTH: u32 = 1024;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Camera,
+    Light,
+    Surface,
+}
+
+/// One vertex of a subpath.
+#[derive(Clone, Copy, Debug)]
+struct Vertex {
+    kind: Kind,
+    /// Position and normals (a camera vertex uses the viewing direction).
+    sp: SurfacePoint,
+    /// BSDF and frame (surface vertices only).
+    shading: Option<Shading>,
+    /// Throughput of the subpath up to and including this vertex.
+    beta: Rgb,
+    /// Area density of generating this vertex from its predecessor.
+    pdf_fwd: f32,
+    /// Area density of generating this vertex from its successor.
+    pdf_rev: f32,
+    /// Sampled by a Dirac lobe: cannot be connected to.
+    delta: bool,
+}
+
+impl Vertex {
+    fn on_surface(&self) -> bool {
+        self.kind != Kind::Camera
+    }
+
+    fn connectible(&self) -> bool {
+        match self.kind {
+            Kind::Surface => !self.shading.is_some_and(|s| s.bsdf.is_delta()),
+            _ => true,
+        }
+    }
+
+    /// Converts a solid-angle density at `self` towards `next` into an area
+    /// density at `next` (Veach eq. 8.10).
+    fn to_area(&self, pdf_sa: f32, next: &Vertex) -> f32 {
+        let w = next.sp.p - self.sp.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return 0.0;
+        }
+        let mut pdf = pdf_sa / d2;
+        if next.on_surface() {
+            pdf *= next.sp.ng.dot(w).abs() / d2.sqrt();
+        }
+        pdf
+    }
+
+    /// BSDF times the shading-normal correction for adjoint transport
+    /// (Veach 1997, §5.3), from `prev` to `next` through `self`.
+    fn f(&self, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
+        let Some(sh) = &self.shading else {
+            return Rgb::ZERO;
+        };
+        let wo = (prev - self.sp.p).normalize();
+        let wi = (next - self.sp.p).normalize();
+        let f = sh
+            .bsdf
+            .eval(sh.frame.to_local(wo), sh.frame.to_local(wi), mode);
+        if mode == TransportMode::Importance {
+            f * shading_correction(&self.sp, wo, wi)
+        } else {
+            f
+        }
+    }
+
+    /// Area density at `next` of `self` scattering towards it, having been
+    /// reached from `prev` (`None` for endpoints).
+    fn pdf(
+        &self,
+        camera: &Camera,
+        lights_pdf: impl Fn(&Vertex, &Vertex) -> f32,
+        prev: Option<&Vertex>,
+        next: &Vertex,
+    ) -> f32 {
+        match self.kind {
+            Kind::Camera => {
+                let w = (next.sp.p - self.sp.p).normalize();
+                self.to_area(camera.pdf_ray(self.sp.p, w).1, next)
+            }
+            Kind::Light => lights_pdf(self, next),
+            Kind::Surface => {
+                let (Some(sh), Some(prev)) = (&self.shading, prev) else {
+                    return 0.0;
+                };
+                let wp = sh.frame.to_local((prev.sp.p - self.sp.p).normalize());
+                let wn = sh.frame.to_local((next.sp.p - self.sp.p).normalize());
+                self.to_area(sh.bsdf.pdf(wp, wn), next)
+            }
+        }
+    }
+}
+
+/// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): makes light-path throughput with
+/// shading normals consistent with camera paths (Veach 1997, eq. 5.19).
+fn shading_correction(sp: &SurfacePoint, wo: Vec3, wi: Vec3) -> f32 {
+    let den = wo.dot(sp.ng).abs() * wi.dot(sp.ns).abs();
+    if den == 0.0 {
+        0.0
+    } else {
+        wo.dot(sp.ns).abs() * wi.dot(sp.ng).abs() / den
+    }
+}
+
+/// Density per unit area at `to` of light vertex `light` emitting towards
+/// it: cosine-weighted emission around the shading normal.
+fn light_emission_pdf(light: &Vertex, to: &Vertex) -> f32 {
+    let w = to.sp.p - light.sp.p;
+    let d2 = w.length_squared();
+    if d2 == 0.0 {
+        return 0.0;
+    }
+    let w = w / d2.sqrt();
+    let cos = light.sp.ns.dot(w);
+    if cos <= 0.0 {
+        return 0.0;
+    }
+    let mut pdf = cos * INV_PI / d2;
+    if to.on_surface() {
+        pdf *= to.sp.ng.dot(w).abs();
+    }
+    pdf
+}
+
+/// Reusable subpath storage of one worker (no allocation per sample once
+/// warmed up).
+#[derive(Default)]
+pub struct Workspace {
+    camera: Vec<Vertex>,
+    light: Vec<Vertex>,
+}
+
+impl Workspace {
+    /// Empty storage.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+/// Extends a subpath by random walk from `ray` (Veach §10.2; pbrt's
+/// `RandomWalk`), recording forward and reverse area densities.
+#[allow(clippy::too_many_arguments)]
+fn random_walk<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    path: &mut Vec<Vertex>,
+    mut ray: Ray,
+    mut beta: Rgb,
+    pdf_dir: f32,
+    max_vertices: usize,
+    mode: TransportMode,
+    rr_depth: u32,
+    rng: &mut SampleStream,
+) {
+    let mut pdf_fwd = pdf_dir;
+    let beta0 = beta.max_component();
+    while path.len() < max_vertices {
+        let Some(hit) = t.trace(&ray) else { break };
+        let prev = *path.last().expect("subpath starts with an endpoint");
+        let mut v = Vertex {
+            kind: Kind::Surface,
+            sp: hit.sp,
+            shading: Some(hit),
+            beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+        };
+        v.pdf_fwd = prev.to_area(pdf_fwd, &v);
+        path.push(v);
+        if path.len() >= max_vertices {
+            break;
+        }
+        let wo_world = (-ray.d).normalize();
+        let wo = hit.frame.to_local(wo_world);
+        let u_lobe = rng.next_f32();
+        let u = rng.next_2d();
+        let Some(bs) = hit.bsdf.sample(wo, u_lobe, u, mode) else {
+            break;
+        };
+        if bs.pdf <= 0.0 || bs.f.is_black() {
+            break;
+        }
+        let wi_world = hit.frame.to_world(bs.wi);
+        let mut weight = bs.f * (bs.wi.z.abs() / bs.pdf);
+        if mode == TransportMode::Importance {
+            weight *= shading_correction(&hit.sp, wo_world, wi_world);
+        }
+        beta *= weight;
+        let (fwd, rev) = if bs.delta {
+            (0.0, 0.0)
+        } else {
+            (bs.pdf, hit.bsdf.pdf(bs.wi, wo))
+        };
+        pdf_fwd = fwd;
+        let n = path.len();
+        path[n - 1].delta = bs.delta;
+        let cur = path[n - 1];
+        path[n - 2].pdf_rev = cur.to_area(rev, &path[n - 2]);
+
+        // Russian roulette on throughput relative to the subpath's start.
+        let depth = (n - 1) as u32;
+        if depth >= rr_depth {
+            let q = (beta.max_component() / beta0).min(0.95);
+            if !(rng.next_f32() < q) {
+                break;
+            }
+            beta /= q;
+        }
+        if beta.is_black() || !beta.is_finite() {
+            break;
+        }
+        ray = offset::spawn_ray(hit.sp.p, hit.sp.p_error, hit.sp.ng, wi_world);
+    }
+}
+
+fn camera_vertex(p: Vec3, forward: Vec3) -> Vertex {
+    let sp = SurfacePoint {
+        p,
+        p_error: Vec3::ZERO,
+        ng: forward,
+        ns: forward,
+        uv: Vec2::ZERO,
+        mesh: u32::MAX,
+        prim: u32::MAX,
+    };
+    Vertex {
+        kind: Kind::Camera,
+        sp,
+        shading: None,
+        beta: Rgb::ONE,
+        pdf_fwd: 0.0,
+        pdf_rev: 0.0,
+        delta: false,
+    }
+}
+
+/// Renders one BDPT sample through `raster` of pixel `(px, py)`: adds the
+/// camera-side strategies to the pixel and splats light tracing (t = 1).
+#[allow(clippy::too_many_arguments)]
+pub fn sample<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    settings: &Settings,
+    ws: &mut Workspace,
+    raster: Vec2,
+    px: u32,
+    py: u32,
+    rng: &mut SampleStream,
+    film: &mut Film,
+) {
+    let scene = t.scene;
+    let camera = &scene.camera;
+    let max_depth = settings
+        .max_depth
+        .unwrap_or(UNBOUNDED_DEPTH)
+        .min(UNBOUNDED_DEPTH) as usize;
+
+    // Camera subpath: up to max_depth + 1 vertices.
+    ws.camera.clear();
+    let u_lens = rng.next_2d();
+    let ray = camera.generate_ray(raster, u_lens);
+    let (_, pdf_dir) = camera.pdf_ray(ray.o, ray.d);
+    ws.camera.push(camera_vertex(ray.o, camera.forward()));
+    random_walk(
+        t,
+        &mut ws.camera,
+        ray,
+        Rgb::ONE,
+        pdf_dir,
+        max_depth + 1,
+        TransportMode::Radiance,
+        settings.rr_depth,
+        rng,
+    );
+
+    // Light subpath: up to max_depth vertices.
+    ws.light.clear();
+    let u_sel = rng.next_f32();
+    let u_pos = rng.next_2d();
+    let u_dir = rng.next_2d();
+    if max_depth >= 1 {
+        if let Some((lp, pdf_area)) = scene.sample_light(u_sel, u_pos) {
+            let frame = Frame::from_normal(lp.ns);
+            let local = warp::square_to_cosine_hemisphere(u_dir);
+            let pdf_dir = warp::cosine_hemisphere_pdf(local);
+            let w = frame.to_world(local);
+            let le = scene.emitted(&lp, w);
+            if pdf_dir > 0.0 && pdf_area > 0.0 && !le.is_black() {
+                ws.light.push(Vertex {
+                    kind: Kind::Light,
+                    sp: lp,
+                    shading: None,
+                    beta: le,
+                    pdf_fwd: pdf_area,
+                    pdf_rev: 0.0,
+                    delta: false,
+                });
+                let beta = le * (lp.ng.dot(w).abs() / (pdf_area * pdf_dir));
+                let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
+                random_walk(
+                    t,
+                    &mut ws.light,
+                    ray,
+                    beta,
+                    pdf_dir,
+                    max_depth,
+                    TransportMode::Importance,
+                    settings.rr_depth,
+                    rng,
+                );
+            }
+        }
+    }
+
+    let mut l_pixel = Rgb::ZERO;
+    let n_cam = ws.camera.len();
+    let n_light = ws.light.len();
+    for tt in 1..=n_cam {
+        for s in 0..=n_light {
+            let segments = (s + tt) as isize - 1;
+            if (s == 1 && tt == 1) || segments < 1 || segments as usize > max_depth {
+                continue;
+            }
+            if tt == 2 && s == 0 && settings.hide_emitters {
+                continue;
+            }
+            if let Some((l, raster_splat)) = connect(t, ws, s, tt, rng) {
+                match raster_splat {
+                    Some(r) => film.add_splat(r, l),
+                    None => l_pixel += l,
+                }
+            }
+        }
+    }
+    film.add_sample(px, py, l_pixel);
+}
+
+/// Evaluates strategy (s, t): its MIS-weighted contribution and, for t = 1,
+/// the raster position to splat it at.
+fn connect<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    ws: &mut Workspace,
+    s: usize,
+    t: usize,
+    rng: &mut SampleStream,
+) -> Option<(Rgb, Option<Vec2>)> {
+    let scene = tr.scene;
+    let camera = &scene.camera;
+    let mut sampled: Option<Vertex> = None;
+    let mut raster = None;
+    // Random numbers are drawn for every strategy that may need them so that
+    // the stream layout does not depend on visibility results.
+    let u = rng.next_2d();
+    let u_sel = rng.next_f32();
+    let l = if s == 0 {
+        // The camera subpath itself hit an emitter.
+        let pt = &ws.camera[t - 1];
+        if pt.kind != Kind::Surface {
+            return None;
+        }
+        let wo = (ws.camera[t - 2].sp.p - pt.sp.p).normalize();
+        pt.beta * scene.emitted(&pt.sp, wo)
+    } else if t == 1 {
+        // Light tracing: connect y_{s−1} to the lens.
+        let qs = ws.light[s - 1];
+        if !qs.connectible() || qs.kind != Kind::Surface {
+            return None;
+        }
+        let conn = camera.connect(qs.sp.p, u)?;
+        let to_cam = conn.p_lens - qs.sp.p;
+        let d2 = to_cam.length_squared();
+        let w = to_cam / d2.sqrt();
+        let prev = ws.light[s - 2].sp.p;
+        let f = qs.f(prev, conn.p_lens, TransportMode::Importance);
+        if f.is_black() {
+            return None;
+        }
+        let l = qs.beta
+            * f
+            * (qs.sp.ns.dot(w).abs() * conn.we * conn.cos_theta / (d2 * conn.pdf_lens_area));
+        if l.is_black() || tr.occluded_to_point(&qs.sp, conn.p_lens) {
+            return None;
+        }
+        let mut cv = camera_vertex(conn.p_lens, camera.forward());
+        cv.beta = Rgb::splat(conn.we / conn.pdf_lens_area);
+        sampled = Some(cv);
+        raster = Some(conn.raster);
+        l
+    } else if s == 1 {
+        // Next-event estimation: a fresh point on a light.
+        let pt = ws.camera[t - 1];
+        if !pt.connectible() || pt.kind != Kind::Surface {
+            return None;
+        }
+        let (lp, pdf_area) = scene.sample_light(u_sel, u)?;
+        let to = lp.p - pt.sp.p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0 && pdf_area > 0.0) {
+            return None;
+        }
+        let dir = to / d2.sqrt();
+        let le = scene.emitted(&lp, -dir);
+        if le.is_black() {
+            return None;
+        }
+        let f = pt.f(ws.camera[t - 2].sp.p, lp.p, TransportMode::Radiance);
+        let g = pt.sp.ns.dot(dir).abs() * lp.ng.dot(dir).abs() / d2;
+        let l = pt.beta * f * le * (g / pdf_area);
+        if l.is_black() || tr.occluded_between(&pt.sp, &lp) {
+            return None;
+        }
+        sampled = Some(Vertex {
+            kind: Kind::Light,
+            sp: lp,
+            shading: None,
+            beta: le / pdf_area,
+            pdf_fwd: pdf_area,
+            pdf_rev: 0.0,
+            delta: false,
+        });
+        l
+    } else {
+        // Join y_{s−1} and z_{t−1} by an edge.
+        let qs = ws.light[s - 1];
+        let pt = ws.camera[t - 1];
+        if !qs.connectible()
+            || !pt.connectible()
+            || qs.kind != Kind::Surface
+            || pt.kind != Kind::Surface
+        {
+            return None;
+        }
+        let d = pt.sp.p - qs.sp.p;
+        let d2 = d.length_squared();
+        if d2 == 0.0 {
+            return None;
+        }
+        let dn = d / d2.sqrt();
+        let fq = qs.f(ws.light[s - 2].sp.p, pt.sp.p, TransportMode::Importance);
+        let fp = pt.f(ws.camera[t - 2].sp.p, qs.sp.p, TransportMode::Radiance);
+        let g = qs.sp.ns.dot(dn).abs() * pt.sp.ns.dot(dn).abs() / d2;
+        let l = qs.beta * fq * fp * pt.beta * g;
+        if l.is_black() || tr.occluded_between(&qs.sp, &pt.sp) {
+            return None;
+        }
+        l
+    };
+    if l.is_black() {
+        return None;
+    }
+    let w = mis_weight(scene, ws, sampled, s, t);
+    Some((l * w, raster))
+}
+
+/// Power-heuristic weight of strategy (s, t) against every other strategy
+/// that could have produced the same path (Veach 1997, §10.2.1, with β = 2).
+fn mis_weight(
+    scene: &crate::scene::Scene,
+    ws: &mut Workspace,
+    sampled: Option<Vertex>,
+    s: usize,
+    t: usize,
+) -> f32 {
+    if s + t == 2 {
+        return 1.0;
+    }
+    let camera = &scene.camera;
+    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(l, to);
+    let origin_pdf = |v: &Vertex| scene.lights.pdf_area(v.sp.mesh as usize);
+
+    // Work on copies of the at most six vertices the strategy changes, then
+    // restore them, so the subpaths stay valid for the next strategy.
+    let save_cam: [Option<Vertex>; 2] = [
+        t.checked_sub(1).map(|i| ws.camera[i]),
+        t.checked_sub(2).map(|i| ws.camera[i]),
+    ];
+    let save_light: [Option<Vertex>; 2] = [
+        s.checked_sub(1).map(|i| ws.light[i]),
+        s.checked_sub(2).map(|i| ws.light[i]),
+    ];
+    if let Some(v) = sampled {
+        if s == 1 {
+            ws.light[0] = v;
+        } else if t == 1 {
+            ws.camera[0] = v;
+        }
+    }
+    // Ends of the connection are not delta for this strategy.
+    if t > 0 {
+        ws.camera[t - 1].delta = false;
+    }
+    if s > 0 {
+        ws.light[s - 1].delta = false;
+    }
+    // Reverse densities at the connection's ends and their neighbours.
+    {
+        let pt = ws.camera[t - 1];
+        let pt_minus = if t > 1 { Some(ws.camera[t - 2]) } else { None };
+        let qs = if s > 0 { Some(ws.light[s - 1]) } else { None };
+        let qs_minus = if s > 1 { Some(ws.light[s - 2]) } else { None };
+        ws.camera[t - 1].pdf_rev = match (qs, qs_minus) {
+            (Some(q), qm) => q.pdf(camera, lights_pdf, qm.as_ref(), &pt),
+            (None, _) => origin_pdf(&pt),
+        };
+        if let Some(pm) = pt_minus {
+            ws.camera[t - 2].pdf_rev = match qs {
+                Some(q) => pt.pdf(camera, lights_pdf, Some(&q), &pm),
+                None => lights_pdf(&pt, &pm),
+            };
+        }
+        if let Some(q) = qs {
+            ws.light[s - 1].pdf_rev = pt.pdf(camera, lights_pdf, pt_minus.as_ref(), &q);
+            if let Some(qm) = qs_minus {
+                ws.light[s - 2].pdf_rev = q.pdf(camera, lights_pdf, Some(&pt), &qm);
+            }
+        }
+    }
+
+    let remap = |x: f32| if x != 0.0 { x } else { 1.0 };
+    let mut sum = 0.0f32;
+    let mut ri = 1.0f32;
+    for i in (1..t).rev() {
+        let r = remap(ws.camera[i].pdf_rev) / remap(ws.camera[i].pdf_fwd);
+        ri *= r * r;
+        if !ws.camera[i].delta && !ws.camera[i - 1].delta {
+            sum += ri;
+        }
+    }
+    ri = 1.0;
+    for i in (0..s).rev() {
+        let r = remap(ws.light[i].pdf_rev) / remap(ws.light[i].pdf_fwd);
+        ri *= r * r;
+        let prev_delta = if i > 0 { ws.light[i - 1].delta } else { false };
+        if !ws.light[i].delta && !prev_delta {
+            sum += ri;
+        }
+    }
+
+    for (k, v) in save_cam.into_iter().enumerate() {
+        if let Some(v) = v {
+            ws.camera[t - 1 - k] = v;
+        }
+    }
+    for (k, v) in save_light.into_iter().enumerate() {
+        if let Some(v) = v {
+            ws.light[s - 1 - k] = v;
+        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() { w } else { 0.0 }
+}

@@ -1,0 +1,139 @@
+//! White furnace: a closed box whose walls all emit Le = 1 and reflect with
+//! albedo a = 0.5 has radiance Le / (1 − a) = 2 everywhere; truncated at
+//! `max_depth` segments it is Le · Σ_{k<max_depth} aᵏ (Mitsuba's depth
+//! semantics). Every estimator must reproduce these numbers.
+
+use cmlt::accel::BruteForce;
+use cmlt::film::Film;
+use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
+use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::scene::{Camera, FovAxis, Material, Mesh, Scene, SceneBuilder};
+
+/// The cube [-1,1]³ with every face wound so its normal points inwards.
+fn inward_box(albedo: f32, emission: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(Material::diffuse(Rgb::splat(albedo)));
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            // Face at coordinate `sign` on `axis`; inward normal = −sign·e_axis.
+            let n = {
+                let mut n = Vec3::ZERO;
+                n[axis] = -sign;
+                n
+            };
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = positions.len() as u32;
+            for (a, c) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let mut p = Vec3::ZERO;
+                p[axis] = sign;
+                p[u] = a;
+                p[v] = c;
+                positions.push(p);
+            }
+            let mut t = [[base, base + 1, base + 2], [base, base + 2, base + 3]];
+            let [p0, p1, p2] = t[0].map(|i| positions[i as usize]);
+            if (p1 - p0).cross(p2 - p0).dot(n) < 0.0 {
+                for tri in &mut t {
+                    tri.swap(1, 2);
+                }
+            }
+            indices.extend(t);
+        }
+    }
+    b.add_mesh(Mesh {
+        positions,
+        normals: vec![],
+        uvs: vec![],
+        indices,
+        material: m,
+        emission: Some(Rgb::splat(emission)),
+    });
+    let cam = Camera::perspective(
+        Mat4::from_translation(Vec3::new(0.1, -0.2, 0.05)),
+        70.0,
+        FovAxis::X,
+        16,
+        12,
+        0.0,
+        1.0,
+    )
+    .unwrap();
+    b.set_camera(cam);
+    b.build().unwrap()
+}
+
+fn render_mean(scene: &Scene, method: Method, settings: Settings, passes: u64) -> (Rgb, Film) {
+    let accel = BruteForce::new(scene.triangles());
+    let mut tracer = Tracer::new(scene, &accel);
+    let mut film = Film::new(scene.camera.width(), scene.camera.height());
+    let mut worker = Worker::new();
+    for pass in 0..passes {
+        render_pass(
+            &mut tracer,
+            &settings,
+            method,
+            &mut worker,
+            7,
+            pass,
+            &mut film,
+        );
+    }
+    let img = film.resolve();
+    let mut s = Rgb::ZERO;
+    for p in &img {
+        s += *p;
+    }
+    (s / img.len() as f32, film)
+}
+
+#[test]
+fn furnace_radiance_is_two_for_pt_and_bdpt() {
+    let scene = inward_box(0.5, 1.0);
+    for method in [Method::Path, Method::Bdpt] {
+        let (mean, film) = render_mean(&scene, method, Settings::default(), 256);
+        assert_eq!(film.nonfinite(), 0);
+        for c in 0..3 {
+            let rel = (mean[c] - 2.0).abs() / 2.0;
+            assert!(
+                rel < 0.005,
+                "{method:?}: mean {mean:?}, expected 2 within 0.5%"
+            );
+        }
+    }
+}
+
+#[test]
+fn truncated_furnace_follows_mitsuba_depth() {
+    let scene = inward_box(0.5, 1.0);
+    for method in [Method::Path, Method::Bdpt] {
+        for max_depth in [1u32, 2, 3, 5] {
+            let settings = Settings {
+                max_depth: Some(max_depth),
+                ..Settings::default()
+            };
+            let (mean, _) = render_mean(&scene, method, settings, 96);
+            let expected: f32 = (0..max_depth).map(|k| 0.5f32.powi(k as i32)).sum();
+            let rel = (mean.g - expected).abs() / expected;
+            assert!(
+                rel < 0.005,
+                "{method:?} max_depth {max_depth}: {} vs {expected}",
+                mean.g
+            );
+        }
+    }
+}
+
+#[test]
+fn hidden_emitters_remove_only_the_first_segment() {
+    let scene = inward_box(0.5, 1.0);
+    let settings = Settings {
+        hide_emitters: true,
+        ..Settings::default()
+    };
+    for method in [Method::Path, Method::Bdpt] {
+        let (mean, _) = render_mean(&scene, method, settings, 128);
+        assert!((mean.g - 1.0).abs() < 0.01, "{method:?}: {}", mean.g);
+    }
+}
