@@ -36,7 +36,12 @@ pub trait Intersector {
     fn occluded(&self, ray: &Ray) -> bool;
 
     /// Closest hits for the active lanes of a packet (N = 4, 8 or 16).
-    fn intersect_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask, hits: &mut HitPacket<N>) {
+    fn intersect_packet<const N: usize>(
+        &self,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
         for i in active.iter() {
             hits.set(i, self.intersect(&rays.get(i)));
         }
@@ -64,7 +69,12 @@ impl<T: Intersector + ?Sized> Intersector for &T {
         (**self).occluded(ray)
     }
     #[inline]
-    fn intersect_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask, hits: &mut HitPacket<N>) {
+    fn intersect_packet<const N: usize>(
+        &self,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
         (**self).intersect_packet(rays, active, hits)
     }
     #[inline]

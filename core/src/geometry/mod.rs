@@ -32,7 +32,11 @@ impl Ray {
     /// An unbounded ray.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        Ray { o, d, t_max: f32::INFINITY }
+        Ray {
+            o,
+            d,
+            t_max: f32::INFINITY,
+        }
     }
 
     /// The point at parameter `t`.

@@ -93,7 +93,11 @@ pub fn spawn_ray(p: Vec3, p_error: Vec3, ng: Vec3, d: Vec3) -> Ray {
 pub fn spawn_ray_between(p0: Vec3, e0: Vec3, n0: Vec3, p1: Vec3, e1: Vec3, n1: Vec3) -> Ray {
     let o = offset_ray_origin(p0, e0, n0, p1 - p0);
     let t = offset_ray_origin(p1, e1, n1, o - p1);
-    Ray { o, d: t - o, t_max: 1.0 - SHADOW_EPSILON }
+    Ray {
+        o,
+        d: t - o,
+        t_max: 1.0 - SHADOW_EPSILON,
+    }
 }
 
 #[cfg(test)]

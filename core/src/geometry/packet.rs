@@ -21,7 +21,11 @@ impl LaneMask {
     /// The first `n` lanes.
     #[inline]
     pub const fn first(n: usize) -> Self {
-        if n >= 32 { LaneMask(u32::MAX) } else { LaneMask((1u32 << n) - 1) }
+        if n >= 32 {
+            LaneMask(u32::MAX)
+        } else {
+            LaneMask((1u32 << n) - 1)
+        }
     }
 
     /// Whether lane `i` is set.
@@ -140,7 +144,12 @@ pub struct HitPacket<const N: usize> {
 
 impl<const N: usize> Default for HitPacket<N> {
     fn default() -> Self {
-        HitPacket { t: [f32::INFINITY; N], prim: [Self::MISS; N], b1: [0.0; N], b2: [0.0; N] }
+        HitPacket {
+            t: [f32::INFINITY; N],
+            prim: [Self::MISS; N],
+            b1: [0.0; N],
+            b2: [0.0; N],
+        }
     }
 }
 
@@ -151,7 +160,12 @@ impl<const N: usize> HitPacket<N> {
     /// Lane `i` as an optional single hit.
     #[inline]
     pub fn get(&self, i: usize) -> Option<Hit> {
-        (self.prim[i] != Self::MISS).then(|| Hit { t: self.t[i], prim: self.prim[i], b1: self.b1[i], b2: self.b2[i] })
+        (self.prim[i] != Self::MISS).then(|| Hit {
+            t: self.t[i],
+            prim: self.prim[i],
+            b1: self.b1[i],
+            b2: self.b2[i],
+        })
     }
 
     /// Stores an optional hit in lane `i`.

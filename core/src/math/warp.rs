@@ -71,7 +71,12 @@ mod tests {
     use super::*;
 
     fn grid(n: usize) -> impl Iterator<Item = Vec2> {
-        (0..n * n).map(move |i| Vec2::new(((i % n) as f32 + 0.5) / n as f32, ((i / n) as f32 + 0.5) / n as f32))
+        (0..n * n).map(move |i| {
+            Vec2::new(
+                ((i % n) as f32 + 0.5) / n as f32,
+                ((i / n) as f32 + 0.5) / n as f32,
+            )
+        })
     }
 
     #[test]

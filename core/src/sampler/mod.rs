@@ -28,7 +28,9 @@ impl SampleStream {
     pub fn new(seed: u64, pass: u64, index: u64) -> Self {
         let state = mix64(seed ^ mix64(pass.wrapping_mul(0x1000_0000_01B3)));
         let stream = mix64(index ^ state.rotate_left(17));
-        SampleStream { rng: Pcg32::new(state ^ index, stream) }
+        SampleStream {
+            rng: Pcg32::new(state ^ index, stream),
+        }
     }
 
     /// A uniform float in [0, 1).
