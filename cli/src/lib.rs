@@ -1,1 +1,9 @@
-//! cmlt front end library.
+//! The cmlt front end as a library: scene loading (Mitsuba 3 XML), image
+//! files, error metrics and the multi-threaded render driver. The `cmlt`
+//! binary is a thin command-line layer over it; tests use it directly.
+
+pub mod image_io;
+pub mod metrics;
+pub mod render;
+
+pub mod scene;

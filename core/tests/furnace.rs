@@ -7,12 +7,55 @@ use cmlt::accel::BruteForce;
 use cmlt::film::Film;
 use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
 use cmlt::math::{Mat4, Rgb, Vec3};
-use cmlt::scene::{Camera, FovAxis, Material, Mesh, Scene, SceneBuilder};
+use cmlt::scene::{
+    Camera, ConductorFresnel, FovAxis, Material, MaterialId, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
+};
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards.
 fn inward_box(albedo: f32, emission: f32) -> Scene {
+    furnace(Material::diffuse(Rgb::splat(albedo)), emission, 0.0, None)
+}
+
+/// A UV sphere of `radius` at `centre`, outward normals, flat shading.
+fn sphere(centre: Vec3, radius: f32, material: MaterialId) -> Mesh {
+    let (nu, nv) = (48u32, 24u32);
+    let mut positions = Vec::new();
+    for j in 0..=nv {
+        let theta = std::f32::consts::PI * j as f32 / nv as f32;
+        for i in 0..nu {
+            let phi = 2.0 * std::f32::consts::PI * i as f32 / nu as f32;
+            positions.push(centre + radius * Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()));
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let a = j * nu + i;
+            let b = j * nu + (i + 1) % nu;
+            let c = (j + 1) * nu + i;
+            let d = (j + 1) * nu + (i + 1) % nu;
+            for t in [[a, c, b], [b, c, d]] {
+                let [p0, p1, p2] = t.map(|k| positions[k as usize]);
+                let n = (p1 - p0).cross(p2 - p0);
+                if n.length() > 0.0 {
+                    // Wind outwards.
+                    indices.push(if n.dot(p0 - centre) >= 0.0 { t } else { [t[0], t[2], t[1]] });
+                }
+            }
+        }
+    }
+    Mesh { positions, normals: vec![], uvs: vec![], indices, material, emission: None }
+}
+
+/// A closed emitting box of `wall` material, optionally with an object,
+/// seen by a camera with the given aperture.
+fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Material, f32)>) -> Scene {
     let mut b = SceneBuilder::new();
-    let m = b.add_material(Material::diffuse(Rgb::splat(albedo)));
+    let m = b.add_material(wall);
+    if let Some((mat, radius)) = object {
+        let id = b.add_material(mat);
+        b.add_mesh(sphere(Vec3::new(0.0, 0.0, 0.6), radius, id));
+    }
     let mut positions = Vec::new();
     let mut indices = Vec::new();
     for axis in 0..3 {
@@ -135,5 +178,48 @@ fn hidden_emitters_remove_only_the_first_segment() {
     for method in [Method::Path, Method::Bdpt] {
         let (mean, _) = render_mean(&scene, method, settings, 128);
         assert!((mean.g - 1.0).abs() < 0.01, "{method:?}: {}", mean.g);
+    }
+}
+
+#[test]
+fn thin_lens_furnace_is_two() {
+    let scene = furnace(Material::diffuse(Rgb::splat(0.5)), 1.0, 0.3, None);
+    for method in [Method::Path, Method::Bdpt] {
+        let (mean, _) = render_mean(&scene, method, Settings::default(), 256);
+        assert!((mean.g - 2.0).abs() / 2.0 < 0.005, "{method:?}: {}", mean.g);
+    }
+}
+
+#[test]
+fn mirror_furnace_is_two() {
+    // Perfect-Fresnel mirror walls reflecting half the light: L = Le + ½L.
+    let mirror = Material {
+        kind: MaterialKind::Conductor {
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(Rgb::splat(0.5)),
+        },
+        two_sided: true,
+    };
+    let scene = furnace(mirror, 1.0, 0.0, None);
+    for method in [Method::Path, Method::Bdpt] {
+        let (mean, film) = render_mean(&scene, method, Settings::default(), 64);
+        assert_eq!(film.nonfinite(), 0);
+        assert!((mean.g - 2.0).abs() / 2.0 < 0.005, "{method:?}: {}", mean.g);
+    }
+}
+
+#[test]
+fn glass_in_a_furnace_is_invisible() {
+    // A lossless dielectric in a uniform radiance field changes nothing seen
+    // from outside: the η² radiance scaling on entry and exit cancels, and
+    // BDPT's importance transport must agree.
+    for eta in [1.5f32, 1.0, 0.7] {
+        let glass = Material { kind: MaterialKind::Dielectric { eta }, two_sided: false };
+        let scene = furnace(Material::diffuse(Rgb::splat(0.5)), 1.0, 0.0, Some((glass, 0.3)));
+        for method in [Method::Path, Method::Bdpt] {
+            let (mean, film) = render_mean(&scene, method, Settings::default(), 128);
+            assert_eq!(film.nonfinite(), 0);
+            assert!((mean.g - 2.0).abs() / 2.0 < 0.006, "eta {eta} {method:?}: {}", mean.g);
+        }
     }
 }

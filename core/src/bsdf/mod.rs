@@ -1,13 +1,37 @@
 //! Scattering models in the local shading frame (z = shading normal).
 //!
-//! PLACEHOLDER API (being completed): directions `wo` (towards the viewer /
-//! previous vertex) and `wi` (sampled, towards the light / next vertex) both
-//! point away from the surface.
+//! Conventions (shared with the integrators):
+//! - `wo` points towards the viewer / previous path vertex and `wi` towards
+//!   the next one; both point away from the surface and have unit length.
+//! - [`Bsdf::eval`] returns f(wo, wi) *without* the cosine factor; the
+//!   caller multiplies by |cos θi|. [`Bsdf::pdf`] is per unit solid angle.
+//! - Dirac lobes (smooth conductor and dielectric) have `eval` = `pdf` = 0;
+//!   [`Bsdf::sample`] reports them with `delta: true`, `pdf` = the discrete
+//!   probability of the chosen lobe and `f` = weight·pdf/|cos θi|, so the
+//!   uniform throughput update f·|cos θi|/pdf gives the lobe's weight.
+//!
+//! The models follow Mitsuba 3 (`diffuse`, `conductor`, `roughconductor`,
+//! `dielectric`, `twosided`), whose `scalar_rgb` renders are our references.
+//! Files: [`fresnel`] (public Fresnel equations), `microfacet`
+//! (distributions, Smith masking, visible-normal sampling), and one file per
+//! material model.
+
+mod conductor;
+mod dielectric;
+mod diffuse;
+pub mod fresnel;
+mod microfacet;
+
+#[cfg(all(test, feature = "std"))]
+mod chi2;
+#[cfg(all(test, feature = "std"))]
+mod tests;
 
 use glam::{Vec2, Vec3};
 
-use crate::math::{Rgb, warp};
-use crate::scene::{Material, MaterialKind, Texture};
+use crate::math::Rgb;
+use crate::scene::{ConductorFresnel, Material, MaterialKind, Texture};
+use microfacet::Microfacet;
 
 /// Whether a path carries radiance (camera side) or importance (light side);
 /// refraction scales by 1/η² only for radiance.
@@ -30,63 +54,187 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// True when the sampled lobe is a Dirac delta.
     pub delta: bool,
-    /// Relative IOR crossed (1 for reflection).
+    /// Relative IOR crossed (1 for reflection): η of the side `wi` points
+    /// into over η of the side `wo` is on.
     pub eta: f32,
 }
 
-/// A material resolved at one point (textures evaluated).
+/// The scattering model with its textures resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Model {
+    Diffuse {
+        albedo: Rgb,
+    },
+    Conductor {
+        fresnel: ConductorFresnel,
+        tint: Rgb,
+    },
+    RoughConductor {
+        mf: Microfacet,
+        fresnel: ConductorFresnel,
+        tint: Rgb,
+    },
+    Dielectric {
+        eta: f32,
+    },
+}
+
+/// A material resolved at one point (textures evaluated). Small and `Copy`;
+/// no allocation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bsdf {
-    albedo: Rgb,
+    model: Model,
+    /// Mitsuba's `twosided`: seen from below, the opaque models are
+    /// evaluated with both directions mirrored to the upper hemisphere.
     two_sided: bool,
+}
+
+/// Mirrors a direction through the tangent plane (Mitsuba's `twosided`
+/// flips only z, which keeps azimuths, unlike negating the vector).
+#[inline]
+fn flip_z(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, -v.z)
 }
 
 impl Bsdf {
     /// Resolves `material` at one point; `texture` evaluates a texture
     /// there (the scene supplies it, so this module needs no bitmaps).
+    ///
+    /// Rough-conductor α is clamped to ≥ 1e-4, where the lobe is already a
+    /// mirror for all practical purposes and D(m) still fits in f32.
     pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
-        let albedo = match &material.kind {
-            MaterialKind::Diffuse { reflectance } => texture(reflectance),
-            _ => Rgb::ZERO,
+        let model = match &material.kind {
+            MaterialKind::Diffuse { reflectance } => Model::Diffuse {
+                albedo: texture(reflectance),
+            },
+            MaterialKind::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => Model::Conductor {
+                fresnel: *fresnel,
+                tint: texture(specular_reflectance),
+            },
+            MaterialKind::RoughConductor {
+                distribution,
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => Model::RoughConductor {
+                mf: Microfacet::new(*distribution, *alpha),
+                fresnel: *fresnel,
+                tint: texture(specular_reflectance),
+            },
+            MaterialKind::Dielectric { eta } => Model::Dielectric { eta: *eta },
         };
-        Bsdf { albedo, two_sided: material.two_sided }
+        // A dielectric is one interface with an inside and an outside.
+        let two_sided = material.two_sided && !matches!(model, Model::Dielectric { .. });
+        Bsdf { model, two_sided }
     }
 
-    /// True when every lobe is a Dirac delta.
+    /// True when every lobe is a Dirac delta (no connection can end here).
     pub fn is_delta(&self) -> bool {
-        false
+        matches!(
+            self.model,
+            Model::Conductor { .. } | Model::Dielectric { .. }
+        )
     }
 
-    /// f(wo, wi), without the cosine; zero for delta lobes.
+    /// True when the BSDF can scatter to the other side of the surface
+    /// (only dielectrics); callers use it to pick the side a continuation
+    /// ray starts from.
+    pub fn has_transmission(&self) -> bool {
+        matches!(self.model, Model::Dielectric { .. })
+    }
+
+    /// A coarse roughness hint in the microfacet α scale: 0 for Dirac-only
+    /// models, the (clamped) α of a rough conductor, 1 for Lambertian.
+    /// Useful to decide e.g. whether a connection through this vertex can
+    /// carry any useful contribution.
+    pub fn roughness(&self) -> f32 {
+        match &self.model {
+            Model::Diffuse { .. } => 1.0,
+            Model::RoughConductor { mf, .. } => mf.alpha,
+            Model::Conductor { .. } | Model::Dielectric { .. } => 0.0,
+        }
+    }
+
+    /// The pair (wo, wi) as the opaque model sees it: mirrored to the upper
+    /// hemisphere when two-sided and `wo` is below (Mitsuba's `twosided`).
+    #[inline]
+    fn orient(&self, wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+        if self.two_sided && wo.z < 0.0 {
+            (flip_z(wo), flip_z(wi))
+        } else {
+            (wo, wi)
+        }
+    }
+
+    /// f(wo, wi), without the cosine; zero for delta lobes. Reciprocal for
+    /// the reflection models: eval(wo, wi) = eval(wi, wo). `mode` only
+    /// matters for transmission, which has no non-delta lobe here.
     pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> Rgb {
-        let (wo, wi) = if self.two_sided && wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Rgb::ZERO;
+        match &self.model {
+            Model::Diffuse { albedo } => {
+                let (wo, wi) = self.orient(wo, wi);
+                diffuse::eval(*albedo, wo, wi)
+            }
+            Model::RoughConductor { mf, fresnel, tint } => {
+                let (wo, wi) = self.orient(wo, wi);
+                conductor::eval_rough(mf, fresnel, *tint, wo, wi)
+            }
+            Model::Conductor { .. } | Model::Dielectric { .. } => Rgb::ZERO,
         }
-        self.albedo * crate::math::INV_PI
     }
 
-    /// Solid-angle density of sampling `wi` given `wo`; zero for deltas.
+    /// Solid-angle density with which [`Bsdf::sample`] returns `wi` given
+    /// `wo`; zero for deltas. It integrates to 1 for the diffuse model and
+    /// to 1 minus the probability that `sample` fails for rough conductors.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (wo, wi) = if self.two_sided && wo.z < 0.0 { (-wo, -wi) } else { (wo, wi) };
-        if wo.z <= 0.0 {
-            return 0.0;
+        match &self.model {
+            Model::Diffuse { .. } => {
+                let (wo, wi) = self.orient(wo, wi);
+                diffuse::pdf(wo, wi)
+            }
+            Model::RoughConductor { mf, .. } => {
+                let (wo, wi) = self.orient(wo, wi);
+                conductor::pdf_rough(mf, wo, wi)
+            }
+            Model::Conductor { .. } | Model::Dielectric { .. } => 0.0,
         }
-        warp::cosine_hemisphere_pdf(wi)
     }
 
-    /// Samples `wi`; `u_lobe` chooses a lobe, `u` the direction.
-    pub fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+    /// Samples `wi`; `u_lobe` chooses a lobe (dielectric reflection versus
+    /// refraction), `u` the direction. `None` when nothing is scattered
+    /// (one-sided and seen from below, a rough reflection below the
+    /// horizon, grazing `wo`).
+    ///
+    /// For non-delta samples `f` and `pdf` equal `eval(wo, wi, mode)` and
+    /// `pdf(wo, wi)` exactly. Directions depend continuously on `u` (only the
+    /// discrete lobe choice by `u_lobe` jumps), which primary-sample-space
+    /// Metropolis mutations rely on.
+    pub fn sample(
+        &self,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
         let flip = self.two_sided && wo.z < 0.0;
-        let wo_l = if flip { -wo } else { wo };
-        if wo_l.z <= 0.0 {
-            return None;
-        }
-        let mut wi = warp::square_to_cosine_hemisphere(u);
-        let pdf = warp::cosine_hemisphere_pdf(wi);
+        let wo_up = if flip { flip_z(wo) } else { wo };
+        let mut s = match &self.model {
+            Model::Diffuse { albedo } => diffuse::sample(*albedo, wo_up, u),
+            Model::Conductor { fresnel, tint } => conductor::sample_smooth(fresnel, *tint, wo_up),
+            Model::RoughConductor { mf, fresnel, tint } => {
+                conductor::sample_rough(mf, fresnel, *tint, wo_up, u)
+            }
+            // Never two-sided: both sides are handled by the Fresnel code.
+            Model::Dielectric { eta } => dielectric::sample(*eta, wo, u_lobe, mode),
+        }?;
         if flip {
-            wi = -wi;
+            s.wi = flip_z(s.wi);
         }
-        (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi, mode), pdf, delta: false, eta: 1.0 })
+        // Last line of defence: a 1/cos θ of a direction a hair above the
+        // plane can overflow; such a sample is dropped, never returned as Inf.
+        (s.f.is_finite() && s.pdf.is_finite()).then_some(s)
     }
 }

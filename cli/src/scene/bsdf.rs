@@ -1,0 +1,545 @@
+//! BSDFs and textures: Mitsuba plugins → `cmlt::scene::Material`.
+//!
+//! Parsed materials are memoised per XML element, so a BSDF referenced by
+//! many shapes is one material. A material is added to the scene only when
+//! a shape uses it (the renderer inspects the scene's materials to decide
+//! which effects to simulate, so an unused glass BSDF must not appear), but
+//! unused top-level BSDFs are still parsed, because Mitsuba instantiates
+//! them and rejects invalid ones.
+
+use std::path::PathBuf;
+
+use cmlt::math::Rgb;
+use cmlt::math::spectrum::srgb_to_linear;
+use cmlt::scene::{
+    Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, Texture,
+};
+use glam::Affine2;
+use roxmltree::Node;
+
+use super::error::LoadError;
+use super::loader::Loader;
+use super::transform;
+use super::xml::{Item, Props, Value, key};
+
+/// Deepest nesting of BSDFs (`twosided` around `twosided` …) we follow.
+const MAX_BSDF_DEPTH: usize = 8;
+
+/// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`,
+/// values from Hecht, *Optics*, at ~589 nm).
+const NAMED_IORS: &[(&str, f32)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+/// A decoded image waiting to be added to the scene (only if used).
+pub(crate) struct PendingBitmap {
+    pub bitmap: Option<Bitmap>,
+    pub id: Option<BitmapId>,
+}
+
+fn rgb(c: [f64; 3]) -> Rgb {
+    Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32)
+}
+
+impl<'a> Loader<'a> {
+    /// The material of a `<bsdf>` element, added to the scene on first use.
+    pub(crate) fn use_bsdf(&mut self, node: Node<'a, 'a>) -> Result<MaterialId, LoadError> {
+        if let Some(&id) = self.used_materials.get(&key(node)) {
+            return Ok(id);
+        }
+        let m = self.bsdf(node, 0)?;
+        let id = self.add_material(m, Some(node));
+        self.used_materials.insert(key(node), id);
+        Ok(id)
+    }
+
+    /// Mitsuba's default BSDF of a shape without one: one-sided diffuse 0.5,
+    /// or black when the shape is an emitter (Mitsuba's Shape constructor).
+    pub(crate) fn default_material(&mut self, emitter: bool) -> MaterialId {
+        let slot = emitter as usize;
+        if let Some(id) = self.default_materials[slot] {
+            return id;
+        }
+        let albedo = if emitter { 0.0 } else { 0.5 };
+        let m = Material {
+            kind: MaterialKind::Diffuse {
+                reflectance: Texture::Constant(Rgb::splat(albedo)),
+            },
+            two_sided: false,
+        };
+        let id = self.add_material(m, None);
+        self.default_materials[slot] = Some(id);
+        id
+    }
+
+    /// Adds a parsed material, moving the bitmaps it uses into the scene.
+    fn add_material(&mut self, mut m: Material, origin: Option<Node<'a, 'a>>) -> MaterialId {
+        let mut fix = |t: &mut Texture| {
+            if let Texture::Bitmap { id, .. } = t {
+                let p = &mut self.bitmaps[id.0 as usize];
+                let real = match p.id {
+                    Some(real) => real,
+                    None => {
+                        let real = self
+                            .builder
+                            .add_bitmap(p.bitmap.take().expect("pending bitmap is added once"));
+                        p.id = Some(real);
+                        real
+                    }
+                };
+                *id = real;
+            }
+        };
+        match &mut m.kind {
+            MaterialKind::Diffuse { reflectance } => fix(reflectance),
+            MaterialKind::Conductor {
+                specular_reflectance,
+                ..
+            }
+            | MaterialKind::RoughConductor {
+                specular_reflectance,
+                ..
+            } => fix(specular_reflectance),
+            MaterialKind::Dielectric { .. } => {}
+        }
+        self.material_origin.push(origin);
+        self.builder.add_material(m)
+    }
+
+    /// Parses a `<bsdf>` element (textures refer to pending bitmaps).
+    pub(crate) fn bsdf(&mut self, node: Node<'a, 'a>, depth: usize) -> Result<Material, LoadError> {
+        if let Some(m) = self.bsdf_memo.get(&key(node)) {
+            return Ok(*m);
+        }
+        if depth > MAX_BSDF_DEPTH {
+            return Err(self.xml.err(
+                node,
+                format!("BSDFs nested too deeply (more than {MAX_BSDF_DEPTH} levels)"),
+            ));
+        }
+        let props = Props::read(&self.xml, node)?;
+        let mut ignored: &[&str] = &[];
+        let m = match props.plugin.as_str() {
+            "twosided" => {
+                let x = &self.xml;
+                let nested = props.objects("bsdf");
+                let inner = match nested.as_slice() {
+                    [one] => {
+                        let Item::Object(n) = one.item else {
+                            unreachable!("objects() returns objects")
+                        };
+                        n
+                    }
+                    [] => return Err(x.err(node, "'twosided' needs a nested <bsdf>")),
+                    _ => {
+                        return Err(x.err(
+                            node,
+                            "'twosided' with different front and back BSDFs is not supported",
+                        ));
+                    }
+                };
+                let mut m = self.bsdf(inner, depth + 1)?;
+                if let MaterialKind::Dielectric { .. } = m.kind {
+                    // Mitsuba: "Only materials without a transmission
+                    // component can be nested!"
+                    return Err(self.xml.err(
+                        inner,
+                        "'twosided' cannot wrap a transmissive BSDF ('dielectric')",
+                    ));
+                }
+                m.two_sided = true;
+                m
+            }
+            "diffuse" => {
+                let reflectance = self.texture_param(&props, "reflectance", Rgb::splat(0.5))?;
+                Material {
+                    kind: MaterialKind::Diffuse { reflectance },
+                    two_sided: false,
+                }
+            }
+            "conductor" => {
+                let fresnel = self.conductor_fresnel(&props)?;
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                Material {
+                    kind: MaterialKind::Conductor {
+                        fresnel,
+                        specular_reflectance,
+                    },
+                    two_sided: false,
+                }
+            }
+            "roughconductor" => {
+                let x = &self.xml;
+                let distribution = match props.string(x, "distribution")? {
+                    None => Distribution::Beckmann,
+                    Some((d, n)) => match d.to_ascii_lowercase().as_str() {
+                        "beckmann" => Distribution::Beckmann,
+                        "ggx" => Distribution::Ggx,
+                        _ => {
+                            return Err(x.err(
+                                n,
+                                format!("invalid distribution '{d}' (must be 'beckmann' or 'ggx')"),
+                            ));
+                        }
+                    },
+                };
+                let alpha = self.roughness(&props)?;
+                let fresnel = self.conductor_fresnel(&props)?;
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                // Visible-normal sampling only changes the variance.
+                ignored = &["sample_visible"];
+                Material {
+                    kind: MaterialKind::RoughConductor {
+                        distribution,
+                        alpha,
+                        fresnel,
+                        specular_reflectance,
+                    },
+                    two_sided: false,
+                }
+            }
+            "dielectric" => {
+                let x = &self.xml;
+                let int_ior = self.ior(&props, "int_ior", 1.5046)?;
+                let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if let Some((c, n)) = props.color(x, name)? {
+                        if c != [1.0; 3] {
+                            return Err(x.err(
+                                n,
+                                format!("dielectric '{name}' other than 1 is not supported"),
+                            ));
+                        }
+                    }
+                }
+                // Mitsuba's eta is interior over exterior.
+                Material {
+                    kind: MaterialKind::Dielectric {
+                        eta: int_ior / ext_ior,
+                    },
+                    two_sided: false,
+                }
+            }
+            other => {
+                return Err(self
+                    .xml
+                    .err(node, format!("unsupported BSDF plugin '{other}'")));
+            }
+        };
+        props.finish(&self.xml, ignored)?;
+        if let Err(reason) = m.validate() {
+            return Err(self.xml.err(node, format!("invalid BSDF: {reason}")));
+        }
+        self.bsdf_memo.insert(key(node), m);
+        Ok(m)
+    }
+
+    /// `alpha`, or equal `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).
+    fn roughness(&self, props: &Props<'a>) -> Result<f32, LoadError> {
+        let x = &self.xml;
+        let a = props.float(x, "alpha")?;
+        let au = props.float(x, "alpha_u")?;
+        let av = props.float(x, "alpha_v")?;
+        let (alpha, node) = match (a, au, av) {
+            (None, None, None) => return Ok(0.1),
+            (Some(a), None, None) => a,
+            (None, Some(u), Some(v)) => {
+                if u.0 != v.0 {
+                    return Err(x.err(
+                        u.1,
+                        "anisotropic roughness (alpha_u != alpha_v) is not supported",
+                    ));
+                }
+                u
+            }
+            (Some(a), _, _) => {
+                return Err(x.err(a.1, "give either 'alpha' or 'alpha_u'/'alpha_v', not both"));
+            }
+            (None, Some(u), None) => return Err(x.err(u.1, "'alpha_u' needs 'alpha_v' too")),
+            (None, None, Some(v)) => return Err(x.err(v.1, "'alpha_v' needs 'alpha_u' too")),
+        };
+        if !(alpha > 0.0 && alpha <= 1e4) {
+            return Err(x.err(
+                node,
+                format!(
+                    "roughness alpha must be > 0, got {alpha} (use 'conductor' for a smooth metal)"
+                ),
+            ));
+        }
+        Ok(alpha as f32)
+    }
+
+    /// Mitsuba's conductor Fresnel parameters: `eta`/`k` (defaults 0 and 1),
+    /// or `material`; `material="none"` (the default) with no `eta` is an
+    /// ideal mirror (η = 0 + 1i reflects everything).
+    fn conductor_fresnel(&self, props: &Props<'a>) -> Result<ConductorFresnel, LoadError> {
+        let x = &self.xml;
+        let material = props.string(x, "material")?;
+        let has_eta = props.has("eta");
+        if let Some((name, n)) = &material {
+            if name != "none" {
+                if has_eta {
+                    return Err(x.err(*n, "specify either eta/k or material, not both"));
+                }
+                return Err(x.err(
+                    *n,
+                    format!(
+                        "conductor material preset '{name}' is not supported (Mitsuba derives it from spectral data); \
+                         give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+                    ),
+                ));
+            }
+        }
+        let eta = props.color(x, "eta")?;
+        let k = props.color(x, "k")?;
+        if eta.is_none() && k.is_none() {
+            return Ok(ConductorFresnel::Perfect);
+        }
+        let eta = eta.map_or([0.0; 3], |e| e.0);
+        let k = k.map_or([1.0; 3], |e| e.0);
+        Ok(ConductorFresnel::Complex {
+            eta: rgb(eta),
+            k: rgb(k),
+        })
+    }
+
+    /// An index of refraction given as a number or one of Mitsuba's names.
+    fn ior(&self, props: &Props<'a>, name: &str, default: f32) -> Result<f32, LoadError> {
+        let x = &self.xml;
+        let Some(e) = props.get(name) else {
+            return Ok(default);
+        };
+        let v = match &e.item {
+            Item::Value(Value::Float(v)) => *v as f32,
+            Item::Value(Value::Integer(v)) => *v as f32,
+            Item::Value(Value::String(s)) => {
+                let lower = s.to_ascii_lowercase();
+                match NAMED_IORS.iter().find(|(n, _)| *n == lower) {
+                    Some(&(_, v)) => v,
+                    None => {
+                        let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+                        return Err(x.err(
+                            e.node,
+                            format!("unknown IOR name '{s}' (known: {})", names.join(", ")),
+                        ));
+                    }
+                }
+            }
+            _ => return Err(x.err(e.node, format!("'{name}' must be a float or an IOR name"))),
+        };
+        if !(v.is_finite() && v > 0.0) {
+            return Err(x.err(e.node, format!("'{name}' must be positive, got {v}")));
+        }
+        Ok(v)
+    }
+
+    /// A reflectance-like parameter: a colour, a nested or referenced
+    /// `<texture>`, or `default`. Colours must be finite and non-negative.
+    fn texture_param(
+        &mut self,
+        props: &Props<'a>,
+        name: &str,
+        default: Rgb,
+    ) -> Result<Texture, LoadError> {
+        let Some(e) = props.get(name) else {
+            return Ok(Texture::Constant(default));
+        };
+        if let Item::Object(n) = e.item {
+            if n.tag_name().name() == "texture" {
+                return self.texture(n);
+            }
+        }
+        let (c, node) = props.color(&self.xml, name)?.expect("entry exists");
+        if c.iter().any(|v| *v < 0.0) {
+            return Err(self
+                .xml
+                .err(node, format!("'{name}' must be non-negative, got {c:?}")));
+        }
+        Ok(Texture::Constant(rgb(c)))
+    }
+
+    /// Parses a `<texture>` element (memoised per element).
+    pub(crate) fn texture(&mut self, node: Node<'a, 'a>) -> Result<Texture, LoadError> {
+        if let Some(t) = self.texture_memo.get(&key(node)) {
+            return Ok(*t);
+        }
+        let props = Props::read(&self.xml, node)?;
+        let to_uv = match props.transform(&self.xml, "to_uv")? {
+            Some((m, _)) => transform::to_uv(&m),
+            None => Affine2::IDENTITY,
+        };
+        let mut ignored: &[&str] = &[];
+        let t = match props.plugin.as_str() {
+            "bitmap" => {
+                let x = &self.xml;
+                let (filename, fnode) = props
+                    .string(x, "filename")?
+                    .ok_or_else(|| x.err(node, "bitmap texture lacks the 'filename' property"))?;
+                let raw = props.boolean(x, "raw")?.unwrap_or(false);
+                if let Some((f, n)) = props.string(x, "filter_type")? {
+                    match f.as_str() {
+                        "bilinear" => {}
+                        "nearest" => {
+                            let w = x.warning(n, format!("bitmap '{filename}': filter_type 'nearest' is rendered bilinear"));
+                            self.warnings.push(w);
+                        }
+                        _ => {
+                            return Err(x.err(
+                                n,
+                                format!(
+                                    "invalid filter_type '{f}' (must be 'bilinear' or 'nearest')"
+                                ),
+                            ));
+                        }
+                    }
+                }
+                if let Some((w, n)) = props.string(x, "wrap_mode")? {
+                    match w.as_str() {
+                        "repeat" => {}
+                        "mirror" | "clamp" => {
+                            let msg = x.warning(
+                                n,
+                                format!(
+                                    "bitmap '{filename}': wrap_mode '{w}' is rendered as 'repeat'"
+                                ),
+                            );
+                            self.warnings.push(msg);
+                        }
+                        _ => return Err(x.err(
+                            n,
+                            format!(
+                                "invalid wrap_mode '{w}' (must be 'repeat', 'mirror' or 'clamp')"
+                            ),
+                        )),
+                    }
+                }
+                // Storage precision and lookup acceleration do not change
+                // what the texture means.
+                ignored = &["format", "accel"];
+                let id = self.bitmap(&filename, raw, fnode)?;
+                Texture::Bitmap { id, to_uv }
+            }
+            "checkerboard" => {
+                let x = &self.xml;
+                let color = |name: &str, default: f64| -> Result<Rgb, LoadError> {
+                    match props.color(x, name)? {
+                        None => Ok(Rgb::splat(default as f32)),
+                        Some((c, n)) => {
+                            if c.iter().any(|v| *v < 0.0) {
+                                return Err(x.err(n, format!("'{name}' must be non-negative")));
+                            }
+                            Ok(rgb(c))
+                        }
+                    }
+                };
+                // Mitsuba's defaults: 0.4 and 0.2.
+                let color0 = color("color0", 0.4)?;
+                let color1 = color("color1", 0.2)?;
+                Texture::Checkerboard {
+                    color0,
+                    color1,
+                    to_uv,
+                }
+            }
+            other => {
+                return Err(self
+                    .xml
+                    .err(node, format!("unsupported texture plugin '{other}'")));
+            }
+        };
+        props.finish(&self.xml, ignored)?;
+        self.texture_memo.insert(key(node), t);
+        Ok(t)
+    }
+
+    /// Loads an image once per (file, raw) and returns its pending index.
+    fn bitmap(
+        &mut self,
+        filename: &str,
+        raw: bool,
+        node: Node<'a, 'a>,
+    ) -> Result<BitmapId, LoadError> {
+        let path: PathBuf = self.base_dir.join(filename);
+        let cache_key = (path.clone(), raw);
+        if let Some(&i) = self.bitmap_index.get(&cache_key) {
+            return Ok(BitmapId(i as u32));
+        }
+        let b = decode_bitmap(&path, raw)
+            .map_err(|e| self.xml.err(node, format!("image file '{filename}': {e}")))?;
+        self.bitmaps.push(PendingBitmap {
+            bitmap: Some(b),
+            id: None,
+        });
+        let i = self.bitmaps.len() - 1;
+        self.bitmap_index.insert(cache_key, i);
+        Ok(BitmapId(i as u32))
+    }
+}
+
+/// Decodes a JPEG/PNG into linear RGB. Integer images are sRGB-encoded
+/// unless `raw` (Mitsuba decodes 8-bit data with the sRGB curve and treats
+/// 16-bit PNGs the same way); alpha is dropped.
+fn decode_bitmap(path: &std::path::Path, raw: bool) -> Result<Bitmap, String> {
+    let reader = image::ImageReader::open(path)
+        .map_err(|e| format!("cannot open: {e}"))?
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read: {e}"))?;
+    let img = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.decode()))
+        .map_err(|_| "the image decoder failed on malformed data".to_string())?
+        .map_err(|e| format!("cannot decode: {e}"))?;
+    let (w, h) = (img.width(), img.height());
+    let ct = img.color();
+    let bytes_per_channel = ct.bytes_per_pixel() as usize / ct.channel_count().max(1) as usize;
+    let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
+    let texels: Vec<Rgb> = match bytes_per_channel {
+        1 => {
+            let lut: Vec<f32> = (0..256).map(|i| decode(i as f32 / 255.0)).collect();
+            img.to_rgb8()
+                .pixels()
+                .map(|p| Rgb::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+                .collect()
+        }
+        2 => img
+            .to_rgb16()
+            .pixels()
+            .map(|p| {
+                Rgb::new(
+                    decode(p[0] as f32 / 65535.0),
+                    decode(p[1] as f32 / 65535.0),
+                    decode(p[2] as f32 / 65535.0),
+                )
+            })
+            .collect(),
+        // Floating-point images are linear already.
+        _ => img
+            .to_rgb32f()
+            .pixels()
+            .map(|p| Rgb::new(p[0], p[1], p[2]))
+            .collect(),
+    };
+    Bitmap::new(w, h, texels).ok_or_else(|| "image is empty or has non-finite texels".to_string())
+}

@@ -1,0 +1,719 @@
+//! Walking a Mitsuba scene: integrator, sensor, shapes and emitters.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use cmlt::integrator::Settings;
+use cmlt::math::Rgb;
+use cmlt::scene::{Camera, FovAxis, Material, MaterialId, Mesh, SceneBuilder, SceneError, Texture};
+use glam::{DMat4, DVec3};
+use roxmltree::{Document, Node, NodeId, ParsingOptions};
+
+use super::LoadedScene;
+use super::bsdf::PendingBitmap;
+use super::error::LoadError;
+use super::mesh_io::{self, RawMesh};
+use super::shapes;
+use super::transform;
+use super::xml::{Item, Props, Xml};
+
+/// Mitsuba's default film size (`hdrfilm`).
+const DEFAULT_WIDTH: i64 = 768;
+const DEFAULT_HEIGHT: i64 = 576;
+/// Largest image side we accept (a sanity bound against typos such as an
+/// extra zero; Mitsuba has none).
+const MAX_RESOLUTION: i64 = 1 << 16;
+/// Mitsuba's default far clip, which is also thinlens' default focus distance.
+const DEFAULT_FAR_CLIP: f64 = 1e4;
+
+/// State of one load.
+pub(crate) struct Loader<'a> {
+    pub xml: Xml<'a>,
+    pub base_dir: PathBuf,
+    pub builder: SceneBuilder,
+    pub warnings: Vec<String>,
+    pub bsdf_memo: HashMap<NodeId, Material>,
+    pub texture_memo: HashMap<NodeId, Texture>,
+    pub used_materials: HashMap<NodeId, MaterialId>,
+    pub default_materials: [Option<MaterialId>; 2],
+    pub bitmaps: Vec<PendingBitmap>,
+    pub bitmap_index: HashMap<(PathBuf, bool), usize>,
+    /// The `<shape>` of each mesh, for mapping `SceneError`s.
+    pub mesh_origin: Vec<Node<'a, 'a>>,
+    /// The `<bsdf>` of each material (`None` for Mitsuba's default BSDF).
+    pub material_origin: Vec<Option<Node<'a, 'a>>>,
+}
+
+/// Parses and loads a scene given as text.
+pub(crate) fn load(
+    text: &str,
+    base_dir: &Path,
+    file: &str,
+    defaults: &[(String, String)],
+) -> Result<LoadedScene, LoadError> {
+    let options = ParsingOptions {
+        allow_dtd: false,
+        nodes_limit: 50_000_000,
+        ..ParsingOptions::default()
+    };
+    let doc = Document::parse_with_options(text, options).map_err(|e| {
+        let (row, col) = match e {
+            // roxmltree reports 1:1 here; the end of the text is where the
+            // document was cut off.
+            roxmltree::Error::UnexpectedEndOfStream | roxmltree::Error::UnclosedRootNode => {
+                end_position(text)
+            }
+            _ => (e.pos().row, e.pos().col),
+        };
+        LoadError::at(file, row, col, format!("malformed XML: {e}"))
+    })?;
+    let xml = Xml::new(&doc, file, defaults)?;
+    let l = Loader {
+        xml,
+        base_dir: base_dir.to_path_buf(),
+        builder: SceneBuilder::new(),
+        warnings: Vec::new(),
+        bsdf_memo: HashMap::new(),
+        texture_memo: HashMap::new(),
+        used_materials: HashMap::new(),
+        default_materials: [None, None],
+        bitmaps: Vec::new(),
+        bitmap_index: HashMap::new(),
+        mesh_origin: Vec::new(),
+        material_origin: Vec::new(),
+    };
+    l.scene(doc.root_element())
+}
+
+impl<'a> Loader<'a> {
+    fn scene(mut self, root: Node<'a, 'a>) -> Result<LoadedScene, LoadError> {
+        let x = &self.xml;
+        if root.tag_name().name() != "scene" {
+            return Err(x.err(
+                root,
+                format!(
+                    "the root element must be <scene>, found <{}>",
+                    root.tag_name().name()
+                ),
+            ));
+        }
+        let version = x
+            .attr(root, "version")?
+            .ok_or_else(|| x.err(root, "<scene> lacks the required 'version' attribute"))?;
+        let major: Option<u32> = version
+            .split('.')
+            .next()
+            .and_then(|m| m.trim().parse().ok());
+        match major {
+            Some(2 | 3) => {}
+            Some(0 | 1) => {
+                return Err(x.err(
+                    root,
+                    format!("scene version {version} uses the Mitsuba 0.x format; only version 2.x/3.x scenes are supported"),
+                ));
+            }
+            _ => return Err(x.err(root, format!("unsupported scene version '{version}'"))),
+        }
+
+        let mut integrator: Option<(String, Settings, Node)> = None;
+        let mut sensor: Option<(Camera, Option<u32>)> = None;
+        let mut top_bsdfs = Vec::new();
+        let mut top_textures = Vec::new();
+        for child in root.children().filter(|n| n.is_element()) {
+            let tag = child.tag_name().name();
+            match tag {
+                "default" => {}
+                "integrator" => {
+                    if let Some((_, _, first)) = &integrator {
+                        let (l, c) = self.xml.pos(*first);
+                        return Err(self.xml.err(
+                            child,
+                            format!(
+                                "only one <integrator> is allowed (first at line {l}, column {c})"
+                            ),
+                        ));
+                    }
+                    let (ty, s) = self.integrator(child)?;
+                    integrator = Some((ty, s, child));
+                }
+                "sensor" => {
+                    if sensor.is_some() {
+                        let w = self.xml.warning(
+                            child,
+                            "more than one <sensor>: rendering the first, like Mitsuba",
+                        );
+                        self.warnings.push(w);
+                        continue;
+                    }
+                    sensor = Some(self.sensor(child)?);
+                }
+                "bsdf" => top_bsdfs.push(child),
+                "texture" => top_textures.push(child),
+                "shape" => self.shape(child)?,
+                "emitter" => {
+                    let ty = self.xml.attr(child, "type")?.unwrap_or_default();
+                    let msg = if ty == "area" {
+                        "an 'area' emitter must be nested inside a <shape>".to_string()
+                    } else {
+                        format!(
+                            "unsupported emitter plugin '{ty}' (cmlt supports area emitters on shapes only)"
+                        )
+                    };
+                    return Err(self.xml.err(child, msg));
+                }
+                "medium" | "phase" | "volume" => {
+                    return Err(self.xml.err(
+                        child,
+                        format!("<{tag}>: participating media are not supported"),
+                    ));
+                }
+                "include" | "path" | "alias" => {
+                    return Err(self.xml.err(
+                        child,
+                        format!("<{tag}> is not supported by cmlt's scene loader"),
+                    ));
+                }
+                "film" | "sampler" | "rfilter" => {
+                    return Err(self
+                        .xml
+                        .err(child, format!("<{tag}> must be nested inside a <sensor>")));
+                }
+                "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "point"
+                | "vector" | "transform" | "ref" => {
+                    return Err(self
+                        .xml
+                        .err(child, format!("unexpected <{tag}> directly inside <scene>")));
+                }
+                other => {
+                    return Err(self
+                        .xml
+                        .err(child, format!("unknown XML element <{other}>")));
+                }
+            }
+        }
+        // Mitsuba instantiates every top-level object, so unused BSDFs and
+        // textures must be valid too (they are not added to the scene).
+        for b in top_bsdfs {
+            self.bsdf(b, 0)?;
+        }
+        for t in top_textures {
+            self.texture(t)?;
+        }
+        let Some((camera, spp)) = sensor else {
+            return Err(self.xml.err(
+                root,
+                "the scene has no <sensor> (cmlt needs a perspective or thinlens camera)",
+            ));
+        };
+        self.builder.set_camera(camera);
+        for p in self.xml.unused_command_line_params() {
+            self.warnings.push(format!(
+                "{}: warning: parameter '{p}' given on the command line is not used by the scene",
+                self.xml.file
+            ));
+        }
+        let (integrator, settings) = match integrator {
+            Some((ty, s, _)) => (ty, s),
+            // Mitsuba renders with `path` and its defaults when the scene
+            // names no integrator.
+            None => ("path".to_string(), Settings::default()),
+        };
+        let Loader {
+            builder,
+            mesh_origin,
+            material_origin,
+            xml,
+            warnings,
+            ..
+        } = self;
+        let scene = builder
+            .build()
+            .map_err(|e| scene_error(&xml, &mesh_origin, &material_origin, e))?;
+        Ok(LoadedScene {
+            scene,
+            settings,
+            spp,
+            integrator,
+            warnings,
+        })
+    }
+
+    /// `<integrator>`: records the type and Mitsuba's path-tracer settings.
+    fn integrator(&mut self, node: Node<'a, 'a>) -> Result<(String, Settings), LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        let mut s = Settings::default();
+        if let Some((d, n)) = props.integer(x, "max_depth")? {
+            s.max_depth = match d {
+                -1 => None,
+                0.. if d <= u32::MAX as i64 => Some(d as u32),
+                _ => {
+                    return Err(x.err(
+                        n,
+                        format!("max_depth must be -1 (unbounded) or a depth >= 0, got {d}"),
+                    ));
+                }
+            };
+        }
+        if let Some((d, n)) = props.integer(x, "rr_depth")? {
+            if !(1..=u32::MAX as i64).contains(&d) {
+                return Err(x.err(n, format!("rr_depth must be > 0, got {d}")));
+            }
+            s.rr_depth = d as u32;
+        }
+        if let Some(h) = props.boolean(x, "hide_emitters")? {
+            s.hide_emitters = h;
+        }
+        // The CLI chooses the rendering method; other integrator parameters
+        // (and integrator types) are reported, not rejected.
+        for (name, n) in props.unused() {
+            let w = x.warning(
+                n,
+                format!(
+                    "integrator parameter '{name}' of '{}' is ignored",
+                    props.plugin
+                ),
+            );
+            self.warnings.push(w);
+        }
+        Ok((props.plugin.clone(), s))
+    }
+
+    /// `<sensor type="perspective|thinlens">` with its film and sampler.
+    fn sensor(&mut self, node: Node<'a, 'a>) -> Result<(Camera, Option<u32>), LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let thinlens = match props.plugin.as_str() {
+            "perspective" => false,
+            "thinlens" => true,
+            other => {
+                return Err(self
+                    .xml
+                    .err(node, format!("unsupported sensor plugin '{other}'")));
+            }
+        };
+        let films = props.objects("film");
+        let (width, height) = match films.as_slice() {
+            [] => {
+                let w = self.xml.warning(node, "sensor has no <film>: using Mitsuba's default 768x576 hdrfilm with a box filter");
+                self.warnings.push(w);
+                (DEFAULT_WIDTH as u32, DEFAULT_HEIGHT as u32)
+            }
+            [f] => {
+                let Item::Object(n) = f.item else {
+                    unreachable!()
+                };
+                self.film(n)?
+            }
+            [_, second, ..] => {
+                return Err(self
+                    .xml
+                    .err(second.node, "only one <film> per sensor is allowed"));
+            }
+        };
+        let samplers = props.objects("sampler");
+        let spp = match samplers.as_slice() {
+            [] => None,
+            [s] => {
+                let Item::Object(n) = s.item else {
+                    unreachable!()
+                };
+                self.sampler(n)?
+            }
+            [_, second, ..] => {
+                return Err(self
+                    .xml
+                    .err(second.node, "only one <sampler> per sensor is allowed"));
+            }
+        };
+
+        let x = &self.xml;
+        let to_world = match props.transform(x, "to_world")? {
+            None => DMat4::IDENTITY,
+            Some((m, n)) => {
+                if !transform::is_affine(&m) {
+                    return Err(x.err(n, "camera to_world must be affine (last row 0 0 0 1)"));
+                }
+                if transform::has_scale(&m) {
+                    return Err(x.err(n, "scale factors in the camera to_world transform are not allowed (Mitsuba rejects them too)"));
+                }
+                m
+            }
+        };
+        let fov_given = props.float(x, "fov")?;
+        let focal = props.string(x, "focal_length")?;
+        let (fov, axis) = match (fov_given, focal) {
+            (Some(_), Some((_, n))) => {
+                return Err(x.err(n, "give either 'fov' or 'focal_length', not both"));
+            }
+            (Some((f, n)), None) => {
+                if !(f > 0.0 && f < 180.0) {
+                    return Err(x.err(n, format!("fov must be in (0, 180) degrees, got {f}")));
+                }
+                let axis = match props.string(x, "fov_axis")? {
+                    None => FovAxis::X,
+                    Some((a, an)) => match a.to_ascii_lowercase().as_str() {
+                        "x" => FovAxis::X,
+                        "y" => FovAxis::Y,
+                        "diagonal" => FovAxis::Diagonal,
+                        "smaller" => FovAxis::Smaller,
+                        "larger" => FovAxis::Larger,
+                        _ => {
+                            return Err(x.err(
+                                an,
+                                format!(
+                                    "invalid fov_axis '{a}' (x, y, diagonal, smaller or larger)"
+                                ),
+                            ));
+                        }
+                    },
+                };
+                (f, axis)
+            }
+            (None, focal) => {
+                // Mitsuba's 35 mm equivalent: fov along the diagonal of a
+                // 36 × 24 mm frame, 50 mm by default.
+                let (text, n) = focal.unwrap_or_else(|| ("50mm".to_string(), node));
+                let num = text.trim().strip_suffix("mm").unwrap_or(text.trim());
+                let f = super::xml::parse_f64(num)
+                    .ok()
+                    .filter(|f| *f > 0.0)
+                    .ok_or_else(|| {
+                        x.err(
+                            n,
+                            format!("invalid focal_length '{text}' (expected e.g. \"50mm\")"),
+                        )
+                    })?;
+                let fov = 2.0
+                    * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * f))
+                        .atan()
+                        .to_degrees();
+                (fov, FovAxis::Diagonal)
+            }
+        };
+        let far_clip = props.float(x, "far_clip")?;
+        let near_clip = props.float(x, "near_clip")?;
+        if let Some((_, n)) = near_clip.or(far_clip) {
+            let w = x.warning(
+                n,
+                "near_clip/far_clip are not applied (cmlt does not clip camera rays)",
+            );
+            self.warnings.push(w);
+        }
+        let x = &self.xml;
+        let (aperture, focus) = if thinlens {
+            let (a, an) = props.float(x, "aperture_radius")?.ok_or_else(|| {
+                x.err(node, "thinlens sensor lacks the 'aperture_radius' property")
+            })?;
+            if a < 0.0 {
+                return Err(x.err(an, format!("aperture_radius must be >= 0, got {a}")));
+            }
+            let focus = match props.float(x, "focus_distance")? {
+                Some((f, n)) if f <= 0.0 => {
+                    return Err(x.err(n, format!("focus_distance must be > 0, got {f}")));
+                }
+                Some((f, _)) => f,
+                None => far_clip.map_or(DEFAULT_FAR_CLIP, |f| f.0),
+            };
+            (a, focus)
+        } else {
+            (0.0, 1.0)
+        };
+        props.finish(x, &[])?;
+        let camera = Camera::perspective(
+            transform::to_f32(&to_world),
+            fov as f32,
+            axis,
+            width,
+            height,
+            aperture as f32,
+            focus as f32,
+        )
+        .map_err(|e| x.err(node, format!("invalid camera: {e}")))?;
+        Ok((camera, spp))
+    }
+
+    /// `<film type="hdrfilm">`: the resolution; warns about filters other
+    /// than `box` (cmlt always reconstructs with a box filter).
+    fn film(&mut self, node: Node<'a, 'a>) -> Result<(u32, u32), LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        if props.plugin != "hdrfilm" {
+            return Err(x.err(node, format!("unsupported film plugin '{}'", props.plugin)));
+        }
+        let side = |name: &str, default: i64| -> Result<u32, LoadError> {
+            match props.integer(x, name)? {
+                None => Ok(default as u32),
+                Some((v, _)) if (1..=MAX_RESOLUTION).contains(&v) => Ok(v as u32),
+                Some((v, n)) => Err(x.err(
+                    n,
+                    format!("film {name} must be in 1..={MAX_RESOLUTION}, got {v}"),
+                )),
+            }
+        };
+        let width = side("width", DEFAULT_WIDTH)?;
+        let height = side("height", DEFAULT_HEIGHT)?;
+        let filters = props.objects("rfilter");
+        match filters.as_slice() {
+            [] => {
+                let w = x.warning(node, "film has no <rfilter>: Mitsuba's default is 'gaussian', cmlt renders with a box filter");
+                self.warnings.push(w);
+            }
+            [f] => {
+                let Item::Object(n) = f.item else {
+                    unreachable!()
+                };
+                let ty = x.attr(n, "type")?.unwrap_or_default();
+                if ty != "box" {
+                    let w = x.warning(n, format!("reconstruction filter '{ty}' is not implemented: rendering with a box filter"));
+                    self.warnings.push(w);
+                }
+            }
+            [_, second, ..] => {
+                return Err(x.err(second.node, "only one <rfilter> per film is allowed"));
+            }
+        }
+        // Output-format details do not change the image; `sample_border`
+        // has no effect with a box filter.
+        props.finish(
+            x,
+            &[
+                "file_format",
+                "pixel_format",
+                "component_format",
+                "banner",
+                "compensate",
+                "sample_border",
+            ],
+        )?;
+        Ok((width, height))
+    }
+
+    /// `<sampler>`: only `sample_count` matters (the pattern changes noise,
+    /// not the expected image).
+    fn sampler(&mut self, node: Node<'a, 'a>) -> Result<Option<u32>, LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        let spp = match props.integer(x, "sample_count")? {
+            None => None,
+            Some((v, n)) => {
+                if !(1..=u32::MAX as i64).contains(&v) {
+                    return Err(x.err(n, format!("sample_count must be >= 1, got {v}")));
+                }
+                Some(v as u32)
+            }
+        };
+        if props.plugin != "independent" {
+            let w = x.warning(
+                node,
+                format!(
+                    "sampler '{}' is replaced by cmlt's own sample streams",
+                    props.plugin
+                ),
+            );
+            self.warnings.push(w);
+        }
+        Ok(spp)
+    }
+
+    /// `<emitter type="area">` inside a shape: its radiance, `None` if black.
+    fn area_emitter(&mut self, node: Node<'a, 'a>) -> Result<Option<Rgb>, LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        if props.plugin != "area" {
+            return Err(x.err(
+                node,
+                format!(
+                    "unsupported emitter plugin '{}' (cmlt supports 'area' only)",
+                    props.plugin
+                ),
+            ));
+        }
+        if let Some(e) = props.get("radiance") {
+            if let Item::Object(_) = e.item {
+                return Err(x.err(
+                    e.node,
+                    "textured radiance is not supported (give an <rgb> value)",
+                ));
+            }
+        }
+        let (c, n) = props
+            .color(x, "radiance")?
+            .ok_or_else(|| x.err(node, "area emitter lacks the 'radiance' property"))?;
+        if c.iter().any(|v| *v < 0.0) {
+            return Err(x.err(n, format!("radiance must be non-negative, got {c:?}")));
+        }
+        let le = Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32);
+        if !le.is_finite() {
+            return Err(x.err(n, "radiance is out of range"));
+        }
+        props.finish(x, &[])?;
+        // A black emitter emits nothing; leaving it out keeps the light
+        // set free of zero-power lights.
+        Ok((!le.is_black()).then_some(le))
+    }
+
+    /// `<shape>`: one mesh in the scene.
+    fn shape(&mut self, node: Node<'a, 'a>) -> Result<(), LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let emitters = props.objects("emitter");
+        let emission = match emitters.as_slice() {
+            [] => None,
+            [e] => {
+                let Item::Object(n) = e.item else {
+                    unreachable!()
+                };
+                self.area_emitter(n)?
+            }
+            [_, second, ..] => {
+                return Err(self
+                    .xml
+                    .err(second.node, "only one <emitter> per shape is allowed"));
+            }
+        };
+        let bsdfs = props.objects("bsdf");
+        let material = match bsdfs.as_slice() {
+            [] => self.default_material(!emitters.is_empty()),
+            [b] => {
+                let Item::Object(n) = b.item else {
+                    unreachable!()
+                };
+                self.use_bsdf(n)?
+            }
+            [_, second, ..] => {
+                return Err(self
+                    .xml
+                    .err(second.node, "only one <bsdf> per shape is allowed"));
+            }
+        };
+
+        let x = &self.xml;
+        let (to_world, tnode) = props
+            .transform(x, "to_world")?
+            .unwrap_or((DMat4::IDENTITY, node));
+        let mut flip = props.boolean(x, "flip_normals")?.unwrap_or(false);
+        let face_normals = props.boolean(x, "face_normals")?.unwrap_or(false);
+        let at_transform = |e: String| x.err(tnode, e);
+        let mut ignored: &[&str] = &[];
+        let mesh = match props.plugin.as_str() {
+            kind @ ("obj" | "ply") => {
+                let (filename, fnode) = props.string(x, "filename")?.ok_or_else(|| {
+                    x.err(node, format!("{kind} shape lacks the 'filename' property"))
+                })?;
+                let path = self.base_dir.join(&filename);
+                let file_err = |e: String| x.err(fnode, format!("mesh file '{filename}': {e}"));
+                let raw = if kind == "obj" {
+                    let flip_tex = props.boolean(x, "flip_tex_coords")?.unwrap_or(true);
+                    mesh_io::read_obj(&path, flip_tex).map_err(file_err)?
+                } else {
+                    mesh_io::read_ply(&path).map_err(file_err)?
+                };
+                // Mitsuba never re-winds file meshes (see `shapes`).
+                let mut m = shapes::place(&raw, &to_world, false).map_err(at_transform)?;
+                if face_normals {
+                    m.normals.clear();
+                } else if m.normals.is_empty() {
+                    shapes::recompute_normals(&mut m);
+                }
+                m
+            }
+            builtin @ ("rectangle" | "cube" | "disk") => {
+                // Planar and box shapes look the same either way.
+                ignored = &["face_normals"];
+                let raw: RawMesh = match builtin {
+                    "rectangle" => shapes::rectangle(),
+                    "cube" => shapes::cube(),
+                    _ => shapes::disk(),
+                };
+                shapes::place(&raw, &to_world, true).map_err(at_transform)?
+            }
+            "sphere" => {
+                ignored = &["face_normals"];
+                let radius = match props.float(x, "radius")? {
+                    None => 1.0,
+                    Some((r, n)) => {
+                        // A negative radius turns the sphere inside out, as
+                        // in Mitsuba; zero would be a point.
+                        if r == 0.0 {
+                            return Err(x.err(n, "sphere radius must not be zero"));
+                        }
+                        r
+                    }
+                };
+                let center = DVec3::from(props.vector(x, "center")?.unwrap_or([0.0; 3]));
+                if !transform::is_affine(&to_world) {
+                    return Err(x.err(tnode, "to_world must be affine (last row 0 0 0 1)"));
+                }
+                // Mitsuba: to_world · translate(center) · scale(radius).
+                let m = to_world
+                    * DMat4::from_translation(center)
+                    * DMat4::from_scale(DVec3::splat(radius));
+                let (place, inverted, distorted) =
+                    shapes::sphere_placement(&m).map_err(|e| x.err(node, e))?;
+                if distorted {
+                    let w = x.warning(
+                        tnode,
+                        "sphere to_world has shear or non-uniform scale: ignored, as Mitsuba does",
+                    );
+                    self.warnings.push(w);
+                }
+                flip ^= inverted;
+                shapes::place(shapes::sphere_unit_exact(), &place, true)
+                    .map_err(|e| x.err(node, e))?
+            }
+            other => return Err(x.err(node, format!("unsupported shape plugin '{other}'"))),
+        };
+        let x = &self.xml;
+        props.finish(x, ignored)?;
+        let mut mesh = mesh;
+        if flip {
+            shapes::flip(&mut mesh);
+        }
+        let w = shapes::to_world_mesh(mesh).map_err(|e| x.err(node, e))?;
+        self.builder.add_mesh(Mesh {
+            positions: w.positions,
+            normals: w.normals,
+            uvs: w.uvs,
+            indices: w.indices,
+            material,
+            emission,
+        });
+        self.mesh_origin.push(node);
+        Ok(())
+    }
+}
+
+/// 1-based line and column just after the last character of `text`.
+fn end_position(text: &str) -> (u32, u32) {
+    let line = text.matches('\n').count() as u32 + 1;
+    let last = text.rsplit('\n').next().unwrap_or("");
+    (line, last.chars().count() as u32 + 1)
+}
+
+/// Turns a `SceneBuilder` error into one located at the offending element.
+fn scene_error(xml: &Xml, meshes: &[Node], materials: &[Option<Node>], e: SceneError) -> LoadError {
+    let at_mesh = |mesh: usize, what: String| match meshes.get(mesh) {
+        Some(&n) => xml.err(n, format!("{}: {what}", xml.describe(n))),
+        None => LoadError::whole_file(xml.file, what),
+    };
+    match e {
+        SceneError::NonFiniteVertex { mesh, vertex } => at_mesh(
+            mesh,
+            format!("vertex {vertex} has a non-finite position, normal or uv"),
+        ),
+        SceneError::IndexOutOfRange { mesh, triangle } => at_mesh(
+            mesh,
+            format!("triangle {triangle} refers to a vertex that does not exist"),
+        ),
+        SceneError::InvalidEmission { mesh } => at_mesh(
+            mesh,
+            "emitted radiance must be finite and non-negative".into(),
+        ),
+        SceneError::InvalidMaterial { material, reason } => {
+            match materials.get(material).copied().flatten() {
+                Some(n) => xml.err(n, format!("invalid BSDF: {reason}")),
+                None => LoadError::whole_file(xml.file, format!("invalid default BSDF: {reason}")),
+            }
+        }
+        other => LoadError::whole_file(xml.file, format!("invalid scene: {other}")),
+    }
+}

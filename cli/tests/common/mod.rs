@@ -1,0 +1,47 @@
+//! Helpers shared by the front end's integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use cmlt::accel::bvh::Bvh;
+use cmlt::integrator::Method;
+use cmlt_cli::image_io::{Image, read_exr};
+use cmlt_cli::render::{Budget, RenderOutput, render};
+use cmlt_cli::scene::{LoadedScene, load_scene};
+
+/// The test scenes: `$CMLT_SCENES_DIR` if set, else the copies of the
+/// shared scenes committed under `tests/scenes` (CC0, with their Mitsuba 3
+/// references), so a fresh clone needs nothing else.
+pub fn scenes_dir() -> PathBuf {
+    let dir = std::env::var_os("CMLT_SCENES_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes")));
+    assert!(
+        dir.is_dir(),
+        "shared scenes not found at {} (set CMLT_SCENES_DIR)",
+        dir.display()
+    );
+    dir
+}
+
+/// Loads shared scene `name` at 1/`factor` of its reference resolution.
+pub fn load_reduced(name: &str, factor: u32) -> (LoadedScene, Image) {
+    let dir = scenes_dir().join(name);
+    let reference = read_exr(&dir.join("reference.exr")).expect("reference readable");
+    let defines = vec![
+        ("resx".to_string(), (reference.width as u32 / factor).to_string()),
+        ("resy".to_string(), (reference.height as u32 / factor).to_string()),
+    ];
+    let loaded = load_scene(&dir.join("scene.xml"), &defines).expect("scene loads");
+    (loaded, reference.downsample(factor as usize))
+}
+
+/// Renders a loaded scene with the default BVH on two threads.
+pub fn render_scene(loaded: &LoadedScene, method: Method, spp: u64, seed: u64) -> (Image, RenderOutput) {
+    let tris: Vec<_> = loaded.scene.triangles().collect();
+    let bvh = Bvh::build(&tris);
+    let out = render(&loaded.scene, &bvh, &loaded.settings, method, Budget::Spp(spp), 2, seed, &|| {});
+    let cam = &loaded.scene.camera;
+    let img = Image { width: cam.width() as usize, height: cam.height() as usize, pixels: out.film.resolve() };
+    (img, out)
+}

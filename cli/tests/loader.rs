@@ -1,0 +1,1045 @@
+//! Tests of the Mitsuba 3 XML loader: the four shared test scenes, Mitsuba's
+//! transform and sidedness conventions, mesh and image files, and a corpus
+//! of malformed scenes that must each give a located, telling error.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use cmlt::math::{Rgb, Vec2, Vec3};
+use cmlt::scene::{ConductorFresnel, Distribution, Material, MaterialKind, Mesh, Scene, Texture};
+use cmlt_cli::scene::{
+    BUILTIN_SCENES, LoadError, LoadedScene, builtin_scene, load_scene, load_scene_str,
+};
+
+// ---------------------------------------------------------------- helpers
+
+/// The test scenes committed under `tests/scenes` (or `$CMLT_SCENES_DIR`).
+/// They are part of the repository, so their absence is a failure, not a
+/// skip.
+fn shared_scenes() -> Option<PathBuf> {
+    let dir = std::env::var_os("CMLT_SCENES_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/scenes")));
+    assert!(dir.is_dir(), "test scenes not found at {}", dir.display());
+    Some(dir)
+}
+
+fn load_shared(name: &str) -> Option<LoadedScene> {
+    let path = shared_scenes()?.join(name).join("scene.xml");
+    Some(load_scene(&path, &[]).unwrap_or_else(|e| panic!("{name} failed to load: {e}")))
+}
+
+fn corpus(sub: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/corpus")
+        .join(sub)
+}
+
+/// A scene with a small camera around `body`, resolved against the valid
+/// corpus folder.
+fn load_body(body: &str) -> Result<LoadedScene, LoadError> {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><rfilter type="box"/></film>
+    </sensor>
+    {body}
+</scene>"#
+    );
+    load_scene_str(&xml, &corpus("valid"), "inline.xml", &[])
+}
+
+fn ok(body: &str) -> LoadedScene {
+    load_body(body).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn bbox(m: &Mesh) -> (Vec3, Vec3) {
+    m.positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    )
+}
+
+fn centroid(m: &Mesh) -> Vec3 {
+    m.positions.iter().copied().sum::<Vec3>() / m.positions.len() as f32
+}
+
+/// Geometric normal of triangle `t`: cross(p1 − p0, p2 − p0), unit length.
+fn tri_normal(m: &Mesh, t: usize) -> Vec3 {
+    let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize]);
+    (b - a).cross(c - a).normalize()
+}
+
+fn area(m: &Mesh) -> f64 {
+    m.indices
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize].as_dvec3());
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+fn close(a: Vec3, b: Vec3, tol: f32) -> bool {
+    (a - b).abs().max_element() <= tol
+}
+
+fn material(s: &Scene, mesh: usize) -> &Material {
+    &s.materials[s.meshes[mesh].material.0 as usize]
+}
+
+fn lights(s: &Scene) -> Vec<usize> {
+    (0..s.meshes.len())
+        .filter(|&i| s.meshes[i].emission.is_some())
+        .collect()
+}
+
+/// sRGB decoding written out independently of the loader.
+fn srgb_decode(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+// ---------------------------------------------------------- shared scenes
+
+#[test]
+fn cornell_box_matches_its_xml() {
+    let Some(l) = load_shared("cornell-box") else {
+        return;
+    };
+    let s = &l.scene;
+    // 5 walls + light (2 triangles each) and two 12-triangle cubes.
+    assert_eq!(s.triangle_count(), 36);
+    assert_eq!(s.meshes.len(), 8);
+    assert_eq!(lights(s), vec![7]);
+    assert_eq!((s.camera.width(), s.camera.height()), (256, 256));
+    assert_eq!(l.settings.max_depth, Some(65));
+    assert_eq!(l.settings.rr_depth, 5);
+    assert_eq!(l.spp, Some(64));
+    assert_eq!(l.integrator, "path");
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+
+    // Sensor matrix "-1 0 0 0 0 1 0 1 0 0 -1 6.8": at (0, 1, 6.8) looking down −z.
+    assert!(close(s.camera.position(), Vec3::new(0.0, 1.0, 6.8), 1e-6));
+    assert!(close(s.camera.forward(), Vec3::new(0.0, 0.0, -1.0), 1e-6));
+
+    // Floor: [-1, 1]² in x/z at y = 0, facing up.
+    let (lo, hi) = bbox(&s.meshes[0]);
+    assert!(
+        close(lo, Vec3::new(-1.0, 0.0, -1.0), 1e-5) && close(hi, Vec3::new(1.0, 0.0, 1.0), 1e-5),
+        "{lo} {hi}"
+    );
+    assert!(tri_normal(&s.meshes[0], 0).y > 0.999);
+    // Tall box: y = 0.6 − 0.6 z over z ∈ [−1, 1]; short box up to 0.6.
+    let (lo, hi) = bbox(&s.meshes[6]);
+    assert!(
+        (lo.y - 0.0).abs() < 1e-5 && (hi.y - 1.2).abs() < 1e-5,
+        "{lo} {hi}"
+    );
+    assert!((bbox(&s.meshes[5]).1.y - 0.6).abs() < 1e-5);
+    // Light: corner (1, 1) → (0.235 − 0.005, 1.98, 0.19 − 0.03), facing down.
+    let light = &s.meshes[7];
+    let (lo, hi) = bbox(light);
+    assert!(
+        close(lo, Vec3::new(-0.24, 1.98, -0.22), 1e-5)
+            && close(hi, Vec3::new(0.23, 1.98, 0.16), 1e-5),
+        "{lo} {hi}"
+    );
+    assert!(light.normals.iter().all(|n| n.y < -0.999));
+    assert_eq!(light.emission, Some(Rgb::new(17.0, 12.0, 4.0)));
+
+    let floor = material(s, 0);
+    assert!(floor.two_sided);
+    assert_eq!(
+        floor.kind,
+        MaterialKind::Diffuse {
+            reflectance: Texture::Constant(Rgb::new(0.725, 0.71, 0.68))
+        }
+    );
+    assert_eq!(
+        material(s, 4).kind,
+        MaterialKind::Diffuse {
+            reflectance: Texture::Constant(Rgb::new(0.63, 0.065, 0.05))
+        },
+        "left wall is red"
+    );
+    assert_eq!(
+        material(s, 7).kind,
+        MaterialKind::Diffuse {
+            reflectance: Texture::Constant(Rgb::ZERO)
+        }
+    );
+    // Only referenced materials are in the scene (8 BSDFs, all used).
+    assert_eq!(s.materials.len(), 8);
+}
+
+#[test]
+fn builtin_cornell_box_is_the_shared_scene() {
+    assert_eq!(BUILTIN_SCENES, &["cornell-box"]);
+    let b = builtin_scene("cornell-box")
+        .expect("known name")
+        .expect("loads");
+    assert!(builtin_scene("no-such-scene").is_none());
+    assert_eq!(b.scene.triangle_count(), 36);
+    assert_eq!(b.spp, Some(64));
+    let Some(f) = load_shared("cornell-box") else {
+        return;
+    };
+    assert_eq!(b.scene.meshes, f.scene.meshes);
+    assert_eq!(b.scene.materials, f.scene.materials);
+    assert_eq!(b.scene.camera, f.scene.camera);
+}
+
+#[test]
+fn veach_mis_has_three_sphere_lights_of_the_right_size() {
+    let Some(l) = load_shared("veach-mis") else {
+        return;
+    };
+    let s = &l.scene;
+    assert_eq!((s.camera.width(), s.camera.height()), (320, 180));
+    assert_eq!(l.settings.max_depth, Some(3));
+    assert_eq!(l.spp, Some(64));
+    let lights = lights(s);
+    assert_eq!(lights.len(), 3);
+    assert_eq!(s.lights.len(), 3);
+    let expected = [
+        (Vec3::new(0.0, 6.5, -2.8), 1.0f32, 7.59909f32),
+        (Vec3::new(0.0, 6.5, 0.0), 0.5, 30.3964),
+        (Vec3::new(0.0, 6.5, 2.7), 0.05, 3039.64),
+    ];
+    let mut sphere_tris = 0;
+    for (&mi, &(c, r, le)) in lights.iter().zip(&expected) {
+        let m = &s.meshes[mi];
+        sphere_tris += m.indices.len();
+        assert!(
+            m.indices.len() >= 2 * 128 * 64 - 2 * 128,
+            "sphere tessellated finely"
+        );
+        let exact = 4.0 * std::f64::consts::PI * (r as f64).powi(2);
+        let rel = (area(m) - exact).abs() / exact;
+        assert!(rel < 1e-3, "sphere area off by {rel}");
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let d = (*p - c).length();
+            assert!(
+                d > r * 0.999 && d < r * 1.001,
+                "vertex at distance {d} from the centre, radius {r}"
+            );
+            assert!(
+                n.dot((*p - c) / d) > 0.9999,
+                "shading normals are the exact outward sphere normals"
+            );
+        }
+        assert!((0..m.indices.len()).step_by(97).all(|t| {
+            let [a, b, cc] = m.indices[t].map(|i| m.positions[i as usize]);
+            tri_normal(m, t).dot((a + b + cc) / 3.0 - c) > 0.0
+        }));
+        assert_eq!(m.emission, Some(Rgb::splat(le)));
+        assert_eq!(
+            material(s, mi).kind,
+            MaterialKind::Diffuse {
+                reflectance: Texture::Constant(Rgb::ZERO)
+            }
+        );
+    }
+    // 4 plates (cubes) and 2 rectangles besides the spheres.
+    assert_eq!(s.triangle_count() - sphere_tris, 4 * 12 + 2 * 2);
+    let alphas: Vec<f32> = [0usize, 1, 2, 8]
+        .iter()
+        .map(|&i| match material(s, i).kind {
+            MaterialKind::RoughConductor {
+                distribution: Distribution::Beckmann,
+                alpha,
+                specular_reflectance,
+                fresnel,
+            } => {
+                assert_eq!(specular_reflectance, Texture::Constant(Rgb::splat(0.3)));
+                assert_eq!(
+                    fresnel,
+                    ConductorFresnel::Complex {
+                        eta: Rgb::new(0.200438, 0.924033, 1.10221),
+                        k: Rgb::new(3.91295, 2.45285, 2.14219)
+                    }
+                );
+                alpha
+            }
+            ref k => panic!("plate {i} is {k:?}"),
+        })
+        .collect();
+    assert_eq!(alphas, vec![0.01, 0.05, 0.1, 0.25]);
+}
+
+#[test]
+fn veach_bidir_counts_and_materials() {
+    let Some(l) = load_shared("veach-bidir") else {
+        return;
+    };
+    let s = &l.scene;
+    // Sum of the `f` lines of the twelve OBJ files plus two light rectangles.
+    assert_eq!(s.triangle_count(), 11544);
+    assert_eq!(s.meshes.len(), 14);
+    assert_eq!(lights(s), vec![2, 3]);
+    assert_eq!(s.meshes[2].emission, Some(Rgb::splat(523.258)));
+    assert_eq!((s.camera.width(), s.camera.height()), (256, 256));
+    assert_eq!(l.settings.max_depth, Some(7));
+    // The glass egg: smooth dielectric 1.5 / 1, not two-sided.
+    assert_eq!(
+        *material(s, 7),
+        Material {
+            kind: MaterialKind::Dielectric { eta: 1.5 },
+            two_sided: false
+        }
+    );
+    // face_normals drops the file's normals; Lamp_0002 keeps them.
+    assert!(s.meshes[0].normals.is_empty());
+    assert_eq!(s.meshes[4].normals.len(), s.meshes[4].positions.len());
+    let lamp = material(s, 0);
+    assert!(lamp.two_sided);
+    assert!(matches!(
+        lamp.kind,
+        MaterialKind::RoughConductor {
+            distribution: Distribution::Beckmann,
+            alpha: 0.25,
+            ..
+        }
+    ));
+}
+
+#[test]
+fn veach_ajar_textures_are_wired() {
+    let Some(l) = load_shared("veach-ajar") else {
+        return;
+    };
+    let s = &l.scene;
+    assert_eq!(s.triangle_count(), 4546);
+    assert_eq!(s.meshes.len(), 16);
+    assert_eq!(lights(s), vec![0]);
+    assert_eq!((s.camera.width(), s.camera.height()), (320, 180));
+    assert_eq!(l.settings.max_depth, Some(13));
+    // Unused BSDFs (the teapots' glass among them) are not in the scene.
+    assert!(
+        !s.materials
+            .iter()
+            .any(|m| matches!(m.kind, MaterialKind::Dielectric { .. }))
+    );
+
+    // Floor: GGX rough metal with a 20 × 80 checkerboard.
+    match material(s, 3).kind {
+        MaterialKind::RoughConductor {
+            distribution: Distribution::Ggx,
+            alpha,
+            specular_reflectance,
+            ..
+        } => {
+            assert_eq!(alpha, 0.1);
+            let Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } = specular_reflectance
+            else {
+                panic!("{specular_reflectance:?}")
+            };
+            assert_eq!((color0, color1), (Rgb::splat(0.8), Rgb::splat(0.2)));
+            assert!((to_uv.transform_point2(Vec2::ONE) - Vec2::new(20.0, 80.0)).length() < 1e-5);
+        }
+        ref k => panic!("floor is {k:?}"),
+    }
+
+    // Three distinct JPEGs, one with a space in its name, each loaded once
+    // and decoded from sRGB.
+    assert_eq!(s.bitmaps.len(), 3);
+    let dir = shared_scenes().unwrap().join("veach-ajar/textures");
+    let mut seen = HashSet::new();
+    for (mesh, file) in [
+        (1, "landscape-with-a-lake.jpg"),
+        (14, "Good Textures_005844.jpg"),
+        (8, "cherry-wood-texture.jpg"),
+    ] {
+        let m = material(s, mesh);
+        assert!(m.two_sided);
+        let MaterialKind::Diffuse {
+            reflectance: Texture::Bitmap { id, .. },
+        } = m.kind
+        else {
+            panic!("{:?}", m.kind)
+        };
+        assert!(seen.insert(id.0));
+        let b = &s.bitmaps[id.0 as usize];
+        let img = image::open(dir.join(file)).unwrap().to_rgb8();
+        assert_eq!((b.width(), b.height()), img.dimensions());
+        // Texel centres return the decoded texel; row 0 is the image's top.
+        let (w, h) = img.dimensions();
+        for k in 0..500u32 {
+            let (x, y) = ((k * 7919) % w, (k * 104_729) % h);
+            let got = b.eval(Vec2::new(
+                (x as f32 + 0.5) / w as f32,
+                (y as f32 + 0.5) / h as f32,
+            ));
+            let p = img.get_pixel(x, y);
+            for (c, g) in [got.r, got.g, got.b].into_iter().enumerate() {
+                let want = srgb_decode(p[c] as f64 / 255.0);
+                assert!(
+                    (g as f64 - want).abs() < 1e-3,
+                    "{file} texel ({x}, {y}) channel {c}: {g} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn command_line_defaults_override_scene_defaults() {
+    let Some(dir) = shared_scenes() else { return };
+    let d = |k: &str, v: &str| (k.to_string(), v.to_string());
+    let l = load_scene(
+        &dir.join("cornell-box/scene.xml"),
+        &[
+            d("spp", "16"),
+            d("resx", "128"),
+            d("max_depth", "-1"),
+            d("unused", "1"),
+        ],
+    )
+    .unwrap();
+    assert_eq!(l.spp, Some(16));
+    assert_eq!(
+        (l.scene.camera.width(), l.scene.camera.height()),
+        (128, 256)
+    );
+    assert_eq!(l.settings.max_depth, None, "-1 means unbounded");
+    assert!(
+        l.warnings.iter().any(|w| w.contains("'unused'")),
+        "{:?}",
+        l.warnings
+    );
+    let e = load_scene(
+        &dir.join("cornell-box/scene.xml"),
+        &[d("integrator", "$loop")],
+    )
+    .unwrap_err();
+    assert!(e.message.contains("undefined parameter '$loop'"), "{e}");
+}
+
+// ------------------------------------------------------------- transforms
+
+#[test]
+fn transform_composition_follows_mitsuba_order() {
+    // Each element is applied after the ones before it: translate, then
+    // rotate about the origin.
+    let s = ok(r#"<shape type="rectangle"><transform name="to_world">
+        <translate x="1"/><rotate z="1" angle="90"/></transform></shape>
+      <shape type="rectangle"><transform name="to_world">
+        <rotate z="1" angle="90"/><translate x="1"/></transform></shape>"#)
+    .scene;
+    assert!(
+        close(centroid(&s.meshes[0]), Vec3::new(0.0, 1.0, 0.0), 1e-6),
+        "{}",
+        centroid(&s.meshes[0])
+    );
+    assert!(
+        close(centroid(&s.meshes[1]), Vec3::new(1.0, 0.0, 0.0), 1e-6),
+        "{}",
+        centroid(&s.meshes[1])
+    );
+    // The rotation is right-handed: the corner (1, −1) (uv (1, 0)) turns
+    // to (1, 1), then moves to (2, 1).
+    let m = &s.meshes[1];
+    let i = m
+        .uvs
+        .iter()
+        .position(|uv| *uv == Vec2::new(1.0, 0.0))
+        .unwrap();
+    assert!(
+        close(m.positions[i], Vec3::new(2.0, 1.0, 0.0), 1e-6),
+        "{}",
+        m.positions[i]
+    );
+}
+
+#[test]
+fn matrix_is_row_major_and_value_attributes_work() {
+    let s = ok(r#"<shape type="rectangle"><transform name="to_world">
+        <matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>
+      <shape type="rectangle"><transform name="to_world"><scale value="2"/><translate value="0, 0, 3"/></transform></shape>
+      <shape type="rectangle"><transform name="to_world"><scale x="3"/></transform></shape>"#)
+    .scene;
+    assert!(close(
+        centroid(&s.meshes[0]),
+        Vec3::new(5.0, 6.0, 7.0),
+        1e-6
+    ));
+    assert_eq!(
+        bbox(&s.meshes[1]),
+        (Vec3::new(-2.0, -2.0, 3.0), Vec3::new(2.0, 2.0, 3.0))
+    );
+    assert_eq!(
+        bbox(&s.meshes[2]),
+        (Vec3::new(-3.0, -1.0, 0.0), Vec3::new(3.0, 1.0, 0.0))
+    );
+}
+
+#[test]
+fn lookat_orients_camera_and_shapes() {
+    let xml = r#"<scene version="3.0.0">
+      <sensor type="perspective">
+        <float name="fov" value="90"/>
+        <string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="1, 2, 3" target="1, 2, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/><rfilter type="box"/></film>
+      </sensor>
+      <shape type="rectangle"><transform name="to_world"><lookat origin="0, 0, 0" target="0, -5, 0" up="0, 0, 1"/></transform></shape>
+    </scene>"#;
+    let l = load_scene_str(xml, Path::new("."), "lookat.xml", &[]).unwrap();
+    let c = &l.scene.camera;
+    assert!(close(c.position(), Vec3::new(1.0, 2.0, 3.0), 1e-6));
+    assert!(close(c.forward(), Vec3::new(0.0, 0.0, -1.0), 1e-6));
+    // Mitsuba: camera +x is "left" = up × dir = −x in the world, so the
+    // image's left edge looks towards −x; fov_axis y: 45° up at the top.
+    let left = c.generate_ray(Vec2::new(0.0, 10.0), Vec2::ZERO);
+    assert!(left.d.x < 0.0);
+    let top = c.generate_ray(Vec2::new(20.0, 0.0), Vec2::ZERO);
+    assert!((top.d.y.atan2(-top.d.z).to_degrees() - 45.0).abs() < 1e-3);
+    // A shape's local +z is the lookat direction.
+    let m = &l.scene.meshes[0];
+    assert!(
+        m.normals
+            .iter()
+            .all(|n| close(*n, Vec3::new(0.0, -1.0, 0.0), 1e-6))
+    );
+    assert!(tri_normal(m, 0).y < -0.999);
+}
+
+#[test]
+fn mirroring_transforms_keep_mitsubas_sides() {
+    let s = ok(r#"
+      <shape type="rectangle"><transform name="to_world"><scale x="-1"/></transform></shape>
+      <shape type="cube"><transform name="to_world"><scale value="-1"/><translate x="5"/></transform></shape>
+      <shape type="obj"><string name="filename" value="uv_quad.obj"/><boolean name="face_normals" value="true"/>
+        <transform name="to_world"><scale x="-1"/></transform></shape>
+      <shape type="obj"><string name="filename" value="uv_quad.obj"/>
+        <transform name="to_world"><scale x="-1"/></transform></shape>"#)
+    .scene;
+    // Rectangle: Mitsuba's normal is the inverse transpose of +z, still +z;
+    // the triangles are re-wound so the geometric normal agrees.
+    let r = &s.meshes[0];
+    assert!(r.normals.iter().all(|n| *n == Vec3::Z));
+    assert!((0..2).all(|t| tri_normal(r, t).z > 0.999));
+    // Cube: still closed with outward normals everywhere.
+    let c = &s.meshes[1];
+    let centre = Vec3::new(5.0, 0.0, 0.0);
+    for t in 0..12 {
+        let [a, b, cc] = c.indices[t].map(|i| c.positions[i as usize]);
+        let out = ((a + b + cc) / 3.0 - centre).normalize();
+        assert!(tri_normal(c, t).dot(out) > 0.5, "triangle {t}");
+        assert!(c.normals[c.indices[t][0] as usize].dot(out) > 0.5);
+    }
+    // A file mesh without normals: Mitsuba's normal is cross(p1 − p0,
+    // p2 − p0) of the mirrored vertices, which now faces −z.
+    let f = &s.meshes[2];
+    assert!(f.normals.is_empty());
+    assert!((0..2).all(|t| tri_normal(f, t).z < -0.999));
+    // With the file's normal (+z, transformed by the inverse transpose:
+    // still +z), shading follows the normal and the surface point's
+    // geometric normal is put on its side, as in Mitsuba's shading frame.
+    let g = &s.meshes[3];
+    assert!(g.normals.iter().all(|n| *n == Vec3::Z));
+    let sp = s
+        .surface_point(s.triangle_count() as u32 - 1, 0.2, 0.2)
+        .unwrap();
+    assert!(sp.ns.z > 0.999 && sp.ng.z > 0.999);
+}
+
+#[test]
+fn flip_normals_turns_the_front_around() {
+    let s = ok(
+        r#"<shape type="rectangle"><boolean name="flip_normals" value="true"/>
+        <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+      <shape type="sphere"><boolean name="flip_normals" value="true"/></shape>
+      <shape type="sphere"><transform name="to_world"><scale value="-2"/></transform></shape>"#,
+    )
+    .scene;
+    let r = &s.meshes[0];
+    assert!(r.normals.iter().all(|n| *n == Vec3::NEG_Z));
+    assert!(tri_normal(r, 0).z < -0.999);
+    let sp = s.surface_point(0, 0.3, 0.3).unwrap();
+    assert_eq!(s.emitted(&sp, Vec3::NEG_Z), Rgb::ONE);
+    assert_eq!(s.emitted(&sp, Vec3::Z), Rgb::ZERO);
+    // Inverted spheres (flip_normals, or a negative scale as Mitsuba
+    // treats it): normals and windings point inwards.
+    for m in &s.meshes[1..] {
+        assert!(
+            m.positions
+                .iter()
+                .zip(&m.normals)
+                .all(|(p, n)| n.dot(*p) < 0.0)
+        );
+        assert!(tri_normal(m, 300).dot(m.positions[m.indices[300][0] as usize]) < 0.0);
+    }
+    assert!((bbox(&s.meshes[2]).1.x - 2.0).abs() < 1e-3);
+}
+
+// ------------------------------------------------------------ mesh files
+
+#[test]
+fn obj_uvs_are_flipped_like_mitsuba() {
+    let s = ok(r#"<shape type="obj"><string name="filename" value="uv_quad.obj"/></shape>
+      <shape type="obj"><string name="filename" value="uv_quad.obj"/><boolean name="flip_tex_coords" value="false"/></shape>"#)
+    .scene;
+    let (a, b) = (&s.meshes[0], &s.meshes[1]);
+    assert_eq!(a.indices.len(), 2, "the quad is split into two triangles");
+    let at = |m: &Mesh, p: Vec3| m.uvs[m.positions.iter().position(|q| *q == p).unwrap()];
+    // vt (1, 0.25) of vertex (1, 1, 0) → (1, 0.75); without the flip it stays.
+    assert_eq!(at(a, Vec3::new(1.0, 1.0, 0.0)), Vec2::new(1.0, 0.75));
+    assert_eq!(at(a, Vec3::new(0.0, 0.0, 0.0)), Vec2::new(0.0, 1.0));
+    assert_eq!(at(b, Vec3::new(1.0, 1.0, 0.0)), Vec2::new(1.0, 0.25));
+    assert!(a.normals.iter().all(|n| *n == Vec3::Z));
+    assert!((0..2).all(|t| tri_normal(a, t).z > 0.999));
+}
+
+#[test]
+fn obj_without_normals_gets_angle_weighted_normals() {
+    let s = ok(r#"<shape type="obj"><string name="filename" value="tent.obj"/></shape>
+      <shape type="obj"><string name="filename" value="tent.obj"/><boolean name="face_normals" value="true"/></shape>"#)
+    .scene;
+    let m = &s.meshes[0];
+    let n_at = |p: Vec3| m.normals[m.positions.iter().position(|q| *q == p).unwrap()];
+    // Shared ridge vertices average the two faces (equal corner angles).
+    assert!(close(n_at(Vec3::new(0.0, 0.0, 1.0)), Vec3::Z, 1e-6));
+    assert!(close(n_at(Vec3::new(0.0, 1.0, 1.0)), Vec3::Z, 1e-6));
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    assert!(close(
+        n_at(Vec3::new(-1.0, 0.0, 0.0)),
+        Vec3::new(-h, 0.0, h),
+        1e-6
+    ));
+    assert!(s.meshes[1].normals.is_empty());
+}
+
+#[test]
+fn ply_ascii_and_binary() {
+    let s = ok(
+        r#"<shape type="ply"><string name="filename" value="pentagon_ascii.ply"/></shape>
+      <shape type="ply"><string name="filename" value="pentagon_binary.ply"/>
+        <transform name="to_world"><translate z="1"/></transform></shape>"#,
+    )
+    .scene;
+    let (a, b) = (&s.meshes[0], &s.meshes[1]);
+    // A pentagon as a fan of 3; a quad (2) plus a triangle in binary.
+    assert_eq!(a.indices.len(), 3);
+    assert_eq!(b.indices.len(), 3);
+    assert_eq!(a.positions[2], Vec3::new(1.5, 1.0, 0.0));
+    assert_eq!(b.positions[2], Vec3::new(1.5, 1.0, 1.0));
+    // uv from s/t and u/v, not flipped (Mitsuba's PLY reader does not).
+    assert_eq!(a.uvs[1], Vec2::new(0.25, 0.75));
+    assert_eq!(b.uvs[3], Vec2::new(0.75, 0.25));
+    assert!(a.normals.iter().all(|n| *n == Vec3::Z));
+    // No normals in the binary file: smooth normals are computed.
+    assert!(b.normals.iter().all(|n| close(*n, Vec3::Z, 1e-6)));
+    assert!((area(a) - area(b)).abs() < 1e-9 && (area(a) - 2.5).abs() < 1e-6);
+}
+
+#[test]
+fn spheres_and_disks_are_tessellated_with_exact_area() {
+    let s = ok(r#"<shape type="sphere"><float name="radius" value="2"/><point name="center" x="1" y="2" z="3"/></shape>
+      <shape type="sphere"><transform name="to_world"><scale value="3"/><translate value="0 0 -4"/></transform></shape>
+      <shape type="disk"><transform name="to_world"><scale value="0.5"/></transform></shape>"#)
+    .scene;
+    use std::f64::consts::PI;
+    for (m, c, r) in [
+        (&s.meshes[0], Vec3::new(1.0, 2.0, 3.0), 2.0f32),
+        (&s.meshes[1], Vec3::new(0.0, 0.0, -4.0), 3.0),
+    ] {
+        let exact = 4.0 * PI * (r as f64).powi(2);
+        assert!((area(m) / exact - 1.0).abs() < 1e-5);
+        let (lo, hi) = bbox(m);
+        assert!(((lo + hi) / 2.0 - c).length() < 1e-4 * r);
+        assert!(
+            m.positions
+                .iter()
+                .all(|p| ((*p - c).length() / r - 1.0).abs() < 1e-3)
+        );
+        // Mitsuba's sphere uv: (φ / 2π, θ / π) with θ from +z.
+        let top = m
+            .positions
+            .iter()
+            .position(|p| close(*p, c + Vec3::new(0.0, 0.0, r), 1e-2 * r))
+            .unwrap();
+        assert!(m.uvs[top].y.abs() < 1e-6);
+    }
+    let d = &s.meshes[2];
+    assert!((area(d) / (PI * 0.25) - 1.0).abs() < 1e-5);
+    assert!(d.normals.iter().all(|n| *n == Vec3::Z) && tri_normal(d, 5).z > 0.999);
+}
+
+// ------------------------------------------------------------- materials
+
+#[test]
+fn bsdf_defaults_and_parameters_follow_mitsuba() {
+    let s = ok(r#"
+      <bsdf type="dielectric" id="water"><string name="int_ior" value="water"/><string name="ext_ior" value="air"/></bsdf>
+      <bsdf type="diffuse" id="unused"/>
+      <shape type="rectangle"/>
+      <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
+      <shape type="rectangle"><ref id="water"/></shape>
+      <shape type="rectangle"><bsdf type="dielectric"/></shape>
+      <shape type="rectangle"><bsdf type="conductor"/></shape>
+      <shape type="rectangle"><bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/>
+        <rgb name="eta" value="0.2 0.9 1.1"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="diffuse"><float name="reflectance" value="0.25"/></bsdf></shape>
+      <shape type="rectangle"><ref id="water"/></shape>"#)
+    .scene;
+    // No BSDF: one-sided diffuse 0.5; on an emitter: black (Mitsuba's Shape).
+    assert_eq!(
+        *material(&s, 0),
+        Material {
+            kind: MaterialKind::Diffuse {
+                reflectance: Texture::Constant(Rgb::splat(0.5))
+            },
+            two_sided: false
+        }
+    );
+    assert_eq!(
+        material(&s, 1).kind,
+        MaterialKind::Diffuse {
+            reflectance: Texture::Constant(Rgb::ZERO)
+        }
+    );
+    assert_eq!(
+        material(&s, 2).kind,
+        MaterialKind::Dielectric {
+            eta: 1.333 / 1.000277
+        }
+    );
+    // Dielectric defaults: bk7 inside, air outside.
+    assert_eq!(
+        material(&s, 3).kind,
+        MaterialKind::Dielectric {
+            eta: 1.5046 / 1.000277
+        }
+    );
+    // conductor without eta/k is Mitsuba's material="none": a perfect mirror.
+    assert_eq!(
+        material(&s, 4).kind,
+        MaterialKind::Conductor {
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(Rgb::ONE)
+        }
+    );
+    // Equal alpha_u/alpha_v are isotropic; k defaults to 1; Beckmann default.
+    assert_eq!(
+        material(&s, 5).kind,
+        MaterialKind::RoughConductor {
+            distribution: Distribution::Beckmann,
+            alpha: 0.2,
+            fresnel: ConductorFresnel::Complex {
+                eta: Rgb::new(0.2, 0.9, 1.1),
+                k: Rgb::ONE
+            },
+            specular_reflectance: Texture::Constant(Rgb::ONE),
+        }
+    );
+    assert_eq!(
+        material(&s, 6).kind,
+        MaterialKind::Diffuse {
+            reflectance: Texture::Constant(Rgb::splat(0.25))
+        }
+    );
+    // A referenced BSDF is one material; the unused one is not added.
+    assert_eq!(s.meshes[2].material, s.meshes[7].material);
+    assert_eq!(s.materials.len(), 7);
+}
+
+#[test]
+fn bitmaps_are_srgb_decoded_unless_raw_and_loaded_once() {
+    let dir = std::env::temp_dir().join(format!("cmlt-loader-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let img = image::RgbImage::from_raw(2, 1, vec![0, 128, 255, 64, 64, 64]).unwrap();
+    img.save(dir.join("two texels.png")).unwrap();
+    let xml = r#"<scene version="3.0.0">
+      <sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><rfilter type="box"/></film></sensor>
+      <texture type="bitmap" id="t"><string name="filename" value="two texels.png"/></texture>
+      <shape type="rectangle"><bsdf type="diffuse"><ref name="reflectance" id="t"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+        <string name="filename" value="two texels.png"/><boolean name="raw" value="true"/>
+        <transform name="to_uv"><scale x="2"/><translate x="0.5"/></transform></texture></bsdf></shape>
+      <shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+        <string name="filename" value="two texels.png"/><string name="filter_type" value="nearest"/></texture></bsdf></shape>
+    </scene>"#;
+    let l = load_scene_str(xml, &dir, "bitmap.xml", &[]).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let s = &l.scene;
+    assert_eq!(s.bitmaps.len(), 2, "one decode per (file, raw)");
+    let MaterialKind::Diffuse {
+        reflectance: Texture::Bitmap { id, .. },
+    } = material(s, 0).kind
+    else {
+        panic!()
+    };
+    let t0 = s.bitmaps[id.0 as usize].eval(Vec2::new(0.25, 0.5));
+    assert_eq!(t0.r, 0.0);
+    assert!((t0.g as f64 - srgb_decode(128.0 / 255.0)).abs() < 1e-6);
+    assert_eq!(t0.b, 1.0);
+    let MaterialKind::Diffuse {
+        reflectance: Texture::Bitmap { id: raw_id, to_uv },
+    } = material(s, 1).kind
+    else {
+        panic!()
+    };
+    let t1 = s.bitmaps[raw_id.0 as usize].eval(Vec2::new(0.75, 0.5));
+    assert!((t1.r - 64.0 / 255.0).abs() < 1e-6);
+    // to_uv from the 4×4: scale then translate → u' = 2u + 0.5.
+    assert!((to_uv.transform_point2(Vec2::new(0.25, 0.5)) - Vec2::new(1.0, 0.5)).length() < 1e-6);
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("nearest") && w.contains("bitmap.xml:")),
+        "{:?}",
+        l.warnings
+    );
+}
+
+// -------------------------------------------------------- sensor and film
+
+#[test]
+fn approximations_are_never_silent() {
+    let xml = |filter: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>
+            <sampler type="stratified"><integer name="sample_count" value="9"/></sampler>
+            <film type="hdrfilm">{filter}</film></sensor></scene>"#
+        )
+    };
+    let g = load_scene_str(
+        &xml(r#"<rfilter type="gaussian"/>"#),
+        Path::new("."),
+        "f.xml",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(g.spp, Some(9));
+    assert!(
+        g.warnings
+            .iter()
+            .any(|w| w.contains("'gaussian'") && w.starts_with("f.xml:3:")),
+        "{:?}",
+        g.warnings
+    );
+    assert!(
+        g.warnings.iter().any(|w| w.contains("'stratified'")),
+        "{:?}",
+        g.warnings
+    );
+    let none = load_scene_str(&xml(""), Path::new("."), "f.xml", &[]).unwrap();
+    assert!(
+        none.warnings
+            .iter()
+            .any(|w| w.contains("no <rfilter>") && w.contains("gaussian")),
+        "{:?}",
+        none.warnings
+    );
+    let boxed = load_scene_str(
+        &xml(r#"<rfilter type="box"/>"#),
+        Path::new("."),
+        "f.xml",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(
+        boxed.warnings.len(),
+        1,
+        "only the sampler: {:?}",
+        boxed.warnings
+    );
+}
+
+#[test]
+fn sensor_defaults_and_thin_lens() {
+    let l = load_scene_str(
+        r#"<scene version="3.0.0"><integrator type="bdpt"><integer name="rr_depth" value="3"/>
+             <boolean name="hide_emitters" value="true"/><integer name="samples_per_pass" value="4"/></integrator>
+           <sensor type="thinlens"><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="5"/>
+             <float name="fov" value="30"/></sensor></scene>"#,
+        Path::new("."),
+        "t.xml",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(
+        (l.scene.camera.width(), l.scene.camera.height()),
+        (768, 576)
+    );
+    assert!(l.scene.camera.has_lens());
+    assert_eq!(l.integrator, "bdpt");
+    assert_eq!(l.settings.rr_depth, 3);
+    assert!(l.settings.hide_emitters);
+    assert_eq!(l.settings.max_depth, None);
+    assert_eq!(l.spp, None);
+    assert!(
+        l.warnings.iter().any(|w| w.contains("samples_per_pass")),
+        "{:?}",
+        l.warnings
+    );
+    // No integrator at all: Mitsuba's `path` with its defaults.
+    let p = load_scene_str(
+        r#"<scene version="3.0.0"><sensor type="perspective"/></scene>"#,
+        Path::new("."),
+        "p.xml",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(p.integrator, "path");
+    assert_eq!(p.settings, cmlt::integrator::Settings::default());
+}
+
+// ------------------------------------------------------- malformed input
+
+/// Every file of the malformed corpus and a phrase its error must contain.
+const MALFORMED: &[(&str, &str)] = &[
+    ("anisotropic.xml", "anisotropic roughness"),
+    ("bad_image.xml", "image file 'data/not_an_image.png'"),
+    ("bad_integer.xml", "'3.5' is not an integer"),
+    ("bad_max_depth.xml", "max_depth must be -1"),
+    ("bad_rgb.xml", "'zero' is not a number"),
+    ("binary_garbage.xml", "not UTF-8"),
+    ("binary_mesh.xml", "mesh file 'data/binary.obj'"),
+    ("camera_scale.xml", "scale factors in the camera"),
+    ("deeply_nested_twosided.xml", "nested too deeply"),
+    ("dtd_entity.xml", "malformed XML"),
+    ("duplicate_id.xml", "duplicate id 'A'"),
+    ("empty.xml", "malformed XML"),
+    ("fov_out_of_range.xml", "fov must be in (0, 180)"),
+    ("garbage_mesh.xml", "no triangles"),
+    ("garbage_ply.xml", "invalid PLY data"),
+    ("inf_fov.xml", "'inf' is not a finite number"),
+    ("missing_filename.xml", "lacks the 'filename' property"),
+    (
+        "missing_mesh_file.xml",
+        "mesh file 'data/does_not_exist.obj': cannot open",
+    ),
+    ("missing_sensor.xml", "no <sensor>"),
+    (
+        "missing_texture_file.xml",
+        "image file 'data/no such image.png': cannot open",
+    ),
+    (
+        "misspelt_property.xml",
+        "unsupported property 'reflectence'",
+    ),
+    ("named_conductor.xml", "conductor material preset 'Au'"),
+    ("nan_in_matrix.xml", "'nan' is not a finite number"),
+    ("negative_radiance.xml", "radiance must be non-negative"),
+    (
+        "negative_reflectance.xml",
+        "'reflectance' must be non-negative",
+    ),
+    ("obj_index_out_of_range.xml", "index out of bounds"),
+    ("obj_nan_vertex.xml", "non-finite position"),
+    ("old_version.xml", "Mitsuba 0.x"),
+    ("overflow_float.xml", "'1e999' is out of range"),
+    ("ply_huge_count.xml", "bad element count"),
+    ("ply_index_out_of_range.xml", "refers to vertex 7"),
+    ("rgb_two_values.xml", "expected 1 or 3 values"),
+    ("singular_transform.xml", "singular"),
+    (
+        "top_level_area_emitter.xml",
+        "must be nested inside a <shape>",
+    ),
+    ("transform_outside.xml", "only appear inside a <transform>"),
+    ("truncated.xml", "malformed XML"),
+    ("twosided_dielectric.xml", "cannot wrap a transmissive"),
+    ("unclosed_tag.xml", "malformed XML"),
+    ("undefined_parameter.xml", "undefined parameter '$depth'"),
+    ("unknown_bsdf.xml", "unsupported BSDF plugin 'plastic'"),
+    ("unknown_emitter.xml", "unsupported emitter plugin 'envmap'"),
+    ("unknown_ref.xml", "reference to unknown id 'NoSuchBSDF'"),
+    ("unknown_shape.xml", "unsupported shape plugin 'cylinder'"),
+    ("wrong_property_type.xml", "'fov' must be a float"),
+    ("wrong_root.xml", "root element must be <scene>"),
+    ("zero_radius_sphere.xml", "radius must not be zero"),
+    ("zero_rotation_axis.xml", "non-zero axis"),
+    ("zero_width.xml", "film width must be in"),
+];
+
+#[test]
+fn malformed_corpus_gives_located_errors() {
+    let dir = corpus("malformed");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".xml"))
+        .collect();
+    files.sort();
+    let listed: Vec<String> = MALFORMED.iter().map(|(f, _)| f.to_string()).collect();
+    assert_eq!(
+        files, listed,
+        "every corpus file needs an expectation and vice versa"
+    );
+    assert!(files.len() >= 15);
+    for (file, phrase) in MALFORMED {
+        let path = dir.join(file);
+        let err = match load_scene(&path, &[]) {
+            Ok(_) => panic!("{file}: loaded although malformed"),
+            Err(e) => e,
+        };
+        let text = err.to_string();
+        assert!(
+            text.contains(file),
+            "{file}: message does not name the file: {text}"
+        );
+        assert!(
+            text.contains(phrase),
+            "{file}: expected '{phrase}' in: {text}"
+        );
+        let line = err
+            .line
+            .unwrap_or_else(|| panic!("{file}: no line number: {text}"));
+        assert!(err.column.is_some());
+        assert!(
+            text.starts_with(&format!("{}:{line}:", path.display())),
+            "{text}"
+        );
+        assert!(!text.contains('\n'), "{file}: one-line messages: {text}");
+    }
+}
+
+#[test]
+fn errors_point_at_the_offending_line() {
+    let e = load_body("\n\n<shape type=\"cube\">\n  <bsdf type=\"roughplastic\"/>\n</shape>")
+        .unwrap_err();
+    // The body starts on line 6 of the generated document.
+    assert_eq!((e.line, e.column), (Some(9), Some(3)), "{e}");
+    assert_eq!(
+        e.to_string(),
+        "inline.xml:9:3: unsupported BSDF plugin 'roughplastic'"
+    );
+    let e = load_scene_str("<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"nan\"/>", Path::new("."), "cut.xml", &[])
+        .unwrap_err();
+    assert_eq!(e.line, Some(3), "{e}");
+}
+
+#[test]
+fn truncated_and_corrupted_scenes_never_panic() {
+    let text = include_str!("../scenes/cornell-box.xml");
+    for cut in (0..text.len()).step_by(23) {
+        let _ = load_scene_str(&text[..cut], Path::new("."), "cut.xml", &[]);
+    }
+    // Replace single bytes with characters that break numbers and markup.
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let bytes = text.as_bytes();
+    for _ in 0..400 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let i = (state % bytes.len() as u64) as usize;
+        let c = b"<>/\"=-e.0$ nx"[(state >> 40) as usize % 13];
+        let mut b = bytes.to_vec();
+        b[i] = c;
+        if let Ok(s) = std::str::from_utf8(&b) {
+            let _ = load_scene_str(s, Path::new("."), "flip.xml", &[]);
+        }
+    }
+}
