@@ -35,10 +35,18 @@ impl Image {
                         s[2] += p.b as f64;
                     }
                 }
-                pixels[y * w + x] = Rgb::new((s[0] * inv) as f32, (s[1] * inv) as f32, (s[2] * inv) as f32);
+                pixels[y * w + x] = Rgb::new(
+                    (s[0] * inv) as f32,
+                    (s[1] * inv) as f32,
+                    (s[2] * inv) as f32,
+                );
             }
         }
-        Image { width: w, height: h, pixels }
+        Image {
+            width: w,
+            height: h,
+            pixels,
+        }
     }
 
     /// Mean of each channel.
@@ -68,7 +76,11 @@ pub fn read_exr(path: &Path) -> Result<Image, String> {
     use exr::prelude::read_first_rgba_layer_from_file;
     let image = read_first_rgba_layer_from_file(
         path,
-        |res, _| Image { width: res.width(), height: res.height(), pixels: vec![Rgb::ZERO; res.width() * res.height()] },
+        |res, _| Image {
+            width: res.width(),
+            height: res.height(),
+            pixels: vec![Rgb::ZERO; res.width() * res.height()],
+        },
         |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
             img.pixels[pos.y() * img.width + pos.x()] = Rgb::new(r, g, b);
         },
@@ -86,15 +98,29 @@ pub fn write_png(path: &Path, img: &Image) -> Result<(), String> {
             buf.push((v * 255.0 + 0.5) as u8);
         }
     }
-    image::save_buffer(path, &buf, img.width as u32, img.height as u32, image::ColorType::Rgb8)
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    image::save_buffer(
+        path,
+        &buf,
+        img.width as u32,
+        img.height as u32,
+        image::ColorType::Rgb8,
+    )
+    .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
 }
 
 /// Writes `img` in the format the extension names (`.exr` or `.png`).
 pub fn write_image(path: &Path, img: &Image) -> Result<(), String> {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
         Some("exr") => write_exr(path, img),
         Some("png") => write_png(path, img),
-        _ => Err(format!("{}: output must end in .exr or .png", path.display())),
+        _ => Err(format!(
+            "{}: output must end in .exr or .png",
+            path.display()
+        )),
     }
 }

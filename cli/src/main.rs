@@ -14,7 +14,11 @@ use cmlt_cli::scene::{LoadedScene, builtin_scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Parser)]
-#[command(name = "cmlt", version, about = "Coherent Metropolis Light Transport renderer")]
+#[command(
+    name = "cmlt",
+    version,
+    about = "Coherent Metropolis Light Transport renderer"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -68,7 +72,9 @@ enum Command {
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
-    let (k, v) = s.split_once('=').ok_or_else(|| format!("expected NAME=VALUE, got '{s}'"))?;
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, got '{s}'"))?;
     Ok((k.to_string(), v.to_string()))
 }
 
@@ -85,13 +91,30 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
-        Command::Render { scene, method, spp, time, threads, seed, output, png, define, reference, quiet } => {
+        Command::Render {
+            scene,
+            method,
+            spp,
+            time,
+            threads,
+            seed,
+            output,
+            png,
+            define,
+            reference,
+            quiet,
+        } => {
             let t0 = Instant::now();
             let loaded: LoadedScene = match scene.as_deref() {
-                None => builtin_scene("cornell-box").expect("cornell-box is built in").map_err(|e| e.to_string())?,
+                None => builtin_scene("cornell-box")
+                    .expect("cornell-box is built in")
+                    .map_err(|e| e.to_string())?,
                 Some(name) => match builtin_scene(name) {
-                    Some(r) if !std::path::Path::new(name).exists() => r.map_err(|e| e.to_string())?,
-                    _ => load_scene(std::path::Path::new(name), &define).map_err(|e| e.to_string())?,
+                    Some(r) if !std::path::Path::new(name).exists() => {
+                        r.map_err(|e| e.to_string())?
+                    }
+                    _ => load_scene(std::path::Path::new(name), &define)
+                        .map_err(|e| e.to_string())?,
                 },
             };
             for w in &loaded.warnings {
@@ -110,13 +133,17 @@ fn run(cli: Cli) -> Result<(), String> {
                 (Some(n), None) => Budget::Spp(n),
                 (None, None) => Budget::Spp(loaded.spp.unwrap_or(16) as u64),
             };
-            let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let threads = threads
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
             let (w, h) = (scene.camera.width(), scene.camera.height());
             eprintln!(
                 "scene: {} triangles, {} lights, {w}x{h}, max_depth {}, {:?} on {threads} threads (setup {:.2} s)",
                 scene.triangle_count(),
                 scene.lights.len(),
-                loaded.settings.max_depth.map_or("unbounded".to_string(), |d| d.to_string()),
+                loaded
+                    .settings
+                    .max_depth
+                    .map_or("unbounded".to_string(), |d| d.to_string()),
                 method,
                 setup.as_secs_f64()
             );
@@ -129,18 +156,36 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
             };
             bar.set_style(
-                ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp ({per_sec})")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp ({per_sec})",
+                )
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let out = render(scene, &bvh, &loaded.settings, method, budget, threads, seed, &|| bar.inc(1));
+            let out = render(
+                scene,
+                &bvh,
+                &loaded.settings,
+                method,
+                budget,
+                threads,
+                seed,
+                &|| bar.inc(1),
+            );
             bar.finish_and_clear();
-            let img = Image { width: w as usize, height: h as usize, pixels: out.film.resolve() };
+            let img = Image {
+                width: w as usize,
+                height: h as usize,
+                pixels: out.film.resolve(),
+            };
             image_io::write_image(&output, &img)?;
             if let Some(p) = &png {
                 image_io::write_png(p, &img)?;
             }
             if out.film.nonfinite() > 0 {
-                eprintln!("warning: {} non-finite samples were dropped", out.film.nonfinite());
+                eprintln!(
+                    "warning: {} non-finite samples were dropped",
+                    out.film.nonfinite()
+                );
             }
             let mean = img.mean();
             println!(

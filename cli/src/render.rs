@@ -46,6 +46,7 @@ impl RenderOutput {
 
 /// Renders `scene` with `method` under `budget` on `threads` threads.
 /// `on_pass` is called after every finished pass (progress reporting).
+#[allow(clippy::too_many_arguments)]
 pub fn render<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
@@ -75,20 +76,27 @@ pub fn render<I: Intersector + Sync>(
                     loop {
                         match budget {
                             Budget::Spp(n) if pass >= n => break,
-                            Budget::Time(_) => {
-                                // Time budgets always finish one pass per
-                                // thread so the image is never empty.
+                            // Time budgets always finish one pass per thread
+                            // so the image is never empty.
+                            Budget::Time(_)
                                 if pass >= threads as u64
                                     && (stop.load(Ordering::Relaxed)
-                                        || deadline.is_some_and(|d| Instant::now() >= d))
-                                {
-                                    stop.store(true, Ordering::Relaxed);
-                                    break;
-                                }
+                                        || deadline.is_some_and(|d| Instant::now() >= d)) =>
+                            {
+                                stop.store(true, Ordering::Relaxed);
+                                break;
                             }
                             _ => {}
                         }
-                        render_pass(&mut tracer, settings, method, &mut worker, seed, pass, &mut film);
+                        render_pass(
+                            &mut tracer,
+                            settings,
+                            method,
+                            &mut worker,
+                            seed,
+                            pass,
+                            &mut film,
+                        );
                         on_pass();
                         pass += threads as u64;
                     }
@@ -96,7 +104,10 @@ pub fn render<I: Intersector + Sync>(
                 })
             })
             .collect();
-        handles.into_iter().map(|h| h.join().expect("render thread panicked")).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("render thread panicked"))
+            .collect()
     });
     let wall = start.elapsed();
     let mut film = Film::new(scene.camera.width(), scene.camera.height());

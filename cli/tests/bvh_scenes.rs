@@ -30,7 +30,11 @@ fn check(name: &str, rays: usize) {
     for i in 0..rays {
         let o = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let d = cmlt::math::warp::square_to_uniform_sphere(rng.next_2d());
-        let t_max = if i % 3 == 0 { (hi - lo).length() * rng.next_f32() } else { f32::INFINITY };
+        let t_max = if i % 3 == 0 {
+            (hi - lo).length() * rng.next_f32()
+        } else {
+            f32::INFINITY
+        };
         let ray = Ray { o, d, t_max };
         let a = bvh.intersect(&ray);
         let b = brute.intersect(&ray);
@@ -42,15 +46,27 @@ fn check(name: &str, rays: usize) {
                     a.prim == b.prim || (a.t - b.t).abs() <= 1e-5 * b.t.max(1.0),
                     "{name}: ray {i}: bvh {a:?} vs brute {b:?}"
                 );
-                assert!((a.t - b.t).abs() <= 1e-5 * b.t.max(1.0), "{name}: ray {i}: t {} vs {}", a.t, b.t);
+                assert!(
+                    (a.t - b.t).abs() <= 1e-5 * b.t.max(1.0),
+                    "{name}: ray {i}: t {} vs {}",
+                    a.t,
+                    b.t
+                );
             }
             _ => panic!("{name}: ray {i}: bvh {a:?} vs brute {b:?}"),
         }
         // Any hit in (0, t_max) is an occluder: the brute-force closest hit
         // decides occlusion too.
-        assert_eq!(bvh.occluded(&ray), b.is_some(), "{name}: ray {i}: occlusion differs");
+        assert_eq!(
+            bvh.occluded(&ray),
+            b.is_some(),
+            "{name}: ray {i}: occlusion differs"
+        );
     }
-    assert!(hits > rays / 10, "{name}: too few hits ({hits}) for a meaningful comparison");
+    assert!(
+        hits > rays / 10,
+        "{name}: too few hits ({hits}) for a meaningful comparison"
+    );
 }
 
 #[test]

@@ -46,8 +46,14 @@ fn check_scene(name: &str, method: Method, spp: u64) {
         );
     }
     let ratio = err_small / err_big;
-    eprintln!("{name} {method:?}: relMSE {err_small:.5} at {spp} spp, {err_big:.5} at {} spp (ratio {ratio:.2})", 4 * spp);
-    assert!(ratio >= 3.0, "{name} {method:?}: quadrupling spp cut relMSE only {ratio:.2}x ({err_small} -> {err_big})");
+    eprintln!(
+        "{name} {method:?}: relMSE {err_small:.5} at {spp} spp, {err_big:.5} at {} spp (ratio {ratio:.2})",
+        4 * spp
+    );
+    assert!(
+        ratio >= 3.0,
+        "{name} {method:?}: quadrupling spp cut relMSE only {ratio:.2}x ({err_small} -> {err_big})"
+    );
 }
 
 #[test]

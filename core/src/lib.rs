@@ -34,6 +34,9 @@
 
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
+// `!(x > 0.0)` is how this crate rejects NaN along with non-positive values;
+// rewriting it as `x <= 0.0` would let NaN through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;

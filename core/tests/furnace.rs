@@ -3,12 +3,13 @@
 //! `max_depth` segments it is Le · Σ_{k<max_depth} aᵏ (Mitsuba's depth
 //! semantics). Every estimator must reproduce these numbers.
 
-use cmlt::accel::BruteForce;
+use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
 use cmlt::math::{Mat4, Rgb, Vec3};
 use cmlt::scene::{
-    Camera, ConductorFresnel, FovAxis, Material, MaterialId, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
+    Camera, ConductorFresnel, FovAxis, Material, MaterialId, MaterialKind, Mesh, Scene,
+    SceneBuilder, Texture,
 };
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards.
@@ -24,7 +25,15 @@ fn sphere(centre: Vec3, radius: f32, material: MaterialId) -> Mesh {
         let theta = std::f32::consts::PI * j as f32 / nv as f32;
         for i in 0..nu {
             let phi = 2.0 * std::f32::consts::PI * i as f32 / nu as f32;
-            positions.push(centre + radius * Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()));
+            positions.push(
+                centre
+                    + radius
+                        * Vec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.sin() * phi.sin(),
+                            theta.cos(),
+                        ),
+            );
         }
     }
     let mut indices = Vec::new();
@@ -39,12 +48,23 @@ fn sphere(centre: Vec3, radius: f32, material: MaterialId) -> Mesh {
                 let n = (p1 - p0).cross(p2 - p0);
                 if n.length() > 0.0 {
                     // Wind outwards.
-                    indices.push(if n.dot(p0 - centre) >= 0.0 { t } else { [t[0], t[2], t[1]] });
+                    indices.push(if n.dot(p0 - centre) >= 0.0 {
+                        t
+                    } else {
+                        [t[0], t[2], t[1]]
+                    });
                 }
             }
         }
     }
-    Mesh { positions, normals: vec![], uvs: vec![], indices, material, emission: None }
+    Mesh {
+        positions,
+        normals: vec![],
+        uvs: vec![],
+        indices,
+        material,
+        emission: None,
+    }
 }
 
 /// A closed emitting box of `wall` material, optionally with an object,
@@ -94,12 +114,12 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
         emission: Some(Rgb::splat(emission)),
     });
     let cam = Camera::perspective(
-        Mat4::from_translation(Vec3::new(0.1, -0.2, 0.05)),
+        Mat4::from_translation(Vec3::new(0.1, -0.2, -0.6)),
         70.0,
         FovAxis::X,
         16,
         12,
-        0.0,
+        aperture,
         1.0,
     )
     .unwrap();
@@ -108,10 +128,20 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
 }
 
 fn render_mean(scene: &Scene, method: Method, settings: Settings, passes: u64) -> (Rgb, Film) {
-    let accel = BruteForce::new(scene.triangles());
+    render_mean_with(scene, method, settings, passes, Worker::new())
+}
+
+fn render_mean_with(
+    scene: &Scene,
+    method: Method,
+    settings: Settings,
+    passes: u64,
+    mut worker: Worker,
+) -> (Rgb, Film) {
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
     let mut film = Film::new(scene.camera.width(), scene.camera.height());
-    let mut worker = Worker::new();
     for pass in 0..passes {
         render_pass(
             &mut tracer,
@@ -214,12 +244,96 @@ fn glass_in_a_furnace_is_invisible() {
     // from outside: the η² radiance scaling on entry and exit cancels, and
     // BDPT's importance transport must agree.
     for eta in [1.5f32, 1.0, 0.7] {
-        let glass = Material { kind: MaterialKind::Dielectric { eta }, two_sided: false };
-        let scene = furnace(Material::diffuse(Rgb::splat(0.5)), 1.0, 0.0, Some((glass, 0.3)));
+        let glass = Material {
+            kind: MaterialKind::Dielectric { eta },
+            two_sided: false,
+        };
+        let scene = furnace(
+            Material::diffuse(Rgb::splat(0.5)),
+            1.0,
+            0.0,
+            Some((glass, 0.3)),
+        );
         for method in [Method::Path, Method::Bdpt] {
             let (mean, film) = render_mean(&scene, method, Settings::default(), 128);
             assert_eq!(film.nonfinite(), 0);
-            assert!((mean.g - 2.0).abs() / 2.0 < 0.006, "eta {eta} {method:?}: {}", mean.g);
+            assert!(
+                (mean.g - 2.0).abs() / 2.0 < 0.006,
+                "eta {eta} {method:?}: {}",
+                mean.g
+            );
+        }
+    }
+}
+
+/// The inside of an emitting diffuse sphere (radius 1, albedo ½, Le = 1):
+/// between two points of a sphere G = cos·cos/d² = 1/(4R²) is constant, so
+/// connection strategies have no geometric singularity and tiny variance.
+fn sphere_furnace(aperture: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let mut mesh = sphere(Vec3::ZERO, 1.0, m);
+    for t in &mut mesh.indices {
+        t.swap(1, 2);
+    }
+    mesh.emission = Some(Rgb::ONE);
+    b.add_mesh(mesh);
+    let cam = Camera::perspective(
+        Mat4::from_translation(Vec3::new(0.1, -0.2, -0.3)),
+        70.0,
+        FovAxis::X,
+        16,
+        12,
+        aperture,
+        1.0,
+    )
+    .unwrap();
+    b.set_camera(cam);
+    b.build().unwrap()
+}
+
+/// Each BDPT strategy alone (unweighted) must estimate exactly the paths of
+/// its length: in the furnace, paths of k = s + t − 1 segments carry
+/// Le · a^(k−1). This checks light tracing (t = 1, both camera models),
+/// next-event estimation (s = 1), pure camera paths (s = 0) and every
+/// interior connection separately, where the MIS-weighted furnace could
+/// hide an error in a strategy of small weight.
+#[test]
+fn every_bdpt_strategy_alone_is_unbiased() {
+    macro_rules! only {
+        ($s:literal, $t:literal) => {
+            (|s, t| s == $s && t == $t) as fn(usize, usize) -> bool
+        };
+    }
+    let strategies: [(usize, usize, fn(usize, usize) -> bool); 12] = [
+        (0, 2, only!(0, 2)),
+        (0, 3, only!(0, 3)),
+        (0, 4, only!(0, 4)),
+        (1, 2, only!(1, 2)),
+        (1, 3, only!(1, 3)),
+        (2, 1, only!(2, 1)),
+        (3, 1, only!(3, 1)),
+        (4, 1, only!(4, 1)),
+        (2, 2, only!(2, 2)),
+        (2, 3, only!(2, 3)),
+        (3, 2, only!(3, 2)),
+        (1, 4, only!(1, 4)),
+    ];
+    for aperture in [0.0f32, 0.3] {
+        let scene = sphere_furnace(aperture);
+        for (s, t, filter) in strategies {
+            let mut worker = Worker::new();
+            worker.set_bdpt_strategy_filter(Some(filter));
+            let (mean, film) =
+                render_mean_with(&scene, Method::Bdpt, Settings::default(), 256, worker);
+            assert_eq!(film.nonfinite(), 0);
+            let expected = 0.5f32.powi((s + t) as i32 - 2);
+            let rel = (mean.g - expected).abs() / expected;
+            assert!(
+                rel < 0.02,
+                "aperture {aperture}, strategy (s={s}, t={t}): {} vs {expected}",
+                mean.g
+            );
         }
     }
 }

@@ -29,19 +29,43 @@ pub fn load_reduced(name: &str, factor: u32) -> (LoadedScene, Image) {
     let dir = scenes_dir().join(name);
     let reference = read_exr(&dir.join("reference.exr")).expect("reference readable");
     let defines = vec![
-        ("resx".to_string(), (reference.width as u32 / factor).to_string()),
-        ("resy".to_string(), (reference.height as u32 / factor).to_string()),
+        (
+            "resx".to_string(),
+            (reference.width as u32 / factor).to_string(),
+        ),
+        (
+            "resy".to_string(),
+            (reference.height as u32 / factor).to_string(),
+        ),
     ];
     let loaded = load_scene(&dir.join("scene.xml"), &defines).expect("scene loads");
     (loaded, reference.downsample(factor as usize))
 }
 
 /// Renders a loaded scene with the default BVH on two threads.
-pub fn render_scene(loaded: &LoadedScene, method: Method, spp: u64, seed: u64) -> (Image, RenderOutput) {
+pub fn render_scene(
+    loaded: &LoadedScene,
+    method: Method,
+    spp: u64,
+    seed: u64,
+) -> (Image, RenderOutput) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
-    let out = render(&loaded.scene, &bvh, &loaded.settings, method, Budget::Spp(spp), 2, seed, &|| {});
+    let out = render(
+        &loaded.scene,
+        &bvh,
+        &loaded.settings,
+        method,
+        Budget::Spp(spp),
+        2,
+        seed,
+        &|| {},
+    );
     let cam = &loaded.scene.camera;
-    let img = Image { width: cam.width() as usize, height: cam.height() as usize, pixels: out.film.resolve() };
+    let img = Image {
+        width: cam.width() as usize,
+        height: cam.height() as usize,
+        pixels: out.film.resolve(),
+    };
     (img, out)
 }

@@ -72,7 +72,7 @@ impl Vertex {
 
     /// Converts a solid-angle density at `self` towards `next` into an area
     /// density at `next` (Veach eq. 8.10).
-    fn to_area(&self, pdf_sa: f32, next: &Vertex) -> f32 {
+    fn area_density_at(&self, pdf_sa: f32, next: &Vertex) -> f32 {
         let w = next.sp.p - self.sp.p;
         let d2 = w.length_squared();
         if d2 == 0.0 {
@@ -115,7 +115,7 @@ impl Vertex {
         match self.kind {
             Kind::Camera => {
                 let w = (next.sp.p - self.sp.p).normalize();
-                self.to_area(camera.pdf_ray(self.sp.p, w).1, next)
+                self.area_density_at(camera.pdf_ray(self.sp.p, w).1, next)
             }
             Kind::Light => lights_pdf(self, next),
             Kind::Surface => {
@@ -124,7 +124,7 @@ impl Vertex {
                 };
                 let wp = sh.frame.to_local((prev.sp.p - self.sp.p).normalize());
                 let wn = sh.frame.to_local((next.sp.p - self.sp.p).normalize());
-                self.to_area(sh.bsdf.pdf(wp, wn), next)
+                self.area_density_at(sh.bsdf.pdf(wp, wn), next)
             }
         }
     }
@@ -167,12 +167,22 @@ fn light_emission_pdf(light: &Vertex, to: &Vertex) -> f32 {
 pub struct Workspace {
     camera: Vec<Vertex>,
     light: Vec<Vertex>,
+    only: Option<fn(usize, usize) -> bool>,
 }
 
 impl Workspace {
     /// Empty storage.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Debugging aid (pbrt's "visualize strategies"): evaluate only the
+    /// strategies (s, t) for which `only(s, t)` holds, each *unweighted*
+    /// (MIS weight 1). A single strategy alone is then an unbiased estimator
+    /// of the paths it can sample, which lets tests check every strategy
+    /// separately. Off by default; changes results when on.
+    pub fn set_strategy_filter(&mut self, only: Option<fn(usize, usize) -> bool>) {
+        self.only = only;
     }
 }
 
@@ -204,7 +214,7 @@ fn random_walk<I: Intersector>(
             pdf_rev: 0.0,
             delta: false,
         };
-        v.pdf_fwd = prev.to_area(pdf_fwd, &v);
+        v.pdf_fwd = prev.area_density_at(pdf_fwd, &v);
         path.push(v);
         if path.len() >= max_vertices {
             break;
@@ -234,7 +244,7 @@ fn random_walk<I: Intersector>(
         let n = path.len();
         path[n - 1].delta = bs.delta;
         let cur = path[n - 1];
-        path[n - 2].pdf_rev = cur.to_area(rev, &path[n - 2]);
+        path[n - 2].pdf_rev = cur.area_density_at(rev, &path[n - 2]);
 
         // Russian roulette on throughput relative to the subpath's start.
         let depth = (n - 1) as u32;
@@ -362,6 +372,9 @@ pub fn sample<I: Intersector>(
             if tt == 2 && s == 0 && settings.hide_emitters {
                 continue;
             }
+            if ws.only.is_some_and(|only| !only(s, tt)) {
+                continue;
+            }
             if let Some((l, raster_splat)) = connect(t, ws, s, tt, rng) {
                 match raster_splat {
                     Some(r) => film.add_splat(r, l),
@@ -486,7 +499,11 @@ fn connect<I: Intersector>(
     if l.is_black() {
         return None;
     }
-    let w = mis_weight(scene, ws, sampled, s, t);
+    let w = if ws.only.is_some() {
+        1.0
+    } else {
+        mis_weight(scene, ws, sampled, s, t)
+    };
     Some((l * w, raster))
 }
 

@@ -59,6 +59,12 @@ impl Worker {
     pub fn new() -> Self {
         Self::default()
     }
+
+    /// See [`bdpt::Workspace::set_strategy_filter`]: BDPT evaluates only
+    /// the strategies `(s, t)` the filter accepts, without MIS.
+    pub fn set_bdpt_strategy_filter(&mut self, only: Option<fn(usize, usize) -> bool>) {
+        self.bdpt.set_strategy_filter(only);
+    }
 }
 
 /// Renders pass `pass` — one sample in every pixel — into `film`.

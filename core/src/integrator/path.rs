@@ -44,7 +44,7 @@ pub fn radiance<I: Intersector>(
 
         // Emission reached by the BSDF sample (or seen directly).
         let le = t.scene.emitted(&sp, wo_world);
-        if !le.is_black() && !(depth == 1 && settings.hide_emitters) {
+        if !le.is_black() && (depth > 1 || !settings.hide_emitters) {
             let w = if prev_delta {
                 1.0
             } else {
