@@ -106,10 +106,10 @@ fn run(cli: Cli) -> Result<(), String> {
         } => {
             let t0 = Instant::now();
             let loaded: LoadedScene = match scene.as_deref() {
-                None => builtin_scene("cornell-box")
+                None => builtin_scene("cornell-box", &define)
                     .expect("cornell-box is built in")
                     .map_err(|e| e.to_string())?,
-                Some(name) => match builtin_scene(name) {
+                Some(name) => match builtin_scene(name, &define) {
                     Some(r) if !std::path::Path::new(name).exists() => {
                         r.map_err(|e| e.to_string())?
                     }

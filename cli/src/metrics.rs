@@ -5,7 +5,11 @@ use crate::image_io::Image;
 /// Relative MSE as the shared scenes' README defines it: the mean over
 /// pixels and channels of (a − r)² / (r² + 0.01).
 pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
-    assert_eq!((img.width, img.height), (reference.width, reference.height), "image sizes differ");
+    assert_eq!(
+        (img.width, img.height),
+        (reference.width, reference.height),
+        "image sizes differ"
+    );
     let mut s = 0.0f64;
     for (a, r) in img.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {
@@ -18,7 +22,11 @@ pub fn rel_mse(img: &Image, reference: &Image) -> f64 {
 
 /// Root-mean-square error over pixels and channels.
 pub fn rmse(img: &Image, reference: &Image) -> f64 {
-    assert_eq!((img.width, img.height), (reference.width, reference.height), "image sizes differ");
+    assert_eq!(
+        (img.width, img.height),
+        (reference.width, reference.height),
+        "image sizes differ"
+    );
     let mut s = 0.0f64;
     for (a, r) in img.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {

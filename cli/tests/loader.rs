@@ -180,10 +180,10 @@ fn cornell_box_matches_its_xml() {
 #[test]
 fn builtin_cornell_box_is_the_shared_scene() {
     assert_eq!(BUILTIN_SCENES, &["cornell-box"]);
-    let b = builtin_scene("cornell-box")
+    let b = builtin_scene("cornell-box", &[])
         .expect("known name")
         .expect("loads");
-    assert!(builtin_scene("no-such-scene").is_none());
+    assert!(builtin_scene("no-such-scene", &[]).is_none());
     assert_eq!(b.scene.triangle_count(), 36);
     assert_eq!(b.spp, Some(64));
     let Some(f) = load_shared("cornell-box") else {

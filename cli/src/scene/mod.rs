@@ -103,14 +103,18 @@ pub fn load_scene_str(
 }
 
 /// A scene compiled into the binary, by name (see [`BUILTIN_SCENES`]);
-/// `None` for an unknown name. Built-in scenes reference no files.
-pub fn builtin_scene(name: &str) -> Option<Result<LoadedScene, LoadError>> {
+/// `None` for an unknown name. Built-in scenes reference no files;
+/// `defaults` override their `<default>` values as for files.
+pub fn builtin_scene(
+    name: &str,
+    defaults: &[(String, String)],
+) -> Option<Result<LoadedScene, LoadError>> {
     match name {
         "cornell-box" => Some(load_scene_str(
             CORNELL_BOX,
             Path::new("."),
             "builtin:cornell-box",
-            &[],
+            defaults,
         )),
         _ => None,
     }
