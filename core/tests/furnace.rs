@@ -305,7 +305,8 @@ fn every_bdpt_strategy_alone_is_unbiased() {
             (|s, t| s == $s && t == $t) as fn(usize, usize) -> bool
         };
     }
-    let strategies: [(usize, usize, fn(usize, usize) -> bool); 12] = [
+    type Filter = fn(usize, usize) -> bool;
+    let strategies: [(usize, usize, Filter); 12] = [
         (0, 2, only!(0, 2)),
         (0, 3, only!(0, 3)),
         (0, 4, only!(0, 4)),

@@ -1,24 +1,574 @@
-//! PLACEHOLDER: watertight ray–triangle intersection (being written).
+//! Watertight ray–triangle intersection (Woop, Benthin, Wald 2013,
+//! "Watertight Ray/Triangle Intersection", JCGT 2(1)).
+//!
+//! The test transforms the triangle into a ray-aligned space in which the ray
+//! starts at the origin and points down +z: translate by the ray origin,
+//! permute the axes so that `z` is the dominant direction axis, then shear
+//! x/y so the ray becomes the z axis (paper §3, eqs. 1–4). Inside/outside is
+//! decided by 2D edge functions of the sheared vertices (eq. 5). Because an
+//! edge shared by two triangles is evaluated from the *same* sheared
+//! vertices with the arguments swapped, the two triangles see exactly
+//! negated values: a ray can never slip between them (no leaks through
+//! shared edges or vertices). An exact zero is re-evaluated in f64, where the
+//! products of two f32 are exact (paper §3.3), so a zero produced by
+//! cancellation cannot turn a miss into a hit.
+//!
+//! On top of the paper, a hit must have `t` provably positive under the
+//! rounding error of the test (pbrt-v4 §6.8.7); see [`WatertightRay::intersect`].
+//!
+//! Everything here is `no_std` and allocation-free. The arithmetic lives in
+//! small `#[inline(always)]` helpers that the single-ray test and the
+//! lane-parallel packet kernel of the BVH both call, so both produce
+//! bit-identical `(t, b1, b2)`.
 
 use glam::Vec3;
 
 use super::Ray;
+use super::offset::gamma;
+
+/// Per-ray precomputation of the watertight test (paper §3.2): the axis
+/// permutation and the shear constants.
+///
+/// Build it once per ray, then test any number of triangles with
+/// [`WatertightRay::intersect`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WatertightRay {
+    /// Axis permutation `[kx, ky, kz]`: `kz` is the axis of the largest
+    /// `|d|` component; `kx, ky` follow cyclically, swapped when `d[kz] < 0`
+    /// to preserve the triangles' winding in the sheared space.
+    k: [usize; 3],
+    /// The ray origin, permuted: `[o[kx], o[ky], o[kz]]`.
+    org: [f32; 3],
+    /// Shear constants `[Sx, Sy, Sz] = [d[kx]/d[kz], d[ky]/d[kz], 1/d[kz]]`.
+    shear: [f32; 3],
+}
+
+impl WatertightRay {
+    /// Precomputes the permutation and shear of `ray`.
+    ///
+    /// `None` when the origin or direction has a non-finite component or the
+    /// direction is zero: such a ray hits nothing. (`ray.t_max` is not looked
+    /// at; it is passed to [`WatertightRay::intersect`].)
+    #[inline]
+    pub fn new(ray: &Ray) -> Option<Self> {
+        let o = ray.o.to_array();
+        let d = ray.d.to_array();
+        if !(ray.o.is_finite() && ray.d.is_finite()) {
+            return None;
+        }
+        let a = [abs(d[0]), abs(d[1]), abs(d[2])];
+        // Dominant axis; the first one wins a tie, deterministically.
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
+        } else if a[1] >= a[2] {
+            1
+        } else {
+            2
+        };
+        if d[kz] == 0.0 {
+            return None;
+        }
+        let mut kx = if kz == 2 { 0 } else { kz + 1 };
+        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        if d[kz] < 0.0 {
+            core::mem::swap(&mut kx, &mut ky);
+        }
+        let sz = 1.0 / d[kz];
+        Some(WatertightRay {
+            k: [kx, ky, kz],
+            org: [o[kx], o[ky], o[kz]],
+            shear: [d[kx] / d[kz], d[ky] / d[kz], sz],
+        })
+    }
+
+    /// Vertex `p` in ray space: translated, permuted and sheared (eqs. 1–4).
+    #[inline(always)]
+    fn ray_space(&self, p: Vec3) -> [f32; 4] {
+        // Padded to 4 and masked so the gathers need no bounds checks.
+        let p = [p.x, p.y, p.z, p.z];
+        transform(
+            p[self.k[0] & 3],
+            p[self.k[1] & 3],
+            p[self.k[2] & 3],
+            self.org,
+            self.shear,
+        )
+    }
+
+    /// Intersects triangle `(p0, p1, p2)`: `(t, b1, b2)` for a hit with
+    /// `t` in `(0, t_max)`, where the hit point is
+    /// `(1 − b1 − b2)·p0 + b1·p1 + b2·p2`. Both faces are hit.
+    ///
+    /// Triangles that are degenerate because two vertices coincide always
+    /// miss (their edge functions cancel exactly); for the general
+    /// zero-area check see [`is_degenerate`]. Non-finite vertices miss.
+    ///
+    /// Hits are also rejected when `t` is not provably positive given the
+    /// rounding error of the test (pbrt-v4 §6.8.7): this is what lets a ray
+    /// spawned with [`super::offset::offset_ray_origin`] never re-hit its own
+    /// triangle.
+    #[inline(always)]
+    pub fn intersect(&self, p0: Vec3, p1: Vec3, p2: Vec3, t_max: f32) -> Option<(f32, f32, f32)> {
+        let a = self.ray_space(p0);
+        let b = self.ray_space(p1);
+        let c = self.ray_space(p2);
+        let (mut u, mut v, mut w) = edge_functions(a, b, c);
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            (u, v, w) = edge_functions_f64(a, b, c);
+        }
+        // Mixed signs: outside. Zeros are compatible with either sign, so a
+        // ray through an edge or vertex is inside every triangle sharing it
+        // whose other edge functions agree (no back-face culling).
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let (t, b1, b2, dt) = solve(a, b, c, u, v, w, det);
+        (t > dt && t < t_max).then_some((t, b1, b2))
+    }
+}
 
 /// Intersects `ray` with triangle (p0, p1, p2): `(t, b1, b2)` for `t` in
-/// `(0, ray.t_max)`.
+/// `(0, ray.t_max)`, hit point `(1 − b1 − b2)·p0 + b1·p1 + b2·p2`.
+///
+/// Convenience wrapper: precomputes a [`WatertightRay`] (better done once
+/// per ray when testing many triangles) and rejects degenerate triangles
+/// ([`is_degenerate`]). Non-finite rays or vertices give `None`.
+#[inline]
 pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<(f32, f32, f32)> {
-    let e1 = p1 - p0;
-    let e2 = p2 - p0;
-    let pv = ray.d.cross(e2);
-    let det = e1.dot(pv);
-    if det == 0.0 {
+    if is_degenerate(p0, p1, p2) {
         return None;
     }
-    let inv = 1.0 / det;
-    let tv = ray.o - p0;
-    let u = tv.dot(pv) * inv;
-    let q = tv.cross(e1);
-    let v = ray.d.dot(q) * inv;
-    let t = e2.dot(q) * inv;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t < ray.t_max).then_some((t, u, v))
+    WatertightRay::new(ray)?.intersect(p0, p1, p2, ray.t_max)
+}
+
+/// True for triangles that can never be hit: a non-finite vertex, or zero
+/// area, i.e. `(p1 − p0) × (p2 − p0)` evaluates to exactly zero in f64
+/// (coincident vertices, and collinear ones in all but contrived cases).
+///
+/// Accelerators leave these triangles out and the brute-force reference
+/// skips them, so that all backends agree on them.
+#[inline]
+pub fn is_degenerate(p0: Vec3, p1: Vec3, p2: Vec3) -> bool {
+    if !(p0.is_finite() && p1.is_finite() && p2.is_finite()) {
+        return true;
+    }
+    let d = |a: f32, b: f32| f64::from(a) - f64::from(b);
+    let e1 = [d(p1.x, p0.x), d(p1.y, p0.y), d(p1.z, p0.z)];
+    let e2 = [d(p2.x, p0.x), d(p2.y, p0.y), d(p2.z, p0.z)];
+    let n = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    n == [0.0; 3]
+}
+
+// ---------------------------------------------------------------------------
+// Shared arithmetic. The single-ray test above and the lane-parallel kernel
+// below evaluate exactly these expressions, in this order, so their results
+// are bit-identical (Rust never contracts a*b+c into an FMA on its own).
+
+#[inline(always)]
+fn abs(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() & 0x7fff_ffff)
+}
+
+/// Translation, then shear (paper eqs. 3–4) of a vertex whose components are
+/// already permuted to `(x=kx, y=ky, z=kz)`: `[x', y', z'·Sz, z']`.
+///
+/// `x', y'` and the unscaled `z'` are in world units; `z'·Sz` is in units of
+/// the ray parameter `t`. The error bound in [`solve`] needs both.
+#[inline(always)]
+fn transform(px: f32, py: f32, pz: f32, org: [f32; 3], shear: [f32; 3]) -> [f32; 4] {
+    let ax = px - org[0];
+    let ay = py - org[1];
+    let az = pz - org[2];
+    [ax - shear[0] * az, ay - shear[1] * az, shear[2] * az, az]
+}
+
+/// The 2D edge functions (paper eq. 5): `U` is the weight of vertex 0 (edge
+/// 1→2), `V` of vertex 1 (edge 2→0), `W` of vertex 2 (edge 0→1), all scaled
+/// by the determinant.
+#[inline(always)]
+fn edge_functions(a: [f32; 4], b: [f32; 4], c: [f32; 4]) -> (f32, f32, f32) {
+    let u = c[0] * b[1] - c[1] * b[0];
+    let v = a[0] * c[1] - a[1] * c[0];
+    let w = b[0] * a[1] - b[1] * a[0];
+    (u, v, w)
+}
+
+/// The edge functions re-evaluated in f64 (paper §3.3): products of two f32
+/// are exact in f64, so the sign of each difference is exact. Only reached
+/// when an f32 edge function is exactly zero.
+#[cold]
+#[inline(never)]
+fn edge_functions_f64(a: [f32; 4], b: [f32; 4], c: [f32; 4]) -> (f32, f32, f32) {
+    let [ax, ay, bx, by, cx, cy] = [a[0], a[1], b[0], b[1], c[0], c[1]].map(f64::from);
+    let u = (cx * by - cy * bx) as f32;
+    let v = (ax * cy - ay * cx) as f32;
+    let w = (bx * ay - by * ax) as f32;
+    (u, v, w)
+}
+
+/// Hit distance, barycentrics and the conservative lower bound `δt` on a
+/// provably positive `t`, given nonzero `det = U + V + W`.
+///
+/// `t = (U·Az + V·Bz + W·Cz) / det` (paper eq. 6). `δt` is the rounding
+/// error bound of that `t` derived in pbrt-v4 §6.8.7 for this same
+/// translate/permute/shear arithmetic: a hit with `t ≤ δt` may lie behind
+/// the origin and is rejected.
+///
+/// One deliberate difference: the x/y shear error `δx = γ(5)(max|x'| +
+/// max|z'|)` uses the *unscaled* `z'` (world units, like `x'`), where pbrt
+/// uses `z'·Sz`. The two agree only for unit-length directions; with the
+/// scaled one, a short unnormalised direction (`|d| ≪ 1`) inflates `δt` to
+/// the point of rejecting genuine hits at `t ≈ 1`.
+#[inline(always)]
+fn solve(
+    a: [f32; 4],
+    b: [f32; 4],
+    c: [f32; 4],
+    u: f32,
+    v: f32,
+    w: f32,
+    det: f32,
+) -> (f32, f32, f32, f32) {
+    let t_scaled = u * a[2] + v * b[2] + w * c[2];
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
+    let b1 = v * inv_det;
+    let b2 = w * inv_det;
+
+    let max_x = max3(abs(a[0]), abs(b[0]), abs(c[0]));
+    let max_y = max3(abs(a[1]), abs(b[1]), abs(c[1]));
+    let max_z = max3(abs(a[2]), abs(b[2]), abs(c[2]));
+    let max_zw = max3(abs(a[3]), abs(b[3]), abs(c[3]));
+    let delta_z = gamma(3) * max_z;
+    let delta_x = gamma(5) * (max_x + max_zw);
+    let delta_y = gamma(5) * (max_y + max_zw);
+    let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    let max_e = max3(abs(u), abs(v), abs(w));
+    let delta_t =
+        3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * abs(inv_det);
+    (t, b1, b2, delta_t)
+}
+
+#[inline(always)]
+fn max3(a: f32, b: f32, c: f32) -> f32 {
+    let m = if a > b { a } else { b };
+    if m > c { m } else { c }
+}
+
+// ---------------------------------------------------------------------------
+// Lane-parallel form for packet traversal.
+
+/// Watertight precomputation for `N` rays in SoA form, the packet
+/// counterpart of [`WatertightRay`]. Lanes that carry no ray hold a benign
+/// dummy (finite, never hitting) so kernels may compute all lanes and mask.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WatertightLanes<const N: usize> {
+    /// Permutation per lane, `k[j][i]` = axis `j` of lane `i`.
+    pub k: [[u32; N]; 3],
+    /// Permuted origin per lane.
+    pub org: [[f32; N]; 3],
+    /// Shear constants per lane.
+    pub shear: [[f32; N]; 3],
+    /// The permutation shared by all live lanes, if there is one (typical
+    /// of coherent bundles): vertex components are then picked once per
+    /// triangle instead of once per lane.
+    pub uniform: Option<[usize; 3]>,
+}
+
+impl<const N: usize> WatertightLanes<N> {
+    /// All lanes dummies (origin 0, ray along +z).
+    pub fn new() -> Self {
+        WatertightLanes {
+            k: [[0; N], [1; N], [2; N]],
+            org: [[0.0; N]; 3],
+            shear: [[0.0; N], [0.0; N], [1.0; N]],
+            uniform: None,
+        }
+    }
+
+    /// Stores lane `i`.
+    #[inline]
+    pub fn set(&mut self, i: usize, r: &WatertightRay) {
+        for j in 0..3 {
+            self.k[j][i] = r.k[j] as u32;
+            self.org[j][i] = r.org[j];
+            self.shear[j][i] = r.shear[j];
+        }
+    }
+
+    /// Lane `i` as a single ray, bit for bit.
+    #[inline]
+    pub fn get(&self, i: usize) -> WatertightRay {
+        WatertightRay {
+            k: [0, 1, 2].map(|j| self.k[j][i] as usize),
+            org: [0, 1, 2].map(|j| self.org[j][i]),
+            shear: [0, 1, 2].map(|j| self.shear[j][i]),
+        }
+    }
+
+    /// Records whether the lanes in `live` share one permutation (call after
+    /// the last [`Self::set`]). Dummy lanes may then be evaluated with the
+    /// shared permutation; their results are masked anyway.
+    pub fn finish(&mut self, live: u32) {
+        let first = live.trailing_zeros() as usize;
+        self.uniform = None;
+        if first < N {
+            let k0 = [0, 1, 2].map(|j| self.k[j][first]);
+            if (0..N)
+                .filter(|&i| live >> i & 1 != 0)
+                .all(|i| (0..3).all(|j| self.k[j][i] == k0[j]))
+            {
+                self.uniform = Some(k0.map(|k| k as usize & 3));
+            }
+        }
+    }
+}
+
+/// Hits of one triangle for all `N` lanes of a packet: bit `i` of the
+/// returned mask is set when lane `i` (restricted to `lanes`) hits with `t`
+/// in `(δt, t_max[i])`; `t`, `b1`, `b2` are valid for those lanes only.
+///
+/// The lane loops are branch-free (selects) so LLVM can vectorise them; the
+/// rare f64 re-evaluation of zero edge functions runs per affected lane, and
+/// the distance/barycentric part is skipped when no lane is inside the
+/// edges. Per lane, every value is bit-identical to
+/// [`WatertightRay::intersect`].
+#[inline(always)]
+pub(crate) fn intersect_lanes<const N: usize>(
+    r: &WatertightLanes<N>,
+    tri: &[Vec3; 3],
+    t_max: &[f32; N],
+    lanes: u32,
+    t: &mut [f32; N],
+    b1: &mut [f32; N],
+    b2: &mut [f32; N],
+) -> u32 {
+    // Ray-space vertices, v[vertex][component][lane]; plain per-lane loops
+    // over arrays throughout, which LLVM vectorises.
+    let mut v = [[[0.0f32; N]; 4]; 3];
+    for (vi, p) in tri.iter().enumerate() {
+        let pv = [p.x, p.y, p.z, p.z];
+        let mut sel = [[0.0f32; N]; 3];
+        if let Some(k) = r.uniform {
+            for (j, s) in sel.iter_mut().enumerate() {
+                *s = [pv[k[j]]; N];
+            }
+        } else {
+            for (j, s) in sel.iter_mut().enumerate() {
+                for (si, &k) in s.iter_mut().zip(&r.k[j]) {
+                    *si = if k == 0 {
+                        pv[0]
+                    } else if k == 1 {
+                        pv[1]
+                    } else {
+                        pv[2]
+                    };
+                }
+            }
+        }
+        for i in 0..N {
+            let q = transform(
+                sel[0][i],
+                sel[1][i],
+                sel[2][i],
+                [r.org[0][i], r.org[1][i], r.org[2][i]],
+                [r.shear[0][i], r.shear[1][i], r.shear[2][i]],
+            );
+            for c in 0..4 {
+                v[vi][c][i] = q[c];
+            }
+        }
+    }
+    let lane = |vi: usize, i: usize| [v[vi][0][i], v[vi][1][i], v[vi][2][i], v[vi][3][i]];
+
+    let mut u = [0.0f32; N];
+    let mut vv = [0.0f32; N];
+    let mut w = [0.0f32; N];
+    for i in 0..N {
+        (u[i], vv[i], w[i]) = edge_functions(lane(0, i), lane(1, i), lane(2, i));
+    }
+    let mut zero = 0u32;
+    for i in 0..N {
+        zero |= ((u[i] == 0.0 || vv[i] == 0.0 || w[i] == 0.0) as u32) << i;
+    }
+    zero &= lanes;
+    while zero != 0 {
+        let i = zero.trailing_zeros() as usize;
+        zero &= zero - 1;
+        (u[i], vv[i], w[i]) = edge_functions_f64(lane(0, i), lane(1, i), lane(2, i));
+    }
+    let mut inside = 0u32;
+    for i in 0..N {
+        let (ui, vi, wi) = (u[i], vv[i], w[i]);
+        let mixed = (ui < 0.0 || vi < 0.0 || wi < 0.0) && (ui > 0.0 || vi > 0.0 || wi > 0.0);
+        inside |= (!mixed as u32) << i;
+    }
+    inside &= lanes;
+    if inside == 0 {
+        return 0;
+    }
+
+    let mut ok = [false; N];
+    for i in 0..N {
+        let (ui, vi, wi) = (u[i], vv[i], w[i]);
+        let det = ui + vi + wi;
+        let (ti, b1i, b2i, dt) = solve(lane(0, i), lane(1, i), lane(2, i), ui, vi, wi, det);
+        t[i] = ti;
+        b1[i] = b1i;
+        b2[i] = b2i;
+        ok[i] = det != 0.0 && ti > dt && ti < t_max[i];
+    }
+    let mut hit = 0u32;
+    for (i, &o) in ok.iter().enumerate() {
+        hit |= (o as u32) << i;
+    }
+    hit & inside
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ray(o: Vec3, d: Vec3) -> Ray {
+        Ray::new(o, d)
+    }
+
+    #[test]
+    fn hits_and_barycentrics() {
+        let (p0, p1, p2) = (
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
+        for d in [Vec3::Z, -Vec3::Z] {
+            let o = Vec3::new(0.25, 0.5, 0.0) - d * 2.0;
+            let (t, b1, b2) = intersect_triangle(&ray(o, d), p0, p1, p2).unwrap();
+            assert_eq!((t, b1, b2), (2.0, 0.25, 0.5));
+        }
+        // Unnormalised direction: t in units of |d|.
+        let (t, ..) = intersect_triangle(
+            &ray(Vec3::new(0.25, 0.25, 4.0), Vec3::new(0.0, 0.0, -2.0)),
+            p0,
+            p1,
+            p2,
+        )
+        .unwrap();
+        assert_eq!(t, 2.0);
+        // Open interval.
+        let mut r = ray(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z);
+        r.t_max = 1.0;
+        assert!(intersect_triangle(&r, p0, p1, p2).is_none());
+        r.t_max = 1.0000001;
+        assert!(intersect_triangle(&r, p0, p1, p2).is_some());
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.25, 0.25, 1.0), Vec3::Z), p0, p1, p2).is_none()
+        );
+        assert!(
+            intersect_triangle(&ray(Vec3::new(0.75, 0.75, 1.0), -Vec3::Z), p0, p1, p2).is_none()
+        );
+    }
+
+    #[test]
+    fn degenerate_and_non_finite() {
+        let (p0, p1) = (Vec3::ZERO, Vec3::X);
+        let r = ray(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z);
+        assert!(intersect_triangle(&r, p0, p1, p1).is_none());
+        assert!(intersect_triangle(&r, p0, p1, Vec3::X * 2.0).is_none());
+        assert!(is_degenerate(p0, p1, Vec3::new(3.0, 0.0, 0.0)));
+        assert!(is_degenerate(p0, p1, Vec3::new(f32::NAN, 1.0, 0.0)));
+        let tri = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        for bad in [Vec3::NAN, Vec3::INFINITY, Vec3::ZERO] {
+            assert!(
+                intersect_triangle(&ray(Vec3::new(0.2, 0.2, 1.0), bad), tri.0, tri.1, tri.2)
+                    .is_none()
+            );
+            assert!(intersect_triangle(&ray(bad, -Vec3::Z), tri.0, tri.1, tri.2).is_none());
+        }
+        let mut r = ray(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+        r.t_max = f32::NAN;
+        assert!(intersect_triangle(&r, tri.0, tri.1, tri.2).is_none());
+    }
+
+    /// A ray just outside edge 2→0 where the f32 edge function `V` rounds
+    /// to exactly 0 (the two products round to the same value) while the
+    /// exact value is −2⁻⁴⁶: without the f64 re-evaluation the zero would
+    /// count as "on the edge" and the ray would hit.
+    #[test]
+    fn f64_fallback_decides_exact_zero() {
+        let e = f32::EPSILON; // 2^-23
+        // Ray along −z from the origin: ray space is (x', y') = (y, x).
+        let (a, b, c) = ([1.0 + e, 1.0], [1.0, -1.0], [-(1.0 + 2.0 * e), -(1.0 + e)]);
+        assert_eq!(
+            a[0] * c[1] - a[1] * c[0],
+            0.0,
+            "the f32 edge function must cancel"
+        );
+        let world = |p: [f32; 2]| Vec3::new(p[1], p[0], -1.0);
+        let tri = [world(a), world(b), world(c)];
+        let r = ray(Vec3::ZERO, -Vec3::Z);
+        assert_eq!(intersect_triangle(&r, tri[0], tri[1], tri[2]), None);
+        let mut lanes = WatertightLanes::<4>::new();
+        for i in 0..4 {
+            lanes.set(i, &WatertightRay::new(&r).unwrap());
+        }
+        lanes.finish(0b1111);
+        let (mut t, mut b1, mut b2) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        assert_eq!(
+            intersect_lanes(
+                &lanes,
+                &tri,
+                &[f32::INFINITY; 4],
+                0b1111,
+                &mut t,
+                &mut b1,
+                &mut b2
+            ),
+            0
+        );
+        // Moved to the inside of that edge, it hits.
+        let inside = ray(Vec3::new(-0.01, 0.0, 0.0), -Vec3::Z);
+        assert!(intersect_triangle(&inside, tri[0], tri[1], tri[2]).is_some());
+    }
+
+    #[test]
+    fn lanes_match_single() {
+        let tri = [
+            Vec3::new(-1.0, -0.5, 0.3),
+            Vec3::new(1.0, -0.2, -0.1),
+            Vec3::new(0.1, 1.0, 0.05),
+        ];
+        let dirs = [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::new(0.3, -0.2, -1.0),
+            Vec3::new(-1.0, 0.1, 0.0),
+            Vec3::X,
+            Vec3::new(0.0, -1.0, 0.2),
+        ];
+        let mut lanes = WatertightLanes::<8>::new();
+        let mut t_max = [f32::INFINITY; 8];
+        let mut singles = [None; 8];
+        for (i, d) in dirs.iter().enumerate() {
+            let r = ray(Vec3::new(0.05, 0.1, 0.1) - *d * 3.0, *d);
+            let wr = WatertightRay::new(&r).unwrap();
+            lanes.set(i, &wr);
+            singles[i] = wr.intersect(tri[0], tri[1], tri[2], f32::INFINITY);
+            t_max[i] = f32::INFINITY;
+        }
+        lanes.finish(0b111111);
+        let (mut t, mut b1, mut b2) = ([0.0; 8], [0.0; 8], [0.0; 8]);
+        let m = intersect_lanes(&lanes, &tri, &t_max, 0b111111, &mut t, &mut b1, &mut b2);
+        for i in 0..dirs.len() {
+            let got = (m >> i & 1 == 1).then_some((t[i], b1[i], b2[i]));
+            assert_eq!(got, singles[i], "lane {i}");
+        }
+    }
 }

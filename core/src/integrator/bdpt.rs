@@ -80,7 +80,7 @@ impl Vertex {
         }
         let mut pdf = pdf_sa / d2;
         if next.on_surface() {
-            pdf *= next.sp.ng.dot(w).abs() / d2.sqrt();
+            pdf *= next.sp.ng.dot(w).abs() / libm::sqrtf(d2);
         }
         pdf
     }
@@ -149,7 +149,7 @@ fn light_emission_pdf(light: &Vertex, to: &Vertex) -> f32 {
     if d2 == 0.0 {
         return 0.0;
     }
-    let w = w / d2.sqrt();
+    let w = w / libm::sqrtf(d2);
     let cos = light.sp.ns.dot(w);
     if cos <= 0.0 {
         return 0.0;
@@ -420,7 +420,7 @@ fn connect<I: Intersector>(
         let conn = camera.connect(qs.sp.p, u)?;
         let to_cam = conn.p_lens - qs.sp.p;
         let d2 = to_cam.length_squared();
-        let w = to_cam / d2.sqrt();
+        let w = to_cam / libm::sqrtf(d2);
         let prev = ws.light[s - 2].sp.p;
         let f = qs.f(prev, conn.p_lens, TransportMode::Importance);
         if f.is_black() {
@@ -449,7 +449,7 @@ fn connect<I: Intersector>(
         if !(d2 > 0.0 && pdf_area > 0.0) {
             return None;
         }
-        let dir = to / d2.sqrt();
+        let dir = to / libm::sqrtf(d2);
         let le = scene.emitted(&lp, -dir);
         if le.is_black() {
             return None;
@@ -486,7 +486,7 @@ fn connect<I: Intersector>(
         if d2 == 0.0 {
             return None;
         }
-        let dn = d / d2.sqrt();
+        let dn = d / libm::sqrtf(d2);
         let fq = qs.f(ws.light[s - 2].sp.p, pt.sp.p, TransportMode::Importance);
         let fp = pt.f(ws.camera[t - 2].sp.p, qs.sp.p, TransportMode::Radiance);
         let g = qs.sp.ns.dot(dn).abs() * pt.sp.ns.dot(dn).abs() / d2;

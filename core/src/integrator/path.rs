@@ -70,7 +70,7 @@ pub fn radiance<I: Intersector>(
                 let to = lp.p - sp.p;
                 let d2 = to.length_squared();
                 if d2 > 0.0 && pdf_area > 0.0 {
-                    let dir = to / d2.sqrt();
+                    let dir = to / libm::sqrtf(d2);
                     let le = t.scene.emitted(&lp, -dir);
                     let cos_l = lp.ng.dot(dir).abs();
                     if !le.is_black() && cos_l > 0.0 {

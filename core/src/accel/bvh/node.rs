@@ -1,0 +1,163 @@
+//! The 4-wide node layout and its robust box test.
+
+use crate::geometry::offset::gamma;
+
+/// `child` value of an empty slot.
+pub const EMPTY_CHILD: u32 = u32::MAX;
+
+/// Maximum depth (levels of [`Node4`], root = level 1) of a valid layout.
+///
+/// The builder flattens anything deeper into one leaf, and
+/// [`super::BvhView::new`] rejects deeper layouts, so traversal can use a
+/// fixed stack of [`STACK_SIZE`] entries: while visiting a node, the stack
+/// holds at most the 3 unvisited siblings from each ancestor level. A
+/// balanced 4-wide tree of depth 32 addresses 4³² leaves; real builds are
+/// 10–25 levels deep.
+pub const MAX_DEPTH: usize = 32;
+
+/// Entries in a traversal stack: 3 per level (see [`MAX_DEPTH`]).
+pub const STACK_SIZE: usize = 3 * MAX_DEPTH;
+
+/// Scale applied to the far end of a box's ray interval, `1 + 2γ(3)`.
+///
+/// Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)) shows that the computed
+/// slab distances `(b − o)·(1/d)` are within a relative `γ(3)` of the exact
+/// ones (subtraction, reciprocal, product), so widening the far end by
+/// `2γ(3)` makes the test conservative: a ray that meets a box in exact
+/// arithmetic is never culled by rounding.
+pub const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// A 4-wide BVH node: the bounds of its (up to) four children in SoA form,
+/// plus what each child is. 128 bytes, aligned to a 64-byte cache line pair.
+///
+/// Child slot `c` is
+/// - an **inner node** when `count[c] == 0 && child[c] != EMPTY_CHILD`:
+///   `child[c]` is its index in the node array (always greater than this
+///   node's index);
+/// - a **leaf** when `count[c] > 0`: triangles `child[c] .. child[c] +
+///   count[c]` of the leaf-ordered triangle array;
+/// - **empty** when `count[c] == 0 && child[c] == EMPTY_CHILD`: its bounds are
+///   inverted (`min = +∞`, `max = −∞`), so every ray misses it.
+///
+/// The layout is plain data (`repr(C)`, no pointers), so a host can build or
+/// map it and hand it to [`super::BvhView::new`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    /// Lower bounds, `min[axis][child]`.
+    pub min: [[f32; 4]; 3],
+    /// Upper bounds, `max[axis][child]`.
+    pub max: [[f32; 4]; 3],
+    /// Node index or first triangle per child (see the type docs).
+    pub child: [u32; 4],
+    /// Triangle count per child; 0 for inner and empty slots.
+    pub count: [u32; 4],
+}
+
+// Two cache lines exactly; `repr(C)` keeps the field order.
+const _: () = assert!(core::mem::size_of::<Node4>() == 128);
+
+impl Node4 {
+    /// A node with four empty slots.
+    pub const EMPTY: Node4 = Node4 {
+        min: [[f32::INFINITY; 4]; 3],
+        max: [[f32::NEG_INFINITY; 4]; 3],
+        child: [EMPTY_CHILD; 4],
+        count: [0; 4],
+    };
+
+    /// Whether slot `c` is empty.
+    #[inline]
+    pub fn is_empty(&self, c: usize) -> bool {
+        self.count[c] == 0 && self.child[c] == EMPTY_CHILD
+    }
+
+    /// Whether slot `c` is a leaf.
+    #[inline]
+    pub fn is_leaf(&self, c: usize) -> bool {
+        self.count[c] != 0
+    }
+
+    /// Whether slot `c` is an inner node.
+    #[inline]
+    pub fn is_inner(&self, c: usize) -> bool {
+        self.count[c] == 0 && self.child[c] != EMPTY_CHILD
+    }
+
+    /// Sets the bounds of slot `c`.
+    #[inline]
+    pub fn set_bounds(&mut self, c: usize, min: [f32; 3], max: [f32; 3]) {
+        for a in 0..3 {
+            self.min[a][c] = min[a];
+            self.max[a][c] = max[a];
+        }
+    }
+}
+
+/// The per-ray part of the slab test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoxRay {
+    /// Origin.
+    pub o: [f32; 3],
+    /// `1/d` per axis; `±∞` for a zero component (the sign of the zero
+    /// picks the sign of the infinity, consistently with `neg`).
+    pub inv: [f32; 3],
+    /// Whether `inv` is negative (sign bit), i.e. the near plane is `max`.
+    pub neg: [bool; 3],
+}
+
+impl BoxRay {
+    #[inline]
+    pub fn new(o: [f32; 3], d: [f32; 3]) -> Self {
+        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        BoxRay {
+            o,
+            inv,
+            neg: inv.map(|x| x.is_sign_negative()),
+        }
+    }
+}
+
+/// `max(acc, x)` that ignores a NaN `x` (and compiles to one `maxps`).
+///
+/// A slab distance is NaN only for `0·∞`: the direction is parallel to the
+/// slab and the origin lies exactly on its plane. That slab then does not
+/// constrain the ray, which is what dropping the NaN does (Ize 2013, §3).
+#[inline(always)]
+pub(crate) fn max_keep(acc: f32, x: f32) -> f32 {
+    if x > acc { x } else { acc }
+}
+
+/// `min(acc, x)` that ignores a NaN `x`.
+#[inline(always)]
+pub(crate) fn min_keep(acc: f32, x: f32) -> f32 {
+    if x < acc { x } else { acc }
+}
+
+/// Robust slab test of one ray against a node's four child boxes over
+/// `[0, t_max]`. Returns the hit mask (bit `c` = child `c`) and the entry
+/// distances.
+///
+/// This is the per-node kernel an SSE/AVX version would replace: four
+/// boxes, one ray, straight-line code over `[f32; 4]`.
+#[inline(always)]
+pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+    let mut near = [0.0f32; 4];
+    let mut far = [t_max; 4];
+    for a in 0..3 {
+        let (nb, fb) = if r.neg[a] {
+            (&node.max[a], &node.min[a])
+        } else {
+            (&node.min[a], &node.max[a])
+        };
+        for c in 0..4 {
+            near[c] = max_keep(near[c], (nb[c] - r.o[a]) * r.inv[a]);
+            far[c] = min_keep(far[c], (fb[c] - r.o[a]) * r.inv[a]);
+        }
+    }
+    let mut mask = 0;
+    for c in 0..4 {
+        mask |= ((near[c] <= far[c] * FAR_SCALE) as u32) << c;
+    }
+    (mask, near)
+}

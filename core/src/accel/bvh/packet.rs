@@ -1,0 +1,382 @@
+//! Packet traversal: one shared stack for `N` rays.
+//!
+//! A node is visited when any live lane's ray hits its box; per-lane
+//! `t_max` shrinks as hits are found, and a deferred child is dropped for
+//! the lanes whose closest hit is already in front of it. Lane loops are
+//! written over plain `[f32; N]` arrays (branch-free selects) so LLVM can
+//! vectorise them; [`box4_lanes`] and `triangle::intersect_lanes` are the
+//! two kernels an explicit SSE/AVX version would replace.
+//!
+//! Lanes outside the active mask are never read from the input packet nor
+//! written to the output: the kernels work on an internal copy in which
+//! those lanes hold a dummy ray, and every result is masked.
+
+use super::BvhView;
+use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
+use super::traverse::{self, Prepared, order4, traverse_from};
+use crate::geometry::triangle::{WatertightLanes, WatertightRay, intersect_lanes};
+use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
+
+/// SoA copy of the packet's live rays with their box and triangle
+/// precomputation.
+struct Lanes<const N: usize> {
+    o: [[f32; N]; 3],
+    inv: [[f32; N]; 3],
+    neg: [[bool; N]; 3],
+    /// The direction signs shared by all live lanes, if any.
+    uniform_neg: Option<[bool; 3]>,
+    /// Current upper bound per lane (shrinks with closest hits).
+    t_max: [f32; N],
+    wt: WatertightLanes<N>,
+}
+
+impl<const N: usize> Lanes<N> {
+    /// Copies the valid active lanes of `rays`; returns them and their mask.
+    /// Invalid lanes (non-finite, zero direction, `t_max` not positive)
+    /// cannot hit anything and are left out, like in the single-ray path.
+    fn new(rays: &RayPacket<N>, active: LaneMask) -> (Self, u32) {
+        // Dummy lanes: a finite ray with an empty interval.
+        let mut l = Lanes {
+            o: [[0.0; N]; 3],
+            inv: [[1.0; N]; 3],
+            neg: [[false; N]; 3],
+            uniform_neg: None,
+            t_max: [-1.0; N],
+            wt: WatertightLanes::new(),
+        };
+        let mut valid = 0u32;
+        for i in active.iter().filter(|&i| i < N) {
+            let r = rays.get(i);
+            if !(r.t_max > 0.0) {
+                continue;
+            }
+            let Some(wr) = WatertightRay::new(&r) else {
+                continue;
+            };
+            let (o, d) = (r.o.to_array(), r.d.to_array());
+            for a in 0..3 {
+                l.o[a][i] = o[a];
+                l.inv[a][i] = 1.0 / d[a];
+                l.neg[a][i] = l.inv[a][i].is_sign_negative();
+            }
+            l.t_max[i] = r.t_max;
+            l.wt.set(i, &wr);
+            valid |= 1 << i;
+        }
+        l.wt.finish(valid);
+        let first = valid.trailing_zeros() as usize;
+        if first < N {
+            let neg0 = [l.neg[0][first], l.neg[1][first], l.neg[2][first]];
+            if (0..N)
+                .filter(|&i| valid >> i & 1 != 0)
+                .all(|i| (0..3).all(|a| l.neg[a][i] == neg0[a]))
+            {
+                l.uniform_neg = Some(neg0);
+            }
+        }
+        (l, valid)
+    }
+
+    /// Lane `i` as a single ray, bit-identical to its own set-up.
+    #[inline]
+    fn prepared(&self, i: usize) -> Prepared {
+        let o = [self.o[0][i], self.o[1][i], self.o[2][i]];
+        let inv = [self.inv[0][i], self.inv[1][i], self.inv[2][i]];
+        let neg = [self.neg[0][i], self.neg[1][i], self.neg[2][i]];
+        Prepared {
+            wr: self.wt.get(i),
+            br: BoxRay { o, inv, neg },
+        }
+    }
+}
+
+/// A subtree reached by this many live lanes or fewer is finished ray by
+/// ray: a packet box test costs all `N` lanes, a single-ray one only one
+/// (a quarter of the packet measured best for N = 8).
+const fn single_ray_lanes(n: usize) -> u32 {
+    if n >= 8 { (n / 4) as u32 } else { 1 }
+}
+
+/// Robust slab test (see `node::box4`) of all lanes against a node's four
+/// children: per child, the mask of lanes (within `lanes`) that hit it and
+/// the smallest entry distance among them.
+///
+/// When all live lanes share their direction signs (coherent bundles), the
+/// near/far planes are picked once per node instead of per lane.
+#[inline(always)]
+fn box4_lanes<const N: usize>(node: &Node4, l: &Lanes<N>, lanes: u32) -> ([u32; 4], [f32; 4]) {
+    let mut near = [[0.0f32; N]; 4];
+    let mut far = [l.t_max; 4];
+    if let Some(neg) = l.uniform_neg {
+        for (a, &neg) in neg.iter().enumerate() {
+            let (nb, fb) = if neg {
+                (&node.max[a], &node.min[a])
+            } else {
+                (&node.min[a], &node.max[a])
+            };
+            for c in 0..4 {
+                for i in 0..N {
+                    near[c][i] = max_keep(near[c][i], (nb[c] - l.o[a][i]) * l.inv[a][i]);
+                    far[c][i] = min_keep(far[c][i], (fb[c] - l.o[a][i]) * l.inv[a][i]);
+                }
+            }
+        }
+    } else {
+        for a in 0..3 {
+            for c in 0..4 {
+                let (lo, hi) = (node.min[a][c], node.max[a][c]);
+                for i in 0..N {
+                    let (nb, fb) = if l.neg[a][i] { (hi, lo) } else { (lo, hi) };
+                    near[c][i] = max_keep(near[c][i], (nb - l.o[a][i]) * l.inv[a][i]);
+                    far[c][i] = min_keep(far[c][i], (fb - l.o[a][i]) * l.inv[a][i]);
+                }
+            }
+        }
+    }
+    let mut masks = [0u32; 4];
+    let mut t_min = [f32::INFINITY; 4];
+    for c in 0..4 {
+        let mut m = 0u32;
+        let mut tm = f32::INFINITY;
+        for i in 0..N {
+            let hit = near[c][i] <= far[c][i] * FAR_SCALE;
+            m |= (hit as u32) << i;
+            tm = min_keep(
+                tm,
+                if hit && lanes >> i & 1 != 0 {
+                    near[c][i]
+                } else {
+                    f32::INFINITY
+                },
+            );
+        }
+        masks[c] = m & lanes;
+        t_min[c] = tm;
+    }
+    (masks, t_min)
+}
+
+/// A deferred child with the lanes that hit it and their smallest entry
+/// distance.
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    child: u32,
+    count: u32,
+    mask: u32,
+    t: f32,
+}
+
+/// Closest hits (`ANY = false`) or occlusion (`ANY = true`) of the `live`
+/// lanes. Returns, per lane, the leaf-order index of the hit triangle
+/// (`u32::MAX` for none) with `b1`, `b2`; hit distances are left in
+/// `l.t_max`. For `ANY`, the returned mask holds the occluded lanes.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn traverse<const N: usize, const ANY: bool>(
+    view: &BvhView<'_>,
+    l: &mut Lanes<N>,
+    live: u32,
+) -> (u32, [u32; N], [f32; N], [f32; N]) {
+    let mut best = [u32::MAX; N];
+    let mut b1 = [0.0f32; N];
+    let mut b2 = [0.0f32; N];
+    let mut done = 0u32;
+    let mut alive = live;
+    let (mut tt, mut tb1, mut tb2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    // Bounded by the layout's depth check; see `node::MAX_DEPTH`.
+    let mut stack = [Entry::default(); STACK_SIZE];
+    // Only initialised if a subtree is finished ray by ray.
+    let mut single_stack: Option<traverse::Stack> = None;
+    let mut sp = 0usize;
+    let mut cur = Entry {
+        child: 0,
+        count: 0,
+        mask: live,
+        t: 0.0,
+    };
+    'outer: loop {
+        if cur.mask.count_ones() <= const { single_ray_lanes(N) } {
+            // Same arithmetic as the packet kernels, so the same answers.
+            let mut bits = cur.mask;
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let start = traverse::Entry {
+                    child: cur.child,
+                    count: cur.count,
+                    t: cur.t,
+                };
+                if let Some((j, hb1, hb2)) = traverse_from::<ANY>(
+                    view,
+                    &l.prepared(i),
+                    start,
+                    &mut l.t_max[i],
+                    single_stack.get_or_insert_with(|| [traverse::Entry::default(); STACK_SIZE]),
+                ) {
+                    best[i] = j as u32;
+                    b1[i] = hb1;
+                    b2[i] = hb2;
+                    if ANY {
+                        done |= 1 << i;
+                        alive &= !(1 << i);
+                    }
+                }
+            }
+            if ANY && alive == 0 {
+                break 'outer;
+            }
+        } else if cur.count == 0 {
+            let node = &view.nodes[cur.child as usize];
+            let (masks, t_min) = box4_lanes(node, l, cur.mask);
+            let mut any = 0u32;
+            for (c, m) in masks.iter().enumerate() {
+                any |= ((*m != 0) as u32) << c;
+            }
+            if any != 0 {
+                let (order, n) = order4(any, &t_min);
+                for &c in order[1..n].iter().rev() {
+                    stack[sp] = Entry {
+                        child: node.child[c],
+                        count: node.count[c],
+                        mask: masks[c],
+                        t: t_min[c],
+                    };
+                    sp += 1;
+                }
+                let c = order[0];
+                cur = Entry {
+                    child: node.child[c],
+                    count: node.count[c],
+                    mask: masks[c],
+                    t: t_min[c],
+                };
+                continue;
+            }
+        } else {
+            let first = cur.child as usize;
+            let tris = &view.tris[first..first + cur.count as usize];
+            let mut lanes = cur.mask;
+            for (j, tri) in tris.iter().enumerate() {
+                let m = intersect_lanes(&l.wt, tri, &l.t_max, lanes, &mut tt, &mut tb1, &mut tb2);
+                if m == 0 {
+                    continue;
+                }
+                let idx = (first + j) as u32;
+                for i in 0..N {
+                    if m >> i & 1 != 0 {
+                        l.t_max[i] = tt[i];
+                        best[i] = idx;
+                        b1[i] = tb1[i];
+                        b2[i] = tb2[i];
+                    }
+                }
+                if ANY {
+                    done |= m;
+                    alive &= !m;
+                    lanes &= !m;
+                    if alive == 0 {
+                        break 'outer;
+                    }
+                    if lanes == 0 {
+                        break;
+                    }
+                }
+            }
+        }
+        // Pop the next child that some live lane may still hit in front of
+        // its closest hit.
+        loop {
+            if sp == 0 {
+                break 'outer;
+            }
+            sp -= 1;
+            let e = stack[sp];
+            let mut keep = 0u32;
+            for i in 0..N {
+                keep |= ((e.t <= l.t_max[i] * FAR_SCALE) as u32) << i;
+            }
+            let m = e.mask & alive & keep;
+            if m != 0 {
+                cur = Entry { mask: m, ..e };
+                continue 'outer;
+            }
+        }
+    }
+    (done, best, b1, b2)
+}
+
+/// Closest hits of the active lanes; inactive lanes of `hits` untouched.
+pub(super) fn intersect_packet<const N: usize>(
+    view: &BvhView<'_>,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+    hits: &mut HitPacket<N>,
+) {
+    if N > 32 {
+        for i in active.iter().filter(|&i| i < N) {
+            hits.set(i, traverse::intersect(view, &rays.get(i)));
+        }
+        return;
+    }
+    if view.nodes.is_empty() {
+        for i in active.iter().filter(|&i| i < N) {
+            hits.set(i, None);
+        }
+        return;
+    }
+    let (mut l, valid) = Lanes::new(rays, active);
+    // One live ray: the single-ray kernel is cheaper and gives the same
+    // answer bit for bit.
+    if valid.count_ones() <= 1 {
+        for i in active.iter().filter(|&i| i < N) {
+            let h = if valid >> i & 1 != 0 {
+                traverse::intersect(view, &rays.get(i))
+            } else {
+                None
+            };
+            hits.set(i, h);
+        }
+        return;
+    }
+    let (_, best, b1, b2) = traverse::<N, false>(view, &mut l, valid);
+    for i in active.iter().filter(|&i| i < N) {
+        let h = (best[i] != u32::MAX).then(|| Hit {
+            t: l.t_max[i],
+            prim: view.prim_ids[best[i] as usize],
+            b1: b1[i],
+            b2: b2[i],
+        });
+        hits.set(i, h);
+    }
+}
+
+/// Occlusion of the active lanes; bit `i` set = lane `i` occluded.
+pub(super) fn occluded_packet<const N: usize>(
+    view: &BvhView<'_>,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+) -> LaneMask {
+    let mut out = LaneMask::NONE;
+    if N > 32 {
+        for i in active.iter().filter(|&i| i < N) {
+            if traverse::occluded(view, &rays.get(i)) {
+                out.set(i);
+            }
+        }
+        return out;
+    }
+    if view.nodes.is_empty() {
+        return out;
+    }
+    let (mut l, valid) = Lanes::new(rays, active);
+    if valid.count_ones() <= 1 {
+        for i in LaneMask(valid).iter() {
+            if traverse::occluded(view, &rays.get(i)) {
+                out.set(i);
+            }
+        }
+        return out;
+    }
+    let (done, ..) = traverse::<N, true>(view, &mut l, valid);
+    LaneMask(done)
+}
