@@ -40,9 +40,9 @@ dt = time.perf_counter() - t
 print("RESULT", w * h * {spp} / dt / 1e6, dt)
 """
     env = dict(os.environ)
-    libs = sorted(glob.glob("/usr/lib/llvm-*/lib/libLLVM*.so*"))
+    libs = sorted(glob.glob("/usr/lib/x86_64-linux-gnu/libLLVM-19.so*")) + sorted(glob.glob("/usr/lib/llvm-19/lib/libLLVM*.so*"))
     if libs and "DRJIT_LIBLLVM_PATH" not in env:
-        env["DRJIT_LIBLLVM_PATH"] = libs[-1]
+        env["DRJIT_LIBLLVM_PATH"] = libs[0]
     py = os.path.join(ROOT, "bench", ".venv", "bin", "python")
     out = subprocess.run([py, "-c", code], capture_output=True, text=True, env=env)
     m = re.search(r"RESULT (\S+) (\S+)", out.stdout)

@@ -4,6 +4,8 @@ set -euo pipefail
 cd "$(dirname "$0")"
 python3 -m venv .venv
 .venv/bin/pip install -q mitsuba
-if ! ls /usr/lib/llvm-*/lib/libLLVM*.so* >/dev/null 2>&1; then
+# Dr.Jit's LLVM backend needs a recent LLVM; older ones on the machine are
+# rejected at run time, so install 19 explicitly.
+if ! ls /usr/lib/x86_64-linux-gnu/libLLVM-19.so* >/dev/null 2>&1; then
   (apt-get install -y -q libllvm19 || (apt-get update -q && apt-get install -y -q libllvm19)) >/dev/null
 fi
