@@ -1,15 +1,16 @@
 //! `cmlt`: render Mitsuba scenes with the cmlt core.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Method;
+use cmlt::mlt::MltSettings;
 use cmlt_cli::image_io::{self, Image};
 use cmlt_cli::metrics;
-use cmlt_cli::render::{Budget, render};
+use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
 use cmlt_cli::scene::{LoadedScene, builtin_scene, load_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -30,6 +31,8 @@ enum MethodArg {
     Pt,
     /// Bidirectional path tracing with MIS.
     Bdpt,
+    /// Metropolis light transport (primary-sample-space MLT over BDPT).
+    Mlt,
 }
 
 #[derive(Subcommand)]
@@ -44,6 +47,28 @@ enum Command {
         /// Samples per pixel (default: the scene's `sample_count`).
         #[arg(long, conflicts_with = "time")]
         spp: Option<u64>,
+        /// MLT: mutations per pixel over all threads (default: --spp, else
+        /// the scene's `sample_count`).
+        #[arg(long, conflicts_with = "time")]
+        mutations_per_pixel: Option<u64>,
+        /// MLT: Markov chains per thread.
+        #[arg(long, default_value_t = MltSettings::default().n_chains)]
+        chains: u32,
+        /// MLT: probability of a large step (an independent sample), in [0, 1].
+        #[arg(long, default_value_t = MltSettings::default().large_step_prob)]
+        large_step: f32,
+        /// MLT: width of small steps in primary sample space, in (0, 1].
+        #[arg(long, default_value_t = MltSettings::default().sigma)]
+        sigma: f32,
+        /// MLT: bootstrap seed samples per path depth (the chains' starting
+        /// points).
+        #[arg(long, default_value_t = MltSettings::default().n_bootstrap)]
+        bootstrap: u32,
+        /// MLT: BDPT passes that estimate the normalisation b (the image's
+        /// mean luminance, which scales the whole image); 0 = estimate b
+        /// from the seed samples as pbrt does.
+        #[arg(long, default_value_t = MltSettings::default().b_passes)]
+        b_passes: u32,
         /// Render for this many seconds instead of a fixed sample count.
         #[arg(long)]
         time: Option<f64>,
@@ -89,12 +114,148 @@ fn main() -> ExitCode {
     }
 }
 
+/// Where results go.
+struct Output<'a> {
+    output: &'a Path,
+    png: Option<&'a Path>,
+    reference: Option<&'a Path>,
+}
+
+/// Writes the image (and PNG preview) and warns about dropped samples.
+fn write_outputs(img: &Image, ctx: &Output<'_>, nonfinite: u64) -> Result<(), String> {
+    image_io::write_image(ctx.output, img)?;
+    if let Some(p) = ctx.png {
+        image_io::write_png(p, img)?;
+    }
+    if nonfinite > 0 {
+        eprintln!("warning: {nonfinite} non-finite samples were dropped");
+    }
+    Ok(())
+}
+
+/// Prints relMSE and mean ratios against a reference OpenEXR.
+fn compare_reference(img: &Image, r: &Path) -> Result<(), String> {
+    let reference = image_io::read_exr(r)?;
+    if (reference.width, reference.height) != (img.width, img.height) {
+        return Err(format!(
+            "reference {} is {}x{}, image is {}x{}",
+            r.display(),
+            reference.width,
+            reference.height,
+            img.width,
+            img.height
+        ));
+    }
+    let (mean, rm) = (img.mean(), reference.mean());
+    println!(
+        "vs reference: relMSE {:.6}, RMSE {:.6}; mean ratio ({:.4}, {:.4}, {:.4})",
+        metrics::rel_mse(img, &reference),
+        metrics::rmse(img, &reference),
+        mean.r / rm.r,
+        mean.g / rm.g,
+        mean.b / rm.b
+    );
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_mlt(
+    loaded: &LoadedScene,
+    bvh: &Bvh,
+    mlt: &MltSettings,
+    budget: MltBudget,
+    threads: usize,
+    seed: u64,
+    quiet: bool,
+    setup: std::time::Duration,
+    ctx: Output<'_>,
+) -> Result<(), String> {
+    let scene = &loaded.scene;
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let pixels = w as u64 * h as u64;
+    eprintln!(
+        "scene: {} triangles, {} lights, {w}x{h}, max_depth {} (MLT depths 1..={}), Mlt on {threads} threads, {} chains/thread, large step {}, sigma {}, {} seed samples/depth, {} b passes (setup {:.2} s)",
+        scene.triangle_count(),
+        scene.lights.len(),
+        loaded
+            .settings
+            .max_depth
+            .map_or("unbounded".to_string(), |d| d.to_string()),
+        cmlt::mlt::path_depth(&loaded.settings, mlt),
+        mlt.n_chains,
+        mlt.large_step_prob,
+        mlt.sigma,
+        mlt.n_bootstrap,
+        mlt.b_passes,
+        setup.as_secs_f64()
+    );
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        match budget {
+            MltBudget::MutationsPerPixel(n) => ProgressBar::new(n.saturating_mul(pixels)),
+            MltBudget::Time(_) => ProgressBar::new_spinner(),
+        }
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {human_pos}/{human_len} mutations ({per_sec})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let out = render_mlt(
+        scene,
+        bvh,
+        &loaded.settings,
+        mlt,
+        budget,
+        threads,
+        seed,
+        &|n| bar.inc(n),
+    );
+    bar.finish_and_clear();
+    let img = Image {
+        width: w as usize,
+        height: h as usize,
+        pixels: out.image(),
+    };
+    write_outputs(&img, &ctx, out.film.nonfinite())?;
+    let mean = img.mean();
+    let m = &out.mlt;
+    println!(
+        "{:.2} mutations/pixel in {:.2} s (bootstrap {:.2} s, b {:.5}): {:.3} M mutations/s, {:.2} Mrays/s; accepted small {:.1}%, large {:.1}%, zero proposals {:.1}%; mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
+        m.mutations as f64 / pixels.max(1) as f64,
+        out.wall.as_secs_f64(),
+        out.bootstrap_wall.as_secs_f64(),
+        out.bootstrap.b(),
+        out.mutations_per_sec() * 1e-6,
+        out.mrays_per_sec(),
+        100.0 * m.small_acceptance(),
+        100.0 * m.large_acceptance(),
+        100.0 * m.zero_proposals as f64 / m.mutations.max(1) as f64,
+        mean.r,
+        mean.g,
+        mean.b,
+        ctx.output.display()
+    );
+    if let Some(r) = ctx.reference {
+        compare_reference(&img, r)?;
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Render {
             scene,
             method,
             spp,
+            mutations_per_pixel,
+            chains,
+            large_step,
+            sigma,
+            bootstrap,
+            b_passes,
             time,
             threads,
             seed,
@@ -124,17 +285,51 @@ fn run(cli: Cli) -> Result<(), String> {
             let tris: Vec<_> = scene.triangles().collect();
             let bvh = Bvh::build(&tris);
             let setup = t0.elapsed();
+            let threads = threads
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
             let method = match method {
                 MethodArg::Pt => Method::Path,
                 MethodArg::Bdpt => Method::Bdpt,
+                MethodArg::Mlt => {
+                    if !(0.0..=1.0).contains(&large_step) {
+                        return Err(format!("--large-step must be in [0, 1], got {large_step}"));
+                    }
+                    if !(sigma > 0.0 && sigma <= 1.0) {
+                        return Err(format!("--sigma must be in (0, 1], got {sigma}"));
+                    }
+                    if chains == 0 || bootstrap == 0 {
+                        return Err("--chains and --bootstrap must be at least 1".to_string());
+                    }
+                    let mlt = MltSettings {
+                        n_bootstrap: bootstrap,
+                        b_passes,
+                        n_chains: chains,
+                        large_step_prob: large_step,
+                        sigma,
+                        ..MltSettings::default()
+                    };
+                    let budget = match (time, mutations_per_pixel.or(spp)) {
+                        (Some(t), _) => MltBudget::Time(t),
+                        (None, Some(n)) => MltBudget::MutationsPerPixel(n),
+                        (None, None) => {
+                            MltBudget::MutationsPerPixel(loaded.spp.unwrap_or(16) as u64)
+                        }
+                    };
+                    let ctx = Output {
+                        output: &output,
+                        png: png.as_deref(),
+                        reference: reference.as_deref(),
+                    };
+                    return run_mlt(
+                        &loaded, &bvh, &mlt, budget, threads, seed, quiet, setup, ctx,
+                    );
+                }
             };
             let budget = match (spp, time) {
                 (_, Some(t)) => Budget::Time(t),
                 (Some(n), None) => Budget::Spp(n),
                 (None, None) => Budget::Spp(loaded.spp.unwrap_or(16) as u64),
             };
-            let threads = threads
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
             let (w, h) = (scene.camera.width(), scene.camera.height());
             eprintln!(
                 "scene: {} triangles, {} lights, {w}x{h}, max_depth {}, {:?} on {threads} threads (setup {:.2} s)",
@@ -177,16 +372,12 @@ fn run(cli: Cli) -> Result<(), String> {
                 height: h as usize,
                 pixels: out.film.resolve(),
             };
-            image_io::write_image(&output, &img)?;
-            if let Some(p) = &png {
-                image_io::write_png(p, &img)?;
-            }
-            if out.film.nonfinite() > 0 {
-                eprintln!(
-                    "warning: {} non-finite samples were dropped",
-                    out.film.nonfinite()
-                );
-            }
+            let ctx = Output {
+                output: &output,
+                png: png.as_deref(),
+                reference: reference.as_deref(),
+            };
+            write_outputs(&img, &ctx, out.film.nonfinite())?;
             let mean = img.mean();
             println!(
                 "{} spp in {:.2} s: {:.3} M samples/s, {:.2} Mrays/s; mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
@@ -199,27 +390,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 mean.b,
                 output.display()
             );
-            if let Some(r) = reference {
-                let reference = image_io::read_exr(&r)?;
-                if (reference.width, reference.height) != (img.width, img.height) {
-                    return Err(format!(
-                        "reference {} is {}x{}, image is {}x{}",
-                        r.display(),
-                        reference.width,
-                        reference.height,
-                        img.width,
-                        img.height
-                    ));
-                }
-                let rm = reference.mean();
-                println!(
-                    "vs reference: relMSE {:.6}, RMSE {:.6}; mean ratio ({:.4}, {:.4}, {:.4})",
-                    metrics::rel_mse(&img, &reference),
-                    metrics::rmse(&img, &reference),
-                    mean.r / rm.r,
-                    mean.g / rm.g,
-                    mean.b / rm.b
-                );
+            if let Some(r) = ctx.reference {
+                compare_reference(&img, r)?;
             }
             Ok(())
         }

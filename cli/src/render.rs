@@ -4,6 +4,8 @@
 //! `threads` scoped std threads; thread `i` renders passes `i, i + T, …`
 //! into its own film and the films are merged in thread order. The image is
 //! therefore bit-identical for a fixed seed, sample count and thread count.
+//! [`render_mlt`] does the same for Metropolis light transport: one shared
+//! bootstrap, then per-thread chains and films merged in thread order.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -11,6 +13,7 @@ use std::time::{Duration, Instant};
 use cmlt::accel::Intersector;
 use cmlt::film::Film;
 use cmlt::integrator::{Method, Settings, Stats, Tracer, Worker, render_pass};
+use cmlt::mlt::{Bootstrap, MltSettings, MltStats, MltWorker, bootstrap, image_scale, rounds_for};
 use cmlt::scene::Scene;
 
 /// When to stop rendering.
@@ -117,4 +120,214 @@ pub fn render<I: Intersector + Sync>(
         stats.merge(s);
     }
     RenderOutput { film, stats, wall }
+}
+
+/// When an MLT render stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MltBudget {
+    /// Mutations per pixel in total over all threads, rounded up to whole
+    /// rounds of all chains (deterministic).
+    MutationsPerPixel(u64),
+    /// Wall-clock seconds including the bootstrap; every thread runs at
+    /// least one batch of mutations.
+    Time(f64),
+}
+
+/// What an MLT render produced and what it cost.
+pub struct MltOutput {
+    /// Merged film of all threads: unit-luminance splats, resolve with
+    /// [`MltOutput::scale`].
+    pub film: Film,
+    /// b · pixels / mutations ([`cmlt::mlt::image_scale`]).
+    pub scale: f64,
+    /// The bootstrap (b and its split over depths).
+    pub bootstrap: Bootstrap,
+    /// Merged ray counters (bootstrap and chains).
+    pub stats: Stats,
+    /// Merged chain counters.
+    pub mlt: MltStats,
+    /// Wall-clock time of the bootstrap.
+    pub bootstrap_wall: Duration,
+    /// Wall-clock time of everything (bootstrap included).
+    pub wall: Duration,
+}
+
+impl MltOutput {
+    /// The image.
+    pub fn image(&self) -> Vec<cmlt::math::Rgb> {
+        self.film.resolve_scaled(self.scale)
+    }
+
+    /// Mutations per second of the chain phase.
+    pub fn mutations_per_sec(&self) -> f64 {
+        let t = (self.wall - self.bootstrap_wall).as_secs_f64().max(1e-9);
+        self.mlt.mutations as f64 / t
+    }
+
+    /// Millions of rays (closest-hit and occlusion) per second, overall.
+    pub fn mrays_per_sec(&self) -> f64 {
+        self.stats.total_rays() as f64 / self.wall.as_secs_f64().max(1e-9) * 1e-6
+    }
+}
+
+/// Renders `scene` with level-1 MLT on `threads` threads.
+///
+/// The bootstrap is computed once and shared: its seed samples are split
+/// into contiguous index ranges, its normalisation passes dealt
+/// round-robin, and both are combined in index order, so b and the chains'
+/// starting distribution do not depend on the thread count. Then thread
+/// `i` runs `mlt.n_chains` chains (global chains i, i + T, …) seeded by
+/// `(seed, i)` into its own film, in whole rounds: a mutation budget
+/// becomes the same number of rounds on every thread (rounded up, see
+/// [`rounds_for`]); a time budget runs batches of rounds until the deadline.
+/// Films are merged in thread order: the image is bit-identical for a fixed
+/// seed, mutation budget and thread count. `on_progress(n)` reports `n`
+/// more mutations done.
+#[allow(clippy::too_many_arguments)]
+pub fn render_mlt<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    settings: &Settings,
+    mlt: &MltSettings,
+    budget: MltBudget,
+    threads: usize,
+    seed: u64,
+    on_progress: &(dyn Fn(u64) + Sync),
+) -> MltOutput {
+    let threads = threads.max(1);
+    let start = Instant::now();
+    let deadline = match budget {
+        MltBudget::Time(s) => Some(start + Duration::from_secs_f64(s.max(0.0))),
+        MltBudget::MutationsPerPixel(_) => None,
+    };
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let pixels = w as u64 * h as u64;
+
+    // Bootstrap: seed samples split into contiguous index ranges,
+    // normalisation passes dealt round-robin; both combined in index order.
+    let n = Bootstrap::seed_count(settings, mlt);
+    let depths = cmlt::mlt::path_depth(settings, mlt) as usize;
+    let chunk = n.div_ceil(threads as u64);
+    type Part = (Vec<f32>, Vec<(u64, Vec<f64>)>, Stats);
+    let parts: Vec<Part> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..threads as u64)
+            .map(|i| {
+                sc.spawn(move || {
+                    let mut tracer = Tracer::new(scene, accel);
+                    let mut ys = Vec::new();
+                    let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
+                    bootstrap::evaluate_seeds(&mut tracer, settings, mlt, seed, range, &mut ys);
+                    let mut ws = cmlt::integrator::bdpt::Workspace::new();
+                    let mut passes = Vec::new();
+                    for pass in (i..mlt.b_passes as u64).step_by(threads) {
+                        let mut sums = vec![0.0f64; depths];
+                        bootstrap::evaluate_pass(
+                            &mut tracer,
+                            settings,
+                            mlt,
+                            &mut ws,
+                            seed,
+                            pass,
+                            &mut sums,
+                        );
+                        passes.push((pass, sums));
+                    }
+                    (ys, passes, tracer.stats)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("bootstrap thread panicked"))
+            .collect()
+    });
+    let mut stats = Stats::default();
+    let mut values = Vec::with_capacity(n as usize);
+    let mut passes: Vec<&(u64, Vec<f64>)> = Vec::new();
+    for (ys, ps, s) in &parts {
+        values.extend_from_slice(ys);
+        passes.extend(ps);
+        stats.merge(s);
+    }
+    passes.sort_by_key(|p| p.0);
+    let mut sums = vec![0.0f64; depths];
+    for (_, p) in passes {
+        for (a, b) in sums.iter_mut().zip(p) {
+            *a += b;
+        }
+    }
+    let boot = Bootstrap::from_parts(settings, mlt, seed, &values, &sums, pixels);
+    drop(values);
+    let bootstrap_wall = start.elapsed();
+
+    let rounds = match budget {
+        MltBudget::MutationsPerPixel(0) => 0,
+        MltBudget::MutationsPerPixel(m) => {
+            rounds_for(m, pixels, threads as u64, mlt.n_chains as u64)
+        }
+        MltBudget::Time(_) => 0,
+    };
+    let stop = AtomicBool::new(false);
+    let results: Vec<(Film, Stats, MltStats)> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..threads as u64)
+            .map(|i| {
+                let (stop, boot) = (&stop, &boot);
+                sc.spawn(move || {
+                    let mut tracer = Tracer::new(scene, accel);
+                    let mut film = Film::new(w, h);
+                    let mut worker =
+                        MltWorker::new(&mut tracer, settings, mlt, boot, seed, i, threads as u64);
+                    // Batches of whole rounds, small enough for progress and
+                    // deadline checks, large enough to make both negligible.
+                    let batch = (4096 / worker.chain_count().max(1) as u64).max(1);
+                    match deadline {
+                        None => {
+                            let mut left = rounds;
+                            while left > 0 {
+                                let k = left.min(batch);
+                                let done = worker.run(&mut tracer, settings, &mut film, k);
+                                if done == 0 {
+                                    break;
+                                }
+                                on_progress(done);
+                                left -= k;
+                            }
+                        }
+                        Some(d) => loop {
+                            let done = worker.run(&mut tracer, settings, &mut film, batch);
+                            if done == 0 {
+                                break;
+                            }
+                            on_progress(done);
+                            if stop.load(Ordering::Relaxed) || Instant::now() >= d {
+                                stop.store(true, Ordering::Relaxed);
+                                break;
+                            }
+                        },
+                    }
+                    (film, tracer.stats, *worker.stats())
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("render thread panicked"))
+            .collect()
+    });
+    let mut film = Film::new(w, h);
+    let mut mstats = MltStats::default();
+    for (f, s, m) in &results {
+        film.merge(f);
+        stats.merge(s);
+        mstats.merge(m);
+    }
+    MltOutput {
+        scale: image_scale(boot.b(), pixels, mstats.mutations),
+        film,
+        bootstrap: boot,
+        stats,
+        mlt: mstats,
+        bootstrap_wall,
+        wall: start.elapsed(),
+    }
 }

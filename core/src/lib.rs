@@ -13,8 +13,10 @@
 //!          ▲
 //!          │ rays / packets
 //!   integrator (PT, BDPT)  ──► film (accumulate + splat) ──► resolve
-//!          ▲
-//!   sampler (per-sample RNG streams)
+//!          ▲        ▲
+//!          │   mlt (bootstrap b, chains over primary sample space)
+//!          │        ▲
+//!   sampler (Sampler trait: per-sample RNG streams | PrimarySampler)
 //! ```
 //!
 //! - [`math`]: colour, frames, warps.
@@ -24,6 +26,8 @@
 //! - [`bsdf`]: scattering models evaluated in the local shading frame.
 //! - [`sampler`]: deterministic random streams.
 //! - [`integrator`]: path tracing and bidirectional path tracing.
+//! - [`mlt`]: Metropolis light transport (level 1: primary-sample-space MLT
+//!   over BDPT).
 //! - [`film`]: pixel accumulation and splatting.
 //!
 //! ## `no_std`
@@ -52,3 +56,5 @@ pub mod scene;
 pub mod film;
 #[cfg(feature = "alloc")]
 pub mod integrator;
+#[cfg(feature = "alloc")]
+pub mod mlt;

@@ -136,14 +136,23 @@ impl Film {
         } else {
             1.0 / self.passes as f64
         };
+        self.resolve_scaled(inv)
+    }
+
+    /// (samples + splats) · `scale` per pixel, row-major, row 0 at the top,
+    /// ignoring the pass count: for estimators whose normalisation is not
+    /// "per pass". Metropolis light transport records unit-luminance splats
+    /// and resolves with b · pixels / mutations
+    /// ([`crate::mlt::image_scale`]).
+    pub fn resolve_scaled(&self, scale: f64) -> Vec<Rgb> {
         self.sum
             .iter()
             .zip(&self.splat)
             .map(|(s, p)| {
                 Rgb::new(
-                    ((s[0] + p[0]) * inv) as f32,
-                    ((s[1] + p[1]) * inv) as f32,
-                    ((s[2] + p[2]) * inv) as f32,
+                    ((s[0] + p[0]) * scale) as f32,
+                    ((s[1] + p[1]) * scale) as f32,
+                    ((s[2] + p[2]) * scale) as f32,
                 )
             })
             .collect()

@@ -14,6 +14,14 @@
 //! direction (`pdf_fwd`, `pdf_rev`); the power-heuristic weight of a strategy
 //! follows from products of their ratios (Veach 1997, §10.2.1), with the
 //! connection vertices' reverse densities recomputed per strategy.
+//!
+//! Both entry points are generic over [`Sampler`]: [`sample`] renders one
+//! pixel sample with every strategy (the BDPT estimator), and
+//! [`sample_strategy`] evaluates a single strategy of a fixed path depth
+//! (the target function of primary-sample-space Metropolis light transport,
+//! pbrt-v4's `MLTIntegrator::L`). Random numbers are drawn from three
+//! streams — camera subpath, light subpath, connection — which plain random
+//! streams ignore and the Metropolis sampler keeps apart.
 
 use alloc::vec::Vec;
 
@@ -26,7 +34,7 @@ use crate::bsdf::TransportMode;
 use crate::film::Film;
 use crate::geometry::{Ray, offset};
 use crate::math::{Frame, INV_PI, Rgb, warp};
-use crate::sampler::SampleStream;
+use crate::sampler::{CAMERA_STREAM, CONNECTION_STREAM, LIGHT_STREAM, Sampler};
 use crate::scene::{Camera, SurfacePoint};
 
 /// Hard cap on subpath length when `max_depth` is unbounded; Russian
@@ -189,7 +197,7 @@ impl Workspace {
 /// Extends a subpath by random walk from `ray` (Veach §10.2; pbrt's
 /// `RandomWalk`), recording forward and reverse area densities.
 #[allow(clippy::too_many_arguments)]
-fn random_walk<I: Intersector>(
+fn random_walk<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     path: &mut Vec<Vertex>,
     mut ray: Ray,
@@ -198,7 +206,7 @@ fn random_walk<I: Intersector>(
     max_vertices: usize,
     mode: TransportMode,
     rr_depth: u32,
-    rng: &mut SampleStream,
+    rng: &mut S,
 ) {
     let mut pdf_fwd = pdf_dir;
     let beta0 = beta.max_component();
@@ -286,81 +294,59 @@ fn camera_vertex(p: Vec3, forward: Vec3) -> Vertex {
 /// Renders one BDPT sample through `raster` of pixel `(px, py)`: adds the
 /// camera-side strategies to the pixel and splats light tracing (t = 1).
 #[allow(clippy::too_many_arguments)]
-pub fn sample<I: Intersector>(
+pub fn sample<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     settings: &Settings,
     ws: &mut Workspace,
     raster: Vec2,
     px: u32,
     py: u32,
-    rng: &mut SampleStream,
+    rng: &mut S,
     film: &mut Film,
 ) {
-    let scene = t.scene;
-    let camera = &scene.camera;
+    let mut l_pixel = Rgb::ZERO;
+    sample_each(
+        t,
+        settings,
+        ws,
+        raster,
+        rng,
+        |_, _, l, raster_splat| match raster_splat {
+            Some(r) => film.add_splat(r, l),
+            None => l_pixel += l,
+        },
+    );
+    film.add_sample(px, py, l_pixel);
+}
+
+/// One BDPT sample through `raster`, handing every non-zero MIS-weighted
+/// strategy contribution to `emit(s, t, l, splat)`: `splat` is the raster
+/// position for light tracing (t = 1), `None` for contributions to the
+/// sample's own pixel. The path has s + t − 1 segments. [`sample`] is this
+/// with a film as the sink; the MLT bootstrap tallies luminance by depth.
+pub fn sample_each<I: Intersector, S: Sampler>(
+    t: &mut Tracer<'_, I>,
+    settings: &Settings,
+    ws: &mut Workspace,
+    raster: Vec2,
+    rng: &mut S,
+    mut emit: impl FnMut(usize, usize, Rgb, Option<Vec2>),
+) {
     let max_depth = settings
         .max_depth
         .unwrap_or(UNBOUNDED_DEPTH)
         .min(UNBOUNDED_DEPTH) as usize;
 
     // Camera subpath: up to max_depth + 1 vertices.
-    ws.camera.clear();
+    rng.start_stream(CAMERA_STREAM);
     let u_lens = rng.next_2d();
-    let ray = camera.generate_ray(raster, u_lens);
-    let (_, pdf_dir) = camera.pdf_ray(ray.o, ray.d);
-    ws.camera.push(camera_vertex(ray.o, camera.forward()));
-    random_walk(
-        t,
-        &mut ws.camera,
-        ray,
-        Rgb::ONE,
-        pdf_dir,
-        max_depth + 1,
-        TransportMode::Radiance,
-        settings.rr_depth,
-        rng,
-    );
+    camera_subpath(t, ws, raster, u_lens, max_depth + 1, settings.rr_depth, rng);
 
     // Light subpath: up to max_depth vertices.
-    ws.light.clear();
-    let u_sel = rng.next_f32();
-    let u_pos = rng.next_2d();
-    let u_dir = rng.next_2d();
-    if max_depth >= 1 {
-        if let Some((lp, pdf_area)) = scene.sample_light(u_sel, u_pos) {
-            let frame = Frame::from_normal(lp.ns);
-            let local = warp::square_to_cosine_hemisphere(u_dir);
-            let pdf_dir = warp::cosine_hemisphere_pdf(local);
-            let w = frame.to_world(local);
-            let le = scene.emitted(&lp, w);
-            if pdf_dir > 0.0 && pdf_area > 0.0 && !le.is_black() {
-                ws.light.push(Vertex {
-                    kind: Kind::Light,
-                    sp: lp,
-                    shading: None,
-                    beta: le,
-                    pdf_fwd: pdf_area,
-                    pdf_rev: 0.0,
-                    delta: false,
-                });
-                let beta = le * (lp.ng.dot(w).abs() / (pdf_area * pdf_dir));
-                let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
-                random_walk(
-                    t,
-                    &mut ws.light,
-                    ray,
-                    beta,
-                    pdf_dir,
-                    max_depth,
-                    TransportMode::Importance,
-                    settings.rr_depth,
-                    rng,
-                );
-            }
-        }
-    }
+    rng.start_stream(LIGHT_STREAM);
+    light_subpath(t, ws, max_depth, settings.rr_depth, rng);
 
-    let mut l_pixel = Rgb::ZERO;
+    rng.start_stream(CONNECTION_STREAM);
     let n_cam = ws.camera.len();
     let n_light = ws.light.len();
     for tt in 1..=n_cam {
@@ -376,24 +362,213 @@ pub fn sample<I: Intersector>(
                 continue;
             }
             if let Some((l, raster_splat)) = connect(t, ws, s, tt, rng) {
-                match raster_splat {
-                    Some(r) => film.add_splat(r, l),
-                    None => l_pixel += l,
-                }
+                emit(s, tt, l, raster_splat);
             }
         }
     }
-    film.add_sample(px, py, l_pixel);
+}
+
+/// Traces the camera subpath through `raster` (lens point from `u_lens`)
+/// into `ws.camera`: the camera vertex and at most `max_vertices − 1`
+/// surface vertices.
+#[allow(clippy::too_many_arguments)]
+fn camera_subpath<I: Intersector, S: Sampler>(
+    t: &mut Tracer<'_, I>,
+    ws: &mut Workspace,
+    raster: Vec2,
+    u_lens: Vec2,
+    max_vertices: usize,
+    rr_depth: u32,
+    rng: &mut S,
+) {
+    let camera = &t.scene.camera;
+    ws.camera.clear();
+    let ray = camera.generate_ray(raster, u_lens);
+    let (_, pdf_dir) = camera.pdf_ray(ray.o, ray.d);
+    ws.camera.push(camera_vertex(ray.o, camera.forward()));
+    random_walk(
+        t,
+        &mut ws.camera,
+        ray,
+        Rgb::ONE,
+        pdf_dir,
+        max_vertices,
+        TransportMode::Radiance,
+        rr_depth,
+        rng,
+    );
+}
+
+/// Samples a light point and traces the light subpath from it into
+/// `ws.light`: at most `max_vertices` vertices (none when `max_vertices` is
+/// 0 or the light sample fails). Always draws the same five numbers first,
+/// so the stream layout does not depend on the outcome.
+fn light_subpath<I: Intersector, S: Sampler>(
+    t: &mut Tracer<'_, I>,
+    ws: &mut Workspace,
+    max_vertices: usize,
+    rr_depth: u32,
+    rng: &mut S,
+) {
+    let scene = t.scene;
+    ws.light.clear();
+    let u_sel = rng.next_f32();
+    let u_pos = rng.next_2d();
+    let u_dir = rng.next_2d();
+    if max_vertices == 0 {
+        return;
+    }
+    let Some((lp, pdf_area)) = scene.sample_light(u_sel, u_pos) else {
+        return;
+    };
+    let frame = Frame::from_normal(lp.ns);
+    let local = warp::square_to_cosine_hemisphere(u_dir);
+    let pdf_dir = warp::cosine_hemisphere_pdf(local);
+    let w = frame.to_world(local);
+    let le = scene.emitted(&lp, w);
+    if !(pdf_dir > 0.0 && pdf_area > 0.0) || le.is_black() {
+        return;
+    }
+    ws.light.push(Vertex {
+        kind: Kind::Light,
+        sp: lp,
+        shading: None,
+        beta: le,
+        pdf_fwd: pdf_area,
+        pdf_rev: 0.0,
+        delta: false,
+    });
+    let beta = le * (lp.ng.dot(w).abs() / (pdf_area * pdf_dir));
+    let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
+    random_walk(
+        t,
+        &mut ws.light,
+        ray,
+        beta,
+        pdf_dir,
+        max_vertices,
+        TransportMode::Importance,
+        rr_depth,
+        rng,
+    );
+}
+
+/// Number of strategies (s, t) that sample a path of `depth` segments
+/// (s + t = depth + 1 vertices, t ≥ 1): s = 0 … depth, except that a
+/// single segment has only (0, 2) — (1, 1) would connect a light point to
+/// the lens without a scattering vertex, which BDPT does not evaluate.
+///
+/// pbrt-v4 counts depth in bounces (our depth − 1), hence its
+/// `depth + 2`.
+#[inline]
+pub fn strategy_count(depth: usize) -> usize {
+    if depth <= 1 { 1 } else { depth + 1 }
+}
+
+/// One evaluation of the Metropolis target: a single BDPT strategy.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StrategySample {
+    /// MIS-weighted contribution of strategy (s, t), multiplied by
+    /// [`strategy_count`] (the inverse probability of having chosen it).
+    /// Zero when the path could not be built or carries nothing.
+    pub l: Rgb,
+    /// Continuous raster position the contribution belongs to: the camera
+    /// ray's for t ≥ 2, the lens connection's for t = 1.
+    pub raster: Vec2,
+    /// Light subpath vertices of the chosen strategy.
+    pub s: u32,
+    /// Camera subpath vertices of the chosen strategy.
+    pub t: u32,
+}
+
+/// Evaluates one strategy of one path depth: the function of primary
+/// sample space that Metropolis light transport explores (Kelemen et al.
+/// 2002 over BDPT, as pbrt-v4's `MLTIntegrator::L` does).
+///
+/// For a path of `depth` segments (1 ≤ depth; Mitsuba's counting), the
+/// strategy is chosen uniformly among the [`strategy_count`]`(depth)`
+/// strategies, exactly the subpath lengths it needs are traced (no Russian
+/// roulette: the lengths are fixed), and the strategy's MIS-weighted
+/// contribution is returned times the strategy count. Summed over depths,
+/// E[l · 1{raster ∈ pixel}] · (width · height) is the pixel's value, the
+/// same quantity one BDPT sample per pixel estimates.
+///
+/// Dimensions drawn: camera stream 0–1 raster position (uniform over the
+/// image), 2 strategy, 3–4 lens, then 3 per camera bounce; light stream 0–4
+/// light point and direction, then 3 per light bounce; connection stream
+/// 0–2 the lens or light sample of t = 1 / s = 1. Settings other than
+/// `hide_emitters` are ignored: the caller chooses `depth`.
+pub fn sample_strategy<I: Intersector, S: Sampler>(
+    tr: &mut Tracer<'_, I>,
+    settings: &Settings,
+    ws: &mut Workspace,
+    depth: usize,
+    rng: &mut S,
+) -> StrategySample {
+    let camera = tr.scene.camera;
+    let depth = depth.max(1);
+    let n = strategy_count(depth);
+
+    rng.start_stream(CAMERA_STREAM);
+    let u = rng.next_2d();
+    let raster = Vec2::new(u.x * camera.width() as f32, u.y * camera.height() as f32);
+    let u_strategy = rng.next_f32();
+    let s = if depth == 1 {
+        0
+    } else {
+        ((u_strategy * n as f32) as usize).min(n - 1)
+    };
+    let t = depth + 1 - s;
+    let mut out = StrategySample {
+        l: Rgb::ZERO,
+        raster,
+        s: s as u32,
+        t: t as u32,
+    };
+    if s == 0 && t == 2 && settings.hide_emitters {
+        return out;
+    }
+
+    // Exactly t camera vertices; no roulette, so the strategy's path is
+    // either built in full or not at all.
+    let u_lens = rng.next_2d();
+    camera_subpath(tr, ws, raster, u_lens, t, u32::MAX, rng);
+    if ws.camera.len() != t {
+        return out;
+    }
+
+    rng.start_stream(LIGHT_STREAM);
+    if s == 1 {
+        // Next-event estimation samples its own light point in `connect`
+        // (from the connection stream); the slot only has to exist, since
+        // `mis_weight` overwrites it with that point.
+        ws.light.clear();
+        ws.light.push(camera_vertex(Vec3::ZERO, Vec3::Z));
+    } else {
+        light_subpath(tr, ws, s, u32::MAX, rng);
+        if ws.light.len() != s {
+            return out;
+        }
+    }
+
+    rng.start_stream(CONNECTION_STREAM);
+    if let Some((l, splat)) = connect(tr, ws, s, t, rng) {
+        out.l = l * n as f32;
+        if let Some(r) = splat {
+            out.raster = r;
+        }
+    }
+    out
 }
 
 /// Evaluates strategy (s, t): its MIS-weighted contribution and, for t = 1,
 /// the raster position to splat it at.
-fn connect<I: Intersector>(
+fn connect<I: Intersector, S: Sampler>(
     tr: &mut Tracer<'_, I>,
     ws: &mut Workspace,
     s: usize,
     t: usize,
-    rng: &mut SampleStream,
+    rng: &mut S,
 ) -> Option<(Rgb, Option<Vec2>)> {
     let scene = tr.scene;
     let camera = &scene.camera;

@@ -1,12 +1,59 @@
-//! Deterministic random streams.
+//! Deterministic random streams and the [`Sampler`] seam the estimators
+//! draw their random numbers through.
 //!
 //! Every sample of every pixel and pass gets its own PCG32 stream derived
 //! from (seed, pass, pixel), so images do not depend on which thread
 //! rendered what, and a single sample can be replayed in isolation.
+//!
+//! Metropolis light transport replaces that stream by a point of *primary
+//! sample space* that a Markov chain mutates (Kelemen et al. 2002; the
+//! sampler is `crate::mlt::PrimarySampler`). The estimators do not know the
+//! difference: they are generic over [`Sampler`].
 
 use glam::Vec2;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
+
+/// Where an estimator gets its uniform random numbers.
+///
+/// A sampler hands out an infinite sequence of numbers in [0, 1), split into
+/// numbered *streams*: [`Sampler::start_stream`] switches to the start of
+/// stream `index`, and the following calls draw that stream's dimensions in
+/// order. Bidirectional estimators draw the camera subpath, the light
+/// subpath and the connection from three streams ([`CAMERA_STREAM`],
+/// [`LIGHT_STREAM`], [`CONNECTION_STREAM`]) so that, in primary sample
+/// space, the camera subpath keeps its coordinates when the light subpath
+/// changes length (pbrt-v4's `MLTSampler`, §13.4.4 of pbrt-v3). Samplers that
+/// are plain random streams ([`SampleStream`]) may ignore streams: their
+/// numbers are independent either way.
+///
+/// Contract: every value is in [0, 1) (never 1.0, so `(u * n) as usize < n`),
+/// and the numbers depend only on the sampler's state and the call sequence
+/// (no global state), which keeps renders deterministic.
+pub trait Sampler {
+    /// The next uniform number of the current stream, in [0, 1).
+    fn next_f32(&mut self) -> f32;
+
+    /// The next two numbers of the current stream, in this order (x first).
+    #[inline]
+    fn next_2d(&mut self) -> Vec2 {
+        let x = self.next_f32();
+        Vec2::new(x, self.next_f32())
+    }
+
+    /// Restarts drawing at dimension 0 of stream `index` (< [`STREAM_COUNT`]
+    /// for samplers that keep streams apart).
+    fn start_stream(&mut self, index: u32);
+}
+
+/// Stream of the camera subpath (raster position, lens, camera bounces).
+pub const CAMERA_STREAM: u32 = 0;
+/// Stream of the light subpath (light choice, position, direction, bounces).
+pub const LIGHT_STREAM: u32 = 1;
+/// Stream of the connection step (lens or light sample of t = 1 / s = 1).
+pub const CONNECTION_STREAM: u32 = 2;
+/// Number of streams the estimators use.
+pub const STREAM_COUNT: u32 = 3;
 
 /// A random stream for one sample path.
 #[derive(Clone, Debug)]
@@ -47,6 +94,24 @@ impl SampleStream {
         let x = self.next_f32();
         Vec2::new(x, self.next_f32())
     }
+}
+
+impl Sampler for SampleStream {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        SampleStream::next_f32(self)
+    }
+
+    #[inline]
+    fn next_2d(&mut self) -> Vec2 {
+        SampleStream::next_2d(self)
+    }
+
+    /// Streams are ignored: a PCG stream's numbers are independent whatever
+    /// the estimator uses them for, and ignoring the call keeps the existing
+    /// images bit-identical.
+    #[inline]
+    fn start_stream(&mut self, _index: u32) {}
 }
 
 #[cfg(test)]

@@ -1,0 +1,211 @@
+//! Level-1 MLT converges to Mitsuba 3's Cornell-box reference, and the
+//! multi-threaded driver and the `cmlt` binary are deterministic.
+//!
+//! The image's mean luminance *is* the bootstrap's b (every mutation
+//! records one unit of luminance), so the mean test checks b and the
+//! colour balance of the chains; the relative-MSE bound checks that the
+//! energy lands in the right pixels.
+
+mod common;
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use cmlt::accel::bvh::Bvh;
+use cmlt::mlt::MltSettings;
+use cmlt_cli::image_io::{Image, read_exr};
+use cmlt_cli::metrics::rel_mse;
+use cmlt_cli::render::{MltBudget, MltOutput, render_mlt};
+use cmlt_cli::scene::LoadedScene;
+use common::load_reduced;
+
+fn render(
+    loaded: &LoadedScene,
+    mlt: &MltSettings,
+    mpp: u64,
+    threads: usize,
+    seed: u64,
+) -> (Image, MltOutput) {
+    let tris: Vec<_> = loaded.scene.triangles().collect();
+    let bvh = Bvh::build(&tris);
+    let out = render_mlt(
+        &loaded.scene,
+        &bvh,
+        &loaded.settings,
+        mlt,
+        MltBudget::MutationsPerPixel(mpp),
+        threads,
+        seed,
+        &|_| {},
+    );
+    let cam = &loaded.scene.camera;
+    let img = Image {
+        width: cam.width() as usize,
+        height: cam.height() as usize,
+        pixels: out.image(),
+    };
+    (img, out)
+}
+
+#[test]
+fn cornell_box_mlt_matches_reference() {
+    let (loaded, reference) = load_reduced("cornell-box", 4);
+    let mlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 128,
+        ..MltSettings::default()
+    };
+    // Four independent renders give the mean and its noise (b's noise
+    // included: each has its own bootstrap); one at 4× the mutations gives
+    // the convergence rate.
+    let mpp = 32;
+    let mut means = Vec::new();
+    let mut errs = Vec::new();
+    for seed in 0..4u64 {
+        let (img, out) = render(&loaded, &mlt, mpp, 2, 500 + seed);
+        assert_eq!(out.film.nonfinite(), 0);
+        means.push(img.mean());
+        errs.push(rel_mse(&img, &reference));
+    }
+    let (big, _) = render(&loaded, &mlt, 4 * mpp, 2, 77);
+    let rm = reference.mean();
+    for c in 0..3 {
+        let xs: Vec<f64> = means.iter().map(|m| m[c] as f64).collect();
+        let mu = xs.iter().sum::<f64>() / xs.len() as f64;
+        let var = xs.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (xs.len() - 1) as f64;
+        // The big render's mean has the same b noise as the others (same
+        // bootstrap size), so all five count equally.
+        let combined = (mu * 4.0 + big.mean()[c] as f64) / 5.0;
+        let se = (var / 5.0).sqrt();
+        let r = rm[c] as f64;
+        let tol = (0.02 * r).max(3.0 * se);
+        assert!(
+            (combined - r).abs() <= tol,
+            "channel {c}: mean {combined:.5} vs reference {r:.5} (tolerance {tol:.5}, se {se:.5})"
+        );
+    }
+    let err_small = errs.iter().sum::<f64>() / errs.len() as f64;
+    let err_big = rel_mse(&big, &reference);
+    let ratio = err_small / err_big;
+    eprintln!(
+        "cornell-box MLT: relMSE {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2})",
+        4 * mpp
+    );
+    // Converging like 1/N: the error is the chains' noise, not a bias.
+    assert!(ratio >= 3.0, "4x the mutations cut relMSE only {ratio:.2}x");
+    // Measured 0.022 at 128 mutations/pixel. An image with the right mean
+    // but the energy spread evenly (relMSE 0.52) is far above the bound, as
+    // is anything that puts light in the wrong pixels.
+    const BOUND: f64 = 0.05;
+    let flat = Image {
+        width: reference.width,
+        height: reference.height,
+        pixels: vec![rm; reference.pixels.len()],
+    };
+    assert!(
+        rel_mse(&flat, &reference) > 5.0 * BOUND,
+        "the bound cannot fail"
+    );
+    assert!(
+        err_big < BOUND,
+        "relMSE {err_big} at {} mutations/pixel",
+        4 * mpp
+    );
+}
+
+#[test]
+fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
+    let (loaded, _) = load_reduced("cornell-box", 16);
+    let mlt = MltSettings {
+        n_bootstrap: 200,
+        b_passes: 3,
+        n_chains: 8,
+        ..MltSettings::default()
+    };
+    let (a, oa) = render(&loaded, &mlt, 4, 2, 9);
+    let (b, ob) = render(&loaded, &mlt, 4, 2, 9);
+    let (_, oc) = render(&loaded, &mlt, 4, 1, 9);
+    assert_eq!(
+        oa.bootstrap, oc.bootstrap,
+        "b independent of the thread count"
+    );
+    assert_eq!(oa.mlt, ob.mlt);
+    let bits = |i: &Image| -> Vec<[u32; 3]> {
+        i.pixels
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b));
+    // 4·256 mutations over 2 threads of 8 chains: 64 whole rounds each.
+    assert_eq!(oa.mlt.mutations, 4 * 16 * 16);
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("mlt-tests");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn cmlt_render_method_mlt_is_deterministic_and_reports_acceptance() {
+    let run = |seed: &str, out: &PathBuf| -> String {
+        let o = Command::new(env!("CARGO_BIN_EXE_cmlt"))
+            .args([
+                "render",
+                "--method",
+                "mlt",
+                "--mutations-per-pixel",
+                "4",
+                "--chains",
+                "8",
+                "--bootstrap",
+                "100",
+                "--large-step",
+                "0.5",
+                "--sigma",
+                "0.02",
+                "--threads",
+                "2",
+                "--seed",
+                seed,
+                "-D",
+                "resx=20",
+                "-D",
+                "resy=20",
+                "--quiet",
+                "-o",
+            ])
+            .arg(out)
+            .output()
+            .expect("cmlt runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let (a, b, c) = (tmp("a.exr"), tmp("b.exr"), tmp("c.exr"));
+    let line = run("3", &a);
+    assert!(
+        line.contains("M mutations/s") && line.contains("accepted small"),
+        "{line}"
+    );
+    run("3", &b);
+    run("4", &c);
+    let (ia, ib, ic) = (
+        read_exr(&a).unwrap(),
+        read_exr(&b).unwrap(),
+        read_exr(&c).unwrap(),
+    );
+    assert_eq!(ia.pixels, ib.pixels);
+    assert_ne!(ia.pixels, ic.pixels);
+    let m = ia.mean();
+    assert!(m.r > 0.05 && m.r < 1.0, "a lit Cornell box: {m:?}");
+    // Bad parameters are rejected cleanly.
+    let o = Command::new(env!("CARGO_BIN_EXE_cmlt"))
+        .args(["render", "--method", "mlt", "--sigma", "0", "--quiet", "-o"])
+        .arg(tmp("never.exr"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--sigma"));
+}

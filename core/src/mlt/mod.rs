@@ -1,0 +1,336 @@
+//! Metropolis light transport. Level 1: Kelemen-style primary-sample-space
+//! MLT (PSSMLT) over bidirectional path tracing with MIS, as pbrt-v4's
+//! `MLTIntegrator` does it.
+//!
+//! - [`primary`]: the primary-sample vector X, its lazy large/small-step
+//!   mutations and three interleaved streams;
+//! - [`chain`]: one Metropolis–Hastings chain with expected-value
+//!   splatting;
+//! - [`bootstrap`]: the normalisation b and the chains' starting points;
+//! - this module: a worker running many chains into a film.
+//!
+//! ## Units and invariants
+//!
+//! The target of a chain of depth d is Y(f_d(u)), the luminance of
+//! [`crate::integrator::bdpt::sample_strategy`]'s contribution (one
+//! strategy, times the strategy count). Over all depths, E_u[f(u)·1{raster ∈
+//! pixel}] = I_pixel / P, P = width·height, and b = Σ_d E[Y(f_d)] is the
+//! image's mean luminance.
+//!
+//! Each mutation adds records of total luminance 1 (colour f/Y weighted
+//! a and 1 − a) to the film's splat layer. Chains are spread over depths in
+//! proportion to b_d / b and each chain of a worker makes the same number
+//! of mutations, so after N mutations over all workers, splat·(b·P/N)
+//! estimates the image: [`image_scale`] is that factor, for
+//! [`Film::resolve_scaled`]. This is the same as recording
+//! f/Y·b/(N/P), i.e. b / mutations-per-pixel per record, but keeps the
+//! histogram independent of b and of N, so films of workers with different
+//! mutation counts (time budgets) merge by plain addition and b can be
+//! combined or smoothed afterwards.
+//!
+//! Determinism: everything is a function of the seed, the worker index,
+//! the number of workers and the number of rounds; chains are stepped in a
+//! fixed order. A scene where nothing contributes (b = 0) starts no chain
+//! and resolves to exact black.
+
+pub mod bootstrap;
+pub mod chain;
+pub mod primary;
+
+pub use bootstrap::Bootstrap;
+pub use chain::{Chain, PathSample, Splat, Step};
+pub use primary::PrimarySampler;
+
+use alloc::vec::Vec;
+
+use rand_core::Rng;
+use rand_pcg::Pcg32;
+
+use crate::accel::Intersector;
+use crate::film::Film;
+use crate::integrator::{Settings, Tracer, bdpt};
+use crate::sampler::mix64;
+
+/// Parameters of level-1 MLT. Defaults are pbrt-v4's where it has one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MltSettings {
+    /// Seed samples per path depth (pbrt: `bootstrapsamples`, 100 000):
+    /// the points chains start from, and pbrt's estimate of b when
+    /// `b_passes` is 0.
+    pub n_bootstrap: u32,
+    /// BDPT passes (one sample per pixel, all strategies with MIS) that
+    /// estimate b by depth; 0 = estimate b from the seed samples as pbrt
+    /// does (much noisier: see [`bootstrap`]).
+    pub b_passes: u32,
+    /// Independent chains per worker (pbrt: 1000 in total).
+    pub n_chains: u32,
+    /// Probability of a large step (pbrt: 0.3).
+    pub large_step_prob: f32,
+    /// Small-step width σ in primary sample space (pbrt: 0.01).
+    pub sigma: f32,
+    /// Largest path depth when [`Settings::max_depth`] is unbounded: MLT
+    /// needs a finite set of depths to bootstrap over. Paths longer than
+    /// this are missing (energy of order albedo^cap).
+    pub depth_cap: u32,
+}
+
+impl Default for MltSettings {
+    /// 2 000 seed samples per depth, 4 normalisation passes, 256 chains
+    /// per worker, large steps 0.3, σ = 0.01, depth cap 32.
+    fn default() -> Self {
+        MltSettings {
+            n_bootstrap: 2_000,
+            b_passes: 4,
+            n_chains: 256,
+            large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
+            sigma: primary::DEFAULT_SIGMA,
+            depth_cap: 32,
+        }
+    }
+}
+
+/// The largest path depth (segments) MLT samples: `max_depth`, or
+/// `depth_cap` when unbounded.
+pub fn path_depth(settings: &Settings, mlt: &MltSettings) -> u32 {
+    settings.max_depth.unwrap_or(mlt.depth_cap)
+}
+
+/// The factor turning the splat layer into radiance: b · pixels / N for
+/// N mutations (0 when N = 0).
+pub fn image_scale(b: f64, pixels: u64, mutations: u64) -> f64 {
+    if mutations == 0 {
+        0.0
+    } else {
+        b * pixels as f64 / mutations as f64
+    }
+}
+
+/// Counters of one worker's chains; summed across workers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MltStats {
+    /// Chains started.
+    pub chains: u64,
+    /// Mutations (proposals evaluated), excluding chain starts.
+    pub mutations: u64,
+    /// Small-step proposals.
+    pub small_proposed: u64,
+    /// Small-step proposals accepted.
+    pub small_accepted: u64,
+    /// Large-step proposals.
+    pub large_proposed: u64,
+    /// Large-step proposals accepted.
+    pub large_accepted: u64,
+    /// Proposals with zero (or non-finite) contribution.
+    pub zero_proposals: u64,
+}
+
+impl MltStats {
+    /// Adds another worker's counters.
+    pub fn merge(&mut self, o: &MltStats) {
+        self.chains += o.chains;
+        self.mutations += o.mutations;
+        self.small_proposed += o.small_proposed;
+        self.small_accepted += o.small_accepted;
+        self.large_proposed += o.large_proposed;
+        self.large_accepted += o.large_accepted;
+        self.zero_proposals += o.zero_proposals;
+    }
+
+    /// Fraction of small steps accepted (0 when none).
+    pub fn small_acceptance(&self) -> f64 {
+        ratio(self.small_accepted, self.small_proposed)
+    }
+
+    /// Fraction of large steps accepted (0 when none).
+    pub fn large_acceptance(&self) -> f64 {
+        ratio(self.large_accepted, self.large_proposed)
+    }
+
+    fn record(&mut self, st: &Step) {
+        self.mutations += 1;
+        if st.large {
+            self.large_proposed += 1;
+            self.large_accepted += st.accepted as u64;
+        } else {
+            self.small_proposed += 1;
+            self.small_accepted += st.accepted as u64;
+        }
+        self.zero_proposals += st.zero as u64;
+    }
+}
+
+fn ratio(a: u64, b: u64) -> f64 {
+    if b == 0 { 0.0 } else { a as f64 / b as f64 }
+}
+
+/// Seed of chain `chain` of worker `worker`.
+#[inline]
+pub fn chain_seed(seed: u64, worker: u64, chain: u64) -> u64 {
+    mix64(mix64(mix64(seed ^ 0x3C7A_1200_0000_0000) ^ worker) ^ chain)
+}
+
+/// A uniform f64 in [0, 1) from 53 random bits.
+fn uniform_f64(rng: &mut Pcg32) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+}
+
+/// One worker's chains and the reusable BDPT storage they evaluate with.
+///
+/// The chains of all `workers` workers together are one systematic sample
+/// of the depths by b_d / b (see [`bootstrap`]); worker `w` holds the
+/// global chains w, w + W, w + 2W, …, itself a systematic sample, so each
+/// worker's film alone is an estimate of the image and workers that run
+/// different numbers of rounds (time budgets) still merge correctly.
+/// Mutations run in *rounds*, one per chain, so that every chain of a
+/// worker has made the same number of mutations: chains of different
+/// depths must be weighted equally for the normalisation to hold.
+pub struct MltWorker {
+    chains: Vec<(Chain, u32)>,
+    ws: bdpt::Workspace,
+    stats: MltStats,
+}
+
+impl MltWorker {
+    /// Starts `mlt.n_chains` chains for worker `worker` of `workers` in a
+    /// render seeded by `seed`: each gets its depth from the systematic
+    /// sample, starts at a seed sample of that depth picked with
+    /// probability ∝ its luminance (replayed from its seed), and continues
+    /// with its own random stream. No chain is started when b = 0.
+    pub fn new<I: Intersector>(
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        mlt: &MltSettings,
+        bootstrap: &Bootstrap,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+    ) -> Self {
+        let mut ws = bdpt::Workspace::new();
+        let mut chains = Vec::with_capacity(mlt.n_chains as usize);
+        let mut stats = MltStats::default();
+        let workers = workers.max(1);
+        let total = mlt.n_chains as u64 * workers;
+        // The systematic sample's single random offset, shared by all
+        // workers.
+        let offset = uniform_f64(&mut Pcg32::new(mix64(seed ^ 0x0FF5_E700), 7));
+        for c in 0..mlt.n_chains as u64 {
+            let global = worker + workers * c;
+            let Some(depth) = bootstrap.depth_at((global as f64 + offset) / total as f64) else {
+                break;
+            };
+            let cs = chain_seed(seed, worker, c);
+            let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) else {
+                break;
+            };
+            let mut sampler =
+                PrimarySampler::new(bootstrap.seed_of(index), mlt.sigma, mlt.large_step_prob);
+            let initial =
+                bootstrap::evaluate_target(tracer, settings, &mut ws, depth, &mut sampler);
+            // Chains replaying the same sample diverge from here on.
+            sampler.reseed(mix64(cs ^ 2));
+            chains.push((Chain::new(sampler, initial, cs), depth));
+            stats.chains += 1;
+        }
+        MltWorker { chains, ws, stats }
+    }
+
+    /// Number of chains (mutations per round).
+    pub fn chain_count(&self) -> usize {
+        self.chains.len()
+    }
+
+    /// Runs `rounds` rounds — one mutation of every chain, in chain order —
+    /// splatting every record into `film`. Returns the number of mutations
+    /// (0 when there are no chains: b = 0).
+    pub fn run<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        film: &mut Film,
+        rounds: u64,
+    ) -> u64 {
+        for _ in 0..rounds {
+            for (chain, depth) in &mut self.chains {
+                let depth = *depth;
+                let ws = &mut self.ws;
+                let st = chain.step(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+                for sp in st.splats() {
+                    film.add_splat(sp.raster, sp.value);
+                }
+                self.stats.record(&st);
+            }
+        }
+        rounds * self.chains.len() as u64
+    }
+
+    /// This worker's counters.
+    pub fn stats(&self) -> &MltStats {
+        &self.stats
+    }
+
+    /// The chains with their path depths.
+    pub fn chains(&self) -> impl Iterator<Item = (&Chain, u32)> {
+        self.chains.iter().map(|(c, d)| (c, *d))
+    }
+}
+
+/// Rounds that give at least `mutations_per_pixel · pixels` mutations over
+/// `workers` workers of `chains` chains each (at least one round).
+pub fn rounds_for(mutations_per_pixel: u64, pixels: u64, workers: u64, chains: u64) -> u64 {
+    let per_round = (workers * chains).max(1);
+    mutations_per_pixel
+        .saturating_mul(pixels)
+        .div_ceil(per_round)
+        .max(1)
+}
+
+/// A finished single-worker MLT render.
+#[derive(Clone, Debug)]
+pub struct MltRender {
+    /// The film (splat layer only; resolve with `scale`).
+    pub film: Film,
+    /// The bootstrap (b and its split by depth).
+    pub bootstrap: Bootstrap,
+    /// Chain counters.
+    pub stats: MltStats,
+    /// [`image_scale`] of this render.
+    pub scale: f64,
+}
+
+impl MltRender {
+    /// The image: the film resolved with `scale`.
+    pub fn resolve(&self) -> Vec<crate::math::Rgb> {
+        self.film.resolve_scaled(self.scale)
+    }
+}
+
+/// Renders with one worker: bootstrap, then at least `mutations_per_pixel`
+/// · pixels mutations (whole rounds, see [`rounds_for`]); none when
+/// `mutations_per_pixel` is 0. What a host without threads calls; the CLI
+/// splits the same steps across threads.
+pub fn render<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    settings: &Settings,
+    mlt: &MltSettings,
+    seed: u64,
+    mutations_per_pixel: u64,
+) -> MltRender {
+    let camera = tracer.scene.camera;
+    let pixels = camera.width() as u64 * camera.height() as u64;
+    let bootstrap = Bootstrap::run(tracer, settings, mlt, seed);
+    let mut worker = MltWorker::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);
+    let mut film = Film::new(camera.width(), camera.height());
+    let rounds = if mutations_per_pixel == 0 {
+        0
+    } else {
+        rounds_for(mutations_per_pixel, pixels, 1, worker.chain_count() as u64)
+    };
+    let done = worker.run(tracer, settings, &mut film, rounds);
+    MltRender {
+        scale: image_scale(bootstrap.b(), pixels, done),
+        film,
+        bootstrap,
+        stats: worker.stats,
+    }
+}
