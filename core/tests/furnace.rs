@@ -3,68 +3,17 @@
 //! `max_depth` segments it is Le · Σ_{k<max_depth} aᵏ (Mitsuba's depth
 //! semantics). Every estimator must reproduce these numbers.
 
+mod common;
+
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
-use cmlt::math::{Mat4, Rgb, Vec3};
-use cmlt::scene::{
-    Camera, ConductorFresnel, FovAxis, Material, MaterialId, MaterialKind, Mesh, Scene,
-    SceneBuilder, Texture,
-};
+use cmlt::math::{Rgb, Vec3};
+use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards.
 fn inward_box(albedo: f32, emission: f32) -> Scene {
     furnace(Material::diffuse(Rgb::splat(albedo)), emission, 0.0, None)
-}
-
-/// A UV sphere of `radius` at `centre`, outward normals, flat shading.
-fn sphere(centre: Vec3, radius: f32, material: MaterialId) -> Mesh {
-    let (nu, nv) = (48u32, 24u32);
-    let mut positions = Vec::new();
-    for j in 0..=nv {
-        let theta = std::f32::consts::PI * j as f32 / nv as f32;
-        for i in 0..nu {
-            let phi = 2.0 * std::f32::consts::PI * i as f32 / nu as f32;
-            positions.push(
-                centre
-                    + radius
-                        * Vec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.sin() * phi.sin(),
-                            theta.cos(),
-                        ),
-            );
-        }
-    }
-    let mut indices = Vec::new();
-    for j in 0..nv {
-        for i in 0..nu {
-            let a = j * nu + i;
-            let b = j * nu + (i + 1) % nu;
-            let c = (j + 1) * nu + i;
-            let d = (j + 1) * nu + (i + 1) % nu;
-            for t in [[a, c, b], [b, c, d]] {
-                let [p0, p1, p2] = t.map(|k| positions[k as usize]);
-                let n = (p1 - p0).cross(p2 - p0);
-                if n.length() > 0.0 {
-                    // Wind outwards.
-                    indices.push(if n.dot(p0 - centre) >= 0.0 {
-                        t
-                    } else {
-                        [t[0], t[2], t[1]]
-                    });
-                }
-            }
-        }
-    }
-    Mesh {
-        positions,
-        normals: vec![],
-        uvs: vec![],
-        indices,
-        material,
-        emission: None,
-    }
 }
 
 /// A closed emitting box of `wall` material, optionally with an object,
@@ -74,56 +23,10 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
     let m = b.add_material(wall);
     if let Some((mat, radius)) = object {
         let id = b.add_material(mat);
-        b.add_mesh(sphere(Vec3::new(0.0, 0.0, 0.6), radius, id));
+        b.add_mesh(common::sphere(Vec3::new(0.0, 0.0, 0.6), radius, id));
     }
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            // Face at coordinate `sign` on `axis`; inward normal = −sign·e_axis.
-            let n = {
-                let mut n = Vec3::ZERO;
-                n[axis] = -sign;
-                n
-            };
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let base = positions.len() as u32;
-            for (a, c) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                let mut p = Vec3::ZERO;
-                p[axis] = sign;
-                p[u] = a;
-                p[v] = c;
-                positions.push(p);
-            }
-            let mut t = [[base, base + 1, base + 2], [base, base + 2, base + 3]];
-            let [p0, p1, p2] = t[0].map(|i| positions[i as usize]);
-            if (p1 - p0).cross(p2 - p0).dot(n) < 0.0 {
-                for tri in &mut t {
-                    tri.swap(1, 2);
-                }
-            }
-            indices.extend(t);
-        }
-    }
-    b.add_mesh(Mesh {
-        positions,
-        normals: vec![],
-        uvs: vec![],
-        indices,
-        material: m,
-        emission: Some(Rgb::splat(emission)),
-    });
-    let cam = Camera::perspective(
-        Mat4::from_translation(Vec3::new(0.1, -0.2, -0.6)),
-        70.0,
-        FovAxis::X,
-        16,
-        12,
-        aperture,
-        1.0,
-    )
-    .unwrap();
-    b.set_camera(cam);
+    b.add_mesh(common::inward_box(m, emission));
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), aperture));
     b.build().unwrap()
 }
 
@@ -272,23 +175,13 @@ fn glass_in_a_furnace_is_invisible() {
 fn sphere_furnace(aperture: f32) -> Scene {
     let mut b = SceneBuilder::new();
     let m = b.add_material(Material::diffuse(Rgb::splat(0.5)));
-    let mut mesh = sphere(Vec3::ZERO, 1.0, m);
+    let mut mesh = common::sphere(Vec3::ZERO, 1.0, m);
     for t in &mut mesh.indices {
         t.swap(1, 2);
     }
     mesh.emission = Some(Rgb::ONE);
     b.add_mesh(mesh);
-    let cam = Camera::perspective(
-        Mat4::from_translation(Vec3::new(0.1, -0.2, -0.3)),
-        70.0,
-        FovAxis::X,
-        16,
-        12,
-        aperture,
-        1.0,
-    )
-    .unwrap();
-    b.set_camera(cam);
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.3), aperture));
     b.build().unwrap()
 }
 

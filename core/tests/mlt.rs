@@ -4,14 +4,14 @@
 //! scene (b = 0), determinism, and a negative control showing that the
 //! furnace test catches a wrong splatting rule.
 
+mod common;
+
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Settings, Tracer};
-use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::math::{Rgb, Vec3};
 use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, MltWorker, PrimarySampler, bootstrap};
-use cmlt::scene::{
-    Camera, ConductorFresnel, FovAxis, Material, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
-};
+use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 
@@ -20,50 +20,8 @@ use rand_pcg::Pcg32;
 fn furnace(wall: Material, emission: f32) -> Scene {
     let mut b = SceneBuilder::new();
     let m = b.add_material(wall);
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = -sign;
-            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-            let base = positions.len() as u32;
-            for (a, c) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                let mut p = Vec3::ZERO;
-                p[axis] = sign;
-                p[u] = a;
-                p[v] = c;
-                positions.push(p);
-            }
-            let mut t = [[base, base + 1, base + 2], [base, base + 2, base + 3]];
-            let [p0, p1, p2] = t[0].map(|i| positions[i as usize]);
-            if (p1 - p0).cross(p2 - p0).dot(n) < 0.0 {
-                for tri in &mut t {
-                    tri.swap(1, 2);
-                }
-            }
-            indices.extend(t);
-        }
-    }
-    b.add_mesh(Mesh {
-        positions,
-        normals: vec![],
-        uvs: vec![],
-        indices,
-        material: m,
-        emission: Some(Rgb::splat(emission)),
-    });
-    let cam = Camera::perspective(
-        Mat4::from_translation(Vec3::new(0.1, -0.2, -0.6)),
-        70.0,
-        FovAxis::X,
-        16,
-        12,
-        0.0,
-        1.0,
-    )
-    .unwrap();
-    b.set_camera(cam);
+    b.add_mesh(common::inward_box(m, emission));
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
     b.build().unwrap()
 }
 

@@ -1,0 +1,110 @@
+//! Scene builders shared by the core's integration tests: the closed
+//! furnace box, UV spheres and the furnace camera.
+#![allow(dead_code)]
+
+use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::scene::{Camera, FovAxis, MaterialId, Mesh};
+
+/// The cube [-1,1]³ with every face wound so its normal points inwards,
+/// emitting `emission` on the inside.
+pub fn inward_box(material: MaterialId, emission: f32) -> Mesh {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            // Face at coordinate `sign` on `axis`; inward normal = −sign·e_axis.
+            let mut n = Vec3::ZERO;
+            n[axis] = -sign;
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = positions.len() as u32;
+            for (a, c) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let mut p = Vec3::ZERO;
+                p[axis] = sign;
+                p[u] = a;
+                p[v] = c;
+                positions.push(p);
+            }
+            let mut t = [[base, base + 1, base + 2], [base, base + 2, base + 3]];
+            let [p0, p1, p2] = t[0].map(|i| positions[i as usize]);
+            if (p1 - p0).cross(p2 - p0).dot(n) < 0.0 {
+                for tri in &mut t {
+                    tri.swap(1, 2);
+                }
+            }
+            indices.extend(t);
+        }
+    }
+    Mesh {
+        positions,
+        normals: vec![],
+        uvs: vec![],
+        indices,
+        material,
+        emission: Some(Rgb::splat(emission)),
+    }
+}
+
+/// A UV sphere of `radius` at `centre`, outward normals, flat shading.
+pub fn sphere(centre: Vec3, radius: f32, material: MaterialId) -> Mesh {
+    let (nu, nv) = (48u32, 24u32);
+    let mut positions = Vec::new();
+    for j in 0..=nv {
+        let theta = std::f32::consts::PI * j as f32 / nv as f32;
+        for i in 0..nu {
+            let phi = 2.0 * std::f32::consts::PI * i as f32 / nu as f32;
+            positions.push(
+                centre
+                    + radius
+                        * Vec3::new(
+                            theta.sin() * phi.cos(),
+                            theta.sin() * phi.sin(),
+                            theta.cos(),
+                        ),
+            );
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let a = j * nu + i;
+            let b = j * nu + (i + 1) % nu;
+            let c = (j + 1) * nu + i;
+            let d = (j + 1) * nu + (i + 1) % nu;
+            for t in [[a, c, b], [b, c, d]] {
+                let [p0, p1, p2] = t.map(|k| positions[k as usize]);
+                let n = (p1 - p0).cross(p2 - p0);
+                if n.length() > 0.0 {
+                    // Wind outwards.
+                    indices.push(if n.dot(p0 - centre) >= 0.0 {
+                        t
+                    } else {
+                        [t[0], t[2], t[1]]
+                    });
+                }
+            }
+        }
+    }
+    Mesh {
+        positions,
+        normals: vec![],
+        uvs: vec![],
+        indices,
+        material,
+        emission: None,
+    }
+}
+
+/// The furnace tests' camera: 16×12 pixels, 70° horizontal field of view,
+/// looking down +z from `origin`, focused at distance 1.
+pub fn furnace_camera(origin: Vec3, aperture: f32) -> Camera {
+    Camera::perspective(
+        Mat4::from_translation(origin),
+        70.0,
+        FovAxis::X,
+        16,
+        12,
+        aperture,
+        1.0,
+    )
+    .unwrap()
+}
