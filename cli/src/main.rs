@@ -189,20 +189,11 @@ fn run_mlt(
         mlt.b_passes,
         setup.as_secs_f64()
     );
-    let bar = if quiet {
-        ProgressBar::hidden()
-    } else {
-        match budget {
-            MltBudget::MutationsPerPixel(n) => ProgressBar::new(n.saturating_mul(pixels)),
-            MltBudget::Time(_) => ProgressBar::new_spinner(),
-        }
+    let total = match budget {
+        MltBudget::MutationsPerPixel(n) => Some(n.saturating_mul(pixels)),
+        MltBudget::Time(_) => None,
     };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {human_pos}/{human_len} mutations ({per_sec})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = progress_bar(quiet, total, "{human_pos}/{human_len} mutations");
     let out = render_mlt(
         scene,
         bvh,
@@ -342,20 +333,11 @@ fn run(cli: Cli) -> Result<(), String> {
                 method,
                 setup.as_secs_f64()
             );
-            let bar = if quiet {
-                ProgressBar::hidden()
-            } else {
-                match budget {
-                    Budget::Spp(n) => ProgressBar::new(n),
-                    Budget::Time(_) => ProgressBar::new_spinner(),
-                }
+            let total = match budget {
+                Budget::Spp(n) => Some(n),
+                Budget::Time(_) => None,
             };
-            bar.set_style(
-                ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp ({per_sec})",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
+            let bar = progress_bar(quiet, total, "{pos}/{len} spp");
             let out = render(
                 scene,
                 &bvh,
@@ -396,4 +378,18 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
     }
+}
+
+/// A progress bar over `total` units (a spinner for time budgets), hidden
+/// with `--quiet`; `counter` is the template of the position and length.
+fn progress_bar(quiet: bool, total: Option<u64>, counter: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = total.map_or_else(ProgressBar::new_spinner, ProgressBar::new);
+    let template = format!("{{spinner}} [{{elapsed_precise}}] {{bar:40}} {counter} ({{per_sec}})");
+    bar.set_style(
+        ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
 }
