@@ -35,6 +35,7 @@
 
 pub mod bootstrap;
 pub mod chain;
+pub mod multiple_try;
 pub mod primary;
 
 pub use bootstrap::Bootstrap;
