@@ -196,6 +196,23 @@ impl ClampedGaussian2 {
         Vec2::new(r * libm::cosf(phi), r * libm::sinf(phi))
     }
 
+    /// The uniforms `u` with `sample(u) = d` (up to rounding): the radial
+    /// CDF F(|d|) = (1 − e^{−|d|²/(2σ²)})/Z and the angle over 2π. `None`
+    /// outside the disk, where no `u` maps.
+    pub fn invert(&self, d: Vec2) -> Option<Vec2> {
+        let d2 = d.length_squared();
+        if !(d2 <= self.r_max2_slack) {
+            return None;
+        }
+        let f = (-libm::expm1f(-d2 * self.inv_two_sigma2) / self.mass).min(1.0);
+        let phi = libm::atan2f(d.y, d.x) * (0.5 / PI);
+        let v = if phi < 0.0 { phi + 1.0 } else { phi };
+        Some(Vec2::new(
+            if f < 1.0 { f } else { 1.0 - f32::EPSILON / 2.0 },
+            if v < 1.0 { v } else { 0.0 },
+        ))
+    }
+
     /// Density of [`ClampedGaussian2::sample`] per unit area at offset `d`:
     /// e^{−|d|²/(2σ²)} / (2πσ² Z) inside the disk, 0 outside.
     #[inline]
@@ -323,6 +340,22 @@ mod clamped_gaussian_tests {
         let g = ClampedGaussian2::new(1.0, 1.5).unwrap();
         let i = integrate(1.5, 1500, |d| (g.pdf(d) * g.mass()) as f64);
         assert!((i - 0.6753).abs() < 2e-3 && (i - 1.0).abs() > 0.3, "{i}");
+    }
+
+    #[test]
+    fn clamped_gaussian_invert_round_trips() {
+        let g = ClampedGaussian2::new(0.3, 0.9).unwrap();
+        for u in (0..1600).map(|i| {
+            Vec2::new(
+                ((i % 40) as f32 + 0.5) / 40.0,
+                ((i / 40) as f32 + 0.5) / 40.0,
+            )
+        }) {
+            let d = g.sample(u);
+            let v = g.invert(d).unwrap();
+            assert!((g.sample(v) - d).length() < 1e-5, "{u} → {d} → {v}");
+        }
+        assert!(g.invert(Vec2::new(0.0, 1.0)).is_none());
     }
 
     #[test]

@@ -88,6 +88,7 @@
 //! stratified (Segovia's jittered grid, seed fig. 13) correlates them and
 //! needs its own argument (Craiu & Lemieux 2007 give one) — not done here.
 
+use super::primary::wrap01;
 use crate::sampler::Sampler;
 
 /// Largest number of uniforms one candidate may consume
@@ -105,7 +106,11 @@ pub const MAX_PROPOSAL_DIM: usize = 8;
 ///   it enters the weights;
 /// - eq. 31: `density(x, y) > 0` ⇔ `density(y, x) > 0`. A proposal that
 ///   violates it (e.g. a truncation radius that depends on the state) is
-///   not reversible and no weighting repairs it.
+///   not reversible and no weighting repairs it;
+/// - `invert(from, to, u)` writes the uniforms that `sample(from, ·)` maps
+///   to `to` and returns true; it is needed only for
+///   [`Candidates::Stratified`] and may return false (the default) where
+///   the map is not invertible, which makes stratified steps reject.
 pub trait Proposal<S> {
     /// Uniform numbers one candidate consumes (≤ [`MAX_PROPOSAL_DIM`]).
     const DIM: usize;
@@ -115,6 +120,131 @@ pub trait Proposal<S> {
 
     /// T(from→to): the density of `sample(from, ·)` at `to`.
     fn density(&self, from: &S, to: &S) -> f32;
+
+    /// The uniforms `u` (`DIM` of them) with `sample(from, u) = to`.
+    fn invert(&self, from: &S, to: &S, u: &mut [f32]) -> bool {
+        let _ = (from, to, u);
+        false
+    }
+}
+
+/// The target p over states `S`, evaluated a batch at a time so that an
+/// implementation can trace the candidates of one step as ray packets.
+///
+/// `evaluate(states, p)` writes p(states[i]) (luminance, any non-negative
+/// value; [`sanitize_target`] is applied afterwards) into `p[i]` for every
+/// `Some` state and may complete the states in place (a path-space target
+/// stores the traced contribution there). `None` entries are skipped; their
+/// `p` is ignored. Any `FnMut(&S) -> f32` is a target evaluated one state
+/// at a time.
+pub trait Target<S> {
+    /// Evaluates p for a batch of states.
+    fn evaluate(&mut self, states: &mut [Option<S>], p: &mut [f32]);
+}
+
+impl<S, F: FnMut(&S) -> f32> Target<S> for F {
+    fn evaluate(&mut self, states: &mut [Option<S>], p: &mut [f32]) {
+        for (s, p) in states.iter().zip(p) {
+            if let Some(s) = s {
+                *p = self(s);
+            }
+        }
+    }
+}
+
+/// How the k candidates of a step are drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Candidates {
+    /// k independent draws from T(x→·), the reference set k − 1 independent
+    /// draws from T(x*→·) (Liu et al. 2000).
+    Independent,
+    /// Stratified (Segovia's jittered grid, seed fig. 13): the k uniforms
+    /// are a rank-1 lattice shifted by one uniform toroidal offset Δ
+    /// (Cranley–Patterson rotation), so every stratum of [0, 1)^DIM holds
+    /// one point and each point alone is uniform, i.e. each candidate is
+    /// T(x→·)-distributed. The reference set is the same lattice through
+    /// x as seen from x*: shift Δ′ such that point j (the selected one)
+    /// falls on the uniforms of x; it costs no random numbers.
+    ///
+    /// Why this is still in detailed balance (after Craiu & Lemieux 2007):
+    /// given index j, Δ ↦ x* = sample(x, g_j + Δ) has density T(x→x*)
+    /// (a shift of a uniform), and Δ is recovered from (x, x*, j). The
+    /// probability flux of x → x* via j is therefore
+    /// π(x) T(x→x*) · w(x, x*)/W_y · min(1, W_y/W_z) =
+    /// π(x) π(x*) T(x→x*) T(x*→x) λ(x, x*) · min(1/W_y, 1/W_z),
+    /// and the reverse move x* → x via j sees exactly the swapped sets
+    /// (its candidates are our reference set and vice versa), so the flux
+    /// is symmetric. The test `stratified_mtm_keeps_target` checks it.
+    #[default]
+    Stratified,
+}
+
+/// A rank-1 lattice of k points in [0, 1)^dim (Korobov generator
+/// (1, a, a², …) mod k), with `a` coprime to k chosen to maximise the
+/// smallest toroidal distance between points: a stratification of the
+/// unit cube for any k, one point per stratum in every coordinate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lattice {
+    k: usize,
+    generator: [u32; MAX_PROPOSAL_DIM],
+}
+
+impl Lattice {
+    /// The best Korobov lattice of `k` ≥ 1 points in `dim` ≤
+    /// [`MAX_PROPOSAL_DIM`] dimensions (a search over all generators, O(k³),
+    /// done once per configuration).
+    pub fn new(k: usize, dim: usize) -> Self {
+        assert!(k >= 1 && dim <= MAX_PROPOSAL_DIM);
+        let gen_of = |a: u64| {
+            let mut g = [0u32; MAX_PROPOSAL_DIM];
+            let mut c = 1u64;
+            for gi in g.iter_mut().take(dim) {
+                *gi = (c % k as u64) as u32;
+                c = c * a % k as u64;
+            }
+            g
+        };
+        let mut best = (gen_of(1), -1.0f64);
+        // Generators coprime with k: each coordinate alone is then a
+        // permutation of the k strata (a Latin-hypercube property).
+        for a in (1..k.max(2) as u64).filter(|&a| gcd(a, k as u64) == 1) {
+            let g = gen_of(a);
+            let mut dmin = f64::INFINITY;
+            for l in 1..k {
+                let mut d2 = 0.0;
+                for gi in g.iter().take(dim) {
+                    let x = (l as u64 * *gi as u64 % k as u64) as f64 / k as f64;
+                    let x = x.min(1.0 - x);
+                    d2 += x * x;
+                }
+                dmin = dmin.min(d2);
+            }
+            if dmin > best.1 {
+                best = (g, dmin);
+            }
+        }
+        Lattice {
+            k,
+            generator: best.0,
+        }
+    }
+
+    /// Points in the lattice.
+    pub fn len(&self) -> usize {
+        self.k
+    }
+
+    /// Never true: a lattice has at least one point.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// Coordinate `d` of point `l` shifted by `shift` (toroidally).
+    #[inline]
+    pub fn point(&self, l: usize, d: usize, shift: f32) -> f32 {
+        let base = (l as u64 * self.generator[d] as u64 % self.k as u64) as f32 / self.k as f32;
+        wrap01(base + shift)
+    }
 }
 
 /// How a step records its samples (see the module docs).
@@ -204,6 +334,13 @@ fn reference_weight(p_to: f32, t_from_to: f32) -> Option<f64> {
     }
 }
 
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
 /// Index drawn with probability w_i / total for a uniform `u`; rounding
 /// that runs past the end falls back to the last positive weight.
 #[inline]
@@ -256,6 +393,8 @@ pub struct SideChain<S> {
 pub struct MultipleTry<S, const K: usize> {
     k: usize,
     splatting: Splatting,
+    candidates: Candidates,
+    lattice: Option<Lattice>,
     variant: Variant,
     y: [Option<S>; K],
     py: [f32; K],
@@ -266,13 +405,15 @@ pub struct MultipleTry<S, const K: usize> {
 }
 
 impl<S: Clone, const K: usize> MultipleTry<S, K> {
-    /// A stepper drawing `k` candidates per step and recording with
-    /// `splatting`. Panics unless 1 ≤ k ≤ K.
+    /// A stepper drawing `k` independent candidates per step and recording
+    /// with `splatting`. Panics unless 1 ≤ k ≤ K.
     pub fn new(k: usize, splatting: Splatting) -> Self {
         assert!(k >= 1 && k <= K, "k = {k} outside 1..={K}");
         MultipleTry {
             k,
             splatting,
+            candidates: Candidates::Independent,
+            lattice: None,
             variant: Variant::Correct,
             y: core::array::from_fn(|_| None),
             py: [0.0; K],
@@ -280,6 +421,14 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             z: core::array::from_fn(|_| None),
             pz: [0.0; K],
         }
+    }
+
+    /// The same stepper drawing its candidates as `candidates` says, for
+    /// proposals of `dim` uniforms (the lattice is built here, once).
+    pub fn with_candidates(mut self, candidates: Candidates, dim: usize) -> Self {
+        self.candidates = candidates;
+        self.lattice = (candidates == Candidates::Stratified).then(|| Lattice::new(self.k, dim));
+        self
     }
 
     /// Candidates per step.
@@ -292,7 +441,13 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         self.splatting
     }
 
-    /// Selects a deliberately wrong variant (negative controls only).
+    /// How candidates are drawn.
+    pub fn candidates(&self) -> Candidates {
+        self.candidates
+    }
+
+    /// Selects a deliberately wrong variant (negative controls only; they
+    /// apply to independent candidates).
     #[cfg(test)]
     pub(crate) fn with_variant(mut self, variant: Variant) -> Self {
         self.variant = variant;
@@ -300,39 +455,64 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
     }
 
     /// One multiple-try step from `state` (updated in place on acceptance),
-    /// reporting its records to `splat(state, weight)`.
-    pub fn step<P, R>(
+    /// reporting its records to `splat(state, weight)`. The k candidates
+    /// are evaluated by `target` as one batch, the k − 1 reference points
+    /// as another.
+    pub fn step<P, T, R>(
         &mut self,
         proposal: &P,
-        target: &mut impl FnMut(&S) -> f32,
+        target: &mut T,
         state: &mut ChainState<S>,
         rng: &mut R,
         splat: &mut impl FnMut(&S, f32),
     ) -> MtmStep
     where
         P: Proposal<S>,
+        T: Target<S> + ?Sized,
         R: Sampler + ?Sized,
     {
+        const { assert!(P::DIM <= MAX_PROPOSAL_DIM) };
         let k = self.k;
         let variant = self.variant;
+        let lattice = match self.candidates {
+            Candidates::Stratified => self.lattice,
+            Candidates::Independent => None,
+        };
         let Self {
             y, py, wy, z, pz, ..
         } = self;
         let x = &state.x;
 
-        // b), c): k candidates from x, weighed w(x, y) = p(y)/T(x→y).
+        // b): k candidates from x, independent or one shifted lattice.
+        match &lattice {
+            None => {
+                for yl in y.iter_mut().take(k) {
+                    *yl = draw(proposal, x, rng);
+                }
+            }
+            Some(lat) => {
+                let mut shift = [0.0f32; MAX_PROPOSAL_DIM];
+                for v in &mut shift[..P::DIM] {
+                    *v = rng.next_f32();
+                }
+                for (l, yl) in y.iter_mut().take(k).enumerate() {
+                    *yl = lattice_draw(proposal, x, lat, l, &shift);
+                }
+            }
+        }
+        // c): one batch through the target, weighed w(x, y) = p(y)/T(x→y).
+        py[..k].fill(0.0);
+        target.evaluate(&mut y[..k], &mut py[..k]);
         let mut wy_sum = 0.0f64;
         let mut nonzero = 0;
         for l in 0..k {
-            let cand = draw(proposal, x, rng);
-            let (p, w) = match &cand {
+            let (p, w) = match &y[l] {
                 Some(c) => {
-                    let p = sanitize_target(target(c));
+                    let p = sanitize_target(py[l]);
                     (p, weight(p, proposal.density(x, c)))
                 }
                 None => (0.0, 0.0),
             };
-            y[l] = cand;
             py[l] = p;
             wy[l] = w;
             wy_sum += w;
@@ -367,19 +547,50 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             Variant::DenominatorFromX | Variant::AsPrinted => x,
             _ => x_star,
         };
+        // False when the lattice through x cannot be rebuilt from x* (the
+        // proposal cannot invert the move): the step must reject.
+        let mut reference_ok = true;
+        match &lattice {
+            None => {
+                for zl in z.iter_mut().take(k - 1) {
+                    *zl = draw(proposal, draw_from, rng);
+                }
+            }
+            Some(lat) => {
+                // Shift Δ′ that puts lattice point `sel` on the uniforms of
+                // x as drawn from x*; the other points are the z.
+                let mut ux = [0.0f32; MAX_PROPOSAL_DIM];
+                reference_ok = proposal.invert(x_star, x, &mut ux[..P::DIM]);
+                let mut shift = [0.0f32; MAX_PROPOSAL_DIM];
+                for d in 0..P::DIM {
+                    shift[d] = ux[d] - lat.point(sel, d, 0.0);
+                }
+                let mut i = 0;
+                for l in (0..k).filter(|&l| l != sel) {
+                    z[i] = if reference_ok {
+                        lattice_draw(proposal, x_star, lat, l, &shift)
+                    } else {
+                        None
+                    };
+                    i += 1;
+                }
+            }
+        }
+        pz[..k - 1].fill(0.0);
+        if reference_ok {
+            target.evaluate(&mut z[..k - 1], &mut pz[..k - 1]);
+        }
         // None: some reference point has infinite weight (see
         // `reference_weight`), so a = 0.
         let mut wz_sum = Some(0.0f64);
         for l in 0..k - 1 {
-            let cand = draw(proposal, draw_from, rng);
-            let (p, w) = match &cand {
+            let (p, w) = match &z[l] {
                 Some(c) => {
-                    let p = sanitize_target(target(c));
+                    let p = sanitize_target(pz[l]);
                     (p, reference_weight(p, proposal.density(weigh_from, c)))
                 }
                 None => (0.0, Some(0.0)),
             };
-            z[l] = cand;
             pz[l] = p;
             wz_sum = wz_sum.zip(w).map(|(s, w)| s + w);
         }
@@ -387,6 +598,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         wz_sum = wz_sum.zip(wx).map(|(s, w)| s + w);
 
         let a = match wz_sum {
+            _ if !reference_ok => 0.0,
             None => 0.0,
             Some(wz) if wz > 0.0 => (wy_sum / wz).min(1.0) as f32,
             // Only when p(x) = 0 and every z has p = 0: move on.
@@ -445,10 +657,10 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
     /// copy of the level-1 state `start`, each from the side chain's own
     /// current state, recording every step through `splat`. `start` is not
     /// modified: level 1 continues from it.
-    pub fn side_chain<P, R>(
+    pub fn side_chain<P, T, R>(
         &mut self,
         proposal: &P,
-        target: &mut impl FnMut(&S) -> f32,
+        target: &mut T,
         start: &ChainState<S>,
         m: u32,
         rng: &mut R,
@@ -456,6 +668,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
     ) -> SideChain<S>
     where
         P: Proposal<S>,
+        T: Target<S> + ?Sized,
         R: Sampler + ?Sized,
     {
         let mut current = start.clone();
@@ -473,6 +686,22 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             accepted,
         }
     }
+}
+
+/// Candidate `l` of the lattice `lat` shifted by `shift`, from `from`.
+#[inline]
+fn lattice_draw<S, P: Proposal<S>>(
+    proposal: &P,
+    from: &S,
+    lat: &Lattice,
+    l: usize,
+    shift: &[f32; MAX_PROPOSAL_DIM],
+) -> Option<S> {
+    let mut u = [0.0f32; MAX_PROPOSAL_DIM];
+    for d in 0..P::DIM {
+        u[d] = lat.point(l, d, shift[d]);
+    }
+    proposal.sample(from, &u[..P::DIM])
 }
 
 /// One candidate from `from` with `P::DIM` fresh uniforms.

@@ -84,6 +84,20 @@ impl Proposal<Vec2> for Walk {
     fn density(&self, from: &Vec2, to: &Vec2) -> f32 {
         self.0.pdf(*to - *from)
     }
+    fn invert(&self, from: &Vec2, to: &Vec2, u: &mut [f32]) -> bool {
+        invert_offset(&self.0, *to - *from, u)
+    }
+}
+
+fn invert_offset(g: &ClampedGaussian2, d: Vec2, u: &mut [f32]) -> bool {
+    match g.invert(d) {
+        Some(v) => {
+            u[0] = v.x;
+            u[1] = v.y;
+            true
+        }
+        None => false,
+    }
 }
 
 /// Non-symmetric: σ grows with x (0.02 … 0.32); the truncation radius is
@@ -103,6 +117,9 @@ impl Proposal<Vec2> for StateSigma {
     }
     fn density(&self, from: &Vec2, to: &Vec2) -> f32 {
         Self::g(*from).pdf(*to - *from)
+    }
+    fn invert(&self, from: &Vec2, to: &Vec2, u: &mut [f32]) -> bool {
+        invert_offset(&Self::g(*from), *to - *from, u)
     }
 }
 
@@ -127,6 +144,12 @@ impl Proposal<Vec2> for Independence {
             0.0
         }
     }
+    fn invert(&self, _: &Vec2, to: &Vec2, u: &mut [f32]) -> bool {
+        let t = to.x as f64;
+        u[0] = ((t / 4.0 + t * t / 2.0) / 0.75) as f32;
+        u[1] = to.y * 0.9;
+        u[0] < 1.0 && u[1] < 0.9
+    }
 }
 
 fn walk() -> Walk {
@@ -143,12 +166,41 @@ fn chi2_of_end_states<P: Proposal<Vec2>>(
     m: u32,
     seed: u64,
 ) -> (f64, f64) {
-    let mut mtm = MultipleTry::<Vec2, 16>::new(k, Splatting::ExpectedValue).with_variant(variant);
+    chi2_with(
+        proposal,
+        k,
+        Candidates::Independent,
+        variant,
+        chains,
+        m,
+        seed,
+    )
+}
+
+fn chi2_with<P: Proposal<Vec2>>(
+    proposal: &P,
+    k: usize,
+    candidates: Candidates,
+    variant: Variant,
+    chains: u32,
+    m: u32,
+    seed: u64,
+) -> (f64, f64) {
+    let mut mtm = MultipleTry::<Vec2, 16>::new(k, Splatting::ExpectedValue)
+        .with_candidates(candidates, P::DIM)
+        .with_variant(variant);
     let mut counts = [0u64; N * N];
     for c in 0..chains as u64 {
         let mut s = SampleStream::new(seed, k as u64, c);
         let start = sample_target(&mut s);
-        let sc = mtm.side_chain(proposal, &mut |v| p(*v), &start, m, &mut s, &mut |_, _| {});
+        let sc = mtm.side_chain(
+            proposal,
+            &mut |v: &Vec2| p(*v),
+            &start,
+            m,
+            &mut s,
+            &mut |_, _| {},
+        );
         counts[cell(sc.end.x)] += 1;
     }
     pearson(&counts, chains as f64)
@@ -197,10 +249,17 @@ fn splat_deviation<P: Proposal<Vec2>>(
         let mut s = SampleStream::new(seed, 100 + k as u64, c);
         let start = sample_target(&mut s);
         local.fill(0.0);
-        mtm.side_chain(proposal, &mut |v| p(*v), &start, m, &mut s, &mut |v, w| {
-            assert!(w > 0.0 && w <= 1.0 && w.is_finite(), "weight {w}");
-            local[cell(*v)] += w as f64;
-        });
+        mtm.side_chain(
+            proposal,
+            &mut |v: &Vec2| p(*v),
+            &start,
+            m,
+            &mut s,
+            &mut |v, w| {
+                assert!(w > 0.0 && w <= 1.0 && w.is_finite(), "weight {w}");
+                local[cell(*v)] += w as f64;
+            },
+        );
         // Every step records total weight 1 (p(x) > 0 throughout).
         let total: f64 = local.iter().sum();
         assert!((total - m as f64).abs() < 1e-4 * m as f64, "{total}");
@@ -258,6 +317,58 @@ fn mtm_keeps_target_independence() {
     check_correct("independence", &Independence, 3);
 }
 
+/// Stratified candidates (a shifted lattice, the reference set the lattice
+/// through x) keep p invariant too: the detailed-balance argument in
+/// [`Candidates::Stratified`], checked.
+#[test]
+fn stratified_mtm_keeps_target() {
+    fn check<P: Proposal<Vec2>>(name: &str, proposal: &P, seed: u64) {
+        for k in [4, 16] {
+            let (chi2, dof) = chi2_with(
+                proposal,
+                k,
+                Candidates::Stratified,
+                Variant::Correct,
+                CHAINS,
+                M,
+                seed,
+            );
+            let limit = chi2_quantile_1e4(dof);
+            eprintln!("stratified {name}, k = {k}: χ² = {chi2:.1} (dof {dof}, limit {limit:.1})");
+            assert!(chi2 < limit, "stratified {name}, k = {k}: χ² = {chi2:.1}");
+        }
+    }
+    check("walk", &walk(), 21);
+    check("state-σ", &StateSigma, 22);
+    check("independence", &Independence, 23);
+}
+
+#[test]
+fn lattice_stratifies_the_square() {
+    for k in [4, 8, 16, 64] {
+        let lat = Lattice::new(k, 2);
+        let n = (k as f64).sqrt().floor() as usize;
+        // Every row and every column of k strata holds exactly one point.
+        let mut rows = std::vec![0u32; k];
+        let mut cols = std::vec![0u32; k];
+        for l in 0..k {
+            rows[(lat.point(l, 0, 0.37) * k as f32) as usize % k] += 1;
+            cols[(lat.point(l, 1, 0.81) * k as f32) as usize % k] += 1;
+        }
+        assert!(rows.iter().chain(&cols).all(|&c| c == 1), "k = {k}");
+        // And points are spread in 2-D: no two closer than the grid scale/2.
+        let d = 1.0 / n as f32 / 2.0;
+        for a in 0..k {
+            for b in 0..a {
+                let dx = (lat.point(a, 0, 0.0) - lat.point(b, 0, 0.0)).abs();
+                let dy = (lat.point(a, 1, 0.0) - lat.point(b, 1, 0.0)).abs();
+                let (dx, dy) = (dx.min(1.0 - dx), dy.min(1.0 - dy));
+                assert!(dx * dx + dy * dy >= d * d * 0.5, "k = {k}: {a}, {b}");
+            }
+        }
+    }
+}
+
 /// Asserts that `variant` fails the χ² test of the correct step.
 fn assert_fails<P: Proposal<Vec2>>(name: &str, proposal: &P, k: usize, variant: Variant) {
     let (chi2, dof) = chi2_of_end_states(proposal, k, variant, CHAINS, M, 11);
@@ -307,7 +418,7 @@ fn k1_is_metropolis_hastings() {
             let mut twin = rng.clone();
             let st = mtm.step(
                 proposal,
-                &mut |v| p(*v),
+                &mut |v: &Vec2| p(*v),
                 &mut state,
                 &mut rng,
                 &mut |_, _| {},
@@ -385,10 +496,16 @@ fn zeros_reject_without_nan() {
         // recorded with weight 1, no reference set drawn.
         for bad in [0.0, f32::NAN, -1.0, f32::INFINITY] {
             let mut state = ChainState::new(x0, 2.0);
-            let st = mtm.step(&walk(), &mut |_| bad, &mut state, &mut rng, &mut |v, w| {
-                assert_eq!((*v, w), (x0, 1.0));
-                recs += 1;
-            });
+            let st = mtm.step(
+                &walk(),
+                &mut |_: &Vec2| bad,
+                &mut state,
+                &mut rng,
+                &mut |v, w| {
+                    assert_eq!((*v, w), (x0, 1.0));
+                    recs += 1;
+                },
+            );
             assert_eq!(
                 (st.acceptance, st.accepted, st.selected),
                 (0.0, false, None)
@@ -400,7 +517,7 @@ fn zeros_reject_without_nan() {
         let mut state = ChainState::new(x0, 2.0);
         let st = mtm.step(
             &Failing,
-            &mut |v| p(*v),
+            &mut |v: &Vec2| p(*v),
             &mut state,
             &mut rng,
             &mut |_, _| {},
@@ -408,15 +525,27 @@ fn zeros_reject_without_nan() {
         assert!(!st.accepted && st.acceptance == 0.0 && st.nonzero == 0);
         // A black current state: nothing recorded for it, the chain moves.
         let mut state = ChainState::new(x0, 0.0);
-        let st = mtm.step(&walk(), &mut |_| 1.0, &mut state, &mut rng, &mut |_, w| {
-            assert!(w.is_finite() && w > 0.0);
-        });
+        let st = mtm.step(
+            &walk(),
+            &mut |_: &Vec2| 1.0,
+            &mut state,
+            &mut rng,
+            &mut |_, w| {
+                assert!(w.is_finite() && w > 0.0);
+            },
+        );
         assert!(st.accepted && st.acceptance == 1.0);
         // Reverse density 0 for a state with p > 0: w(x*, x) = ∞, reject.
         let mut state = ChainState::new(x0, 2.0);
-        let st = mtm.step(&OneWay, &mut |_| 5.0, &mut state, &mut rng, &mut |_, w| {
-            assert!(w.is_finite());
-        });
+        let st = mtm.step(
+            &OneWay,
+            &mut |_: &Vec2| 5.0,
+            &mut state,
+            &mut rng,
+            &mut |_, w| {
+                assert!(w.is_finite());
+            },
+        );
         assert!(!st.accepted && st.acceptance == 0.0 && st.selected.is_some());
     }
 }
@@ -429,7 +558,7 @@ fn side_chain_keeps_its_own_state_and_leaves_level1_alone() {
     let copy = start.clone();
     let sc = mtm.side_chain(
         &walk(),
-        &mut |v| p(*v),
+        &mut |v: &Vec2| p(*v),
         &start,
         50,
         &mut rng,
