@@ -565,14 +565,12 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
                 for d in 0..P::DIM {
                     shift[d] = ux[d] - lat.point(sel, d, 0.0);
                 }
-                let mut i = 0;
-                for l in (0..k).filter(|&l| l != sel) {
+                for (i, l) in (0..k).filter(|&l| l != sel).enumerate() {
                     z[i] = if reference_ok {
                         lattice_draw(proposal, x_star, lat, l, &shift)
                     } else {
                         None
                     };
-                    i += 1;
                 }
             }
         }
