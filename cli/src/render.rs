@@ -138,7 +138,7 @@ pub struct MltOutput {
     /// Merged film of all threads: unit-luminance splats, resolve with
     /// [`MltOutput::scale`].
     pub film: Film,
-    /// b · pixels / mutations ([`cmlt::mlt::image_scale`]).
+    /// b · pixels / records ([`cmlt::mlt::image_scale`]).
     pub scale: f64,
     /// The bootstrap (b and its split over depths).
     pub bootstrap: Bootstrap,
@@ -322,7 +322,7 @@ pub fn render_mlt<I: Intersector + Sync>(
         mstats.merge(m);
     }
     MltOutput {
-        scale: image_scale(boot.b(), pixels, mstats.mutations),
+        scale: image_scale(boot.b(), pixels, mstats.records),
         film,
         bootstrap: boot,
         stats,

@@ -203,6 +203,31 @@ impl Bsdf {
         }
     }
 
+    /// The Dirac lobe of a specular BSDF chosen by `reflect` (reflection
+    /// or refraction), followed deterministically: the outgoing direction
+    /// and the lobe's throughput f·|cos θi| (Fresnel reflectance F, or
+    /// (1 − F) times 1/η² for refracted radiance) — what a path through a
+    /// specular vertex carries when the lobe is fixed rather than sampled
+    /// (the lens and caustic perturbations retrace a specular chain this
+    /// way). `None` for non-delta BSDFs, for a lobe the model lacks (a
+    /// conductor's refraction) and where the lobe carries nothing (total
+    /// internal reflection has no refraction).
+    pub fn specular(&self, wo: Vec3, reflect: bool, mode: TransportMode) -> Option<(Vec3, Rgb)> {
+        if !self.is_delta() {
+            return None;
+        }
+        // The lobe choice of `sample`: reflection for u_lobe < F, which
+        // u_lobe = 0 picks whenever F > 0 and u_lobe = 1 never does.
+        let u_lobe = if reflect { 0.0 } else { 1.0 };
+        let s = self.sample(wo, u_lobe, Vec2::ZERO, mode)?;
+        let reflected = (s.wi.z > 0.0) == (wo.z > 0.0);
+        if reflected != reflect {
+            return None;
+        }
+        let weight = s.f * s.wi.z.abs();
+        (weight.is_finite() && !weight.is_black()).then_some((s.wi, weight))
+    }
+
     /// Samples `wi`; `u_lobe` chooses a lobe (dielectric reflection versus
     /// refraction), `u` the direction. `None` when nothing is scattered
     /// (one-sided and seen from below, a rough reflection below the

@@ -96,18 +96,9 @@ impl Vertex {
     /// BSDF times the shading-normal correction for adjoint transport
     /// (Veach 1997, §5.3), from `prev` to `next` through `self`.
     fn f(&self, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
-        let Some(sh) = &self.shading else {
-            return Rgb::ZERO;
-        };
-        let wo = (prev - self.sp.p).normalize();
-        let wi = (next - self.sp.p).normalize();
-        let f = sh
-            .bsdf
-            .eval(sh.frame.to_local(wo), sh.frame.to_local(wi), mode);
-        if mode == TransportMode::Importance {
-            f * shading_correction(&self.sp, wo, wi)
-        } else {
-            f
+        match &self.shading {
+            Some(sh) => scatter(sh, prev, next, mode),
+            None => Rgb::ZERO,
         }
     }
 
@@ -138,9 +129,27 @@ impl Vertex {
     }
 }
 
+/// The BSDF at shaded point `sh` from `prev` to `next` (world positions),
+/// with the shading-normal correction of adjoint transport (Veach 1997,
+/// §5.3) for `Importance`; zero for Dirac lobes. The one definition of a
+/// non-specular vertex's factor in f(x̄), shared by BDPT and the path-space
+/// perturbations.
+pub fn scatter(sh: &Shading, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
+    let wo = (prev - sh.sp.p).normalize();
+    let wi = (next - sh.sp.p).normalize();
+    let f = sh
+        .bsdf
+        .eval(sh.frame.to_local(wo), sh.frame.to_local(wi), mode);
+    if mode == TransportMode::Importance {
+        f * shading_correction(&sh.sp, wo, wi)
+    } else {
+        f
+    }
+}
+
 /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): makes light-path throughput with
 /// shading normals consistent with camera paths (Veach 1997, eq. 5.19).
-fn shading_correction(sp: &SurfacePoint, wo: Vec3, wi: Vec3) -> f32 {
+pub fn shading_correction(sp: &SurfacePoint, wo: Vec3, wi: Vec3) -> f32 {
     let den = wo.dot(sp.ng).abs() * wi.dot(sp.ns).abs();
     if den == 0.0 {
         0.0
@@ -176,6 +185,58 @@ pub struct Workspace {
     camera: Vec<Vertex>,
     light: Vec<Vertex>,
     only: Option<fn(usize, usize) -> bool>,
+    /// The last [`sample_strategy`] with a contribution: (s, t) and the
+    /// endpoint its connection sampled (light point for s = 1, lens point
+    /// for t = 1), which the subpaths do not hold.
+    last: Option<(usize, usize, Option<Vertex>)>,
+}
+
+/// A vertex of a complete path x₀ (lens) … x_k (emitter), as level 2 of
+/// CMLT perturbs it.
+#[derive(Clone, Copy, Debug)]
+pub struct PathVertex {
+    /// Position and normals (the lens point for x₀, with the viewing
+    /// direction as normal).
+    pub sp: SurfacePoint,
+    /// BSDF and frame of surface vertices (`None` for x₀ and for a light
+    /// point sampled on an emitter).
+    pub shading: Option<Shading>,
+}
+
+impl PathVertex {
+    /// True when the vertex scatters only through Dirac lobes.
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.shading.is_some_and(|s| s.bsdf.is_delta())
+    }
+}
+
+/// Writes the complete path x₀ … x_k of the last [`sample_strategy`] call
+/// that returned a contribution into `out` (cleared first), camera end
+/// first; false (and `out` empty) when the last call had none. Valid until
+/// `ws` is used again.
+pub fn strategy_path(ws: &Workspace, out: &mut Vec<PathVertex>) -> bool {
+    out.clear();
+    let Some((s, t, sampled)) = ws.last else {
+        return false;
+    };
+    let as_path = |v: &Vertex| PathVertex {
+        sp: v.sp,
+        shading: v.shading,
+    };
+    for (i, v) in ws.camera[..t].iter().enumerate() {
+        match (i, t, &sampled) {
+            (0, 1, Some(lens)) => out.push(as_path(lens)),
+            _ => out.push(as_path(v)),
+        }
+    }
+    for (i, v) in ws.light[..s].iter().enumerate().rev() {
+        match (i, s, &sampled) {
+            (0, 1, Some(light)) => out.push(as_path(light)),
+            _ => out.push(as_path(v)),
+        }
+    }
+    true
 }
 
 impl Workspace {
@@ -361,7 +422,7 @@ pub fn sample_each<I: Intersector, S: Sampler>(
             if ws.only.is_some_and(|only| !only(s, tt)) {
                 continue;
             }
-            if let Some((l, raster_splat)) = connect(t, ws, s, tt, rng) {
+            if let Some((l, raster_splat, _)) = connect(t, ws, s, tt, rng) {
                 emit(s, tt, l, raster_splat);
             }
         }
@@ -508,6 +569,7 @@ pub fn sample_strategy<I: Intersector, S: Sampler>(
     let camera = tr.scene.camera;
     let depth = depth.max(1);
     let n = strategy_count(depth);
+    ws.last = None;
 
     rng.start_stream(CAMERA_STREAM);
     let u = rng.next_2d();
@@ -552,24 +614,26 @@ pub fn sample_strategy<I: Intersector, S: Sampler>(
     }
 
     rng.start_stream(CONNECTION_STREAM);
-    if let Some((l, splat)) = connect(tr, ws, s, t, rng) {
+    if let Some((l, splat, sampled)) = connect(tr, ws, s, t, rng) {
         out.l = l * n as f32;
         if let Some(r) = splat {
             out.raster = r;
         }
+        ws.last = Some((s, t, sampled));
     }
     out
 }
 
-/// Evaluates strategy (s, t): its MIS-weighted contribution and, for t = 1,
-/// the raster position to splat it at.
+/// Evaluates strategy (s, t): its MIS-weighted contribution, for t = 1 the
+/// raster position to splat it at, and the endpoint the connection sampled
+/// (s = 1, t = 1).
 fn connect<I: Intersector, S: Sampler>(
     tr: &mut Tracer<'_, I>,
     ws: &mut Workspace,
     s: usize,
     t: usize,
     rng: &mut S,
-) -> Option<(Rgb, Option<Vec2>)> {
+) -> Option<(Rgb, Option<Vec2>, Option<Vertex>)> {
     let scene = tr.scene;
     let camera = &scene.camera;
     let mut sampled: Option<Vertex> = None;
@@ -679,7 +743,7 @@ fn connect<I: Intersector, S: Sampler>(
     } else {
         mis_weight(scene, ws, sampled, s, t)
     };
-    Some((l * w, raster))
+    Some((l * w, raster, sampled))
 }
 
 /// Power-heuristic weight of strategy (s, t) against every other strategy

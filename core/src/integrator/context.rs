@@ -5,7 +5,7 @@ use glam::Vec3;
 
 use crate::accel::Intersector;
 use crate::bsdf::Bsdf;
-use crate::geometry::{Ray, offset};
+use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket, offset};
 use crate::math::Frame;
 use crate::scene::{Scene, SurfacePoint};
 
@@ -18,6 +18,11 @@ pub struct Stats {
     pub shadow_rays: u64,
     /// Camera samples (one per pixel per pass).
     pub samples: u64,
+    /// Packets traced (closest-hit and occlusion), each of 4, 8 or 16
+    /// lanes; their rays are also counted in `rays` / `shadow_rays`.
+    pub packets: u64,
+    /// Active lanes over all packets: rays that went as packets.
+    pub packet_rays: u64,
 }
 
 impl Stats {
@@ -26,6 +31,17 @@ impl Stats {
         self.rays += o.rays;
         self.shadow_rays += o.shadow_rays;
         self.samples += o.samples;
+        self.packets += o.packets;
+        self.packet_rays += o.packet_rays;
+    }
+
+    /// Mean active lanes per packet (0 when none was traced).
+    pub fn mean_packet_lanes(&self) -> f64 {
+        if self.packets == 0 {
+            0.0
+        } else {
+            self.packet_rays as f64 / self.packets as f64
+        }
     }
 
     /// All rays of both kinds.
@@ -103,4 +119,90 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         let r = offset::spawn_ray_between(a.p, a.p_error, a.ng, p, Vec3::ZERO, Vec3::ZERO);
         self.accel.occluded(&r)
     }
+
+    /// Closest surfaces along a bundle of rays, traced as packets of 4, 8
+    /// or 16 lanes (the narrowest that holds the bundle; longer bundles in
+    /// chunks of 16). `None` rays are inactive lanes; `out[i]` receives the
+    /// shaded hit of `rays[i]` (`None` for a miss or an inactive lane).
+    pub fn trace_bundle(&mut self, rays: &[Option<Ray>], out: &mut [Option<Shading>]) {
+        debug_assert_eq!(rays.len(), out.len());
+        for (rays, out) in rays.chunks(16).zip(out.chunks_mut(16)) {
+            match rays.len() {
+                0..=4 => self.trace_chunk::<4>(rays, out),
+                5..=8 => self.trace_chunk::<8>(rays, out),
+                _ => self.trace_chunk::<16>(rays, out),
+            }
+        }
+    }
+
+    fn trace_chunk<const N: usize>(&mut self, rays: &[Option<Ray>], out: &mut [Option<Shading>]) {
+        let (packet, active) = pack::<N>(rays);
+        out.fill(None);
+        if active.is_empty() {
+            return;
+        }
+        self.count_packet(active, false);
+        let mut hits = HitPacket::<N>::default();
+        self.accel.intersect_packet(&packet, active, &mut hits);
+        for i in active.iter() {
+            out[i] = hits
+                .get(i)
+                .and_then(|h| self.scene.hit_point(&h))
+                .map(|sp| self.shade(sp));
+        }
+    }
+
+    /// Occlusion of a bundle of rays as packets (see
+    /// [`Tracer::trace_bundle`]); `out[i]` is true when `rays[i]` is
+    /// blocked, false for inactive lanes.
+    pub fn occluded_bundle(&mut self, rays: &[Option<Ray>], out: &mut [bool]) {
+        debug_assert_eq!(rays.len(), out.len());
+        for (rays, out) in rays.chunks(16).zip(out.chunks_mut(16)) {
+            let blocked = match rays.len() {
+                0..=4 => self.occluded_chunk::<4>(rays),
+                5..=8 => self.occluded_chunk::<8>(rays),
+                _ => self.occluded_chunk::<16>(rays),
+            };
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = blocked.get(i);
+            }
+        }
+    }
+
+    fn occluded_chunk<const N: usize>(&mut self, rays: &[Option<Ray>]) -> LaneMask {
+        let (packet, active) = pack::<N>(rays);
+        if active.is_empty() {
+            return LaneMask::NONE;
+        }
+        self.count_packet(active, true);
+        self.accel.occluded_packet(&packet, active)
+    }
+
+    /// Counts one packet with `active` lanes of closest-hit or occlusion
+    /// (`shadow`) rays.
+    #[inline]
+    fn count_packet(&mut self, active: LaneMask, shadow: bool) {
+        let n = active.count() as u64;
+        if shadow {
+            self.stats.shadow_rays += n;
+        } else {
+            self.stats.rays += n;
+        }
+        self.stats.packets += 1;
+        self.stats.packet_rays += n;
+    }
+}
+
+/// Rays `rays` (at most N) in SoA layout with the mask of present ones.
+#[inline]
+fn pack<const N: usize>(rays: &[Option<Ray>]) -> (RayPacket<N>, LaneMask) {
+    let mut packet = RayPacket::<N>::default();
+    let mut active = LaneMask::NONE;
+    for (i, r) in rays.iter().enumerate().take(N) {
+        if let Some(r) = r {
+            packet.set(i, r);
+            active.set(i);
+        }
+    }
+    (packet, active)
 }

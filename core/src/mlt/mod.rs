@@ -34,12 +34,18 @@
 //! and resolves to exact black.
 
 pub mod bootstrap;
+pub mod caustic;
 pub mod chain;
+pub mod lens;
+pub mod level2;
 pub mod multiple_try;
+pub mod path;
 pub mod primary;
 
 pub use bootstrap::Bootstrap;
 pub use chain::{Chain, PathSample, Splat, Step};
+pub use level2::Level2;
+pub use multiple_try::Candidates;
 pub use primary::PrimarySampler;
 
 use alloc::vec::Vec;
@@ -49,8 +55,9 @@ use rand_pcg::Pcg32;
 
 use crate::accel::Intersector;
 use crate::film::Film;
+use crate::integrator::bdpt::PathVertex;
 use crate::integrator::{Settings, Tracer, bdpt};
-use crate::sampler::mix64;
+use crate::sampler::{SampleStream, mix64};
 
 /// Parameters of level-1 MLT. Defaults are pbrt-v4's where it has one.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,6 +80,20 @@ pub struct MltSettings {
     /// needs a finite set of depths to bootstrap over. Paths longer than
     /// this are missing (energy of order albedo^cap).
     pub depth_cap: u32,
+    /// Level 2: side-chain length m (multiple-try steps per level-1
+    /// mutation); 0 = plain MLT.
+    pub m: u32,
+    /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
+    /// [`level2::MAX_K`].
+    pub k: u32,
+    /// Level 2: standard deviation of the lens perturbation's image-plane
+    /// offset, in pixels.
+    pub lens_sigma: f32,
+    /// Level 2: the caustic perturbation's angular σ is `lens_sigma` pixel
+    /// angles times this factor.
+    pub caustic_scale: f32,
+    /// Level 2: how the k candidates are drawn.
+    pub candidates: Candidates,
 }
 
 impl Default for MltSettings {
@@ -86,7 +107,52 @@ impl Default for MltSettings {
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
             depth_cap: 32,
+            m: 0,
+            k: 1,
+            lens_sigma: 2.0,
+            caustic_scale: 1.0,
+            candidates: Candidates::Stratified,
         }
+    }
+}
+
+impl MltSettings {
+    /// The CMLT defaults: these settings with level 2 on (k, m, σ from the
+    /// parameter study in `docs/`; see the CLI's `--method cmlt`).
+    pub fn cmlt() -> Self {
+        MltSettings {
+            m: 4,
+            k: 8,
+            ..Self::default()
+        }
+    }
+
+    /// Records each level-1 mutation adds with its side chain: 1 + m.
+    pub fn records_per_mutation(&self) -> u64 {
+        1 + self.m as u64
+    }
+
+    /// Checks every parameter's range; the message names the first bad one.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        if !(self.large_step_prob >= 0.0 && self.large_step_prob <= 1.0) {
+            return Err("large-step probability must be in [0, 1]");
+        }
+        if !(self.sigma > 0.0 && self.sigma <= 1.0) {
+            return Err("primary-sample σ must be in (0, 1]");
+        }
+        if self.n_chains == 0 {
+            return Err("at least one chain per worker is needed");
+        }
+        if !(1..=level2::MAX_K as u32).contains(&self.k) {
+            return Err("k must be in 1..=64");
+        }
+        if !(self.lens_sigma > 0.0 && self.lens_sigma.is_finite()) {
+            return Err("lens σ must be a positive number of pixels");
+        }
+        if !(self.caustic_scale > 0.0 && self.caustic_scale.is_finite()) {
+            return Err("caustic scale must be positive and finite");
+        }
+        Ok(())
     }
 }
 
@@ -97,12 +163,13 @@ pub fn path_depth(settings: &Settings, mlt: &MltSettings) -> u32 {
 }
 
 /// The factor turning the splat layer into radiance: b · pixels / N for
-/// N mutations (0 when N = 0).
-pub fn image_scale(b: f64, pixels: u64, mutations: u64) -> f64 {
-    if mutations == 0 {
+/// N records ([`MltStats::records`]: level-1 mutations plus level-2
+/// side-chain steps; 0 when N = 0).
+pub fn image_scale(b: f64, pixels: u64, records: u64) -> f64 {
+    if records == 0 {
         0.0
     } else {
-        b * pixels as f64 / mutations as f64
+        b * pixels as f64 / records as f64
     }
 }
 
@@ -123,6 +190,25 @@ pub struct MltStats {
     pub large_accepted: u64,
     /// Proposals with zero (or non-finite) contribution.
     pub zero_proposals: u64,
+    /// Records splatted, in units of one mutation's total weight: level-1
+    /// mutations plus side-chain steps (what [`image_scale`] divides by).
+    pub records: u64,
+    /// Level 2: lens-perturbation steps (multiple-try steps).
+    pub lens_steps: u64,
+    /// Level 2: lens-perturbation steps accepted.
+    pub lens_accepted: u64,
+    /// Level 2: caustic-perturbation steps.
+    pub caustic_steps: u64,
+    /// Level 2: caustic-perturbation steps accepted.
+    pub caustic_accepted: u64,
+    /// Level 2: side-chain steps of paths no perturbation applies to (the
+    /// state is recorded where it is).
+    pub identity_steps: u64,
+    /// Level 2: candidates evaluated (k per step, reference points not
+    /// counted).
+    pub l2_candidates: u64,
+    /// Level 2: candidates with zero contribution or a failed retrace.
+    pub l2_zero_candidates: u64,
 }
 
 impl MltStats {
@@ -135,6 +221,34 @@ impl MltStats {
         self.large_proposed += o.large_proposed;
         self.large_accepted += o.large_accepted;
         self.zero_proposals += o.zero_proposals;
+        self.records += o.records;
+        self.lens_steps += o.lens_steps;
+        self.lens_accepted += o.lens_accepted;
+        self.caustic_steps += o.caustic_steps;
+        self.caustic_accepted += o.caustic_accepted;
+        self.identity_steps += o.identity_steps;
+        self.l2_candidates += o.l2_candidates;
+        self.l2_zero_candidates += o.l2_zero_candidates;
+    }
+
+    /// Fraction of lens-perturbation steps accepted (0 when none).
+    pub fn lens_acceptance(&self) -> f64 {
+        ratio(self.lens_accepted, self.lens_steps)
+    }
+
+    /// Fraction of caustic-perturbation steps accepted (0 when none).
+    pub fn caustic_acceptance(&self) -> f64 {
+        ratio(self.caustic_accepted, self.caustic_steps)
+    }
+
+    /// Fraction of level-1 proposals with zero contribution.
+    pub fn zero_fraction(&self) -> f64 {
+        ratio(self.zero_proposals, self.mutations)
+    }
+
+    /// Fraction of level-2 candidates with zero contribution.
+    pub fn l2_zero_fraction(&self) -> f64 {
+        ratio(self.l2_zero_candidates, self.l2_candidates)
     }
 
     /// Fraction of small steps accepted (0 when none).
@@ -149,6 +263,7 @@ impl MltStats {
 
     fn record(&mut self, st: &Step) {
         self.mutations += 1;
+        self.records += 1;
         if st.large {
             self.large_proposed += 1;
             self.large_accepted += st.accepted as u64;
@@ -187,16 +302,27 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// depths must be weighted equally for the normalisation to hold.
 pub struct MltWorker {
     chains: Vec<(Chain, u32)>,
+    /// Seed of each chain (its level-2 random streams derive from it).
+    seeds: Vec<u64>,
     ws: bdpt::Workspace,
     stats: MltStats,
+    /// Level 2, when m > 0, with each chain's current path and scratch for
+    /// a proposal's path (swapped in on acceptance).
+    level2: Option<Level2>,
+    paths: Vec<Vec<PathVertex>>,
+    scratch: Vec<PathVertex>,
 }
+
+/// Stream index of level 2's random numbers (per chain and iteration).
+const LEVEL2_STREAM: u64 = 0x4C32;
 
 impl MltWorker {
     /// Starts `mlt.n_chains` chains for worker `worker` of `workers` in a
     /// render seeded by `seed`: each gets its depth from the systematic
     /// sample, starts at a seed sample of that depth picked with
     /// probability ∝ its luminance (replayed from its seed), and continues
-    /// with its own random stream. No chain is started when b = 0.
+    /// with its own random stream. No chain is started when b = 0. With
+    /// `mlt.m > 0` every chain also keeps its current path for level 2.
     pub fn new<I: Intersector>(
         tracer: &mut Tracer<'_, I>,
         settings: &Settings,
@@ -208,7 +334,12 @@ impl MltWorker {
     ) -> Self {
         let mut ws = bdpt::Workspace::new();
         let mut chains = Vec::with_capacity(mlt.n_chains as usize);
+        let mut seeds = Vec::with_capacity(mlt.n_chains as usize);
         let mut stats = MltStats::default();
+        let camera = tracer.scene.camera;
+        let level2 = Level2::new(mlt, camera.width(), camera.height(), camera.pixel_angle());
+        let max_vertices = path_depth(settings, mlt) as usize + 1;
+        let mut paths = Vec::new();
         let workers = workers.max(1);
         let total = mlt.n_chains as u64 * workers;
         // The systematic sample's single random offset, shared by all
@@ -228,12 +359,26 @@ impl MltWorker {
                 PrimarySampler::new(bootstrap.seed_of(index), mlt.sigma, mlt.large_step_prob);
             let initial =
                 bootstrap::evaluate_target(tracer, settings, &mut ws, depth, &mut sampler);
+            if level2.is_some() {
+                let mut path = Vec::with_capacity(max_vertices);
+                bdpt::strategy_path(&ws, &mut path);
+                paths.push(path);
+            }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
             chains.push((Chain::new(sampler, initial, cs), depth));
+            seeds.push(cs);
             stats.chains += 1;
         }
-        MltWorker { chains, ws, stats }
+        MltWorker {
+            chains,
+            seeds,
+            ws,
+            stats,
+            level2,
+            paths,
+            scratch: Vec::with_capacity(max_vertices),
+        }
     }
 
     /// Number of chains (mutations per round).
@@ -241,9 +386,11 @@ impl MltWorker {
         self.chains.len()
     }
 
-    /// Runs `rounds` rounds — one mutation of every chain, in chain order —
-    /// splatting every record into `film`. Returns the number of mutations
-    /// (0 when there are no chains: b = 0).
+    /// Runs `rounds` rounds — one mutation of every chain, in chain order,
+    /// each followed by its level-2 side chain when m > 0 — splatting every
+    /// record into `film`. Returns the number of level-1 mutations (0 when
+    /// there are no chains: b = 0); [`MltStats::records`] counts the
+    /// records.
     pub fn run<I: Intersector>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
@@ -251,18 +398,49 @@ impl MltWorker {
         film: &mut Film,
         rounds: u64,
     ) -> u64 {
+        let MltWorker {
+            chains,
+            seeds,
+            ws,
+            stats,
+            level2,
+            paths,
+            scratch,
+        } = self;
         for _ in 0..rounds {
-            for (chain, depth) in &mut self.chains {
+            for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
                 let depth = *depth;
-                let ws = &mut self.ws;
-                let st = chain.step(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+                let keep_path = level2.is_some();
+                let st = chain.step(|s| {
+                    let r = bootstrap::evaluate_target(tracer, settings, ws, depth, s);
+                    if keep_path {
+                        bdpt::strategy_path(ws, scratch);
+                    }
+                    r
+                });
                 for sp in st.splats() {
                     film.add_splat(sp.raster, sp.value);
                 }
-                self.stats.record(&st);
+                stats.record(&st);
+                if let Some(l2) = level2 {
+                    if st.accepted {
+                        core::mem::swap(&mut paths[ci], scratch);
+                    }
+                    let mut rng =
+                        SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);
+                    l2.side_chain(
+                        tracer,
+                        &paths[ci],
+                        &chain.current(),
+                        &mut rng,
+                        stats,
+                        &mut |r, v| film.add_splat(r, v),
+                    );
+                    stats.records += l2.m() as u64;
+                }
             }
         }
-        rounds * self.chains.len() as u64
+        rounds * chains.len() as u64
     }
 
     /// This worker's counters.
@@ -327,9 +505,9 @@ pub fn render<I: Intersector>(
     } else {
         rounds_for(mutations_per_pixel, pixels, 1, worker.chain_count() as u64)
     };
-    let done = worker.run(tracer, settings, &mut film, rounds);
+    worker.run(tracer, settings, &mut film, rounds);
     MltRender {
-        scale: image_scale(bootstrap.b(), pixels, done),
+        scale: image_scale(bootstrap.b(), pixels, worker.stats.records),
         film,
         bootstrap,
         stats: worker.stats,

@@ -198,6 +198,11 @@ impl Camera {
         self.rot.z_axis
     }
 
+    /// The angle one pixel subtends at the image centre (radians, along x).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * libm::atanf(self.tan_half.x / self.width as f32)
+    }
+
     /// True for a thin lens with non-zero aperture.
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0
@@ -310,12 +315,24 @@ impl Camera {
     /// BDPT t = 1). Returns `None` when `p` projects outside the image or
     /// lies behind the camera.
     pub fn connect(&self, p: Vec3, u_lens: Vec2) -> Option<CameraConnection> {
-        let p_lens = if self.lens_radius > 0.0 {
+        self.connect_at(p, self.lens_point(u_lens))
+    }
+
+    /// The world-space lens point for `u_lens` (the camera position for a
+    /// pinhole).
+    #[inline]
+    pub fn lens_point(&self, u_lens: Vec2) -> Vec3 {
+        if self.lens_radius > 0.0 {
             let l = warp::square_to_uniform_disk_concentric(u_lens) * self.lens_radius;
             self.pos + self.rot * Vec3::new(l.x, l.y, 0.0)
         } else {
             self.pos
-        };
+        }
+    }
+
+    /// Connects scene point `p` with the given lens point `p_lens` (the
+    /// caustic perturbation keeps the lens point of the path it perturbs).
+    pub fn connect_at(&self, p: Vec3, p_lens: Vec3) -> Option<CameraConnection> {
         let to = p - p_lens;
         let dist = to.length();
         if !(dist > 0.0) {
@@ -336,6 +353,20 @@ impl Camera {
             pdf_lens_area: 1.0 / lens_area,
             cos_theta,
         })
+    }
+
+    /// The ray from lens point `p_lens` through raster position `raster`:
+    /// towards the point of the focal plane that `raster` images (for a
+    /// pinhole, the ray of [`Camera::generate_ray`]). The lens
+    /// perturbation moves the raster position and keeps the lens point.
+    pub fn ray_from_lens(&self, raster: Vec2, p_lens: Vec3) -> Ray {
+        let d = self.local_dir(raster);
+        if self.lens_radius > 0.0 {
+            let focus = self.pos + self.rot * (d * self.focus_distance);
+            Ray::new(p_lens, (focus - p_lens).normalize())
+        } else {
+            Ray::new(self.pos, (self.rot * d).normalize())
+        }
     }
 }
 
@@ -374,6 +405,10 @@ mod tests {
                     (raster - Vec2::new(x, y)).length() < 1e-2,
                     "{raster} vs {x},{y}"
                 );
+                // The same ray from its lens point and raster position.
+                let p_lens = c.lens_point(Vec2::new(0.3, 0.8));
+                let q = c.ray_from_lens(Vec2::new(x, y), p_lens);
+                assert!((q.o - r.o).length() < 1e-5 && (q.d - r.d).length() < 1e-4);
             }
         }
     }

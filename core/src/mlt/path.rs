@@ -1,0 +1,345 @@
+//! Level 2's view of a path: the complete vertex list x₀ (lens) … x_k
+//! (emitter) of a level-1 state, which perturbation applies to it, and the
+//! retracing of specular chains as ray bundles.
+//!
+//! ## Which perturbation (Veach & Guibas 1997, §3)
+//!
+//! Let x_t be the first non-specular vertex after the lens.
+//! - **Lens**: x₁ … x_{t−1} specular and x_{t+1} non-specular (or x_t the
+//!   emitter itself, t = k). The image point moves; the camera ray is
+//!   retraced through the same specular lobes to a new x′_t, which is
+//!   joined to the unchanged x_{t+1} (or must be on an emitter).
+//! - **Caustic**: x₁ non-specular, x₂ … x_{j−1} specular (j ≥ 3), x_j the
+//!   next non-specular vertex or the emitter. The direction leaving x_j
+//!   moves; the ray is retraced through the same lobes towards the camera
+//!   to a new x′₁, which is joined to the unchanged lens point.
+//!
+//! Both preserve the path's pattern of specular and non-specular vertices
+//! and its lobes (reflection or refraction), and a candidate that breaks it
+//! is a failed perturbation. The pattern decides which one applies — they
+//! exclude each other (lens needs x_{t+1} non-specular, caustic needs x₂
+//! specular, with t = 1 in that case) — so the choice is the same for every
+//! state a side chain can reach, as invariance requires. Paths fitting
+//! neither (e.g. E S D S L, a caustic seen in a mirror; Veach's multi-chain
+//! perturbation) stay put: their side chain is the identity kernel.
+//!
+//! ## Targets in the perturbation's own measure
+//!
+//! The side chain must leave the level-1 chain's stationary distribution
+//! invariant. Over paths (summing over the BDPT strategy that level 1
+//! picked, whose MIS weights sum to 1) that distribution is Y(f(x̄)) dμ(x̄),
+//! so conditioned on the fixed part of the path the moving vertices are
+//! distributed ∝ Y(f(x̄)) in path measure. Expressed in the perturbation's
+//! coordinates (raster area at a fixed lens point; solid angle at x_j) this
+//! is Y(f(x̄)) times the Jacobian from those coordinates to the vertices'
+//! area measure — exactly the contribution of the corresponding BDPT
+//! strategy *without* its MIS weight and with the coordinate density set to
+//! 1: camera throughput per unit raster area (We·cos/p = 1 for our camera)
+//! times the connection for the lens perturbation (strategy (k − t, t + 1)),
+//! light throughput per unit solid angle times the lens connection for the
+//! caustic one (strategy (k, 1)). Factors of the fixed part are constant
+//! along the side chain and cancel in every ratio, except their colour,
+//! which the splat keeps: it enters as [`tail_colour`].
+
+use alloc::vec::Vec;
+
+use glam::Vec3;
+
+use crate::accel::Intersector;
+use crate::bsdf::TransportMode;
+use crate::geometry::{Ray, offset};
+use crate::integrator::Tracer;
+use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
+use crate::integrator::context::Shading;
+use crate::math::Rgb;
+
+/// Longest specular chain a perturbation retraces (longer ones: identity).
+pub const MAX_CHAIN: usize = 32;
+
+/// Largest number of lanes one bundle evaluation handles (the largest k).
+pub const MAX_LANES: usize = 64;
+
+/// A run of specular vertices to retrace, each with the lobe the original
+/// path took there (true = reflection).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpecularChain {
+    len: usize,
+    reflect: [bool; MAX_CHAIN],
+}
+
+impl SpecularChain {
+    /// Number of specular vertices.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True for an empty chain (no specular vertex).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Lobes of `path[range]` in the order given by `order` (indices into
+    /// `path`); `None` when longer than [`MAX_CHAIN`].
+    fn of(path: &[PathVertex], order: impl Iterator<Item = usize>) -> Option<Self> {
+        let mut c = SpecularChain {
+            len: 0,
+            reflect: [false; MAX_CHAIN],
+        };
+        for i in order {
+            if c.len == MAX_CHAIN {
+                return None;
+            }
+            c.reflect[c.len] = is_reflection(path, i);
+            c.len += 1;
+        }
+        Some(c)
+    }
+}
+
+/// Whether the path reflects at interior vertex `i` (both neighbours on
+/// the same side of the geometric normal) rather than refracting.
+fn is_reflection(path: &[PathVertex], i: usize) -> bool {
+    let v = &path[i];
+    let a = (path[i - 1].sp.p - v.sp.p).dot(v.sp.ng);
+    let b = (path[i + 1].sp.p - v.sp.p).dot(v.sp.ng);
+    (a > 0.0) == (b > 0.0)
+}
+
+/// The colour of the fixed vertices x_from … x_k (x_k the emitter) as
+/// f(x̄) weighs them: Le(x_k → x_{k−1}) times, for each interior vertex,
+/// its BSDF in light-transport direction (importance, with the shading
+/// correction) or its specular lobe's throughput. Geometry terms are
+/// scalars constant along a side chain and are left out: only the colour
+/// matters (see the module docs).
+pub fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: usize) -> Rgb {
+    let k = path.len() - 1;
+    let light = &path[k];
+    let mut c = tr
+        .scene
+        .emitted(&light.sp, (path[k - 1].sp.p - light.sp.p).normalize());
+    for i in (from.max(1)..k).rev() {
+        let v = &path[i];
+        let Some(sh) = &v.shading else {
+            return Rgb::ZERO;
+        };
+        let (prev, next) = (path[i + 1].sp.p, path[i - 1].sp.p);
+        c *= if sh.bsdf.is_delta() {
+            let wo = sh.frame.to_local((prev - v.sp.p).normalize());
+            match sh
+                .bsdf
+                .specular(wo, is_reflection(path, i), TransportMode::Importance)
+            {
+                Some((_, w)) => w,
+                None => return Rgb::ZERO,
+            }
+        } else {
+            scatter(sh, prev, next, TransportMode::Importance)
+        };
+    }
+    c
+}
+
+/// What the lens perturbation keeps fixed.
+#[derive(Clone, Copy, Debug)]
+pub struct LensAnchor {
+    /// The lens point x₀.
+    pub p_lens: Vec3,
+    /// Lobes of x₁ … x_{t−1}.
+    pub chain: SpecularChain,
+    /// How the new x′_t is completed.
+    pub end: LensEnd,
+}
+
+/// The far end of a lens perturbation.
+// Held by value on the stack for one side chain; boxing it would allocate.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+pub enum LensEnd {
+    /// x_t is the emitter (t = k): x′_t must emit towards x′_{t−1}.
+    Emitter,
+    /// x′_t is joined to the fixed x_{t+1} = `next`.
+    Connect {
+        /// x_{t+1}.
+        next: PathVertex,
+        /// x_{t+2}'s position, when x_{t+1} is not the emitter.
+        after: Option<Vec3>,
+        /// [`tail_colour`] from x_{t+2} on (1 when x_{t+1} is the emitter).
+        tail: Rgb,
+    },
+}
+
+/// What the caustic perturbation keeps fixed.
+#[derive(Clone, Copy, Debug)]
+pub struct CausticAnchor {
+    /// The lens point x₀.
+    pub p_lens: Vec3,
+    /// x_j, where the direction is perturbed.
+    pub origin: PathVertex,
+    /// x_{j−1}'s position: the level-1 path leaves x_j towards it.
+    pub toward: Vec3,
+    /// x_{j+1}'s position (`None` when x_j is the emitter).
+    pub before: Option<Vec3>,
+    /// Lobes of x_{j−1} … x₂, in tracing order (from x_j towards the lens).
+    pub chain: SpecularChain,
+    /// [`tail_colour`] from x_{j+1} on (1 when x_j is the emitter).
+    pub tail: Rgb,
+}
+
+/// The perturbation that applies to a path, with what it keeps fixed.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+pub enum Applicable {
+    /// The lens perturbation.
+    Lens(LensAnchor),
+    /// The caustic perturbation.
+    Caustic(CausticAnchor),
+    /// Neither: the side chain stays at the level-1 state.
+    Neither,
+}
+
+/// Classifies a complete path x₀ … x_k (see the module docs).
+pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
+    if path.len() < 2 {
+        return Applicable::Neither;
+    }
+    let k = path.len() - 1;
+    let p_lens = path[0].sp.p;
+    // A vertex without shading (a sampled light point) is never specular.
+    let spec = |i: usize| path[i].is_specular();
+    let t = (1..=k).find(|&i| !spec(i)).unwrap_or(k);
+    if spec(t) {
+        // The camera chain ends on a specular emitter: not a path we make.
+        return Applicable::Neither;
+    }
+    if t == k {
+        return match SpecularChain::of(path, 1..t) {
+            Some(chain) => Applicable::Lens(LensAnchor {
+                p_lens,
+                chain,
+                end: LensEnd::Emitter,
+            }),
+            None => Applicable::Neither,
+        };
+    }
+    if !spec(t + 1) {
+        let Some(chain) = SpecularChain::of(path, 1..t) else {
+            return Applicable::Neither;
+        };
+        let after = (t + 1 < k).then(|| path[t + 2].sp.p);
+        let tail = if t + 1 < k {
+            tail_colour(tr, path, t + 2)
+        } else {
+            Rgb::ONE
+        };
+        return Applicable::Lens(LensAnchor {
+            p_lens,
+            chain,
+            end: LensEnd::Connect {
+                next: path[t + 1],
+                after,
+                tail,
+            },
+        });
+    }
+    // t + 1 is specular: a caustic if t = 1 and the chain ends on a
+    // non-specular vertex or the emitter.
+    if t != 1 {
+        return Applicable::Neither;
+    }
+    let Some(j) = (2..=k).find(|&i| !spec(i)) else {
+        return Applicable::Neither;
+    };
+    let Some(chain) = SpecularChain::of(path, (2..j).rev()) else {
+        return Applicable::Neither;
+    };
+    let tail = if j < k {
+        tail_colour(tr, path, j + 1)
+    } else {
+        Rgb::ONE
+    };
+    Applicable::Caustic(CausticAnchor {
+        p_lens,
+        origin: path[j],
+        toward: path[j - 1].sp.p,
+        before: (j < k).then(|| path[j + 1].sp.p),
+        chain,
+        tail,
+    })
+}
+
+/// Per-lane result of [`retrace`].
+#[derive(Clone, Copy, Debug)]
+pub struct Retraced {
+    /// The first non-specular vertex reached.
+    pub hit: Shading,
+    /// The vertex before it (for its incoming direction).
+    pub prev: Vec3,
+    /// Throughput of the specular lobes crossed.
+    pub beta: Rgb,
+}
+
+/// Retraces a bundle of rays through `chain` with packets, one packet per
+/// bounce: every lane must hit a specular surface at each link and take the
+/// recorded lobe, then hit a non-specular surface, else it fails (`None`).
+/// `rays` is consumed as the bundle's current rays.
+pub fn retrace<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    rays: &mut [Option<Ray>],
+    chain: &SpecularChain,
+    mode: TransportMode,
+    out: &mut [Option<Retraced>],
+) {
+    let n = rays.len();
+    debug_assert!(n <= MAX_LANES && out.len() == n);
+    let mut hits: [Option<Shading>; MAX_LANES] = [None; MAX_LANES];
+    let mut beta = [Rgb::ONE; MAX_LANES];
+    let mut prev = [Vec3::ZERO; MAX_LANES];
+    for (p, r) in prev.iter_mut().zip(rays.iter()) {
+        if let Some(r) = r {
+            *p = r.o;
+        }
+    }
+    for link in 0..=chain.len {
+        tr.trace_bundle(rays, &mut hits[..n]);
+        for i in 0..n {
+            let (Some(ray), Some(h)) = (rays[i], hits[i]) else {
+                rays[i] = None;
+                continue;
+            };
+            if link == chain.len {
+                continue;
+            }
+            // A specular link: same kind of vertex, same lobe.
+            let wo_world = -ray.d;
+            let next = h
+                .bsdf
+                .specular(h.frame.to_local(wo_world), chain.reflect[link], mode);
+            let Some((wi, w)) = next else {
+                rays[i] = None;
+                continue;
+            };
+            let wi_world = h.frame.to_world(wi);
+            let mut w = w;
+            if mode == TransportMode::Importance {
+                w *= shading_correction(&h.sp, wo_world, wi_world);
+            }
+            beta[i] *= w;
+            prev[i] = h.sp.p;
+            rays[i] = (beta[i].is_finite() && !beta[i].is_black())
+                .then(|| offset::spawn_ray(h.sp.p, h.sp.p_error, h.sp.ng, wi_world));
+        }
+    }
+    for i in 0..n {
+        out[i] = match (rays[i], hits[i]) {
+            (Some(_), Some(h)) if !h.bsdf.is_delta() => Some(Retraced {
+                hit: h,
+                prev: prev[i],
+                beta: beta[i],
+            }),
+            _ => None,
+        };
+    }
+}
+
+/// Reusable storage for a level-1 state's path.
+pub type PathBuf = Vec<PathVertex>;
