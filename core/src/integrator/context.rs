@@ -126,6 +126,12 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// shaded hit of `rays[i]` (`None` for a miss or an inactive lane).
     pub fn trace_bundle(&mut self, rays: &[Option<Ray>], out: &mut [Option<Shading>]) {
         debug_assert_eq!(rays.len(), out.len());
+        if let Some(i) = single_lane(rays) {
+            // One live ray is not a bundle: the single-ray kernel is faster.
+            out.fill(None);
+            out[i] = self.trace(rays[i].as_ref().expect("live lane"));
+            return;
+        }
         for (rays, out) in rays.chunks(16).zip(out.chunks_mut(16)) {
             match rays.len() {
                 0..=4 => self.trace_chunk::<4>(rays, out),
@@ -157,6 +163,12 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// blocked, false for inactive lanes.
     pub fn occluded_bundle(&mut self, rays: &[Option<Ray>], out: &mut [bool]) {
         debug_assert_eq!(rays.len(), out.len());
+        if let Some(i) = single_lane(rays) {
+            out.fill(false);
+            self.stats.shadow_rays += 1;
+            out[i] = self.accel.occluded(rays[i].as_ref().expect("live lane"));
+            return;
+        }
         for (rays, out) in rays.chunks(16).zip(out.chunks_mut(16)) {
             let blocked = match rays.len() {
                 0..=4 => self.occluded_chunk::<4>(rays),
@@ -191,6 +203,14 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         self.stats.packets += 1;
         self.stats.packet_rays += n;
     }
+}
+
+/// The index of the only live ray, if exactly one is live.
+#[inline]
+fn single_lane(rays: &[Option<Ray>]) -> Option<usize> {
+    let mut live = rays.iter().enumerate().filter(|(_, r)| r.is_some());
+    let first = live.next()?.0;
+    live.next().is_none().then_some(first)
 }
 
 /// Rays `rays` (at most N) in SoA layout with the mask of present ones.

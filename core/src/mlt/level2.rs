@@ -16,7 +16,7 @@ use glam::Vec2;
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
 use super::lens::{LensProposal, LensState, LensTarget};
 use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Splatting, Target};
-use super::path::{Applicable, MAX_LANES, classify};
+use super::path::{Applicable, classify};
 use super::{MltSettings, MltStats, PathSample};
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
@@ -25,7 +25,7 @@ use crate::math::Rgb;
 use crate::sampler::Sampler;
 
 /// Largest k (candidates per multiple-try step).
-pub const MAX_K: usize = MAX_LANES;
+pub const MAX_K: usize = 64;
 
 /// A worker's level-2 machinery: the two multiple-try steppers (scratch
 /// for up to [`MAX_K`] candidates each, no allocation per step) and the

@@ -77,16 +77,21 @@
 //!   beyond noise (DESIGN.md asked for the check). Do not use it for images
 //!   until a corrected rule is proven.
 //!
-//! ## Allocation and random numbers
+//! ## Allocation, batches and random numbers
 //!
 //! [`MultipleTry`] keeps the 2k candidates in fixed arrays of capacity
 //! `K` (const generic), so a step allocates nothing; k ≤ K is chosen at
-//! run time. Random numbers come from a [`Sampler`]: per step, k·DIM for
-//! the candidates, one for the selection (only when k > 1), (k − 1)·DIM
-//! for the reference set and one for the accept test, in that order. The
-//! candidates are independent draws, as Liu's proof requires; drawing them
-//! stratified (Segovia's jittered grid, seed fig. 13) correlates them and
-//! needs its own argument (Craiu & Lemieux 2007 give one) — not done here.
+//! run time. The target is a [`Target`] evaluated one batch at a time — the
+//! k candidates, then the k − 1 reference points — so that a path-space
+//! target traces each batch as ray packets (the "coherent" in CMLT).
+//! Random numbers come from a [`Sampler`]. With [`Candidates::Independent`]
+//! a step draws k·DIM for the candidates, one for the selection (only when
+//! k > 1), (k − 1)·DIM for the reference set and one for the accept test,
+//! in that order. With [`Candidates::Stratified`] (the default for paths)
+//! the candidates are one randomly shifted lattice (DIM numbers), one per
+//! stratum, and the reference set is the same lattice through x (no random
+//! numbers); the detailed-balance argument is on [`Candidates::Stratified`]
+//! and the χ² test `stratified_mtm_keeps_target` checks it.
 
 use super::primary::wrap01;
 use crate::sampler::Sampler;

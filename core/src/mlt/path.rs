@@ -56,8 +56,10 @@ use crate::math::Rgb;
 /// Longest specular chain a perturbation retraces (longer ones: identity).
 pub const MAX_CHAIN: usize = 32;
 
-/// Largest number of lanes one bundle evaluation handles (the largest k).
-pub const MAX_LANES: usize = 64;
+/// Lanes one bundle evaluation handles at a time: the widest packet.
+/// Larger k are evaluated in chunks of this size, which also keeps the
+/// per-call scratch small (it is initialised on every call).
+pub const MAX_LANES: usize = 16;
 
 /// A run of specular vertices to retrace, each with the lobe the original
 /// path took there (true = reflection).
