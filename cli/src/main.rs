@@ -372,7 +372,10 @@ fn run(cli: Cli) -> Result<(), String> {
                         ..base
                     };
                     mlt.validate().map_err(|e| {
-                        format!("{e} (large-step {large_step}, sigma {sigma}, chains {chains}, k {}, lens-sigma {lens_sigma}, caustic-scale {caustic_scale})", mlt.k)
+                        format!(
+                            "{e} (--large-step {large_step}, --sigma {sigma}, --chains {chains}, --k {}, --lens-sigma {lens_sigma}, --caustic-scale {caustic_scale})",
+                            mlt.k
+                        )
                     })?;
                     let budget = match (time, mutations_per_pixel.or(spp)) {
                         (Some(t), _) => MltBudget::Time(t),

@@ -53,13 +53,7 @@ fn render(
 /// spread, b's noise included: each render has its own bootstrap) and that
 /// relMSE falls at least `min_ratio`-fold for 4× the mutations. Returns
 /// the big render's relMSE.
-fn check_reference(
-    scene: &str,
-    factor: u32,
-    mlt: &MltSettings,
-    mpp: u64,
-    min_ratio: f64,
-) -> f64 {
+fn check_reference(scene: &str, factor: u32, mlt: &MltSettings, mpp: u64, min_ratio: f64) -> f64 {
     let (loaded, reference) = load_reduced(scene, factor);
     let mut means = Vec::new();
     let mut errs = Vec::new();
@@ -131,10 +125,15 @@ fn cornell_box_mlt_matches_reference() {
 /// CMLT (level 2 on) converges to the reference on every shared scene.
 #[test]
 fn cmlt_matches_references() {
+    // Real multiple tries (k > 1, stratified) rather than the speed-chosen
+    // defaults, so that the test covers the whole of level 2.
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
         n_chains: 64,
+        k: 8,
+        m: 4,
+        lens_sigma: 2.0,
         ..MltSettings::cmlt()
     };
     // The 320×180 scenes at factor 4 (80×45): 180 is not divisible by 8.
