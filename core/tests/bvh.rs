@@ -4,7 +4,7 @@
 
 mod intersect;
 
-use cmlt::accel::bvh::{Bvh, BvhView, LayoutError, MAX_DEPTH, Node4};
+use cmlt::accel::bvh::{Bvh, BvhView, Kernel, LayoutError, MAX_DEPTH, Node4};
 use cmlt::accel::{BruteForce, Intersector};
 use cmlt::geometry::offset::{barycentric_error, offset_ray_origin};
 use cmlt::geometry::triangle::intersect_triangle;
@@ -34,7 +34,38 @@ fn compare_scene(name: &str, tris: &[[Vec3; 3]], rays: &[Ray]) {
     );
     let check = Checker::exact(tris);
     compare_backend(name, &bvh, &brute, rays, &truth, &check);
-    compare_rays(name, &bvh.view(), rays, &truth, &check);
+    // Every kernel this machine runs: the same answers as brute force, and
+    // bit for bit the scalar kernel's.
+    let scalar = bvh.view().with_kernel(Kernel::Scalar).unwrap();
+    let reference: Vec<Option<Hit>> = rays.iter().map(|r| scalar.intersect(r)).collect();
+    for k in Kernel::ALL {
+        let Some(view) = bvh.view().with_kernel(k) else {
+            continue;
+        };
+        let what = format!("{name} {}", k.name());
+        compare_backend(&what, &view, &brute, rays, &truth, &check);
+        for (r, want) in rays.iter().zip(&reference) {
+            assert_eq!(
+                view.intersect(r),
+                *want,
+                "{what}: differs from scalar for {r:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn kernels_available() {
+    assert!(Kernel::Scalar.is_available());
+    assert_eq!(cfg!(target_arch = "x86_64"), Kernel::Sse2.is_available());
+    assert!(Kernel::best().is_available());
+    let bvh = Bvh::build(&[[Vec3::ZERO, Vec3::X, Vec3::Y]]);
+    assert_eq!(bvh.kernel(), Kernel::best());
+    let forced = bvh.with_kernel(Kernel::Scalar).unwrap();
+    assert_eq!(forced.view().kernel(), Kernel::Scalar);
+    for k in Kernel::ALL {
+        assert_eq!(forced.view().with_kernel(k).is_some(), k.is_available());
+    }
 }
 
 #[test]
