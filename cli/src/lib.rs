@@ -2,6 +2,7 @@
 //! files, error metrics and the multi-threaded render driver. The `cmlt`
 //! binary is a thin command-line layer over it; tests use it directly.
 
+pub mod bench;
 pub mod image_io;
 pub mod metrics;
 pub mod render;

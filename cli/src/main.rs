@@ -124,6 +124,42 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+/// `cmlt bench …` (implemented in `cmlt_cli::bench`).
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Ray throughput (Mrays/s) of every traversal kernel, ours and Embree's.
+    Rays {
+        /// Scenes: shared scene names, XML paths, `mesh` (procedural).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "cornell-box,veach-mis,veach-bidir,veach-ajar,mesh"
+        )]
+        scenes: Vec<String>,
+        /// Seconds per measurement.
+        #[arg(long, default_value_t = 0.1)]
+        time: f64,
+        /// Thread counts to measure.
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Primary rays per scene.
+        #[arg(long, default_value_t = 65_536)]
+        rays: usize,
+        /// Triangles of the procedural mesh (at least).
+        #[arg(long, default_value_t = 260_000)]
+        mesh_triangles: usize,
+        /// Directory of the shared scenes.
+        #[arg(long, default_value = "tests/scenes")]
+        scenes_dir: PathBuf,
+        /// Write one CSV row per measurement here.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+    },
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
@@ -298,6 +334,29 @@ fn run_mlt(
 
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Bench(BenchCommand::Rays {
+            scenes,
+            time,
+            threads,
+            rays,
+            mesh_triangles,
+            scenes_dir,
+            csv,
+        }) => {
+            let opts = cmlt_cli::bench::rays::Options {
+                scenes,
+                time,
+                threads,
+                rays,
+                mesh_triangles,
+                scenes_dir,
+            };
+            let rows = cmlt_cli::bench::rays::run(&opts, &mut std::io::stdout())?;
+            if let Some(path) = csv {
+                cmlt_cli::bench::rays::write_csv(&path, &rows)?;
+            }
+            Ok(())
+        }
         Command::Render {
             scene,
             method,

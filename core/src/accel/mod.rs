@@ -13,6 +13,8 @@
 #[cfg(feature = "alloc")]
 pub mod brute;
 pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
 
 #[cfg(feature = "alloc")]
 pub use brute::BruteForce;

@@ -15,6 +15,10 @@
 //! traversal stack (a node is visited when any live lane hits its box), and
 //! a subtree reached by only a few lanes (≤ N/4) is finished ray by ray with
 //! the same arithmetic, so packet and single-ray answers are bit-identical.
+//! Traversal kernels ([`Kernel`]: scalar, SSE2, AVX2, AVX-512) differ only
+//! in instruction set and return bit-identical answers; a view uses
+//! [`Kernel::best`] unless told otherwise ([`BvhView::with_kernel`]), and the
+//! scalar kernel can always be forced.
 //! Box tests are the robust slab test of Ize 2013 and triangle tests the
 //! watertight test of Woop et al. 2013, so a ray through a closed mesh never
 //! leaks through an edge or a vertex, at any scale.
@@ -34,12 +38,14 @@
 
 mod node;
 mod packet;
+mod simd;
 mod traverse;
 
 #[cfg(feature = "std")]
 mod build;
 
 pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node4, STACK_SIZE};
+pub use simd::Kernel;
 
 use glam::Vec3;
 
@@ -104,6 +110,8 @@ pub struct BvhView<'a> {
     tris: &'a [[Vec3; 3]],
     prim_ids: &'a [u32],
     depth: u32,
+    /// Always an available kernel (checked by [`BvhView::with_kernel`]).
+    kernel: Kernel,
 }
 
 impl<'a> BvhView<'a> {
@@ -151,7 +159,20 @@ impl<'a> BvhView<'a> {
             tris,
             prim_ids,
             depth,
+            kernel: Kernel::best(),
         })
+    }
+
+    /// The same BVH traversed with `kernel`; `None` if this CPU (or, without
+    /// `std`, this build) cannot run it. All kernels return bit-identical
+    /// answers; [`Kernel::Scalar`] is always available.
+    pub fn with_kernel(self, kernel: Kernel) -> Option<Self> {
+        kernel.is_available().then_some(BvhView { kernel, ..self })
+    }
+
+    /// The traversal kernel in use ([`Kernel::best`] unless changed).
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
     }
 
     /// The nodes; `nodes()[0]` is the root.
@@ -236,12 +257,27 @@ impl Intersector for BvhView<'_> {
 
 /// An owned BVH: the storage behind a [`BvhView`].
 #[cfg(feature = "alloc")]
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<Node4>,
     tris: Vec<[Vec3; 3]>,
     prim_ids: Vec<u32>,
     depth: u32,
+    /// Always an available kernel (checked by [`Bvh::with_kernel`]).
+    kernel: Kernel,
+}
+
+#[cfg(feature = "alloc")]
+impl Default for Bvh {
+    fn default() -> Self {
+        Bvh {
+            nodes: Vec::new(),
+            tris: Vec::new(),
+            prim_ids: Vec::new(),
+            depth: 0,
+            kernel: Kernel::best(),
+        }
+    }
 }
 
 #[cfg(feature = "alloc")]
@@ -275,7 +311,23 @@ impl Bvh {
             tris,
             prim_ids,
             depth,
+            kernel: Kernel::best(),
         })
+    }
+
+    /// This BVH traversed with `kernel`; gives the BVH back unchanged as
+    /// the error if the CPU cannot run it (see [`BvhView::with_kernel`]).
+    pub fn with_kernel(self, kernel: Kernel) -> Result<Bvh, Bvh> {
+        if kernel.is_available() {
+            Ok(Bvh { kernel, ..self })
+        } else {
+            Err(self)
+        }
+    }
+
+    /// The traversal kernel in use ([`Kernel::best`] unless changed).
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
     }
 
     /// The storage: nodes, leaf-ordered triangles, scene-global ids.
@@ -291,6 +343,7 @@ impl Bvh {
             tris: &self.tris,
             prim_ids: &self.prim_ids,
             depth: self.depth,
+            kernel: self.kernel,
         }
     }
 }

@@ -13,6 +13,9 @@
 
 use super::BvhView;
 use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Avx2Box, Kernel, Sse2Box};
+use super::simd::{BoxTest, ScalarBox};
 use super::traverse::{self, Prepared, order4, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, WatertightRay, intersect_lanes};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
@@ -172,7 +175,7 @@ struct Entry {
 /// `l.t_max`. For `ANY`, the returned mask holds the occluded lanes.
 #[inline(always)]
 #[allow(clippy::type_complexity)]
-fn traverse<const N: usize, const ANY: bool>(
+fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     view: &BvhView<'_>,
     l: &mut Lanes<N>,
     live: u32,
@@ -206,7 +209,7 @@ fn traverse<const N: usize, const ANY: bool>(
                     count: cur.count,
                     t: cur.t,
                 };
-                if let Some((j, hb1, hb2)) = traverse_from::<ANY>(
+                if let Some((j, hb1, hb2)) = traverse_from::<B, ANY>(
                     view,
                     &l.prepared(i),
                     start,
@@ -306,7 +309,8 @@ fn traverse<const N: usize, const ANY: bool>(
 }
 
 /// Closest hits of the active lanes; inactive lanes of `hits` untouched.
-pub(super) fn intersect_packet<const N: usize>(
+#[inline(always)]
+fn intersect_packet_with<B: BoxTest, const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
     active: LaneMask,
@@ -314,7 +318,7 @@ pub(super) fn intersect_packet<const N: usize>(
 ) {
     if N > 32 {
         for i in active.iter().filter(|&i| i < N) {
-            hits.set(i, traverse::intersect(view, &rays.get(i)));
+            hits.set(i, traverse::intersect_with::<B>(view, &rays.get(i)));
         }
         return;
     }
@@ -330,7 +334,7 @@ pub(super) fn intersect_packet<const N: usize>(
     if valid.count_ones() <= 1 {
         for i in active.iter().filter(|&i| i < N) {
             let h = if valid >> i & 1 != 0 {
-                traverse::intersect(view, &rays.get(i))
+                traverse::intersect_with::<B>(view, &rays.get(i))
             } else {
                 None
             };
@@ -338,7 +342,7 @@ pub(super) fn intersect_packet<const N: usize>(
         }
         return;
     }
-    let (_, best, b1, b2) = traverse::<N, false>(view, &mut l, valid);
+    let (_, best, b1, b2) = traverse::<B, N, false>(view, &mut l, valid);
     for i in active.iter().filter(|&i| i < N) {
         let h = (best[i] != u32::MAX).then(|| Hit {
             t: l.t_max[i],
@@ -351,7 +355,8 @@ pub(super) fn intersect_packet<const N: usize>(
 }
 
 /// Occlusion of the active lanes; bit `i` set = lane `i` occluded.
-pub(super) fn occluded_packet<const N: usize>(
+#[inline(always)]
+fn occluded_packet_with<B: BoxTest, const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
     active: LaneMask,
@@ -359,7 +364,7 @@ pub(super) fn occluded_packet<const N: usize>(
     let mut out = LaneMask::NONE;
     if N > 32 {
         for i in active.iter().filter(|&i| i < N) {
-            if traverse::occluded(view, &rays.get(i)) {
+            if traverse::occluded_with::<B>(view, &rays.get(i)) {
                 out.set(i);
             }
         }
@@ -371,12 +376,104 @@ pub(super) fn occluded_packet<const N: usize>(
     let (mut l, valid) = Lanes::new(rays, active);
     if valid.count_ones() <= 1 {
         for i in LaneMask(valid).iter() {
-            if traverse::occluded(view, &rays.get(i)) {
+            if traverse::occluded_with::<B>(view, &rays.get(i)) {
                 out.set(i);
             }
         }
         return out;
     }
-    let (done, ..) = traverse::<N, true>(view, &mut l, valid);
+    let (done, ..) = traverse::<B, N, true>(view, &mut l, valid);
     LaneMask(done)
+}
+
+/// The packet traversal compiled for AVX2 (8-lane loops in 256-bit
+/// registers) and AVX-512F (16 lanes in 512 bits).
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn intersect_avx2<const N: usize>(
+        view: &BvhView<'_>,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
+        intersect_packet_with::<Avx2Box, N>(view, rays, active, hits)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn occluded_avx2<const N: usize>(
+        view: &BvhView<'_>,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+    ) -> LaneMask {
+        occluded_packet_with::<Avx2Box, N>(view, rays, active)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512F.
+    #[target_feature(enable = "avx2,avx512f")]
+    pub unsafe fn intersect_avx512<const N: usize>(
+        view: &BvhView<'_>,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
+        intersect_packet_with::<Avx2Box, N>(view, rays, active, hits)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512F.
+    #[target_feature(enable = "avx2,avx512f")]
+    pub unsafe fn occluded_avx512<const N: usize>(
+        view: &BvhView<'_>,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+    ) -> LaneMask {
+        occluded_packet_with::<Avx2Box, N>(view, rays, active)
+    }
+}
+
+/// Closest hits of the active lanes with the view's kernel.
+pub(super) fn intersect_packet<const N: usize>(
+    view: &BvhView<'_>,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+    hits: &mut HitPacket<N>,
+) {
+    match view.kernel {
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2 => intersect_packet_with::<Sse2Box, N>(view, rays, active, hits),
+        // SAFETY: a view only holds an available kernel (`with_kernel`).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { x86::intersect_avx2(view, rays, active, hits) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { x86::intersect_avx512(view, rays, active, hits) },
+        _ => intersect_packet_with::<ScalarBox, N>(view, rays, active, hits),
+    }
+}
+
+/// Occlusion of the active lanes with the view's kernel.
+pub(super) fn occluded_packet<const N: usize>(
+    view: &BvhView<'_>,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+) -> LaneMask {
+    match view.kernel {
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2 => occluded_packet_with::<Sse2Box, N>(view, rays, active),
+        // SAFETY: a view only holds an available kernel (`with_kernel`).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { x86::occluded_avx2(view, rays, active) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { x86::occluded_avx512(view, rays, active) },
+        _ => occluded_packet_with::<ScalarBox, N>(view, rays, active),
+    }
 }

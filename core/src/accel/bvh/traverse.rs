@@ -1,7 +1,10 @@
 //! Single-ray traversal: closest hit (front to back) and any hit.
 
 use super::BvhView;
-use super::node::{BoxRay, FAR_SCALE, STACK_SIZE, box4};
+use super::node::{BoxRay, FAR_SCALE, STACK_SIZE};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{Avx2Box, Kernel, Sse2Box};
+use super::simd::{BoxTest, ScalarBox};
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::{Hit, Ray};
 
@@ -70,7 +73,7 @@ fn prepare(view: &BvhView<'_>, ray: &Ray) -> Option<Prepared> {
 /// index and barycentrics of a closer hit, whose distance is left in
 /// `*t_max`.
 #[inline(always)]
-pub(super) fn traverse_from<const ANY: bool>(
+pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
     view: &BvhView<'_>,
     r: &Prepared,
     start: Entry,
@@ -83,7 +86,7 @@ pub(super) fn traverse_from<const ANY: bool>(
     'outer: loop {
         if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
-            let (mask, near) = box4(node, &r.br, *t_max);
+            let (mask, near) = B::box4(node, &r.br, *t_max);
             if mask != 0 {
                 let (order, n) = order4(mask, &near);
                 // Push the farther children far-to-near so the next pop is
@@ -141,12 +144,13 @@ const ROOT: Entry = Entry {
     t: 0.0,
 };
 
-/// Closest hit of `ray`.
-pub(super) fn intersect(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
+/// Closest hit of `ray` with box test `B`.
+#[inline(always)]
+pub(super) fn intersect_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
     let r = prepare(view, ray)?;
     let mut t = ray.t_max;
     let mut stack = [Entry::default(); STACK_SIZE];
-    traverse_from::<false>(view, &r, ROOT, &mut t, &mut stack).map(|(j, b1, b2)| Hit {
+    traverse_from::<B, false>(view, &r, ROOT, &mut t, &mut stack).map(|(j, b1, b2)| Hit {
         t,
         prim: view.prim_ids[j],
         b1,
@@ -154,12 +158,77 @@ pub(super) fn intersect(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
     })
 }
 
-/// Whether anything blocks `ray` in `(0, t_max)`.
-pub(super) fn occluded(view: &BvhView<'_>, ray: &Ray) -> bool {
+/// Whether anything blocks `ray` in `(0, t_max)`, with box test `B`.
+#[inline(always)]
+pub(super) fn occluded_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> bool {
     let Some(r) = prepare(view, ray) else {
         return false;
     };
     let mut t = ray.t_max;
     let mut stack = [Entry::default(); STACK_SIZE];
-    traverse_from::<true>(view, &r, ROOT, &mut t, &mut stack).is_some()
+    traverse_from::<B, true>(view, &r, ROOT, &mut t, &mut stack).is_some()
+}
+
+/// The traversal compiled for AVX2 and for AVX-512F.
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn intersect_avx2(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
+        intersect_with::<Avx2Box>(view, ray)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn occluded_avx2(view: &BvhView<'_>, ray: &Ray) -> bool {
+        occluded_with::<Avx2Box>(view, ray)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512F.
+    #[target_feature(enable = "avx2,avx512f")]
+    pub unsafe fn intersect_avx512(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
+        intersect_with::<Avx2Box>(view, ray)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and AVX-512F.
+    #[target_feature(enable = "avx2,avx512f")]
+    pub unsafe fn occluded_avx512(view: &BvhView<'_>, ray: &Ray) -> bool {
+        occluded_with::<Avx2Box>(view, ray)
+    }
+}
+
+/// Closest hit of `ray` with the view's kernel.
+pub(super) fn intersect(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
+    match view.kernel {
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2 => intersect_with::<Sse2Box>(view, ray),
+        // SAFETY: a view only holds an available kernel (`with_kernel`).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { x86::intersect_avx2(view, ray) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { x86::intersect_avx512(view, ray) },
+        _ => intersect_with::<ScalarBox>(view, ray),
+    }
+}
+
+/// Whether anything blocks `ray` in `(0, t_max)`, with the view's kernel.
+pub(super) fn occluded(view: &BvhView<'_>, ray: &Ray) -> bool {
+    match view.kernel {
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Sse2 => occluded_with::<Sse2Box>(view, ray),
+        // SAFETY: a view only holds an available kernel (`with_kernel`).
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx2 => unsafe { x86::occluded_avx2(view, ray) },
+        // SAFETY: as above.
+        #[cfg(target_arch = "x86_64")]
+        Kernel::Avx512 => unsafe { x86::occluded_avx512(view, ray) },
+        _ => occluded_with::<ScalarBox>(view, ray),
+    }
 }

@@ -1,0 +1,3 @@
+//! Benchmarks of the front end (`cmlt bench …`).
+
+pub mod rays;

@@ -1,0 +1,177 @@
+//! Traversal kernels: which instruction set the box tests and lane loops
+//! use, chosen per [`super::BvhView`] with [`Kernel`].
+//!
+//! Every kernel evaluates the same IEEE operations in the same order (the
+//! robust slab test of `node::box4`; SSE `maxps(x, acc)` / `minps(x, acc)`
+//! return `acc` for a NaN `x`, exactly like `max_keep` / `min_keep`), and no
+//! kernel contracts products into FMAs, so all kernels return bit-identical
+//! hits. The scalar kernel exists on every target and can be forced (for
+//! Miri, or to compare).
+//!
+//! - `Scalar`: portable code over `[f32; 4]`.
+//! - `Sse2`: the 4 child boxes of a node in one SSE register per plane
+//!   (x86_64 baseline, always available there).
+//! - `Avx2`: near and far planes of an axis in one 256-bit register; the
+//!   traversal functions are compiled with AVX2 enabled, so the packet
+//!   kernels' lane loops (8 lanes) vectorise to 256 bits.
+//! - `Avx512`: as `Avx2`, with the traversal compiled for AVX-512F so that
+//!   16-lane loops vectorise to 512 bits.
+//!
+//! Selection: [`Kernel::best`] picks the widest kernel the CPU supports —
+//! detected at run time under `std`, from the build's `target-feature`s
+//! otherwise.
+
+#[cfg(target_arch = "x86_64")]
+use super::node::FAR_SCALE;
+use super::node::{BoxRay, Node4, box4};
+
+/// A traversal kernel (instruction set of the box tests and lane loops).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// Portable scalar code; available everywhere.
+    Scalar,
+    /// SSE2 box tests (x86_64).
+    Sse2,
+    /// AVX2 box tests, traversal compiled for AVX2 (x86_64).
+    Avx2,
+    /// AVX2 box tests, traversal compiled for AVX-512F (x86_64).
+    Avx512,
+}
+
+impl Kernel {
+    /// Every kernel, narrowest first.
+    pub const ALL: [Kernel; 4] = [Kernel::Scalar, Kernel::Sse2, Kernel::Avx2, Kernel::Avx512];
+
+    /// Short lower-case name (`scalar`, `sse2`, `avx2`, `avx512`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Scalar => "scalar",
+            Kernel::Sse2 => "sse2",
+            Kernel::Avx2 => "avx2",
+            Kernel::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU (under `std`) or this build (without `std`) can run
+    /// the kernel.
+    pub fn is_available(self) -> bool {
+        match self {
+            Kernel::Scalar => true,
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Sse2 => true,
+            #[cfg(all(target_arch = "x86_64", feature = "std"))]
+            Kernel::Avx2 => std::is_x86_feature_detected!("avx2"),
+            #[cfg(all(target_arch = "x86_64", not(feature = "std")))]
+            Kernel::Avx2 => cfg!(target_feature = "avx2"),
+            #[cfg(all(target_arch = "x86_64", feature = "std"))]
+            Kernel::Avx512 => {
+                std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("avx512f")
+            }
+            #[cfg(all(target_arch = "x86_64", not(feature = "std")))]
+            Kernel::Avx512 => cfg!(all(target_feature = "avx2", target_feature = "avx512f")),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The widest available kernel.
+    pub fn best() -> Kernel {
+        Kernel::ALL
+            .into_iter()
+            .rev()
+            .find(|k| k.is_available())
+            .unwrap_or(Kernel::Scalar)
+    }
+}
+
+/// One robust slab test of a ray against a node's four children: the hit
+/// mask and entry distances, as `node::box4`.
+pub(super) trait BoxTest {
+    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]);
+}
+
+/// The portable box test.
+pub(super) struct ScalarBox;
+
+impl BoxTest for ScalarBox {
+    #[inline(always)]
+    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+        box4(node, r, t_max)
+    }
+}
+
+/// SSE2: one register holds one plane of all four children.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Sse2Box;
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Sse2Box {
+    #[inline(always)]
+    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+        use core::arch::x86_64::*;
+        let mut out = [0.0f32; 4];
+        // SAFETY: SSE2 is part of the x86_64 baseline; every load and store
+        // touches exactly one `[f32; 4]` (unaligned accesses).
+        let mask = unsafe {
+            let mut near = _mm_setzero_ps();
+            let mut far = _mm_set1_ps(t_max);
+            for a in 0..3 {
+                let (nb, fb) = if r.neg[a] {
+                    (&node.max[a], &node.min[a])
+                } else {
+                    (&node.min[a], &node.max[a])
+                };
+                let o = _mm_set1_ps(r.o[a]);
+                let inv = _mm_set1_ps(r.inv[a]);
+                let tn = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(nb.as_ptr()), o), inv);
+                let tf = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(fb.as_ptr()), o), inv);
+                // maxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
+                near = _mm_max_ps(tn, near);
+                far = _mm_min_ps(tf, far);
+            }
+            let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)));
+            _mm_storeu_ps(out.as_mut_ptr(), near);
+            _mm_movemask_ps(hit) as u32
+        };
+        (mask, out)
+    }
+}
+
+/// AVX: near and far planes of one axis in one 256-bit register. Only
+/// called from functions compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx2Box;
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Avx2Box {
+    #[inline(always)]
+    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+        use core::arch::x86_64::*;
+        let mut out = [0.0f32; 4];
+        // SAFETY: only instantiated inside `#[target_feature(enable =
+        // "avx2")]` functions that are called after `Kernel::is_available`
+        // confirmed AVX2; every load and store touches one `[f32; 4]`.
+        let mask = unsafe {
+            let mut near = _mm_setzero_ps();
+            let mut far = _mm_set1_ps(t_max);
+            for a in 0..3 {
+                let (nb, fb) = if r.neg[a] {
+                    (&node.max[a], &node.min[a])
+                } else {
+                    (&node.min[a], &node.max[a])
+                };
+                let planes = _mm256_set_m128(_mm_loadu_ps(fb.as_ptr()), _mm_loadu_ps(nb.as_ptr()));
+                let t = _mm256_mul_ps(
+                    _mm256_sub_ps(planes, _mm256_set1_ps(r.o[a])),
+                    _mm256_set1_ps(r.inv[a]),
+                );
+                near = _mm_max_ps(_mm256_castps256_ps128(t), near);
+                far = _mm_min_ps(_mm256_extractf128_ps::<1>(t), far);
+            }
+            let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)));
+            _mm_storeu_ps(out.as_mut_ptr(), near);
+            _mm_movemask_ps(hit) as u32
+        };
+        (mask, out)
+    }
+}
