@@ -213,6 +213,19 @@ impl ClampedGaussian2 {
         ))
     }
 
+    /// [`ClampedGaussian2::invert`] written into the first two entries of
+    /// `u` (a multiple-try proposal's uniforms); false outside the disk.
+    pub fn invert_into(&self, d: Vec2, u: &mut [f32]) -> bool {
+        match self.invert(d) {
+            Some(v) => {
+                u[0] = v.x;
+                u[1] = v.y;
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Density of [`ClampedGaussian2::sample`] per unit area at offset `d`:
     /// e^{−|d|²/(2σ²)} / (2πσ² Z) inside the disk, 0 outside.
     #[inline]

@@ -111,14 +111,7 @@ impl Proposal<CausticState> for CausticProposal {
         let local = Frame::from_normal(from.dir).to_local(to.dir);
         let phi = libm::atan2f(local.y, local.x);
         let d = Vec2::new(theta * libm::cosf(phi), theta * libm::sinf(phi));
-        match self.offset.invert(d) {
-            Some(v) => {
-                u[0] = v.x;
-                u[1] = v.y;
-                true
-            }
-            None => false,
-        }
+        self.offset.invert_into(d, u)
     }
 }
 

@@ -67,14 +67,7 @@ impl Proposal<LensState> for LensProposal {
     }
 
     fn invert(&self, from: &LensState, to: &LensState, u: &mut [f32]) -> bool {
-        match self.offset.invert(to.raster - from.raster) {
-            Some(v) => {
-                u[0] = v.x;
-                u[1] = v.y;
-                true
-            }
-            None => false,
-        }
+        self.offset.invert_into(to.raster - from.raster, u)
     }
 }
 

@@ -118,10 +118,7 @@ impl Level2 {
                     raster,
                     value: Rgb::ZERO,
                 };
-                let Some(start) = evaluate_start(&mut target, start) else {
-                    return identity(stats, splat);
-                };
-                let out = run(
+                let Some(out) = side_chain(
                     &mut self.lens,
                     &self.lens_proposal,
                     &mut target,
@@ -129,7 +126,9 @@ impl Level2 {
                     m,
                     rng,
                     &mut |s: &LensState, w| splat(s.raster, s.value * (w / s.value.luminance())),
-                );
+                ) else {
+                    return identity(stats, splat);
+                };
                 stats.lens_steps += m as u64;
                 stats.lens_accepted += out.accepted;
                 stats.l2_candidates += out.candidates;
@@ -145,10 +144,7 @@ impl Level2 {
                     dir,
                     ..CausticState::default()
                 };
-                let Some(start) = evaluate_start(&mut target, start) else {
-                    return identity(stats, splat);
-                };
-                let out = run(
+                let Some(out) = side_chain(
                     &mut self.caustic,
                     &self.caustic_proposal,
                     &mut target,
@@ -156,7 +152,9 @@ impl Level2 {
                     m,
                     rng,
                     &mut |s: &CausticState, w| splat(s.raster, s.value * (w / s.value.luminance())),
-                );
+                ) else {
+                    return identity(stats, splat);
+                };
                 stats.caustic_steps += m as u64;
                 stats.caustic_accepted += out.accepted;
                 stats.l2_candidates += out.candidates;
@@ -184,17 +182,20 @@ struct SideChainCounts {
     zero: u64,
 }
 
-fn run<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
+/// Evaluates the side chain's start with `target` ([`evaluate_start`]) and
+/// runs m multiple-try steps from it; `None` when the start has no
+/// contribution, where the caller records the identity kernel instead.
+fn side_chain<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
     mtm: &mut MultipleTry<S, MAX_K>,
     proposal: &P,
     target: &mut T,
-    start: ChainState<S>,
+    start: S,
     m: u32,
     rng: &mut R,
     splat: &mut impl FnMut(&S, f32),
-) -> SideChainCounts {
+) -> Option<SideChainCounts> {
     let k = mtm.k() as u64;
-    let mut state = start;
+    let mut state = evaluate_start(target, start)?;
     let mut c = SideChainCounts {
         accepted: 0,
         candidates: 0,
@@ -206,7 +207,7 @@ fn run<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
         c.candidates += k;
         c.zero += k - st.nonzero as u64;
     }
-    c
+    Some(c)
 }
 
 /// The candidates mode level 2 uses by default.

@@ -85,18 +85,7 @@ impl Proposal<Vec2> for Walk {
         self.0.pdf(*to - *from)
     }
     fn invert(&self, from: &Vec2, to: &Vec2, u: &mut [f32]) -> bool {
-        invert_offset(&self.0, *to - *from, u)
-    }
-}
-
-fn invert_offset(g: &ClampedGaussian2, d: Vec2, u: &mut [f32]) -> bool {
-    match g.invert(d) {
-        Some(v) => {
-            u[0] = v.x;
-            u[1] = v.y;
-            true
-        }
-        None => false,
+        self.0.invert_into(*to - *from, u)
     }
 }
 
@@ -119,7 +108,7 @@ impl Proposal<Vec2> for StateSigma {
         Self::g(*from).pdf(*to - *from)
     }
     fn invert(&self, from: &Vec2, to: &Vec2, u: &mut [f32]) -> bool {
-        invert_offset(&Self::g(*from), *to - *from, u)
+        Self::g(*from).invert_into(*to - *from, u)
     }
 }
 
