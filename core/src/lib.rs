@@ -29,6 +29,8 @@
 //! - [`mlt`]: Metropolis light transport (level 1: primary-sample-space MLT
 //!   over BDPT).
 //! - [`film`]: pixel accumulation and splatting.
+//! - [`renderer`]: the host's frame loop — a renderer plus one worker per
+//!   host thread, all storage sized up front, merged at resolve.
 //!
 //! ## `no_std`
 //!
@@ -58,3 +60,5 @@ pub mod film;
 pub mod integrator;
 #[cfg(feature = "alloc")]
 pub mod mlt;
+#[cfg(feature = "alloc")]
+pub mod renderer;

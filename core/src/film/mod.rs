@@ -66,6 +66,25 @@ impl Film {
         self.nonfinite
     }
 
+    /// Back to black (no passes, nothing splatted), keeping the storage.
+    pub fn clear(&mut self) {
+        self.sum.fill([0.0; 3]);
+        self.splat.fill([0.0; 3]);
+        self.passes = 0;
+        self.nonfinite = 0;
+    }
+
+    /// The unscaled total (samples + splats) of pixel `index` (row-major),
+    /// in f64: what a host merging several films without a copy sums.
+    ///
+    /// # Panics
+    /// When `index` ≥ width · height.
+    #[inline]
+    pub fn pixel_total(&self, index: usize) -> [f64; 3] {
+        let (s, p) = (self.sum[index], self.splat[index]);
+        [s[0] + p[0], s[1] + p[1], s[2] + p[2]]
+    }
+
     /// Records that one more pass (one sample in every pixel) is complete.
     pub fn end_pass(&mut self) {
         self.passes += 1;

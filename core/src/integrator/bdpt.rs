@@ -245,6 +245,17 @@ impl Workspace {
         Self::default()
     }
 
+    /// Storage for paths of up to `depth` segments: sampling such paths
+    /// never allocates (a renderer's frame must not).
+    pub fn with_capacity(depth: u32) -> Self {
+        let n = depth as usize + 2;
+        Workspace {
+            camera: Vec::with_capacity(n),
+            light: Vec::with_capacity(n),
+            ..Self::default()
+        }
+    }
+
     /// Debugging aid (pbrt's "visualize strategies"): evaluate only the
     /// strategies (s, t) for which `only(s, t)` holds, each *unweighted*
     /// (MIS weight 1). A single strategy alone is then an unbiased estimator
@@ -442,7 +453,7 @@ fn camera_subpath<I: Intersector, S: Sampler>(
     rr_depth: u32,
     rng: &mut S,
 ) {
-    let camera = &t.scene.camera;
+    let camera = &t.camera;
     ws.camera.clear();
     let ray = camera.generate_ray(raster, u_lens);
     let (_, pdf_dir) = camera.pdf_ray(ray.o, ray.d);
@@ -566,7 +577,7 @@ pub fn sample_strategy<I: Intersector, S: Sampler>(
     depth: usize,
     rng: &mut S,
 ) -> StrategySample {
-    let camera = tr.scene.camera;
+    let camera = tr.camera;
     let depth = depth.max(1);
     let n = strategy_count(depth);
     ws.last = None;
@@ -635,7 +646,8 @@ fn connect<I: Intersector, S: Sampler>(
     rng: &mut S,
 ) -> Option<(Rgb, Option<Vec2>, Option<Vertex>)> {
     let scene = tr.scene;
-    let camera = &scene.camera;
+    // A copy: `tr` is borrowed mutably below.
+    let camera = &{ tr.camera };
     let mut sampled: Option<Vertex> = None;
     let mut raster = None;
     // Random numbers are drawn for every strategy that may need them so that
@@ -741,7 +753,7 @@ fn connect<I: Intersector, S: Sampler>(
     let w = if ws.only.is_some() {
         1.0
     } else {
-        mis_weight(scene, ws, sampled, s, t)
+        mis_weight(scene, camera, ws, sampled, s, t)
     };
     Some((l * w, raster, sampled))
 }
@@ -750,6 +762,7 @@ fn connect<I: Intersector, S: Sampler>(
 /// that could have produced the same path (Veach 1997, §10.2.1, with β = 2).
 fn mis_weight(
     scene: &crate::scene::Scene,
+    camera: &crate::scene::Camera,
     ws: &mut Workspace,
     sampled: Option<Vertex>,
     s: usize,
@@ -758,7 +771,6 @@ fn mis_weight(
     if s + t == 2 {
         return 1.0;
     }
-    let camera = &scene.camera;
     let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(l, to);
     let origin_pdf = |v: &Vertex| scene.lights.pdf_area(v.sp.mesh as usize);
 

@@ -7,7 +7,7 @@ use crate::accel::Intersector;
 use crate::bsdf::Bsdf;
 use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket, offset};
 use crate::math::Frame;
-use crate::scene::{Scene, SurfacePoint};
+use crate::scene::{Camera, Scene, SurfacePoint};
 
 /// Work counters of one worker; summed across workers by the host.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -56,6 +56,10 @@ pub struct Tracer<'a, I: Intersector> {
     pub scene: &'a Scene,
     /// The intersector over the scene's triangles.
     pub accel: &'a I,
+    /// The camera rendered through: the scene's own unless replaced with
+    /// [`Tracer::with_camera`] (a renderer's per-frame camera; the scene
+    /// is shared and never mutated).
+    pub camera: Camera,
     /// This worker's counters.
     pub stats: Stats,
 }
@@ -77,8 +81,15 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         Tracer {
             scene,
             accel,
+            camera: scene.camera,
             stats: Stats::default(),
         }
+    }
+
+    /// The same tracer looking through `camera` instead of the scene's.
+    pub fn with_camera(mut self, camera: Camera) -> Self {
+        self.camera = camera;
+        self
     }
 
     /// Closest surface along `ray`, resolved for shading. Degenerate

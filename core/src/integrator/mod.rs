@@ -60,6 +60,12 @@ impl Worker {
         Self::default()
     }
 
+    /// Worker state around caller-sized BDPT storage (see
+    /// [`bdpt::Workspace::with_capacity`]).
+    pub fn with_workspace(bdpt: bdpt::Workspace) -> Self {
+        Worker { bdpt }
+    }
+
     /// See [`bdpt::Workspace::set_strategy_filter`]: BDPT evaluates only
     /// the strategies `(s, t)` the filter accepts, without MIS.
     pub fn set_bdpt_strategy_filter(&mut self, only: Option<fn(usize, usize) -> bool>) {
@@ -82,7 +88,7 @@ pub fn render_pass<I: Intersector>(
     pass: u64,
     film: &mut Film,
 ) {
-    let camera = tracer.scene.camera;
+    let camera = tracer.camera;
     let (w, h) = (camera.width(), camera.height());
     for y in 0..h {
         for x in 0..w {

@@ -39,7 +39,6 @@
 //! seed samples, pass numbers) and combined in index order: the result does
 //! not depend on the split.
 
-use alloc::vec;
 use alloc::vec::Vec;
 use core::ops::Range;
 
@@ -87,17 +86,43 @@ pub fn evaluate_seeds<I: Intersector>(
     range: Range<u64>,
     out: &mut Vec<f32>,
 ) {
+    out.reserve(range.end.saturating_sub(range.start) as usize);
+    let mut ws = bdpt::Workspace::new();
+    let mut sampler = PrimarySampler::new(0, mlt.sigma, mlt.large_step_prob);
+    evaluate_seeds_with(
+        tracer,
+        settings,
+        mlt,
+        seed,
+        range,
+        &mut ws,
+        &mut sampler,
+        out,
+    );
+}
+
+/// [`evaluate_seeds`] with caller-owned storage: allocates nothing when
+/// `out` has room and `ws` and `sampler` are large enough for the deepest
+/// path (what a renderer re-running the bootstrap every frame needs).
+#[allow(clippy::too_many_arguments)]
+pub fn evaluate_seeds_with<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    settings: &Settings,
+    mlt: &MltSettings,
+    seed: u64,
+    range: Range<u64>,
+    ws: &mut bdpt::Workspace,
+    sampler: &mut PrimarySampler,
+    out: &mut Vec<f32>,
+) {
     let depths = path_depth(settings, mlt) as u64;
     if depths == 0 {
         return;
     }
-    let mut ws = bdpt::Workspace::new();
-    let mut sampler = PrimarySampler::new(0, mlt.sigma, mlt.large_step_prob);
-    out.reserve(range.end.saturating_sub(range.start) as usize);
     for i in range {
         sampler.restart(sample_seed(seed, i));
         let depth = 1 + (i % depths) as u32;
-        let y = evaluate_target(tracer, settings, &mut ws, depth, &mut sampler).target();
+        let y = evaluate_target(tracer, settings, ws, depth, sampler).target();
         out.push(y);
     }
 }
@@ -119,7 +144,7 @@ pub fn evaluate_pass<I: Intersector>(
         max_depth: Some(depths),
         ..*settings
     };
-    let camera = tracer.scene.camera;
+    let camera = tracer.camera;
     let (w, h) = (camera.width(), camera.height());
     let pass_seed = mix64(seed ^ 0x0B5E_ED00_0000_0000);
     for y in 0..h {
@@ -132,6 +157,29 @@ pub fn evaluate_pass<I: Intersector>(
                     sums[s + t - 2] += y as f64;
                 }
             });
+        }
+    }
+}
+
+/// Storage the bootstrap evaluates with, kept across re-runs: the seed
+/// samples' values, the passes' per-depth sums, a BDPT workspace and a
+/// primary sampler, each sized for the deepest path.
+pub struct BootstrapScratch {
+    values: Vec<f32>,
+    sums: Vec<f64>,
+    ws: bdpt::Workspace,
+    sampler: PrimarySampler,
+}
+
+impl BootstrapScratch {
+    /// Storage for the bootstrap of `settings` and `mlt`.
+    pub fn new(settings: &Settings, mlt: &MltSettings) -> Self {
+        let depth = path_depth(settings, mlt);
+        BootstrapScratch {
+            values: Vec::with_capacity(Bootstrap::seed_count(settings, mlt) as usize),
+            sums: Vec::with_capacity(depth as usize),
+            ws: bdpt::Workspace::with_capacity(depth),
+            sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
         }
     }
 }
@@ -168,17 +216,58 @@ impl Bootstrap {
         mlt: &MltSettings,
         seed: u64,
     ) -> Self {
-        let mut y = Vec::new();
-        let n = Self::seed_count(settings, mlt);
-        evaluate_seeds(tracer, settings, mlt, seed, 0..n, &mut y);
-        let mut sums = vec![0.0f64; path_depth(settings, mlt) as usize];
-        let mut ws = bdpt::Workspace::new();
-        for pass in 0..mlt.b_passes as u64 {
-            evaluate_pass(tracer, settings, mlt, &mut ws, seed, pass, &mut sums);
+        let mut scratch = BootstrapScratch::new(settings, mlt);
+        let mut boot = Self::with_capacity(settings, mlt);
+        boot.rerun(tracer, settings, mlt, seed, &mut scratch);
+        boot
+    }
+
+    /// An empty bootstrap (b = 0, no seed samples) with room for the
+    /// bootstrap of `settings` and `mlt`, so that [`Bootstrap::rerun`] and
+    /// [`Bootstrap::fill`] allocate nothing.
+    pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
+        let depths = path_depth(settings, mlt) as usize;
+        Bootstrap {
+            seed: 0,
+            depths: depths as u32,
+            per_depth: 0,
+            cdf: Vec::with_capacity(Self::seed_count(settings, mlt) as usize),
+            depth_b: Vec::with_capacity(depths),
+            seed_depth_b: Vec::with_capacity(depths),
+            depth_cdf: Vec::with_capacity(depths),
+            b: 0.0,
         }
-        let camera = tracer.scene.camera;
+    }
+
+    /// Evaluates the whole bootstrap again on one worker (for a new camera
+    /// or scene), reusing this bootstrap's and `scratch`'s storage: nothing
+    /// is allocated when both were made for the same `settings` and `mlt`.
+    /// The result equals [`Bootstrap::run`]'s.
+    pub fn rerun<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        mlt: &MltSettings,
+        seed: u64,
+        scratch: &mut BootstrapScratch,
+    ) {
+        let BootstrapScratch {
+            values,
+            sums,
+            ws,
+            sampler,
+        } = scratch;
+        values.clear();
+        let n = Self::seed_count(settings, mlt);
+        evaluate_seeds_with(tracer, settings, mlt, seed, 0..n, ws, sampler, values);
+        sums.clear();
+        sums.resize(path_depth(settings, mlt) as usize, 0.0);
+        for pass in 0..mlt.b_passes as u64 {
+            evaluate_pass(tracer, settings, mlt, ws, seed, pass, sums);
+        }
+        let camera = tracer.camera;
         let pixels = camera.width() as u64 * camera.height() as u64;
-        Self::from_parts(settings, mlt, seed, &y, &sums, pixels)
+        self.fill(settings, mlt, seed, values, sums, pixels);
     }
 
     /// Builds the bootstrap from the target values of all seed samples in
@@ -198,6 +287,24 @@ impl Bootstrap {
         pass_sums: &[f64],
         pixels: u64,
     ) -> Self {
+        let mut boot = Self::with_capacity(settings, mlt);
+        boot.fill(settings, mlt, seed, values, pass_sums, pixels);
+        boot
+    }
+
+    /// [`Bootstrap::from_parts`] into this bootstrap's storage.
+    ///
+    /// # Panics
+    /// As [`Bootstrap::from_parts`].
+    pub fn fill(
+        &mut self,
+        settings: &Settings,
+        mlt: &MltSettings,
+        seed: u64,
+        values: &[f32],
+        pass_sums: &[f64],
+        pixels: u64,
+    ) {
         let depths = path_depth(settings, mlt) as usize;
         let n = mlt.n_bootstrap as usize;
         assert_eq!(
@@ -206,8 +313,17 @@ impl Bootstrap {
             "bootstrap values missing"
         );
         // Regroup by depth: sample k·D + (d − 1) is the k-th of depth d.
-        let mut cdf = vec![0.0f64; values.len()];
-        let mut seed_depth_b = vec![0.0f64; depths];
+        let Bootstrap {
+            cdf,
+            depth_b,
+            seed_depth_b,
+            depth_cdf,
+            ..
+        } = self;
+        cdf.clear();
+        cdf.resize(values.len(), 0.0);
+        seed_depth_b.clear();
+        seed_depth_b.resize(depths, 0.0);
         for d in 0..depths {
             let mut acc = 0.0f64;
             for k in 0..n {
@@ -223,29 +339,24 @@ impl Bootstrap {
             }
             seed_depth_b[d] = if n > 0 { acc / n as f64 } else { 0.0 };
         }
-        let depth_b: Vec<f64> = if mlt.b_passes > 0 {
+        depth_b.clear();
+        if mlt.b_passes > 0 {
             assert!(pass_sums.len() >= depths, "pass sums missing");
             let norm = 1.0 / (mlt.b_passes as f64 * pixels.max(1) as f64);
-            pass_sums[..depths].iter().map(|s| s * norm).collect()
+            depth_b.extend(pass_sums[..depths].iter().map(|s| s * norm));
         } else {
-            seed_depth_b.clone()
-        };
-        let mut depth_cdf = Vec::with_capacity(depths);
+            depth_b.extend_from_slice(seed_depth_b);
+        }
+        depth_cdf.clear();
         let mut b = 0.0;
-        for &bd in &depth_b {
+        for &bd in depth_b.iter() {
             b += bd;
             depth_cdf.push(b);
         }
-        Bootstrap {
-            seed,
-            depths: depths as u32,
-            per_depth: n as u32,
-            cdf,
-            depth_b,
-            seed_depth_b,
-            depth_cdf,
-            b,
-        }
+        self.seed = seed;
+        self.depths = depths as u32;
+        self.per_depth = n as u32;
+        self.b = b;
     }
 
     /// Estimated normalisation b = Σ_d b_d: the mean luminance of the

@@ -135,7 +135,7 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
     fn evaluate_chunk(&mut self, states: &mut [Option<CausticState>], p: &mut [f32]) {
         let n = states.len();
         let scene = self.tracer.scene;
-        let camera = scene.camera;
+        let camera = self.tracer.camera;
         let a = self.anchor;
         let o = &a.origin;
         // x_j's factor per unit solid angle: emission (with the emitter's

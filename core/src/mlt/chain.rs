@@ -115,6 +115,12 @@ impl Chain {
         }
     }
 
+    /// Ends the chain, handing back its sampler (whose buffers a new chain
+    /// can reuse after [`PrimarySampler::restart`]).
+    pub fn into_sampler(self) -> PrimarySampler {
+        self.sampler
+    }
+
     /// The current path.
     pub fn current(&self) -> PathSample {
         self.current

@@ -91,7 +91,7 @@ impl<I: Intersector> Target<LensState> for LensTarget<'_, '_, I> {
 impl<I: Intersector> LensTarget<'_, '_, I> {
     fn evaluate_chunk(&mut self, states: &mut [Option<LensState>], p: &mut [f32]) {
         let n = states.len();
-        let camera = self.tracer.scene.camera;
+        let camera = self.tracer.camera;
         let a = self.anchor;
         let mut rays: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
         for (r, s) in rays.iter_mut().zip(states.iter()) {

@@ -100,7 +100,7 @@ impl Level2 {
         match classify(tracer, path) {
             Applicable::Neither => identity(stats, splat),
             Applicable::Lens(anchor) => {
-                let camera = tracer.scene.camera;
+                let camera = tracer.camera;
                 let Some(raster) = path
                     .get(1)
                     .and_then(|x1| {

@@ -58,6 +58,7 @@ use crate::film::Film;
 use crate::integrator::bdpt::PathVertex;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
+use crate::scene::Camera;
 
 /// Parameters of level-1 MLT. Defaults are pbrt-v4's where it has one.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -308,6 +309,8 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// depths must be weighted equally for the normalisation to hold.
 pub struct MltWorker {
     chains: Vec<(Chain, u32)>,
+    /// Samplers of dropped chains, whose buffers new chains reuse.
+    spare: Vec<PrimarySampler>,
     /// Seed of each chain (its level-2 random streams derive from it).
     seeds: Vec<u64>,
     ws: bdpt::Workspace,
@@ -338,14 +341,69 @@ impl MltWorker {
         worker: u64,
         workers: u64,
     ) -> Self {
-        let mut ws = bdpt::Workspace::new();
-        let mut chains = Vec::with_capacity(mlt.n_chains as usize);
-        let mut seeds = Vec::with_capacity(mlt.n_chains as usize);
-        let mut stats = MltStats::default();
-        let camera = tracer.scene.camera;
+        let camera = tracer.camera;
+        let mut w = Self::with_capacity(settings, mlt, &camera);
+        w.restart(tracer, settings, mlt, bootstrap, seed, worker, workers);
+        w
+    }
+
+    /// A worker without chains holding all the storage its chains will
+    /// need for `settings` and `mlt` with `camera`'s resolution: after
+    /// this, [`MltWorker::restart`] and [`MltWorker::run`] allocate
+    /// nothing.
+    pub fn with_capacity(settings: &Settings, mlt: &MltSettings, camera: &Camera) -> Self {
+        let n = mlt.n_chains as usize;
+        let depth = path_depth(settings, mlt);
+        let max_vertices = depth as usize + 1;
         let level2 = Level2::new(mlt, camera.width(), camera.height(), camera.pixel_angle());
-        let max_vertices = path_depth(settings, mlt) as usize + 1;
-        let mut paths = Vec::new();
+        let paths = if level2.is_some() {
+            (0..n).map(|_| Vec::with_capacity(max_vertices)).collect()
+        } else {
+            Vec::new()
+        };
+        MltWorker {
+            chains: Vec::with_capacity(n),
+            spare: (0..n)
+                .map(|_| PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth))
+                .collect(),
+            seeds: Vec::with_capacity(n),
+            ws: bdpt::Workspace::with_capacity(depth),
+            stats: MltStats::default(),
+            level2,
+            paths,
+            scratch: Vec::with_capacity(max_vertices),
+        }
+    }
+
+    /// Drops every chain and starts new ones from `bootstrap` exactly as
+    /// [`MltWorker::new`] does (same chains for the same arguments),
+    /// reusing their storage; the counters start again from zero. What a
+    /// renderer calls when the camera or the scene changed. `tracer`'s
+    /// camera must have the resolution the worker was made for.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restart<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        mlt: &MltSettings,
+        bootstrap: &Bootstrap,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+    ) {
+        let MltWorker {
+            chains,
+            spare,
+            seeds,
+            ws,
+            stats,
+            level2,
+            paths,
+            ..
+        } = self;
+        spare.extend(chains.drain(..).map(|(c, _)| c.into_sampler()));
+        seeds.clear();
+        *stats = MltStats::default();
         let workers = workers.max(1);
         let total = mlt.n_chains as u64 * workers;
         // The systematic sample's single random offset, shared by all
@@ -361,29 +419,19 @@ impl MltWorker {
             let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) else {
                 break;
             };
-            let mut sampler =
-                PrimarySampler::new(bootstrap.seed_of(index), mlt.sigma, mlt.large_step_prob);
-            let initial =
-                bootstrap::evaluate_target(tracer, settings, &mut ws, depth, &mut sampler);
+            let Some(mut sampler) = spare.pop() else {
+                break;
+            };
+            sampler.restart(bootstrap.seed_of(index));
+            let initial = bootstrap::evaluate_target(tracer, settings, ws, depth, &mut sampler);
             if level2.is_some() {
-                let mut path = Vec::with_capacity(max_vertices);
-                bdpt::strategy_path(&ws, &mut path);
-                paths.push(path);
+                bdpt::strategy_path(ws, &mut paths[chains.len()]);
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
             chains.push((Chain::new(sampler, initial, cs), depth));
             seeds.push(cs);
             stats.chains += 1;
-        }
-        MltWorker {
-            chains,
-            seeds,
-            ws,
-            stats,
-            level2,
-            paths,
-            scratch: Vec::with_capacity(max_vertices),
         }
     }
 
@@ -412,6 +460,7 @@ impl MltWorker {
             level2,
             paths,
             scratch,
+            ..
         } = self;
         for _ in 0..rounds {
             for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
@@ -501,7 +550,7 @@ pub fn render<I: Intersector>(
     seed: u64,
     mutations_per_pixel: u64,
 ) -> MltRender {
-    let camera = tracer.scene.camera;
+    let camera = tracer.camera;
     let pixels = camera.width() as u64 * camera.height() as u64;
     let bootstrap = Bootstrap::run(tracer, settings, mlt, seed);
     let mut worker = MltWorker::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);

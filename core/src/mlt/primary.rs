@@ -110,6 +110,27 @@ impl PrimarySampler {
         }
     }
 
+    /// [`PrimarySampler::new`] with room for every coordinate a BDPT
+    /// strategy of path depth up to `depth` reads
+    /// ([`PrimarySampler::dimensions_for_depth`]): mutations and restarts
+    /// then never allocate.
+    pub fn with_capacity(seed: u64, sigma: f32, large_step_prob: f32, depth: u32) -> Self {
+        let mut s = Self::new(seed, sigma, large_step_prob);
+        let n = Self::dimensions_for_depth(depth);
+        s.x.reserve_exact(n);
+        s.touched.reserve_exact(n);
+        s
+    }
+
+    /// An upper bound of the coordinates of X that one evaluation of
+    /// `bdpt::sample_strategy` at path depth ≤ `depth` reads: per stream,
+    /// at most 4 per vertex (lobe, 2-D direction, roulette) plus the
+    /// subpath's start (raster, strategy, lens: 5; light: 5; connection:
+    /// 3), interleaved over the three streams.
+    pub fn dimensions_for_depth(depth: u32) -> usize {
+        STREAM_COUNT as usize * (4 * (depth as usize + 1) + 8)
+    }
+
     /// Returns to the state of [`PrimarySampler::new`]`(seed, …)` with the
     /// same σ and large-step probability, keeping the buffers (the
     /// bootstrap evaluates many independent samples with one sampler).

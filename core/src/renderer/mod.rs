@@ -1,0 +1,435 @@
+//! The host's frame loop: a [`Renderer`] (camera, normalisation, the
+//! configuration shared by all workers) and one [`RenderWorker`] per host
+//! thread or job, each with its own film, chains and path storage.
+//!
+//! ```text
+//!   Renderer::new(config, camera)      RenderWorker::new(&renderer, i)   ← all allocation
+//!   loop per frame:
+//!     renderer.set_camera(camera)                    (optional: resets accumulation)
+//!     renderer.prepare(scene, accel)                 (MLT: bootstrap b when stale)
+//!     renderer.render(&mut worker_i, …, budget)      (any thread, one call per worker)
+//!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
+//! ```
+//!
+//! ## Allocation
+//!
+//! Everything a frame touches is sized when the renderer and its workers
+//! are made: films, subpath storage for the deepest path, the bootstrap's
+//! buffers, every chain's primary-sample vector and path. `prepare`,
+//! `render` and `resolve` allocate nothing; a test counts allocations to
+//! prove it. Unbounded path depth is therefore capped at
+//! [`MltSettings::depth_cap`] for every estimator.
+//!
+//! ## Budgets and determinism
+//!
+//! A budget is a number of *units*: camera samples for PT and BDPT (rounded
+//! up to whole passes, one sample per pixel), level-1 mutations for MLT and
+//! CMLT (rounded up to whole rounds, one mutation of every chain). Worker
+//! `i` of `W` renders global passes `i, i + W, …` and holds the global
+//! chains `i, i + W, …`, so each worker's film alone estimates the image
+//! and films of workers that ran different budgets merge correctly. The
+//! image is a function of the configuration, the camera and each worker's
+//! total budget since the last reset, whatever thread ran which worker:
+//! with one worker it equals [`crate::mlt::render`] (MLT) and
+//! [`crate::integrator::render_pass`]'s passes (PT, BDPT) bit for bit.
+//!
+//! ## Camera changes
+//!
+//! [`Renderer::set_camera`] starts a new accumulation: the next `prepare`
+//! re-runs the bootstrap (b depends on the view), and each worker clears
+//! its film and restarts its chains at its next `render`. Keeping chains
+//! and smoothing b across frames is left to the temporal mode.
+
+use crate::accel::Intersector;
+use crate::film::Film;
+use crate::integrator::{self, Settings, Stats, Tracer, Worker, bdpt};
+use crate::math::Rgb;
+use crate::mlt::bootstrap::BootstrapScratch;
+use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker};
+use crate::scene::{Camera, Scene};
+
+/// Which estimator renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Estimator {
+    /// Path tracing with next-event estimation and MIS.
+    Path,
+    /// Bidirectional path tracing with MIS.
+    Bdpt,
+    /// Metropolis light transport over BDPT; with `MltSettings::m > 0`
+    /// level 2 (CMLT's multiple-try perturbations) runs as well.
+    Mlt,
+}
+
+/// Everything that fixes a render apart from the camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RendererConfig {
+    /// The estimator.
+    pub estimator: Estimator,
+    /// Path-depth and emitter settings.
+    pub settings: Settings,
+    /// Metropolis settings (used by [`Estimator::Mlt`]; its `depth_cap`
+    /// also caps unbounded depth for the other estimators).
+    pub mlt: MltSettings,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Number of workers whose films make the image (≥ 1).
+    pub workers: u32,
+}
+
+impl Default for RendererConfig {
+    /// BDPT, Mitsuba's integrator defaults, pbrt's MLT defaults, seed 0,
+    /// one worker.
+    fn default() -> Self {
+        RendererConfig {
+            estimator: Estimator::Bdpt,
+            settings: Settings::default(),
+            mlt: MltSettings::default(),
+            seed: 0,
+            workers: 1,
+        }
+    }
+}
+
+/// Why a renderer call was refused. Nothing changed when one is returned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderError {
+    /// A configuration value is out of range (the message names it).
+    Config(&'static str),
+    /// The camera's resolution differs from the renderer's.
+    Resolution,
+    /// The worker belongs to another renderer or has an index ≥ `workers`.
+    Worker,
+    /// `render` before `prepare` (after creation or a camera change).
+    NotPrepared,
+}
+
+impl core::fmt::Display for RenderError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            RenderError::Config(m) => write!(f, "invalid configuration: {m}"),
+            RenderError::Resolution => {
+                f.write_str("the camera's resolution differs from the renderer's")
+            }
+            RenderError::Worker => f.write_str("the worker does not belong to this renderer"),
+            RenderError::NotPrepared => f.write_str(
+                "prepare the renderer (after creating it or changing the camera) before rendering",
+            ),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for RenderError {}
+
+/// Counters of a render since its last reset, summed over workers.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RenderStats {
+    /// Rays, samples and packets.
+    pub tracer: Stats,
+    /// Metropolis counters (zero for PT and BDPT).
+    pub mlt: MltStats,
+    /// Passes (PT, BDPT) completed by all workers.
+    pub passes: u64,
+    /// Non-finite contributions dropped by the films (0 in a correct
+    /// render).
+    pub nonfinite: u64,
+    /// The normalisation b (MLT; 0 otherwise).
+    pub b: f64,
+}
+
+/// The state every worker reads: configuration, camera, normalisation.
+pub struct Renderer {
+    config: RendererConfig,
+    camera: Camera,
+    /// Bumped by every camera change; workers compare it with their own.
+    generation: u64,
+    /// The generation the bootstrap (or, for PT/BDPT, `prepare`) is for.
+    prepared: Option<u64>,
+    bootstrap: Bootstrap,
+    scratch: BootstrapScratch,
+    /// Identifies this renderer's workers.
+    id: usize,
+}
+
+/// One worker's storage: film, subpaths, chains. Owned by the host, one per
+/// thread or job; [`Renderer::render`] takes it by `&mut`.
+pub struct RenderWorker {
+    renderer: usize,
+    index: u32,
+    generation: Option<u64>,
+    film: Film,
+    bdpt: Worker,
+    mlt: Option<MltWorker>,
+    /// Passes this worker has rendered since the last reset.
+    passes: u64,
+    stats: Stats,
+}
+
+/// Distinguishes renderers so a worker cannot be used with another one.
+/// (`usize`: 64-bit atomics are missing on small targets; a 32-bit count
+/// repeats only after 2³² renderers.)
+fn next_id() -> usize {
+    use core::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+impl Renderer {
+    /// A renderer for `camera`'s resolution. Unbounded `max_depth` is
+    /// capped at `config.mlt.depth_cap` (see the module docs).
+    pub fn new(config: RendererConfig, camera: Camera) -> Result<Self, RenderError> {
+        if config.workers == 0 {
+            return Err(RenderError::Config("at least one worker is needed"));
+        }
+        if config.estimator == Estimator::Mlt {
+            config.mlt.validate().map_err(RenderError::Config)?;
+        }
+        if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
+            return Err(RenderError::Config("the depth cap must be at least 1"));
+        }
+        let mut config = config;
+        config.settings.max_depth = Some(mlt::path_depth(&config.settings, &config.mlt));
+        Ok(Renderer {
+            bootstrap: Bootstrap::with_capacity(&config.settings, &config.mlt),
+            scratch: BootstrapScratch::new(&config.settings, &config.mlt),
+            config,
+            camera,
+            generation: 0,
+            prepared: None,
+            id: next_id(),
+        })
+    }
+
+    /// The configuration (with the depth cap applied).
+    pub fn config(&self) -> &RendererConfig {
+        &self.config
+    }
+
+    /// The current camera.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    /// The normalisation b of the current accumulation (MLT, after
+    /// `prepare`; 0 otherwise).
+    pub fn b(&self) -> f64 {
+        self.bootstrap.b()
+    }
+
+    /// Replaces the camera and starts a new accumulation; `prepare` must
+    /// run before the next `render`. The resolution must not change.
+    pub fn set_camera(&mut self, camera: Camera) -> Result<(), RenderError> {
+        if camera.width() != self.camera.width() || camera.height() != self.camera.height() {
+            return Err(RenderError::Resolution);
+        }
+        self.camera = camera;
+        self.generation += 1;
+        self.prepared = None;
+        Ok(())
+    }
+
+    /// Makes the renderer ready for `render` after creation or a camera
+    /// change: for MLT, runs the bootstrap (seed samples and normalisation
+    /// passes) on the calling thread. Does nothing when already prepared.
+    /// `scene` and `accel` must be the ones every `render` uses.
+    pub fn prepare<I: Intersector>(&mut self, scene: &Scene, accel: &I) {
+        if self.prepared == Some(self.generation) {
+            return;
+        }
+        if self.config.estimator == Estimator::Mlt {
+            let mut tracer = Tracer::new(scene, accel).with_camera(self.camera);
+            let c = &self.config;
+            self.bootstrap
+                .rerun(&mut tracer, &c.settings, &c.mlt, c.seed, &mut self.scratch);
+        }
+        self.prepared = Some(self.generation);
+    }
+
+    /// Renders `budget` units (see the module docs) into `worker`, after
+    /// clearing it if the camera changed since its last call. Returns the
+    /// units rendered: whole passes · pixels, or whole rounds · chains (0
+    /// when b = 0 leaves no chain to run, or when `budget` is 0).
+    pub fn render<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &Scene,
+        accel: &I,
+        budget: u64,
+    ) -> Result<u64, RenderError> {
+        if worker.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        if self.prepared != Some(self.generation) {
+            return Err(RenderError::NotPrepared);
+        }
+        let c = &self.config;
+        let mut tracer = Tracer::new(scene, accel).with_camera(self.camera);
+        if worker.generation != Some(self.generation) {
+            worker.film.clear();
+            worker.passes = 0;
+            worker.stats = Stats::default();
+            if let Some(m) = &mut worker.mlt {
+                m.restart(
+                    &mut tracer,
+                    &c.settings,
+                    &c.mlt,
+                    &self.bootstrap,
+                    c.seed,
+                    worker.index as u64,
+                    c.workers as u64,
+                );
+            }
+            worker.generation = Some(self.generation);
+        }
+        if budget == 0 {
+            worker.stats.merge(&tracer.stats);
+            return Ok(0);
+        }
+        let pixels = self.camera.width() as u64 * self.camera.height() as u64;
+        let done = match (c.estimator, &mut worker.mlt) {
+            (Estimator::Mlt, Some(m)) => {
+                let chains = m.chain_count() as u64;
+                let rounds = if chains == 0 {
+                    0
+                } else {
+                    budget.div_ceil(chains)
+                };
+                m.run(&mut tracer, &c.settings, &mut worker.film, rounds)
+            }
+            (estimator, _) => {
+                let method = match estimator {
+                    Estimator::Path => integrator::Method::Path,
+                    _ => integrator::Method::Bdpt,
+                };
+                let passes = budget.div_ceil(pixels);
+                for _ in 0..passes {
+                    let pass = worker.index as u64 + c.workers as u64 * worker.passes;
+                    integrator::render_pass(
+                        &mut tracer,
+                        &c.settings,
+                        method,
+                        &mut worker.bdpt,
+                        c.seed,
+                        pass,
+                        &mut worker.film,
+                    );
+                    worker.passes += 1;
+                }
+                passes * pixels
+            }
+        };
+        worker.stats.merge(&tracer.stats);
+        Ok(done)
+    }
+
+    /// Merges `workers`' films (in the given order) into the image and
+    /// hands each pixel to `out(index, colour)`, row-major, row 0 at the
+    /// top. Workers that have not rendered since the last camera change
+    /// add nothing; before any rendering the image is black.
+    pub fn resolve(
+        &self,
+        workers: &[&RenderWorker],
+        mut out: impl FnMut(usize, Rgb),
+    ) -> Result<(), RenderError> {
+        if workers.iter().any(|w| w.renderer != self.id) {
+            return Err(RenderError::Worker);
+        }
+        let current = |w: &&&RenderWorker| w.generation == Some(self.generation);
+        let pixels = self.camera.width() as u64 * self.camera.height() as u64;
+        let scale = match self.config.estimator {
+            Estimator::Mlt => {
+                let records: u64 = workers
+                    .iter()
+                    .filter(current)
+                    .filter_map(|w| w.mlt.as_ref())
+                    .map(|m| m.stats().records)
+                    .sum();
+                mlt::image_scale(self.bootstrap.b(), pixels, records)
+            }
+            _ => {
+                let passes: u64 = workers.iter().filter(current).map(|w| w.passes).sum();
+                if passes == 0 {
+                    0.0
+                } else {
+                    1.0 / passes as f64
+                }
+            }
+        };
+        for i in 0..pixels as usize {
+            let mut total = [0.0f64; 3];
+            for w in workers.iter().filter(current) {
+                let t = w.film.pixel_total(i);
+                for c in 0..3 {
+                    total[c] += t[c];
+                }
+            }
+            out(
+                i,
+                Rgb::new(
+                    (total[0] * scale) as f32,
+                    (total[1] * scale) as f32,
+                    (total[2] * scale) as f32,
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// The counters of `workers` since the last camera change.
+    pub fn stats(&self, workers: &[&RenderWorker]) -> RenderStats {
+        let mut s = RenderStats {
+            b: if self.config.estimator == Estimator::Mlt {
+                self.bootstrap.b()
+            } else {
+                0.0
+            },
+            ..RenderStats::default()
+        };
+        for w in workers
+            .iter()
+            .filter(|w| w.renderer == self.id && w.generation == Some(self.generation))
+        {
+            s.tracer.merge(&w.stats);
+            s.passes += w.passes;
+            s.nonfinite += w.film.nonfinite();
+            if let Some(m) = &w.mlt {
+                s.mlt.merge(m.stats());
+            }
+        }
+        s
+    }
+}
+
+impl RenderWorker {
+    /// Worker `index` of `renderer` (index < `workers`), with all the
+    /// storage its renders need.
+    pub fn new(renderer: &Renderer, index: u32) -> Result<Self, RenderError> {
+        let c = &renderer.config;
+        if index >= c.workers {
+            return Err(RenderError::Worker);
+        }
+        let depth = mlt::path_depth(&c.settings, &c.mlt);
+        let camera = &renderer.camera;
+        Ok(RenderWorker {
+            renderer: renderer.id,
+            index,
+            generation: None,
+            film: Film::new(camera.width(), camera.height()),
+            bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
+            mlt: (c.estimator == Estimator::Mlt)
+                .then(|| MltWorker::with_capacity(&c.settings, &c.mlt, camera)),
+            passes: 0,
+            stats: Stats::default(),
+        })
+    }
+
+    /// This worker's index.
+    pub fn index(&self) -> u32 {
+        self.index
+    }
+
+    /// This worker's film (unscaled sums; resolve through the renderer).
+    pub fn film(&self) -> &Film {
+        &self.film
+    }
+}

@@ -1,0 +1,376 @@
+//! The host's frame loop (`cmlt::renderer`): renders equal the estimators'
+//! own entry points bit for bit, workers merge, camera changes reset the
+//! accumulation, misuse is refused without side effects, and — counted
+//! through a global allocator — `set_camera`, `prepare`, `render` and
+//! `resolve` allocate nothing.
+
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use cmlt::accel::bvh::Bvh;
+use cmlt::film::Film;
+use cmlt::integrator::{self, Settings, Tracer, Worker};
+use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::mlt::{self, MltSettings};
+use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
+use cmlt::scene::{
+    Camera, ConductorFresnel, FovAxis, Material, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
+};
+
+/// Counts allocations made by the current thread while counting is on
+/// (other test threads allocate freely).
+struct CountingAlloc;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static COUNT: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards every call unchanged to `System`; the counters are
+// const-initialised thread-locals without destructors, so touching them
+// never allocates or re-enters the allocator.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: same contract as our caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from `System` through `alloc`/`realloc`.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        // SAFETY: same contract as our caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+fn note_allocation() {
+    if COUNTING.with(|c| c.get()) {
+        COUNT.with(|c| c.set(c.get() + 1));
+    }
+}
+
+#[global_allocator]
+static ALLOC: CountingAlloc = CountingAlloc;
+
+/// Allocations `f` makes on this thread.
+fn allocations<R>(f: impl FnOnce() -> R) -> (R, u64) {
+    COUNT.with(|c| c.set(0));
+    COUNTING.with(|c| c.set(true));
+    let r = f();
+    COUNTING.with(|c| c.set(false));
+    (r, COUNT.with(|c| c.get()))
+}
+
+/// A closed diffuse room lit by a small ceiling quad, with a mirror sphere
+/// (caustics: level 2's caustic perturbation applies) seen by a 16×12
+/// pinhole camera.
+fn room() -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.add_material(Material::diffuse(Rgb::new(0.6, 0.5, 0.4)));
+    let mirror = b.add_material(Material {
+        kind: MaterialKind::Conductor {
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(Rgb::splat(0.9)),
+        },
+        two_sided: false,
+    });
+    b.add_mesh(common::inward_box(wall, 0.0));
+    b.add_mesh(common::sphere(Vec3::new(0.2, 0.3, 0.3), 0.4, mirror));
+    let y = -0.98;
+    b.add_mesh(Mesh {
+        positions: vec![
+            Vec3::new(-0.3, y, -0.3),
+            Vec3::new(0.3, y, -0.3),
+            Vec3::new(0.3, y, 0.3),
+            Vec3::new(-0.3, y, 0.3),
+        ],
+        normals: vec![],
+        uvs: vec![],
+        // Facing +y, into the room.
+        indices: vec![[0, 2, 1], [0, 3, 2]],
+        material: wall,
+        emission: Some(Rgb::splat(12.0)),
+    });
+    b.set_camera(camera(0.0));
+    b.build().unwrap()
+}
+
+/// The room's camera, turned by `yaw` radians about the vertical axis.
+fn camera(yaw: f32) -> Camera {
+    Camera::perspective(
+        Mat4::from_rotation_y(yaw) * Mat4::from_translation(Vec3::new(0.0, 0.0, -0.8)),
+        70.0,
+        FovAxis::X,
+        16,
+        12,
+        0.0,
+        1.0,
+    )
+    .unwrap()
+}
+
+fn settings() -> Settings {
+    Settings {
+        max_depth: Some(6),
+        ..Settings::default()
+    }
+}
+
+fn mlt_settings(k: u32, m: u32) -> MltSettings {
+    MltSettings {
+        n_bootstrap: 500,
+        b_passes: 2,
+        n_chains: 24,
+        k,
+        m,
+        ..MltSettings::default()
+    }
+}
+
+fn config(estimator: Estimator, mlt: MltSettings, workers: u32) -> RendererConfig {
+    RendererConfig {
+        estimator,
+        settings: settings(),
+        mlt,
+        seed: 7,
+        workers,
+    }
+}
+
+/// The renderer's image of `workers`.
+fn resolve(r: &Renderer, workers: &[&RenderWorker]) -> Vec<Rgb> {
+    let mut img = vec![Rgb::ZERO; 16 * 12];
+    r.resolve(workers, |i, c| img[i] = c).unwrap();
+    img
+}
+
+fn mean(img: &[Rgb]) -> f64 {
+    img.iter().map(|c| c.luminance() as f64).sum::<f64>() / img.len() as f64
+}
+
+#[test]
+fn one_worker_equals_the_estimators_own_entry_points() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for (estimator, mlt) in [
+        (Estimator::Path, mlt_settings(1, 0)),
+        (Estimator::Bdpt, mlt_settings(1, 0)),
+        (Estimator::Mlt, mlt_settings(1, 0)),
+        (Estimator::Mlt, mlt_settings(4, 2)),
+    ] {
+        let mut r = Renderer::new(config(estimator, mlt, 1), scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        r.prepare(&scene, &bvh);
+        // Two calls: accumulation continues across them.
+        let budget = 16 * 12 * 3;
+        let a = r.render(&mut w, &scene, &bvh, budget).unwrap();
+        let b = r.render(&mut w, &scene, &bvh, budget).unwrap();
+        assert!(a >= budget && b >= budget, "{estimator:?}: {a} {b}");
+        let img = resolve(&r, &[&w]);
+
+        let mut tracer = Tracer::new(&scene, &bvh);
+        let expected = match estimator {
+            Estimator::Mlt => {
+                let mpp = 2 * a / (16 * 12);
+                let direct = mlt::render(&mut tracer, &settings(), &mlt, 7, mpp);
+                assert_eq!(direct.stats.mutations, 2 * a, "{estimator:?}");
+                direct.resolve()
+            }
+            _ => {
+                let method = if estimator == Estimator::Path {
+                    integrator::Method::Path
+                } else {
+                    integrator::Method::Bdpt
+                };
+                let mut film = Film::new(16, 12);
+                let mut worker = Worker::new();
+                for pass in 0..6 {
+                    integrator::render_pass(
+                        &mut tracer,
+                        &settings(),
+                        method,
+                        &mut worker,
+                        7,
+                        pass,
+                        &mut film,
+                    );
+                }
+                film.resolve()
+            }
+        };
+        assert!(mean(&img) > 0.0, "{estimator:?} rendered black");
+        assert_eq!(img, expected, "{estimator:?}");
+        let stats = r.stats(&[&w]);
+        assert_eq!(stats.nonfinite, 0);
+        if estimator == Estimator::Mlt {
+            assert_eq!(stats.mlt.mutations, 2 * a);
+            assert!(stats.b > 0.0);
+            if mlt.m > 0 {
+                assert!(stats.mlt.caustic_steps + stats.mlt.lens_steps > 0);
+                assert!(stats.tracer.packets > 0);
+            }
+        } else {
+            assert_eq!(stats.passes, 6);
+        }
+    }
+}
+
+#[test]
+fn workers_merge_into_one_image_of_the_same_mean() {
+    // Two workers render disjoint passes / chains; their merged image
+    // estimates the same picture as one worker with the same total budget.
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
+        let mlt = mlt_settings(2, 1);
+        let mut one = Renderer::new(config(estimator, mlt, 1), scene.camera).unwrap();
+        let mut w = RenderWorker::new(&one, 0).unwrap();
+        one.prepare(&scene, &bvh);
+        let budget = 16 * 12 * 64;
+        one.render(&mut w, &scene, &bvh, 2 * budget).unwrap();
+        let single = mean(&resolve(&one, &[&w]));
+
+        let mut two = Renderer::new(config(estimator, mlt, 2), scene.camera).unwrap();
+        let mut w0 = RenderWorker::new(&two, 0).unwrap();
+        let mut w1 = RenderWorker::new(&two, 1).unwrap();
+        two.prepare(&scene, &bvh);
+        std::thread::scope(|s| {
+            let (two, scene, bvh, w1) = (&two, &scene, &bvh, &mut w1);
+            let h = s.spawn(move || two.render(w1, scene, bvh, budget));
+            two.render(&mut w0, scene, bvh, budget).unwrap();
+            h.join().unwrap().unwrap();
+        });
+        let merged = resolve(&two, &[&w0, &w1]);
+        let only0 = mean(&resolve(&two, &[&w0]));
+        let m = mean(&merged);
+        eprintln!("{estimator:?}: one worker {single}, two {m}, worker 0 alone {only0}");
+        assert!(merged.iter().all(|c| c.is_finite()));
+        assert!(
+            (m / single - 1.0).abs() < 0.05,
+            "{estimator:?}: {m} vs {single}"
+        );
+        // Worker 0 alone is itself an estimate of the image.
+        assert!(
+            (only0 / single - 1.0).abs() < 0.1,
+            "{estimator:?}: {only0} vs {single}"
+        );
+        assert_ne!(merged, resolve(&two, &[&w0]), "worker 1 added nothing");
+    }
+}
+
+#[test]
+fn camera_change_resets_accumulation_and_matches_a_fresh_renderer() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
+        let cfg = config(estimator, mlt_settings(2, 1), 1);
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        r.prepare(&scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+        r.set_camera(camera(0.4)).unwrap();
+        assert_eq!(
+            r.render(&mut w, &scene, &bvh, 1),
+            Err(RenderError::NotPrepared)
+        );
+        // Until the worker renders again it contributes nothing.
+        assert!(resolve(&r, &[&w]).iter().all(|c| *c == Rgb::ZERO));
+        r.prepare(&scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+        let moved = resolve(&r, &[&w]);
+
+        let mut fresh = Renderer::new(cfg, camera(0.4)).unwrap();
+        let mut fw = RenderWorker::new(&fresh, 0).unwrap();
+        fresh.prepare(&scene, &bvh);
+        fresh.render(&mut fw, &scene, &bvh, 16 * 12 * 4).unwrap();
+        assert_eq!(moved, resolve(&fresh, &[&fw]), "{estimator:?}");
+    }
+}
+
+#[test]
+fn misuse_is_refused() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = config(Estimator::Mlt, mlt_settings(2, 1), 2);
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    assert_eq!(RenderWorker::new(&r, 2).err(), Some(RenderError::Worker));
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    assert_eq!(
+        r.render(&mut w, &scene, &bvh, 10),
+        Err(RenderError::NotPrepared)
+    );
+    let wide = Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 17, 12, 0.0, 1.0).unwrap();
+    assert_eq!(r.set_camera(wide), Err(RenderError::Resolution));
+    assert_eq!(r.camera().width(), 16);
+    let other = Renderer::new(cfg, scene.camera).unwrap();
+    let mut foreign = RenderWorker::new(&other, 0).unwrap();
+    r.prepare(&scene, &bvh);
+    assert_eq!(
+        r.render(&mut foreign, &scene, &bvh, 10),
+        Err(RenderError::Worker)
+    );
+    assert_eq!(r.resolve(&[&foreign], |_, _| {}), Err(RenderError::Worker));
+    for bad in [
+        RendererConfig { workers: 0, ..cfg },
+        RendererConfig {
+            mlt: MltSettings { k: 0, ..cfg.mlt },
+            ..cfg
+        },
+        RendererConfig {
+            mlt: MltSettings {
+                lens_sigma: f32::NAN,
+                ..cfg.mlt
+            },
+            ..cfg
+        },
+    ] {
+        assert!(matches!(
+            Renderer::new(bad, scene.camera),
+            Err(RenderError::Config(_))
+        ));
+    }
+}
+
+#[test]
+fn frames_allocate_nothing_after_setup() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for (estimator, mlt) in [
+        (Estimator::Path, mlt_settings(1, 0)),
+        (Estimator::Bdpt, mlt_settings(1, 0)),
+        (Estimator::Mlt, mlt_settings(1, 0)),
+        (Estimator::Mlt, mlt_settings(8, 4)),
+    ] {
+        let cfg = RendererConfig {
+            // Unbounded depth: the renderer caps it so storage is bounded.
+            settings: Settings::default(),
+            ..config(estimator, mlt, 1)
+        };
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        let mut img = vec![Rgb::ZERO; 16 * 12];
+        let (_, n) = allocations(|| {
+            for frame in 0..3 {
+                r.set_camera(camera(0.1 * frame as f32)).unwrap();
+                r.prepare(&scene, &bvh);
+                r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+                r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+                r.resolve(&[&w], |i, c| img[i] = c).unwrap();
+            }
+        });
+        assert_eq!(
+            n, 0,
+            "{estimator:?} k {} m {}: {n} allocations",
+            mlt.k, mlt.m
+        );
+        assert!(mean(&img) > 0.0);
+        // The counter does count: a fresh worker allocates.
+        let (_, n) = allocations(|| RenderWorker::new(&r, 0).unwrap());
+        assert!(n > 0);
+    }
+}
