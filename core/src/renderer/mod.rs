@@ -40,6 +40,8 @@
 //! its film and restarts its chains at its next `render`. Keeping chains
 //! and smoothing b across frames is left to the temporal mode.
 
+use alloc::vec::Vec;
+
 use crate::accel::Intersector;
 use crate::film::Film;
 use crate::integrator::{self, Settings, Stats, Tracer, Worker, bdpt};
@@ -334,49 +336,89 @@ impl Renderer {
         if workers.iter().any(|w| w.renderer != self.id) {
             return Err(RenderError::Worker);
         }
-        let current = |w: &&&RenderWorker| w.generation == Some(self.generation);
-        let pixels = self.camera.width() as u64 * self.camera.height() as u64;
-        let scale = match self.config.estimator {
-            Estimator::Mlt => {
-                let records: u64 = workers
-                    .iter()
-                    .filter(current)
-                    .filter_map(|w| w.mlt.as_ref())
-                    .map(|m| m.stats().records)
-                    .sum();
-                mlt::image_scale(self.bootstrap.b(), pixels, records)
-            }
-            _ => {
-                let passes: u64 = workers.iter().filter(current).map(|w| w.passes).sum();
-                if passes == 0 {
-                    0.0
-                } else {
-                    1.0 / passes as f64
-                }
-            }
-        };
-        for i in 0..pixels as usize {
+        let mut totals = Totals::default();
+        for w in workers {
+            totals.add(self, w);
+        }
+        let scale = self.scale(&totals);
+        for i in 0..self.pixels() as usize {
             let mut total = [0.0f64; 3];
-            for w in workers.iter().filter(current) {
+            for w in workers.iter().filter(|w| self.is_current(w)) {
                 let t = w.film.pixel_total(i);
                 for c in 0..3 {
                     total[c] += t[c];
                 }
             }
-            out(
-                i,
-                Rgb::new(
-                    (total[0] * scale) as f32,
-                    (total[1] * scale) as f32,
-                    (total[2] * scale) as f32,
-                ),
-            );
+            out(i, scaled(total, scale));
         }
+        Ok(())
+    }
+
+    /// Storage for [`Renderer::accumulate`]: the merged image in f64
+    /// (24 bytes per pixel).
+    pub fn accumulator(&self) -> Accumulator {
+        Accumulator {
+            renderer: self.id,
+            sums: alloc::vec![[0.0; 3]; self.pixels() as usize],
+            totals: Totals::default(),
+        }
+    }
+
+    /// Adds one worker's film and counters into `acc` — the worker-major
+    /// form of [`Renderer::resolve`], for hosts that lock one worker at a
+    /// time. [`Renderer::finish`] then writes the image. Allocates nothing.
+    pub fn accumulate(
+        &self,
+        acc: &mut Accumulator,
+        worker: &RenderWorker,
+    ) -> Result<(), RenderError> {
+        if worker.renderer != self.id || acc.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        if self.is_current(worker) {
+            for (i, s) in acc.sums.iter_mut().enumerate() {
+                let t = worker.film.pixel_total(i);
+                for c in 0..3 {
+                    s[c] += t[c];
+                }
+            }
+        }
+        acc.totals.add(self, worker);
+        Ok(())
+    }
+
+    /// Writes the image accumulated in `acc` through `out` (as
+    /// [`Renderer::resolve`] does) and empties `acc` for the next frame.
+    pub fn finish(
+        &self,
+        acc: &mut Accumulator,
+        mut out: impl FnMut(usize, Rgb),
+    ) -> Result<(), RenderError> {
+        if acc.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        let scale = self.scale(&acc.totals);
+        for (i, s) in acc.sums.iter_mut().enumerate() {
+            out(i, scaled(*s, scale));
+            *s = [0.0; 3];
+        }
+        acc.totals = Totals::default();
         Ok(())
     }
 
     /// The counters of `workers` since the last camera change.
     pub fn stats(&self, workers: &[&RenderWorker]) -> RenderStats {
+        let mut s = RenderStats::default();
+        for w in workers {
+            s.merge(&self.worker_stats(w));
+        }
+        s
+    }
+
+    /// One worker's counters since the last camera change (zero for a
+    /// worker of another renderer or one that has not rendered since);
+    /// `b` is the renderer's.
+    pub fn worker_stats(&self, w: &RenderWorker) -> RenderStats {
         let mut s = RenderStats {
             b: if self.config.estimator == Estimator::Mlt {
                 self.bootstrap.b()
@@ -385,18 +427,76 @@ impl Renderer {
             },
             ..RenderStats::default()
         };
-        for w in workers
-            .iter()
-            .filter(|w| w.renderer == self.id && w.generation == Some(self.generation))
-        {
-            s.tracer.merge(&w.stats);
-            s.passes += w.passes;
-            s.nonfinite += w.film.nonfinite();
+        if w.renderer == self.id && self.is_current(w) {
+            s.tracer = w.stats;
+            s.passes = w.passes;
+            s.nonfinite = w.film.nonfinite();
             if let Some(m) = &w.mlt {
-                s.mlt.merge(m.stats());
+                s.mlt = *m.stats();
             }
         }
         s
+    }
+
+    fn pixels(&self) -> u64 {
+        self.camera.width() as u64 * self.camera.height() as u64
+    }
+
+    /// Whether `w`'s film belongs to the current accumulation.
+    fn is_current(&self, w: &RenderWorker) -> bool {
+        w.generation == Some(self.generation)
+    }
+
+    /// The factor from summed films to radiance: 1 / passes (PT, BDPT) or
+    /// b · pixels / records (MLT); 0 before anything was rendered.
+    fn scale(&self, t: &Totals) -> f64 {
+        match self.config.estimator {
+            Estimator::Mlt => mlt::image_scale(self.bootstrap.b(), self.pixels(), t.records),
+            _ if t.passes == 0 => 0.0,
+            _ => 1.0 / t.passes as f64,
+        }
+    }
+}
+
+/// Passes and Metropolis records of the current accumulation.
+#[derive(Clone, Copy, Debug, Default)]
+struct Totals {
+    passes: u64,
+    records: u64,
+}
+
+impl Totals {
+    fn add(&mut self, r: &Renderer, w: &RenderWorker) {
+        if w.renderer == r.id && r.is_current(w) {
+            self.passes += w.passes;
+            self.records += w.mlt.as_ref().map_or(0, |m| m.stats().records);
+        }
+    }
+}
+
+fn scaled(total: [f64; 3], scale: f64) -> Rgb {
+    Rgb::new(
+        (total[0] * scale) as f32,
+        (total[1] * scale) as f32,
+        (total[2] * scale) as f32,
+    )
+}
+
+/// The merged image of a worker-major resolve ([`Renderer::accumulate`]).
+pub struct Accumulator {
+    renderer: usize,
+    sums: Vec<[f64; 3]>,
+    totals: Totals,
+}
+
+impl RenderStats {
+    /// Adds another worker's counters (b is kept from either).
+    pub fn merge(&mut self, o: &RenderStats) {
+        self.tracer.merge(&o.tracer);
+        self.mlt.merge(&o.mlt);
+        self.passes += o.passes;
+        self.nonfinite += o.nonfinite;
+        self.b = if o.b != 0.0 { o.b } else { self.b };
     }
 }
 

@@ -203,6 +203,26 @@ impl Camera {
         2.0 * libm::atanf(self.tan_half.x / self.width as f32)
     }
 
+    /// The camera frame's y axis (unit): "up" in the image.
+    pub fn up(&self) -> Vec3 {
+        self.rot.y_axis
+    }
+
+    /// The full horizontal field of view in degrees.
+    pub fn fov_x_degrees(&self) -> f32 {
+        2.0 * libm::atanf(self.tan_half.x).to_degrees()
+    }
+
+    /// Radius of the thin lens (0 for a pinhole).
+    pub fn aperture_radius(&self) -> f32 {
+        self.lens_radius
+    }
+
+    /// Distance of the plane in focus along the optical axis.
+    pub fn focus_distance(&self) -> f32 {
+        self.focus_distance
+    }
+
     /// True for a thin lens with non-zero aperture.
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0

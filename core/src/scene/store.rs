@@ -29,6 +29,53 @@ pub struct Mesh {
     pub emission: Option<Rgb>,
 }
 
+impl Mesh {
+    /// Checks the mesh alone as [`SceneBuilder::build`] will, naming it
+    /// `index` in the error: attribute counts, finite vertices, indices in
+    /// range, a material among the first `materials`, a finite
+    /// non-negative emission. Lets a host reject a bad mesh when it hands
+    /// it over.
+    pub fn validate(&self, index: usize, materials: usize) -> Result<(), SceneError> {
+        let (m, mi) = (self, index);
+        let n = m.positions.len();
+        if (!m.normals.is_empty() && m.normals.len() != n)
+            || (!m.uvs.is_empty() && m.uvs.len() != n)
+        {
+            return Err(SceneError::AttributeCount { mesh: mi });
+        }
+        for v in 0..n {
+            let bad = !m.positions[v].is_finite()
+                || m.normals.get(v).is_some_and(|x| !x.is_finite())
+                || m.uvs.get(v).is_some_and(|x| !x.is_finite());
+            if bad {
+                return Err(SceneError::NonFiniteVertex {
+                    mesh: mi,
+                    vertex: v,
+                });
+            }
+        }
+        if let Some(t) = m
+            .indices
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(SceneError::IndexOutOfRange {
+                mesh: mi,
+                triangle: t,
+            });
+        }
+        if m.material.0 as usize >= materials {
+            return Err(SceneError::UnknownMaterial { mesh: mi });
+        }
+        if let Some(e) = m.emission {
+            if !(e.is_finite() && e.r >= 0.0 && e.g >= 0.0 && e.b >= 0.0) {
+                return Err(SceneError::InvalidEmission { mesh: mi });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Why a scene was rejected. Each variant names the offending item.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SceneError {
@@ -126,7 +173,7 @@ impl std::error::Error for SceneError {}
 
 /// Collects meshes, materials, bitmaps and the camera, then validates them
 /// all at once in [`SceneBuilder::build`].
-#[derive(Default)]
+#[derive(Clone, Default)]
 pub struct SceneBuilder {
     meshes: Vec<Mesh>,
     materials: Vec<Material>,
@@ -192,41 +239,7 @@ impl SceneBuilder {
         }
         let mut total: u64 = 0;
         for (mi, m) in self.meshes.iter().enumerate() {
-            let n = m.positions.len();
-            if (!m.normals.is_empty() && m.normals.len() != n)
-                || (!m.uvs.is_empty() && m.uvs.len() != n)
-            {
-                return Err(SceneError::AttributeCount { mesh: mi });
-            }
-            for v in 0..n {
-                let bad = !m.positions[v].is_finite()
-                    || m.normals.get(v).is_some_and(|x| !x.is_finite())
-                    || m.uvs.get(v).is_some_and(|x| !x.is_finite());
-                if bad {
-                    return Err(SceneError::NonFiniteVertex {
-                        mesh: mi,
-                        vertex: v,
-                    });
-                }
-            }
-            if let Some(t) = m
-                .indices
-                .iter()
-                .position(|t| t.iter().any(|&i| i as usize >= n))
-            {
-                return Err(SceneError::IndexOutOfRange {
-                    mesh: mi,
-                    triangle: t,
-                });
-            }
-            if m.material.0 as usize >= self.materials.len() {
-                return Err(SceneError::UnknownMaterial { mesh: mi });
-            }
-            if let Some(e) = m.emission {
-                if !(e.is_finite() && e.r >= 0.0 && e.g >= 0.0 && e.b >= 0.0) {
-                    return Err(SceneError::InvalidEmission { mesh: mi });
-                }
-            }
+            m.validate(mi, self.materials.len())?;
             total += m.indices.len() as u64;
         }
         if total >= u32::MAX as u64 {

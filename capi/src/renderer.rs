@@ -1,0 +1,617 @@
+//! The frame loop: a renderer over a committed scene with a fixed
+//! resolution and a number of workers (one per host thread or job — the
+//! library starts no threads). Per frame: optionally `set_camera`, then
+//! `prepare`, then `render` each worker (concurrently from different
+//! threads if the host likes), then `resolve` into the host's buffer.
+//! Everything is allocated by `cmlt_renderer_new`; the frame calls allocate
+//! nothing.
+
+use std::sync::{Arc, Mutex, RwLock};
+
+use cmlt_core::accel::Intersector;
+use cmlt_core::math::Rgb;
+use cmlt_core::math::spectrum::linear_to_srgb;
+use cmlt_core::mlt::{Candidates, MltSettings};
+use cmlt_core::renderer::{
+    Accumulator, Estimator, RenderError, RenderStats, RenderWorker, Renderer, RendererConfig,
+};
+
+use crate::alloc::measure_allocations;
+use crate::error::{Error, Result, cmlt_status, guard, read, write};
+use crate::scene::{Accel, Committed, cmlt_camera, cmlt_scene};
+
+/// Path tracing with next-event estimation and MIS.
+pub const CMLT_ESTIMATOR_PT: u32 = 0;
+/// Bidirectional path tracing with MIS.
+pub const CMLT_ESTIMATOR_BDPT: u32 = 1;
+/// Metropolis light transport (Kelemen mutations over BDPT).
+pub const CMLT_ESTIMATOR_MLT: u32 = 2;
+/// Coherent MLT: MLT plus multiple-try lens and caustic perturbations.
+pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
+
+/// Linear RGB, 3 × `float` per pixel.
+pub const CMLT_FORMAT_RGB32F: u32 = 0;
+/// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255.
+pub const CMLT_FORMAT_RGBA8_SRGB: u32 = 1;
+
+/// What fixes a renderer. Start from `cmlt_renderer_config_default`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_renderer_config {
+    /// Image width in pixels (1 ..= 16384).
+    pub width: u32,
+    /// Image height in pixels (1 ..= 16384).
+    pub height: u32,
+    /// One of the `CMLT_ESTIMATOR_*` values.
+    pub estimator: u32,
+    /// Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
+    pub workers: u32,
+    /// Longest path in segments; 0 = the scene's setting (unbounded paths
+    /// are capped at 32).
+    pub max_depth: u32,
+    /// Seed of all random numbers.
+    pub seed: u64,
+    /// MLT: chains per worker.
+    pub chains: u32,
+    /// MLT: seed samples per path depth in the bootstrap.
+    pub bootstrap_samples: u32,
+    /// MLT: BDPT passes that estimate the normalisation.
+    pub normalisation_passes: u32,
+    /// MLT: probability of a large step, in [0, 1].
+    pub large_step_probability: f32,
+    /// MLT: small-step width in primary sample space, in (0, 1].
+    pub small_step_sigma: f32,
+    /// CMLT: candidates per multiple-try step (1 ..= 64).
+    pub k: u32,
+    /// CMLT: side-chain steps per level-1 mutation (≥ 1).
+    pub m: u32,
+    /// CMLT: standard deviation of the lens perturbation in pixels.
+    pub lens_sigma: f32,
+    /// CMLT: non-zero = stratified candidates, 0 = independent.
+    pub stratified: u32,
+}
+
+/// Counters of the current accumulation (since the last camera change).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_stats {
+    /// Camera samples (PT, BDPT).
+    pub samples: u64,
+    /// Level-1 mutations (MLT, CMLT).
+    pub mutations: u64,
+    /// Fraction of level-1 proposals accepted.
+    pub acceptance: f64,
+    /// Level-2 lens-perturbation steps and their acceptance.
+    pub lens_steps: u64,
+    /// Fraction of lens steps accepted.
+    pub lens_acceptance: f64,
+    /// Level-2 caustic-perturbation steps.
+    pub caustic_steps: u64,
+    /// Fraction of caustic steps accepted.
+    pub caustic_acceptance: f64,
+    /// Closest-hit rays.
+    pub rays: u64,
+    /// Occlusion rays.
+    pub shadow_rays: u64,
+    /// Packets traced and rays that went in packets.
+    pub packets: u64,
+    /// Rays traced as packet lanes.
+    pub packet_rays: u64,
+    /// Non-finite contributions dropped (0 in a correct render).
+    pub nonfinite: u64,
+    /// Hits from a host intersector rejected as invalid (treated as misses).
+    pub rejected_host_hits: u64,
+    /// The normalisation b (MLT, CMLT).
+    pub b: f64,
+}
+
+/// A renderer handle (opaque to C).
+#[allow(non_camel_case_types)]
+pub struct cmlt_renderer {
+    scene: Arc<Committed>,
+    /// Read-locked by `render` (workers render concurrently), write-locked
+    /// by `prepare`, `set_camera` and `resolve`.
+    renderer: RwLock<Renderer>,
+    /// One lock per worker: a worker is rendered by one thread at a time.
+    workers: Box<[Mutex<RenderWorker>]>,
+    /// The merged image of `resolve` (allocated once).
+    accumulator: Mutex<Accumulator>,
+}
+
+/// `*out` = the defaults for `estimator`: 1 worker, seed 0, the scene's
+/// depth; MLT with pbrt's step sizes, 256 chains, 2000 bootstrap samples,
+/// 4 normalisation passes; CMLT adds k = 1, m = 1, lens σ = 8 px (the
+/// measured defaults of `MltSettings::cmlt`). Width and height are 0: set
+/// them.
+///
+/// # Safety
+/// `out` is NULL or valid for writing.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_config_default(
+    estimator: u32,
+    out: *mut cmlt_renderer_config,
+) -> cmlt_status {
+    guard("cmlt_renderer_config_default", || {
+        // SAFETY: the caller's contract.
+        let out = unsafe { write(out, "out") }?;
+        let mlt = match estimator {
+            CMLT_ESTIMATOR_PT | CMLT_ESTIMATOR_BDPT | CMLT_ESTIMATOR_MLT => MltSettings::default(),
+            CMLT_ESTIMATOR_CMLT => MltSettings::cmlt(),
+            e => return Err(Error::invalid(format!("unknown estimator {e}"))),
+        };
+        *out = cmlt_renderer_config {
+            width: 0,
+            height: 0,
+            estimator,
+            workers: 1,
+            max_depth: 0,
+            seed: 0,
+            chains: mlt.n_chains,
+            bootstrap_samples: mlt.n_bootstrap,
+            normalisation_passes: mlt.b_passes,
+            large_step_probability: mlt.large_step_prob,
+            small_step_sigma: mlt.sigma,
+            k: mlt.k,
+            m: mlt.m.max(1),
+            lens_sigma: mlt.lens_sigma,
+            stratified: (mlt.candidates == Candidates::Stratified) as u32,
+        };
+        Ok(())
+    })
+}
+
+/// The core configuration of `c` over `scene`, checked.
+fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
+    if c.width == 0 || c.height == 0 || c.width > 1 << 14 || c.height > 1 << 14 {
+        return Err(Error::invalid("width and height must be in 1 ..= 16384"));
+    }
+    let estimator = match c.estimator {
+        CMLT_ESTIMATOR_PT => Estimator::Path,
+        CMLT_ESTIMATOR_BDPT => Estimator::Bdpt,
+        CMLT_ESTIMATOR_MLT | CMLT_ESTIMATOR_CMLT => Estimator::Mlt,
+        e => return Err(Error::invalid(format!("unknown estimator {e}"))),
+    };
+    if c.estimator == CMLT_ESTIMATOR_CMLT && c.m == 0 {
+        return Err(Error::invalid("CMLT needs m ≥ 1 side-chain steps"));
+    }
+    if c.max_depth > 1024 {
+        return Err(Error::invalid("max_depth must be at most 1024"));
+    }
+    let mut settings = scene.settings;
+    if c.max_depth > 0 {
+        settings.max_depth = Some(c.max_depth);
+    }
+    let mlt = MltSettings {
+        n_bootstrap: c.bootstrap_samples,
+        b_passes: c.normalisation_passes,
+        n_chains: c.chains,
+        large_step_prob: c.large_step_probability,
+        sigma: c.small_step_sigma,
+        m: if c.estimator == CMLT_ESTIMATOR_CMLT {
+            c.m
+        } else {
+            0
+        },
+        k: c.k,
+        lens_sigma: c.lens_sigma,
+        candidates: if c.stratified != 0 {
+            Candidates::Stratified
+        } else {
+            Candidates::Independent
+        },
+        ..MltSettings::default()
+    };
+    if estimator == Estimator::Mlt && mlt.n_bootstrap == 0 {
+        return Err(Error::invalid(
+            "MLT needs at least one bootstrap sample per depth",
+        ));
+    }
+    Ok(RendererConfig {
+        estimator,
+        settings,
+        mlt,
+        seed: c.seed,
+        workers: c.workers,
+    })
+}
+
+fn render_error(e: RenderError) -> Error {
+    match e {
+        RenderError::Config(_) | RenderError::Resolution | RenderError::Worker => {
+            Error::invalid(e.to_string())
+        }
+        RenderError::NotPrepared => Error::operation(e.to_string()),
+    }
+}
+
+/// Builds the renderer and its workers (everything a frame needs).
+fn build(
+    scene: Arc<Committed>,
+    config: &cmlt_renderer_config,
+    camera: &cmlt_camera,
+) -> Result<cmlt_renderer> {
+    let cfg = core_config(config, &scene)?;
+    let camera = camera.camera(config.width, config.height)?;
+    let renderer = Renderer::new(cfg, camera).map_err(render_error)?;
+    let workers = (0..cfg.workers)
+        .map(|i| RenderWorker::new(&renderer, i).map(Mutex::new))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(render_error)?;
+    Ok(cmlt_renderer {
+        scene,
+        accumulator: Mutex::new(renderer.accumulator()),
+        renderer: RwLock::new(renderer),
+        workers: workers.into_boxed_slice(),
+    })
+}
+
+/// `*out_bytes` and `*out_alignment` = the memory a renderer of this
+/// configuration takes from the allocator (all of it, allocated in
+/// `cmlt_renderer_new`; nothing more is allocated while rendering) and the
+/// largest alignment it asks for. Measured by building the renderer once
+/// and freeing it. Either out pointer may be NULL.
+///
+/// # Safety
+/// `scene` and `config` are NULL or valid; the out pointers are NULL or
+/// valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_memory_requirements(
+    scene: *const cmlt_scene,
+    config: *const cmlt_renderer_config,
+    out_bytes: *mut usize,
+    out_alignment: *mut usize,
+) -> cmlt_status {
+    guard("cmlt_renderer_memory_requirements", || {
+        // SAFETY: the caller's contract.
+        let (scene, config) = unsafe { (read(scene, "scene")?, read(config, "config")?) };
+        let committed = scene.committed()?;
+        let camera = cmlt_camera {
+            position: [0.0; 3],
+            target: [0.0, 0.0, 1.0],
+            up: [0.0, 1.0, 0.0],
+            fov_degrees: 60.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        };
+        let (built, usage) =
+            measure_allocations(|| build(committed, config, &camera).map(Box::new));
+        drop(built?);
+        // SAFETY: the caller's contract.
+        unsafe {
+            if let Some(b) = out_bytes.as_mut() {
+                *b = usage.bytes;
+            }
+            if let Some(a) = out_alignment.as_mut() {
+                *a = usage.max_align;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Creates a renderer of the committed `scene` looking through `camera`.
+///
+/// # Safety
+/// `scene`, `config`, `camera` and `out` are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_new(
+    scene: *const cmlt_scene,
+    config: *const cmlt_renderer_config,
+    camera: *const cmlt_camera,
+    out: *mut *mut cmlt_renderer,
+) -> cmlt_status {
+    guard("cmlt_renderer_new", || {
+        // SAFETY: the caller's contract.
+        let (scene, config, camera, out) = unsafe {
+            (
+                read(scene, "scene")?,
+                read(config, "config")?,
+                read(camera, "camera")?,
+                write(out, "out")?,
+            )
+        };
+        let r = build(scene.committed()?, config, camera)?;
+        *out = Box::into_raw(Box::new(r));
+        Ok(())
+    })
+}
+
+/// Releases a renderer (NULL is ignored).
+///
+/// # Safety
+/// `renderer` is NULL or a handle not released before and not in use.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_release(renderer: *mut cmlt_renderer) {
+    let _ = guard("cmlt_renderer_release", || {
+        if !renderer.is_null() {
+            // SAFETY: the caller's contract: it came from Box::into_raw.
+            drop(unsafe { Box::from_raw(renderer) });
+        }
+        Ok(())
+    });
+}
+
+/// Moves the camera: the accumulation restarts (call `cmlt_renderer_prepare`
+/// before rendering again). `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` and `camera` are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_set_camera(
+    renderer: *mut cmlt_renderer,
+    camera: *const cmlt_camera,
+) -> cmlt_status {
+    guard("cmlt_renderer_set_camera", || {
+        // SAFETY: the caller's contract.
+        let (r, camera) = unsafe { (read(renderer, "renderer")?, read(camera, "camera")?) };
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|_| Error::busy("workers are rendering"))?;
+        let cam = camera.camera(inner.camera().width(), inner.camera().height())?;
+        inner.set_camera(cam).map_err(render_error)
+    })
+}
+
+/// Calls `f` with the committed scene's intersector as a concrete type.
+fn with_accel<R>(scene: &Committed, f: impl FnOnce(&dyn AccelVisitor) -> R) -> R {
+    f(&scene.accel)
+}
+
+/// Dispatch from the closed set of backends to the generic core.
+trait AccelVisitor {
+    fn prepare(&self, r: &mut Renderer, scene: &cmlt_core::scene::Scene);
+    fn render(
+        &self,
+        r: &Renderer,
+        w: &mut RenderWorker,
+        scene: &cmlt_core::scene::Scene,
+        budget: u64,
+    ) -> std::result::Result<u64, RenderError>;
+}
+
+fn prepare_with<I: Intersector>(r: &mut Renderer, scene: &cmlt_core::scene::Scene, accel: &I) {
+    r.prepare(scene, accel)
+}
+
+impl AccelVisitor for Accel {
+    fn prepare(&self, r: &mut Renderer, scene: &cmlt_core::scene::Scene) {
+        match self {
+            Accel::Bvh(b) => prepare_with(r, scene, b),
+            Accel::Host(h) => prepare_with(r, scene, h),
+            #[cfg(feature = "embree")]
+            Accel::Embree(e) => prepare_with(r, scene, e),
+        }
+    }
+
+    fn render(
+        &self,
+        r: &Renderer,
+        w: &mut RenderWorker,
+        scene: &cmlt_core::scene::Scene,
+        budget: u64,
+    ) -> std::result::Result<u64, RenderError> {
+        match self {
+            Accel::Bvh(b) => r.render(w, scene, b, budget),
+            Accel::Host(h) => r.render(w, scene, h, budget),
+            #[cfg(feature = "embree")]
+            Accel::Embree(e) => r.render(w, scene, e, budget),
+        }
+    }
+}
+
+/// Readies the renderer for this frame's `cmlt_renderer_render` calls:
+/// after creation or a camera change, MLT and CMLT estimate the
+/// normalisation here (on the calling thread); otherwise it returns at
+/// once. `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> cmlt_status {
+    guard("cmlt_renderer_prepare", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|_| Error::busy("workers are rendering"))?;
+        with_accel(&r.scene, |a| a.prepare(&mut inner, &r.scene.scene));
+        Ok(())
+    })
+}
+
+/// Renders `budget` units into worker `worker`: camera samples for PT and
+/// BDPT (rounded up to whole passes over the image), level-1 mutations for
+/// MLT and CMLT (rounded up to one mutation of every chain of the worker).
+/// `*out_done` (may be NULL) receives the units rendered. Different workers
+/// may be rendered at the same time from different threads; a worker
+/// already being rendered gives `CMLT_ERROR_BUSY`.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `out_done` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_render(
+    renderer: *const cmlt_renderer,
+    worker: u32,
+    budget: u64,
+    out_done: *mut u64,
+) -> cmlt_status {
+    guard("cmlt_renderer_render", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let slot = r.workers.get(worker as usize).ok_or_else(|| {
+            Error::invalid(format!(
+                "worker {worker} ≥ the renderer's {} workers",
+                r.workers.len()
+            ))
+        })?;
+        let inner = r
+            .renderer
+            .try_read()
+            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
+        let mut w = slot.try_lock().map_err(|_| {
+            Error::busy(format!(
+                "worker {worker} is being rendered by another thread"
+            ))
+        })?;
+        let done = with_accel(&r.scene, |a| {
+            a.render(&inner, &mut w, &r.scene.scene, budget)
+        })
+        .map_err(render_error)?;
+        if !out_done.is_null() {
+            // SAFETY: the caller's contract.
+            unsafe { *out_done = done };
+        }
+        Ok(())
+    })
+}
+
+/// Bytes per pixel of a format, or an error for an unknown one.
+fn pixel_size(format: u32) -> Result<usize> {
+    match format {
+        CMLT_FORMAT_RGB32F => Ok(12),
+        CMLT_FORMAT_RGBA8_SRGB => Ok(4),
+        f => Err(Error::invalid(format!("unknown pixel format {f}"))),
+    }
+}
+
+/// Writes the image of all workers (merged in worker order) into `pixels`:
+/// `height` rows of `width` pixels of `format`, row 0 at the top, rows
+/// `row_stride` bytes apart (0 = packed), in a buffer of `buffer_size`
+/// bytes. `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `pixels` is NULL or valid for writing
+/// `buffer_size` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_resolve(
+    renderer: *const cmlt_renderer,
+    format: u32,
+    pixels: *mut u8,
+    row_stride: usize,
+    buffer_size: usize,
+) -> cmlt_status {
+    guard("cmlt_renderer_resolve", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        if pixels.is_null() {
+            return Err(Error::null("pixels"));
+        }
+        let px = pixel_size(format)?;
+        // Exclusive: no worker renders while the image is read out.
+        let inner = r
+            .renderer
+            .try_write()
+            .map_err(|_| Error::busy("workers are rendering, or the renderer is being prepared"))?;
+        let (w, h) = (
+            inner.camera().width() as usize,
+            inner.camera().height() as usize,
+        );
+        let row = w * px;
+        let stride = if row_stride == 0 { row } else { row_stride };
+        if stride < row {
+            return Err(Error::invalid(format!(
+                "row_stride {stride} < {row} bytes of a row"
+            )));
+        }
+        let needed = (h - 1) * stride + row;
+        if buffer_size < needed {
+            return Err(Error::invalid(format!(
+                "buffer_size {buffer_size} < {needed} bytes needed"
+            )));
+        }
+        if format == CMLT_FORMAT_RGB32F && (pixels as usize % 4 != 0 || stride % 4 != 0) {
+            return Err(Error::invalid(
+                "float pixels need a 4-byte aligned buffer and row_stride",
+            ));
+        }
+        let mut acc = r
+            .accumulator
+            .try_lock()
+            .map_err(|_| Error::busy("another thread is resolving"))?;
+        for slot in r.workers.iter() {
+            let w = slot
+                .try_lock()
+                .map_err(|_| Error::busy("a worker is being rendered"))?;
+            inner.accumulate(&mut acc, &w).map_err(render_error)?;
+        }
+        inner
+            .finish(&mut acc, |i, c: Rgb| {
+                let (x, y) = (i % w, i / w);
+                let offset = y * stride + x * px;
+                // SAFETY: offset + px ≤ needed ≤ buffer_size, and the buffer
+                // is the caller's to write; floats are 4-byte aligned
+                // (checked above).
+                unsafe {
+                    let p = pixels.add(offset);
+                    if format == CMLT_FORMAT_RGB32F {
+                        let f = p.cast::<f32>();
+                        f.write(c.r);
+                        f.add(1).write(c.g);
+                        f.add(2).write(c.b);
+                    } else {
+                        let enc = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+                        p.write(enc(c.r));
+                        p.add(1).write(enc(c.g));
+                        p.add(2).write(enc(c.b));
+                        p.add(3).write(255);
+                    }
+                }
+            })
+            .map_err(render_error)
+    })
+}
+
+/// `*out` = the counters of the current accumulation over all workers.
+///
+/// # Safety
+/// `renderer` and `out` are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_get_stats(
+    renderer: *const cmlt_renderer,
+    out: *mut cmlt_stats,
+) -> cmlt_status {
+    guard("cmlt_renderer_get_stats", || {
+        // SAFETY: the caller's contract.
+        let (r, out) = unsafe { (read(renderer, "renderer")?, write(out, "out")?) };
+        let inner = r
+            .renderer
+            .try_read()
+            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
+        let mut s = RenderStats::default();
+        for slot in r.workers.iter() {
+            let w = slot
+                .try_lock()
+                .map_err(|_| Error::busy("a worker is being rendered"))?;
+            s.merge(&inner.worker_stats(&w));
+        }
+        let m = &s.mlt;
+        *out = cmlt_stats {
+            samples: s.tracer.samples,
+            mutations: m.mutations,
+            acceptance: if m.mutations == 0 {
+                0.0
+            } else {
+                (m.small_accepted + m.large_accepted) as f64 / m.mutations as f64
+            },
+            lens_steps: m.lens_steps,
+            lens_acceptance: m.lens_acceptance(),
+            caustic_steps: m.caustic_steps,
+            caustic_acceptance: m.caustic_acceptance(),
+            rays: s.tracer.rays,
+            shadow_rays: s.tracer.shadow_rays,
+            packets: s.tracer.packets,
+            packet_rays: s.tracer.packet_rays,
+            nonfinite: s.nonfinite,
+            rejected_host_hits: match &r.scene.accel {
+                Accel::Host(h) => h.rejected_hits(),
+                _ => 0,
+            },
+            b: s.b,
+        };
+        Ok(())
+    })
+}

@@ -1,0 +1,702 @@
+//! Scenes: materials and meshes handed over by pointer (copied), an
+//! optional host intersector, then `cmlt_scene_commit` builds the
+//! acceleration structure and freezes the scene. Renderers share a
+//! committed scene; releasing the handle while renderers use it is fine.
+
+use std::ffi::{CStr, c_char};
+use std::sync::{Arc, Mutex};
+
+use cmlt_core::accel::bvh::Bvh;
+use cmlt_core::integrator::Settings;
+use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
+use cmlt_core::scene::{
+    Camera, ConductorFresnel, Distribution, FovAxis, Material, MaterialId, MaterialKind, Mesh,
+    Scene, SceneBuilder, Texture,
+};
+
+use crate::error::{Error, Result, cmlt_status, guard, read, write};
+use crate::host::{HostIntersector, cmlt_intersector};
+
+/// Lambertian diffuse: `color` is the albedo.
+pub const CMLT_MATERIAL_DIFFUSE: u32 = 0;
+/// Smooth mirror: `color` is the specular reflectance.
+pub const CMLT_MATERIAL_MIRROR: u32 = 1;
+/// Smooth glass (dielectric): `ior` is the interior/exterior index ratio.
+pub const CMLT_MATERIAL_GLASS: u32 = 2;
+/// Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
+/// `roughness` the GGX α in (0, 1].
+pub const CMLT_MATERIAL_ROUGH_METAL: u32 = 3;
+
+/// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
+/// (default), or Embree (builds with the `embree` feature only). A scene
+/// with a host intersector uses that instead.
+pub const CMLT_ACCEL_BVH: u32 = 0;
+/// Embree 3 (`CMLT_ERROR_UNSUPPORTED` in builds without it).
+pub const CMLT_ACCEL_EMBREE: u32 = 1;
+
+/// A material. Fields a type does not use are ignored.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_material {
+    /// One of the `CMLT_MATERIAL_*` values.
+    pub type_: u32,
+    /// Linear RGB albedo / reflectance, each in [0, 1].
+    pub color: [f32; 3],
+    /// Glass: index of refraction ratio, > 0.
+    pub ior: f32,
+    /// Rough metal: GGX α in (0, 1].
+    pub roughness: f32,
+    /// Non-zero: both sides scatter alike (otherwise the back side is
+    /// black, as Mitsuba's one-sided BSDFs).
+    pub two_sided: u32,
+}
+
+/// A triangle mesh, read from the host's arrays during
+/// `cmlt_scene_add_mesh` (copied; the arrays may be freed afterwards).
+/// Strides are in bytes between consecutive elements; 0 means tightly
+/// packed. Strides must be multiples of 4 and at least the element's size;
+/// pointers must be 4-byte aligned.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_mesh {
+    /// `vertex_count` positions, 3 floats each.
+    pub positions: *const f32,
+    /// Number of vertices.
+    pub vertex_count: usize,
+    /// Bytes between positions (0 = 12).
+    pub position_stride: usize,
+    /// Per-vertex shading normals (3 floats), or NULL for flat shading.
+    pub normals: *const f32,
+    /// Bytes between normals (0 = 12).
+    pub normal_stride: usize,
+    /// Per-vertex texture coordinates (2 floats), or NULL.
+    pub uvs: *const f32,
+    /// Bytes between uvs (0 = 8).
+    pub uv_stride: usize,
+    /// `triangle_count` triangles of 3 vertex indices, counter-clockwise =
+    /// front.
+    pub indices: *const u32,
+    /// Number of triangles.
+    pub triangle_count: usize,
+    /// Bytes between triangles (0 = 12).
+    pub index_stride: usize,
+    /// Material id from `cmlt_scene_add_material`.
+    pub material: u32,
+    /// Emitted radiance (linear RGB, ≥ 0) on the front side; all zero for
+    /// a surface that does not emit.
+    pub emission: [f32; 3],
+}
+
+/// A perspective camera looking from `position` at `target`, `up` giving
+/// the image's vertical (Mitsuba's conventions: +x of the image is the
+/// camera's left). `fov_degrees` is the horizontal field of view; a thin
+/// lens of `aperture_radius` (0 = pinhole) focuses at `focus_distance`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_camera {
+    /// Centre of the lens.
+    pub position: [f32; 3],
+    /// A point on the optical axis.
+    pub target: [f32; 3],
+    /// Up direction (not parallel to the view direction).
+    pub up: [f32; 3],
+    /// Horizontal field of view in degrees, in (0, 180).
+    pub fov_degrees: f32,
+    /// Lens radius; 0 for a pinhole.
+    pub aperture_radius: f32,
+    /// Distance in focus (> 0; any value for a pinhole).
+    pub focus_distance: f32,
+}
+
+impl cmlt_camera {
+    /// The core camera at `width × height`, or why not.
+    pub(crate) fn camera(&self, width: u32, height: u32) -> Result<Camera> {
+        let p = Vec3::from_array(self.position);
+        let dir = Vec3::from_array(self.target) - p;
+        let up = Vec3::from_array(self.up);
+        if !(p.is_finite() && dir.is_finite() && up.is_finite()) {
+            return Err(Error::invalid(
+                "camera position, target and up must be finite",
+            ));
+        }
+        // Camera::perspective orthonormalises around the view direction
+        // with y = up; x = up × z is Mitsuba's look_at "left".
+        let to_world = Mat4::from_cols(
+            up.cross(dir).extend(0.0),
+            up.extend(0.0),
+            dir.extend(0.0),
+            p.extend(1.0),
+        );
+        Camera::perspective(
+            to_world,
+            self.fov_degrees,
+            FovAxis::X,
+            width,
+            height,
+            self.aperture_radius,
+            self.focus_distance,
+        )
+        .map_err(|e| Error::invalid(format!("camera: {e}")))
+    }
+
+    /// The look-at description of a core camera.
+    pub(crate) fn from_camera(c: &Camera) -> Self {
+        cmlt_camera {
+            position: c.position().to_array(),
+            target: (c.position() + c.forward()).to_array(),
+            up: c.up().to_array(),
+            fov_degrees: c.fov_x_degrees(),
+            aperture_radius: c.aperture_radius(),
+            focus_distance: c.focus_distance(),
+        }
+    }
+}
+
+/// What a committed scene traces with.
+pub(crate) enum Accel {
+    Bvh(Bvh),
+    Host(HostIntersector),
+    #[cfg(feature = "embree")]
+    Embree(cmlt_core::accel::embree::EmbreeScene),
+}
+
+/// A committed scene: immutable, shared by renderers.
+pub(crate) struct Committed {
+    pub scene: Scene,
+    pub accel: Accel,
+    /// Integrator settings a loaded scene file asked for (defaults
+    /// otherwise).
+    pub settings: Settings,
+}
+
+struct Building {
+    builder: SceneBuilder,
+    materials: usize,
+    meshes: usize,
+    triangles: u64,
+    intersector: Option<cmlt_intersector>,
+    accel: u32,
+}
+
+enum State {
+    Building(Box<Building>),
+    Committed(Arc<Committed>),
+}
+
+/// A scene handle (opaque to C).
+#[allow(non_camel_case_types)]
+pub struct cmlt_scene {
+    state: Mutex<State>,
+}
+
+impl cmlt_scene {
+    /// The committed scene, or an error when not committed yet.
+    pub(crate) fn committed(&self) -> Result<Arc<Committed>> {
+        let state = self
+            .state
+            .try_lock()
+            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+        match &*state {
+            State::Committed(c) => Ok(c.clone()),
+            State::Building(_) => Err(Error::operation(
+                "commit the scene first (cmlt_scene_commit)",
+            )),
+        }
+    }
+
+    fn building<R>(&self, f: impl FnOnce(&mut Building) -> Result<R>) -> Result<R> {
+        let mut state = self
+            .state
+            .try_lock()
+            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+        match &mut *state {
+            State::Building(b) => f(b),
+            State::Committed(_) => Err(Error::operation(
+                "the scene is committed and can no longer change",
+            )),
+        }
+    }
+
+    fn committed_from(c: Committed) -> Box<cmlt_scene> {
+        Box::new(cmlt_scene {
+            state: Mutex::new(State::Committed(Arc::new(c))),
+        })
+    }
+}
+
+/// Creates an empty scene to fill with materials and meshes.
+///
+/// # Safety
+/// `out` is NULL or valid for writing a pointer.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_status {
+    guard("cmlt_scene_new", || {
+        // SAFETY: the caller's contract.
+        let out = unsafe { write(out, "out") }?;
+        *out = Box::into_raw(Box::new(cmlt_scene {
+            state: Mutex::new(State::Building(Box::new(Building {
+                builder: SceneBuilder::new(),
+                materials: 0,
+                meshes: 0,
+                triangles: 0,
+                intersector: None,
+                accel: CMLT_ACCEL_BVH,
+            }))),
+        }));
+        Ok(())
+    })
+}
+
+/// Releases a scene handle (NULL is ignored). Renderers made from it keep
+/// the committed scene alive until they are released.
+///
+/// # Safety
+/// `scene` is NULL or a handle from this library not released before and
+/// not in use by another thread.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_release(scene: *mut cmlt_scene) {
+    let _ = guard("cmlt_scene_release", || {
+        if !scene.is_null() {
+            // SAFETY: the caller's contract: `scene` came from Box::into_raw.
+            drop(unsafe { Box::from_raw(scene) });
+        }
+        Ok(())
+    });
+}
+
+fn material_from_c(m: &cmlt_material) -> Result<Material> {
+    let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
+    let kind = match m.type_ {
+        CMLT_MATERIAL_DIFFUSE => MaterialKind::Diffuse {
+            reflectance: Texture::Constant(color),
+        },
+        CMLT_MATERIAL_MIRROR => MaterialKind::Conductor {
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(color),
+        },
+        CMLT_MATERIAL_GLASS => MaterialKind::Dielectric { eta: m.ior },
+        CMLT_MATERIAL_ROUGH_METAL => MaterialKind::RoughConductor {
+            distribution: Distribution::Ggx,
+            alpha: m.roughness,
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(color),
+        },
+        t => return Err(Error::invalid(format!("unknown material type {t}"))),
+    };
+    let material = Material {
+        kind,
+        two_sided: m.two_sided != 0,
+    };
+    material
+        .validate()
+        .map_err(|e| Error::invalid(format!("material: {e}")))?;
+    if matches!(
+        m.type_,
+        CMLT_MATERIAL_DIFFUSE | CMLT_MATERIAL_MIRROR | CMLT_MATERIAL_ROUGH_METAL
+    ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
+    {
+        return Err(Error::invalid(
+            "material: colour components must be in [0, 1]",
+        ));
+    }
+    Ok(material)
+}
+
+/// Adds a material; its id (for `cmlt_mesh.material`) goes to `*out_id`.
+///
+/// # Safety
+/// `scene` is a valid handle; `material` and `out_id` are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_add_material(
+    scene: *mut cmlt_scene,
+    material: *const cmlt_material,
+    out_id: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_add_material", || {
+        // SAFETY: the caller's contract.
+        let (scene, m, out) = unsafe {
+            (
+                read(scene, "scene")?,
+                read(material, "material")?,
+                write(out_id, "out_id")?,
+            )
+        };
+        let material = material_from_c(m)?;
+        scene.building(|b| {
+            let MaterialId(id) = b.builder.add_material(material);
+            b.materials += 1;
+            *out = id;
+            Ok(())
+        })
+    })
+}
+
+/// Reads `count` elements of `N` floats (or u32) from `ptr` with `stride`
+/// bytes between elements (0 = packed).
+///
+/// # Safety
+/// When `count > 0`, `ptr` points to `count` elements at that stride.
+unsafe fn gather<T: Copy + Default, const N: usize>(
+    ptr: *const T,
+    count: usize,
+    stride: usize,
+    what: &str,
+) -> Result<Vec<[T; N]>> {
+    let size = N * std::mem::size_of::<T>();
+    let stride = if stride == 0 { size } else { stride };
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    if ptr.is_null() {
+        return Err(Error::null(what));
+    }
+    if stride < size || stride % 4 != 0 {
+        return Err(Error::invalid(format!(
+            "{what}: stride {stride} must be a multiple of 4 and at least {size}"
+        )));
+    }
+    if (ptr as usize) % std::mem::align_of::<T>() != 0 {
+        return Err(Error::invalid(format!(
+            "{what}: pointer is not 4-byte aligned"
+        )));
+    }
+    if count
+        .checked_mul(stride)
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(Error::invalid(format!(
+            "{what}: {count} elements overflow the address space"
+        )));
+    }
+    let base = ptr.cast::<u8>();
+    Ok((0..count)
+        .map(|i| {
+            let mut e = [T::default(); N];
+            // SAFETY: element i lies inside the caller's array (checked
+            // sizes above); it is aligned for T (aligned base, stride a
+            // multiple of 4 = align_of::<T>()).
+            unsafe {
+                let p = base.add(i * stride).cast::<T>();
+                for (k, v) in e.iter_mut().enumerate() {
+                    *v = p.add(k).read();
+                }
+            }
+            e
+        })
+        .collect())
+}
+
+/// Copies a mesh into the scene. Everything is checked first (pointers,
+/// strides, finite values, indices in range, a known material, a finite
+/// non-negative emission); on failure the scene is unchanged.
+/// `*out_first_prim` (may be NULL) receives the scene-global index of the
+/// mesh's first triangle, the numbering host intersectors report.
+///
+/// # Safety
+/// `scene` is a valid handle; `mesh` is NULL or valid, and its arrays hold
+/// what its counts and strides say; `out_first_prim` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_add_mesh(
+    scene: *mut cmlt_scene,
+    mesh: *const cmlt_mesh,
+    out_first_prim: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_add_mesh", || {
+        // SAFETY: the caller's contract.
+        let (scene, m) = unsafe { (read(scene, "scene")?, read(mesh, "mesh")?) };
+        if m.vertex_count > u32::MAX as usize || m.triangle_count > u32::MAX as usize {
+            return Err(Error::invalid("mesh: more than 2^32 vertices or triangles"));
+        }
+        // SAFETY: the caller's contract on the arrays.
+        let (positions, normals, uvs, indices) = unsafe {
+            (
+                gather::<f32, 3>(
+                    m.positions,
+                    m.vertex_count,
+                    m.position_stride,
+                    "mesh positions",
+                )?,
+                if m.normals.is_null() {
+                    Vec::new()
+                } else {
+                    gather::<f32, 3>(m.normals, m.vertex_count, m.normal_stride, "mesh normals")?
+                },
+                if m.uvs.is_null() {
+                    Vec::new()
+                } else {
+                    gather::<f32, 2>(m.uvs, m.vertex_count, m.uv_stride, "mesh uvs")?
+                },
+                gather::<u32, 3>(m.indices, m.triangle_count, m.index_stride, "mesh indices")?,
+            )
+        };
+        let e = Rgb::new(m.emission[0], m.emission[1], m.emission[2]);
+        let mesh = Mesh {
+            positions: positions.into_iter().map(Vec3::from_array).collect(),
+            normals: normals.into_iter().map(Vec3::from_array).collect(),
+            uvs: uvs.into_iter().map(Vec2::from_array).collect(),
+            indices,
+            material: MaterialId(m.material),
+            emission: (e != Rgb::ZERO).then_some(e),
+        };
+        if !normals_ok(&mesh) {
+            return Err(Error::invalid("mesh: a shading normal has zero length"));
+        }
+        scene.building(|b| {
+            mesh.validate(b.meshes, b.materials)
+                .map_err(|e| Error::invalid(e.to_string()))?;
+            let first = b.triangles;
+            if first + mesh.indices.len() as u64 >= u32::MAX as u64 {
+                return Err(Error::invalid(
+                    "scene: too many triangles (2^32 − 1 at most)",
+                ));
+            }
+            b.triangles += mesh.indices.len() as u64;
+            b.meshes += 1;
+            b.builder.add_mesh(mesh);
+            if !out_first_prim.is_null() {
+                // SAFETY: the caller's contract.
+                unsafe { *out_first_prim = first as u32 };
+            }
+            Ok(())
+        })
+    })
+}
+
+fn normals_ok(m: &Mesh) -> bool {
+    m.normals
+        .iter()
+        .all(|n| !n.is_finite() || n.length_squared() > 0.0)
+}
+
+/// Makes the scene trace through the host's ray tracer instead of building
+/// an acceleration structure (see `cmlt_intersector`); the callbacks are
+/// copied. Hits must use the triangle numbering of the meshes added.
+///
+/// # Safety
+/// `scene` is a valid handle; `intersector` is NULL or valid, and its
+/// callbacks stay callable while any renderer of the scene exists.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_set_intersector(
+    scene: *mut cmlt_scene,
+    intersector: *const cmlt_intersector,
+) -> cmlt_status {
+    guard("cmlt_scene_set_intersector", || {
+        // SAFETY: the caller's contract.
+        let (scene, i) = unsafe { (read(scene, "scene")?, read(intersector, "intersector")?) };
+        if i.intersect.is_none() || i.occluded.is_none() {
+            return Err(Error::null(
+                "intersector->intersect or intersector->occluded",
+            ));
+        }
+        scene.building(|b| {
+            b.intersector = Some(*i);
+            Ok(())
+        })
+    })
+}
+
+/// Chooses the acceleration structure `cmlt_scene_commit` builds
+/// (`CMLT_ACCEL_BVH`, the default, or `CMLT_ACCEL_EMBREE`).
+///
+/// # Safety
+/// `scene` is NULL or a valid handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_set_accel(scene: *mut cmlt_scene, accel: u32) -> cmlt_status {
+    guard("cmlt_scene_set_accel", || {
+        // SAFETY: the caller's contract.
+        let scene = unsafe { read(scene, "scene") }?;
+        match accel {
+            CMLT_ACCEL_BVH => {}
+            CMLT_ACCEL_EMBREE if cfg!(feature = "embree") => {}
+            CMLT_ACCEL_EMBREE => {
+                return Err(Error::new(
+                    cmlt_status::CMLT_ERROR_UNSUPPORTED,
+                    "this build of cmlt has no Embree backend (cargo feature `embree`)",
+                ));
+            }
+            a => return Err(Error::invalid(format!("unknown accel {a}"))),
+        }
+        scene.building(|b| {
+            b.accel = accel;
+            Ok(())
+        })
+    })
+}
+
+/// Validates the scene and builds its acceleration structure; afterwards
+/// the scene is immutable and renderers can be made from it. On failure
+/// the scene is unchanged and can still be edited.
+///
+/// # Safety
+/// `scene` is NULL or a valid handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_status {
+    guard("cmlt_scene_commit", || {
+        // SAFETY: the caller's contract.
+        let scene = unsafe { read(scene, "scene") }?;
+        let mut state = scene
+            .state
+            .try_lock()
+            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+        let State::Building(b) = &*state else {
+            return Err(Error::operation("the scene is already committed"));
+        };
+        let mut builder = b.builder.clone();
+        // Renderers bring their own camera; the builder wants one.
+        builder.set_camera(
+            Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 1, 1, 0.0, 1.0)
+                .map_err(|e| Error::invalid(e.to_string()))?,
+        );
+        let built = builder.build().map_err(|e| Error::invalid(e.to_string()))?;
+        let accel = match (b.intersector, b.accel) {
+            (Some(i), _) => Accel::Host(HostIntersector::new(i, b.triangles as u32)),
+            (None, CMLT_ACCEL_BVH) => {
+                Accel::Bvh(Bvh::build(&built.triangles().collect::<Vec<_>>()))
+            }
+            #[cfg(feature = "embree")]
+            (None, _) => Accel::Embree(
+                cmlt_core::accel::embree::EmbreeScene::new(&built.triangles().collect::<Vec<_>>())
+                    .map_err(|e| {
+                        Error::new(cmlt_status::CMLT_ERROR_INTERNAL, format!("Embree: {e}"))
+                    })?,
+            ),
+            #[cfg(not(feature = "embree"))]
+            (None, _) => unreachable!("set_accel refuses Embree without the feature"),
+        };
+        *state = State::Committed(Arc::new(Committed {
+            scene: built,
+            accel,
+            settings: Settings::default(),
+        }));
+        Ok(())
+    })
+}
+
+/// Loads a Mitsuba 3 XML scene file (the subset `cmlt render` reads) as a
+/// committed scene with our BVH. `*out_camera`, `*out_width` and
+/// `*out_height` (each may be NULL) receive the file's sensor.
+///
+/// # Safety
+/// `path` is NULL or a NUL-terminated string; the out pointers are NULL or
+/// valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_load_file(
+    path: *const c_char,
+    out: *mut *mut cmlt_scene,
+    out_camera: *mut cmlt_camera,
+    out_width: *mut u32,
+    out_height: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_load_file", || {
+        // SAFETY: the caller's contract.
+        let (path, out) = unsafe { (read(path, "path")?, write(out, "out")?) };
+        // SAFETY: `path` is NUL-terminated (the caller's contract).
+        let path = unsafe { CStr::from_ptr(path) }
+            .to_str()
+            .map_err(|_| Error::invalid("path is not UTF-8"))?;
+        let loaded = cmlt_cli::scene::load_scene(std::path::Path::new(path), &[])
+            .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_IO, e.to_string()))?;
+        // SAFETY: the caller's contract.
+        unsafe { finish_loaded(loaded, out, out_camera, out_width, out_height) }
+    })
+}
+
+/// A built-in scene by name: `"cornell-box"` (the Cornell box `cmlt render`
+/// draws by default) at `width × height` pixels, committed with our BVH;
+/// `*out_camera` (may be NULL) receives its camera.
+///
+/// # Safety
+/// `name` is NULL or NUL-terminated; the out pointers are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_new_builtin(
+    name: *const c_char,
+    width: u32,
+    height: u32,
+    out: *mut *mut cmlt_scene,
+    out_camera: *mut cmlt_camera,
+) -> cmlt_status {
+    guard("cmlt_scene_new_builtin", || {
+        // SAFETY: the caller's contract.
+        let (name, out) = unsafe { (read(name, "name")?, write(out, "out")?) };
+        // SAFETY: NUL-terminated (the caller's contract).
+        let name = unsafe { CStr::from_ptr(name) }.to_str().unwrap_or("");
+        if width == 0 || height == 0 || width > 1 << 14 || height > 1 << 14 {
+            return Err(Error::invalid("width and height must be in 1 ..= 16384"));
+        }
+        let defines = [
+            ("resx".to_string(), width.to_string()),
+            ("resy".to_string(), height.to_string()),
+        ];
+        let loaded = cmlt_cli::scene::builtin_scene(name, &defines)
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "no built-in scene named {name:?} (try \"cornell-box\")"
+                ))
+            })?
+            .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e.to_string()))?;
+        // SAFETY: the caller's contract.
+        unsafe {
+            finish_loaded(
+                loaded,
+                out,
+                out_camera,
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+            )
+        }
+    })
+}
+
+/// Builds the BVH of a loaded scene and hands out the handle and camera.
+///
+/// # Safety
+/// The out pointers other than `out` are NULL or valid.
+unsafe fn finish_loaded(
+    loaded: cmlt_cli::scene::LoadedScene,
+    out: &mut *mut cmlt_scene,
+    out_camera: *mut cmlt_camera,
+    out_width: *mut u32,
+    out_height: *mut u32,
+) -> Result<()> {
+    let scene = loaded.scene;
+    let cam = scene.camera;
+    let accel = Accel::Bvh(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
+    *out = Box::into_raw(cmlt_scene::committed_from(Committed {
+        scene,
+        accel,
+        settings: loaded.settings,
+    }));
+    // SAFETY: the caller's contract.
+    unsafe {
+        if let Some(c) = out_camera.as_mut() {
+            *c = cmlt_camera::from_camera(&cam);
+        }
+        if let Some(w) = out_width.as_mut() {
+            *w = cam.width();
+        }
+        if let Some(h) = out_height.as_mut() {
+            *h = cam.height();
+        }
+    }
+    Ok(())
+}
+
+/// Number of triangles of a committed scene.
+///
+/// # Safety
+/// `scene` is NULL or a valid handle; `out` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_triangle_count(
+    scene: *const cmlt_scene,
+    out: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_triangle_count", || {
+        // SAFETY: the caller's contract.
+        let (scene, out) = unsafe { (read(scene, "scene")?, write(out, "out")?) };
+        *out = scene.committed()?.scene.triangle_count() as u32;
+        Ok(())
+    })
+}

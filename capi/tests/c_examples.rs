@@ -1,0 +1,222 @@
+//! Builds every C program in `examples-c/` against the release staticlib
+//! (`cargo build --release -p cmlt-capi`, with this test run's features)
+//! with `-std=c99 -Wall -Wextra -Werror -pedantic`, checks that the header
+//! also compiles as C++, runs the programs and checks their output against
+//! Rust-side renders of the same scenes. With `CMLT_VALGRIND=1` every
+//! program runs under valgrind memcheck and must report no errors and no
+//! definite leaks.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use cmlt_core::renderer::{Estimator, RenderWorker, Renderer, RendererConfig};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The release staticlib, built once per test process.
+fn staticlib() -> &'static Path {
+    static LIB: OnceLock<PathBuf> = OnceLock::new();
+    LIB.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.current_dir(workspace())
+            .args(["build", "--release", "-p", "cmlt-capi", "--lib"]);
+        if cfg!(feature = "embree") {
+            cmd.args(["--features", "embree"]);
+        }
+        let status = cmd.status().expect("run cargo");
+        assert!(status.success(), "cargo build of the staticlib failed");
+        let target = std::env::var_os("CARGO_TARGET_DIR")
+            .map(PathBuf::from)
+            .unwrap_or_else(|| workspace().join("target"));
+        target.join("release/libcmlt.a")
+    })
+}
+
+fn out_dir() -> PathBuf {
+    let d = workspace().join("target/c-examples");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Compiles `examples-c/NAME.c` into an executable; returns its path.
+fn build_example(name: &str) -> PathBuf {
+    let out = out_dir();
+    let compiler = cc::Build::new()
+        .cargo_metadata(false)
+        .cargo_warnings(false)
+        .opt_level(2)
+        .target(env!("CMLT_TEST_TARGET"))
+        .host(env!("CMLT_TEST_TARGET"))
+        .out_dir(&out)
+        .get_compiler();
+    let exe = out.join(name);
+    let mut cmd = compiler.to_command();
+    cmd.args([
+        "-std=c99",
+        "-Wall",
+        "-Wextra",
+        "-Werror",
+        "-pedantic",
+        "-g",
+        "-I",
+    ])
+    .arg(workspace().join("include"))
+    .arg(workspace().join(format!("examples-c/{name}.c")))
+    .arg(staticlib())
+    .arg("-o")
+    .arg(&exe);
+    if cfg!(feature = "embree") {
+        cmd.arg("-lembree3");
+    }
+    cmd.args([
+        "-lgcc_s",
+        "-lutil",
+        "-lrt",
+        "-lpthread",
+        "-lm",
+        "-ldl",
+        "-lc",
+    ]);
+    let o = cmd.output().expect("run the C compiler");
+    assert!(
+        o.status.success(),
+        "compiling {name}.c failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    exe
+}
+
+/// Runs an example (under valgrind with `CMLT_VALGRIND=1`); returns stdout.
+fn run(exe: &Path, args: &[&str]) -> String {
+    let mut cmd = if std::env::var_os("CMLT_VALGRIND").is_some() {
+        let mut c = Command::new("valgrind");
+        c.args([
+            "--error-exitcode=99",
+            "--leak-check=full",
+            "--errors-for-leak-kinds=definite",
+            "--quiet",
+        ])
+        .arg(exe);
+        c
+    } else {
+        Command::new(exe)
+    };
+    let o = cmd
+        .args(args)
+        .current_dir(out_dir())
+        .output()
+        .expect("run example");
+    assert!(
+        o.status.success(),
+        "{} {args:?} failed ({}):\n{}\n{}",
+        exe.display(),
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8(o.stdout).unwrap()
+}
+
+/// The numbers after `key` on the line starting with it.
+fn numbers(out: &str, key: &str) -> Vec<f64> {
+    out.lines()
+        .find_map(|l| l.strip_prefix(key))
+        .unwrap_or_else(|| panic!("no `{key}` line in:\n{out}"))
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect()
+}
+
+#[test]
+fn header_compiles_as_cpp() {
+    let compiler = cc::Build::new()
+        .cpp(true)
+        .cargo_metadata(false)
+        .cargo_warnings(false)
+        .opt_level(0)
+        .target(env!("CMLT_TEST_TARGET"))
+        .host(env!("CMLT_TEST_TARGET"))
+        .out_dir(out_dir())
+        .get_compiler();
+    let src = out_dir().join("header_check.cpp");
+    std::fs::write(
+        &src,
+        "#include \"cmlt.h\"\nint main() { return cmlt_version() > 0 ? 0 : 1; }\n",
+    )
+    .unwrap();
+    let o = compiler
+        .to_command()
+        .args([
+            "-std=c++11",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            "-fsyntax-only",
+            "-I",
+        ])
+        .arg(workspace().join("include"))
+        .arg(&src)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// minimal.c's image equals, to float rounding of the mean, the Rust
+/// renderer's image of the same scene, configuration and seed.
+#[test]
+fn minimal_matches_a_rust_render() {
+    let exe = build_example("minimal");
+    for (method, estimator, per_pixel) in
+        [("bdpt", Estimator::Bdpt, 4u64), ("cmlt", Estimator::Mlt, 8)]
+    {
+        let out = run(&exe, &["minimal.ppm", method, &per_pixel.to_string(), "32"]);
+        let c_mean = numbers(&out, "mean");
+        assert_eq!(numbers(&out, "rays")[1], 0.0, "non-finite samples");
+
+        let loaded = cmlt_cli::scene::builtin_scene(
+            "cornell-box",
+            &[("resx".into(), "32".into()), ("resy".into(), "32".into())],
+        )
+        .unwrap()
+        .unwrap();
+        let scene = &loaded.scene;
+        let bvh = cmlt_core::accel::bvh::Bvh::build(&scene.triangles().collect::<Vec<_>>());
+        let mlt = if estimator == Estimator::Mlt {
+            cmlt_core::mlt::MltSettings::cmlt()
+        } else {
+            cmlt_core::mlt::MltSettings::default()
+        };
+        let cfg = RendererConfig {
+            estimator,
+            settings: loaded.settings,
+            mlt,
+            seed: 1,
+            workers: 1,
+        };
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        r.prepare(scene, &bvh);
+        r.render(&mut w, scene, &bvh, per_pixel * 32 * 32).unwrap();
+        let mut sum = [0.0f64; 3];
+        r.resolve(&[&w], |_, c| {
+            sum[0] += c.r as f64;
+            sum[1] += c.g as f64;
+            sum[2] += c.b as f64;
+        })
+        .unwrap();
+        for c in 0..3 {
+            let rust = sum[c] / 1024.0;
+            assert!(
+                (c_mean[c] - rust).abs() <= 1e-5 * rust.max(1e-3),
+                "{method} channel {c}: C {} vs Rust {rust}",
+                c_mean[c]
+            );
+        }
+        assert!(c_mean[0] > 0.01, "{method}: black image");
+    }
+}
