@@ -7,12 +7,13 @@
 //! allocation time and writes a small header in front of each block naming
 //! the hooks that made it, so a block is always freed by its own allocator
 //! even when the host switches allocators while objects are alive. Hooks
-//! live in a fixed table of [`MAX_ALLOCATORS`] slots that are never freed.
+//! live in a fixed table of [`MAX_ALLOCATORS`] slots, written once each.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ffi::c_void;
-use std::sync::atomic::{AtomicPtr, AtomicUsize, Ordering};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::error::{Error, cmlt_status, guard};
 
@@ -44,9 +45,10 @@ struct Hooks {
     free: unsafe extern "C" fn(*mut c_void, *mut c_void, usize, usize),
 }
 
-/// Slot 0 is the system allocator (null entry); slots 1.. hold host hooks.
-static SLOTS: [AtomicPtr<Hooks>; MAX_ALLOCATORS + 1] =
-    [const { AtomicPtr::new(std::ptr::null_mut()) }; MAX_ALLOCATORS + 1];
+/// Slot 0 is the system allocator (never set); slots 1.. hold host hooks,
+/// stored inline so that installing hooks allocates nothing.
+static SLOTS: [OnceLock<Hooks>; MAX_ALLOCATORS + 1] =
+    [const { OnceLock::new() }; MAX_ALLOCATORS + 1];
 /// Slot new allocations use.
 static CURRENT: AtomicUsize = AtomicUsize::new(0);
 /// Slots handed out so far (slot 0 included).
@@ -115,15 +117,13 @@ unsafe impl GlobalAlloc for HostAllocator {
             return std::ptr::null_mut();
         };
         let slot = CURRENT.load(Ordering::Acquire);
-        let hooks = SLOTS[slot].load(Ordering::Acquire);
-        let base = if hooks.is_null() {
+        let base = match SLOTS[slot].get() {
             // SAFETY: `outer` has a non-zero size.
-            unsafe { System.alloc(outer) }
-        } else {
-            // SAFETY: slots are written once and never freed.
-            let hk = unsafe { &*hooks };
+            None => unsafe { System.alloc(outer) },
             // SAFETY: the host's contract for `alloc`.
-            unsafe { (hk.alloc)(hk.user as *mut c_void, outer.size(), outer.align()) }.cast()
+            Some(hk) => {
+                unsafe { (hk.alloc)(hk.user as *mut c_void, outer.size(), outer.align()) }.cast()
+            }
         };
         if base.is_null() {
             return base;
@@ -147,17 +147,14 @@ unsafe impl GlobalAlloc for HostAllocator {
             let base = ptr.sub(h);
             let outer = Layout::from_size_align_unchecked(layout.size() + h, layout.align().max(h));
             tally(outer, -1);
-            let hooks = SLOTS[slot].load(Ordering::Acquire);
-            if hooks.is_null() {
-                System.dealloc(base, outer);
-            } else {
-                let hk = &*hooks;
-                (hk.free)(
+            match SLOTS[slot].get() {
+                None => System.dealloc(base, outer),
+                Some(hk) => (hk.free)(
                     hk.user as *mut c_void,
                     base.cast(),
                     outer.size(),
                     outer.align(),
-                );
+                ),
             }
         }
     }
@@ -193,12 +190,17 @@ pub unsafe extern "C" fn cmlt_set_allocator(allocator: *const cmlt_allocator) ->
                 "too many allocators installed in this process",
             ));
         }
-        let hooks = Box::into_raw(Box::new(Hooks {
+        let hooks = Hooks {
             user: a.user as usize,
             alloc,
             free,
-        }));
-        SLOTS[slot].store(hooks, Ordering::Release);
+        };
+        if SLOTS[slot].set(hooks).is_err() {
+            return Err(Error::new(
+                cmlt_status::CMLT_ERROR_INTERNAL,
+                "allocator slot reused",
+            ));
+        }
         CURRENT.store(slot, Ordering::Release);
         Ok(())
     })

@@ -220,3 +220,58 @@ fn minimal_matches_a_rust_render() {
         assert!(c_mean[0] > 0.01, "{method}: black image");
     }
 }
+
+/// frame_loop.c: frames of a moving camera on two host threads allocate
+/// nothing (its allocator aborts otherwise) and show the scene.
+#[test]
+fn frame_loop_allocates_nothing_per_frame() {
+    let exe = build_example("frame_loop");
+    for method in ["bdpt", "cmlt"] {
+        let out = run(&exe, &["4", method]);
+        assert_eq!(
+            numbers(&out, "allocations during frames"),
+            vec![0.0],
+            "{out}"
+        );
+        let means: Vec<f64> = out
+            .lines()
+            .filter(|l| l.starts_with("frame "))
+            .map(|l| numbers(l, "frame")[1])
+            .collect();
+        assert_eq!(means.len(), 4, "{out}");
+        assert!(
+            means.iter().all(|&m| m > 5.0 && m < 250.0),
+            "{method}: {means:?}"
+        );
+        assert!(numbers(&out, "renderer needs")[0] > 0.0);
+    }
+}
+
+/// host_geometry.c: the host's intersector (single rays and packets)
+/// renders the same picture as our BVH, and CMLT's bundles reach the
+/// packet callbacks.
+#[test]
+fn host_intersector_matches_our_bvh() {
+    let exe = build_example("host_geometry");
+    for (method, budget) in [("bdpt", "16"), ("cmlt", "32")] {
+        let out = run(&exe, &[method, budget]);
+        let host = numbers(&out, "host mean")[0];
+        let bvh = numbers(&out, "bvh mean")[0];
+        let calls = numbers(&out, "callbacks");
+        let bad = numbers(&out, "rejected");
+        eprintln!("{method}: host {host} bvh {bvh} calls {calls:?} {bad:?}");
+        assert!(host > 0.01, "{out}");
+        assert!(
+            (host / bvh - 1.0).abs() < 0.05,
+            "{method}: host {host} vs bvh {bvh}"
+        );
+        assert!(calls[0] > 0.0);
+        assert_eq!(bad, vec![0.0, 0.0, 0.0], "{out}");
+        if method == "cmlt" {
+            assert!(
+                calls[1] > 0.0 && calls[2] > calls[1],
+                "no packets reached the host: {calls:?}"
+            );
+        }
+    }
+}
