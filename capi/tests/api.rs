@@ -1,0 +1,942 @@
+//! The C API called from Rust as a C host would: every function rejects
+//! NULL pointers, bad sizes, strides, enums, non-finite numbers and calls
+//! in the wrong order with the documented status and a message, and leaves
+//! the object usable; the allocator hooks see every allocation, none of
+//! them inside a frame; the memory query matches what creation allocates.
+
+use std::cell::Cell;
+use std::ffi::{CStr, c_void};
+use std::ptr::{null, null_mut};
+
+use cmlt::alloc::{cmlt_allocator, cmlt_set_allocator};
+use cmlt::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
+use cmlt::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
+use cmlt::renderer::*;
+use cmlt::scene::*;
+
+use cmlt_status::*;
+
+fn last_error() -> String {
+    // SAFETY: never NULL, NUL-terminated.
+    unsafe { CStr::from_ptr(cmlt_last_error()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// Asserts `status` is `want` and that a message naming `function` was set.
+fn expect(status: cmlt_status, want: cmlt_status, function: &str) {
+    assert_eq!(status, want, "{function}: {}", last_error());
+    if want != CMLT_OK {
+        let msg = last_error();
+        assert!(
+            msg.starts_with(function),
+            "message {msg:?} does not name {function}"
+        );
+    }
+}
+
+const WHITE: cmlt_material = cmlt_material {
+    type_: CMLT_MATERIAL_DIFFUSE,
+    color: [0.7, 0.7, 0.7],
+    ior: 1.0,
+    roughness: 0.0,
+    two_sided: 0,
+};
+
+/// A floor quad and a light quad facing it.
+const POSITIONS: [f32; 24] = [
+    -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, // floor, facing +y
+    -0.3, 1.0, -0.3, 0.3, 1.0, -0.3, 0.3, 1.0, 0.3, -0.3, 1.0, 0.3, // light, facing −y
+];
+const FLOOR: [u32; 6] = [0, 1, 2, 0, 2, 3];
+const LIGHT: [u32; 6] = [4, 5, 6, 4, 6, 7];
+
+fn mesh(indices: &[u32], material: u32, emission: f32) -> cmlt_mesh {
+    cmlt_mesh {
+        positions: POSITIONS.as_ptr(),
+        vertex_count: 8,
+        position_stride: 0,
+        normals: null(),
+        normal_stride: 0,
+        uvs: null(),
+        uv_stride: 0,
+        indices: indices.as_ptr(),
+        triangle_count: indices.len() / 3,
+        index_stride: 0,
+        material,
+        emission: [emission; 3],
+    }
+}
+
+const CAMERA: cmlt_camera = cmlt_camera {
+    position: [0.0, 0.5, -2.0],
+    target: [0.0, 0.3, 0.0],
+    up: [0.0, 1.0, 0.0],
+    fov_degrees: 60.0,
+    aperture_radius: 0.0,
+    focus_distance: 1.0,
+};
+
+/// A committed floor-and-light scene (our BVH unless `host` is given).
+fn scene(host: Option<&cmlt_intersector>) -> *mut cmlt_scene {
+    let mut s = null_mut();
+    let mut id = 0;
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "cmlt_scene_new");
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_OK,
+            "add_material",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&FLOOR, id, 0.0), null_mut()),
+            CMLT_OK,
+            "add_mesh",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&LIGHT, id, 5.0), null_mut()),
+            CMLT_OK,
+            "add_mesh",
+        );
+        if let Some(h) = host {
+            expect(cmlt_scene_set_intersector(s, h), CMLT_OK, "set_intersector");
+        }
+        expect(cmlt_scene_commit(s), CMLT_OK, "commit");
+    }
+    s
+}
+
+fn config(estimator: u32, workers: u32) -> cmlt_renderer_config {
+    let mut c = std::mem::MaybeUninit::uninit();
+    // SAFETY: valid out pointer.
+    unsafe {
+        expect(
+            cmlt_renderer_config_default(estimator, c.as_mut_ptr()),
+            CMLT_OK,
+            "config_default",
+        );
+        let mut c = c.assume_init();
+        c.width = 16;
+        c.height = 12;
+        c.workers = workers;
+        c.chains = 16;
+        c.bootstrap_samples = 100;
+        c.normalisation_passes = 1;
+        c.k = 4;
+        c.m = 2;
+        c
+    }
+}
+
+fn renderer(s: *const cmlt_scene, c: &cmlt_renderer_config) -> *mut cmlt_renderer {
+    let mut r = null_mut();
+    // SAFETY: valid pointers.
+    unsafe {
+        expect(
+            cmlt_renderer_new(s, c, &CAMERA, &mut r),
+            CMLT_OK,
+            "renderer_new",
+        )
+    };
+    r
+}
+
+fn image(r: *const cmlt_renderer) -> Vec<f32> {
+    let mut px = vec![0.0f32; 16 * 12 * 3];
+    // SAFETY: the buffer holds what we say.
+    unsafe {
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGB32F,
+                px.as_mut_ptr().cast(),
+                0,
+                px.len() * 4,
+            ),
+            CMLT_OK,
+            "resolve",
+        )
+    };
+    px
+}
+
+#[test]
+fn scene_inputs_are_checked_and_leave_the_scene_usable() {
+    let mut s = null_mut();
+    let mut id = 0;
+    // SAFETY: every pointer is valid or deliberately NULL.
+    unsafe {
+        expect(
+            cmlt_scene_new(null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_new",
+        );
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "cmlt_scene_new");
+        let f = "cmlt_scene_add_material";
+        expect(
+            cmlt_scene_add_material(null_mut(), &WHITE, &mut id),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_add_material(s, null(), &mut id),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_add_material(s, &WHITE, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        for bad in [
+            cmlt_material { type_: 99, ..WHITE },
+            cmlt_material {
+                color: [f32::NAN, 0.5, 0.5],
+                ..WHITE
+            },
+            cmlt_material {
+                color: [1.5, 0.5, 0.5],
+                ..WHITE
+            },
+            cmlt_material {
+                color: [-0.1, 0.5, 0.5],
+                ..WHITE
+            },
+            cmlt_material {
+                type_: CMLT_MATERIAL_GLASS,
+                ior: 0.0,
+                ..WHITE
+            },
+            cmlt_material {
+                type_: CMLT_MATERIAL_GLASS,
+                ior: f32::INFINITY,
+                ..WHITE
+            },
+            cmlt_material {
+                type_: CMLT_MATERIAL_ROUGH_METAL,
+                roughness: 0.0,
+                ..WHITE
+            },
+            cmlt_material {
+                type_: CMLT_MATERIAL_ROUGH_METAL,
+                roughness: f32::NAN,
+                ..WHITE
+            },
+        ] {
+            expect(
+                cmlt_scene_add_material(s, &bad, &mut id),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                f,
+            );
+        }
+        expect(cmlt_scene_add_material(s, &WHITE, &mut id), CMLT_OK, f);
+        assert_eq!(id, 0, "rejected materials took ids");
+
+        let f = "cmlt_scene_add_mesh";
+        let good = mesh(&FLOOR, id, 0.0);
+        let nan = [f32::NAN; 24];
+        let out_of_range = [0u32, 1, 8];
+        let normals = [0.0f32; 24];
+        let misaligned = POSITIONS
+            .as_ptr()
+            .cast::<u8>()
+            .wrapping_add(1)
+            .cast::<f32>();
+        expect(
+            cmlt_scene_add_mesh(s, null(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_add_mesh(
+                s,
+                &cmlt_mesh {
+                    positions: null(),
+                    ..good
+                },
+                null_mut(),
+            ),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_add_mesh(
+                s,
+                &cmlt_mesh {
+                    indices: null(),
+                    ..good
+                },
+                null_mut(),
+            ),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        for (what, bad) in [
+            (
+                "NaN vertex",
+                cmlt_mesh {
+                    positions: nan.as_ptr(),
+                    ..good
+                },
+            ),
+            (
+                "index out of range",
+                cmlt_mesh {
+                    indices: out_of_range.as_ptr(),
+                    triangle_count: 1,
+                    ..good
+                },
+            ),
+            (
+                "stride too small",
+                cmlt_mesh {
+                    position_stride: 8,
+                    ..good
+                },
+            ),
+            (
+                "stride not a multiple of 4",
+                cmlt_mesh {
+                    position_stride: 13,
+                    ..good
+                },
+            ),
+            (
+                "index stride too small",
+                cmlt_mesh {
+                    index_stride: 4,
+                    ..good
+                },
+            ),
+            (
+                "misaligned positions",
+                cmlt_mesh {
+                    positions: misaligned,
+                    ..good
+                },
+            ),
+            (
+                "unknown material",
+                cmlt_mesh {
+                    material: 7,
+                    ..good
+                },
+            ),
+            (
+                "negative emission",
+                cmlt_mesh {
+                    emission: [-1.0, 0.0, 0.0],
+                    ..good
+                },
+            ),
+            (
+                "NaN emission",
+                cmlt_mesh {
+                    emission: [f32::NAN, 0.0, 0.0],
+                    ..good
+                },
+            ),
+            (
+                "zero-length normals",
+                cmlt_mesh {
+                    normals: normals.as_ptr(),
+                    ..good
+                },
+            ),
+            (
+                "huge count",
+                cmlt_mesh {
+                    vertex_count: usize::MAX / 2,
+                    ..good
+                },
+            ),
+        ] {
+            let st = cmlt_scene_add_mesh(s, &bad, null_mut());
+            assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
+        }
+        let mut first = 99;
+        expect(cmlt_scene_add_mesh(s, &good, &mut first), CMLT_OK, f);
+        assert_eq!(first, 0, "rejected meshes took triangle numbers");
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&LIGHT, id, 4.0), &mut first),
+            CMLT_OK,
+            f,
+        );
+        assert_eq!(first, 2);
+
+        let no_callbacks = cmlt_intersector {
+            user: null_mut(),
+            intersect: None,
+            occluded: None,
+            intersect_packet: None,
+            occluded_packet: None,
+        };
+        expect(
+            cmlt_scene_set_intersector(s, &no_callbacks),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_set_intersector",
+        );
+        expect(
+            cmlt_scene_set_accel(s, 9),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_set_accel",
+        );
+        if !cfg!(feature = "embree") {
+            expect(
+                cmlt_scene_set_accel(s, CMLT_ACCEL_EMBREE),
+                CMLT_ERROR_UNSUPPORTED,
+                "cmlt_scene_set_accel",
+            );
+        }
+        // Renderers need a committed scene.
+        let mut r = null_mut();
+        let c = config(CMLT_ESTIMATOR_BDPT, 1);
+        expect(
+            cmlt_renderer_new(s, &c, &CAMERA, &mut r),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_renderer_new",
+        );
+        let mut n = 0;
+        expect(
+            cmlt_scene_triangle_count(s, &mut n),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_scene_triangle_count",
+        );
+        expect(cmlt_scene_commit(s), CMLT_OK, "cmlt_scene_commit");
+        expect(cmlt_scene_triangle_count(s, &mut n), CMLT_OK, "count");
+        assert_eq!(n, 4);
+        // A committed scene is frozen.
+        expect(
+            cmlt_scene_commit(s),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_scene_commit",
+        );
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_scene_add_material",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &good, null_mut()),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_scene_add_mesh",
+        );
+        cmlt_scene_release(s);
+        cmlt_scene_release(null_mut());
+
+        // Files and built-ins.
+        let mut l = null_mut();
+        expect(
+            cmlt_scene_load_file(
+                c"/no/such/scene.xml".as_ptr(),
+                &mut l,
+                null_mut(),
+                null_mut(),
+                null_mut(),
+            ),
+            CMLT_ERROR_IO,
+            "cmlt_scene_load_file",
+        );
+        expect(
+            cmlt_scene_load_file(null(), &mut l, null_mut(), null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_load_file",
+        );
+        expect(
+            cmlt_scene_new_builtin(c"no-such-scene".as_ptr(), 8, 8, &mut l, null_mut()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_new_builtin",
+        );
+        expect(
+            cmlt_scene_new_builtin(c"cornell-box".as_ptr(), 0, 8, &mut l, null_mut()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_new_builtin",
+        );
+        assert!(l.is_null(), "a failed call wrote its out pointer");
+    }
+}
+
+#[test]
+fn renderer_inputs_and_call_order_are_checked() {
+    let s = scene(None);
+    // SAFETY: every pointer is valid or deliberately NULL.
+    unsafe {
+        let f = "cmlt_renderer_new";
+        let mut r = null_mut();
+        let good = config(CMLT_ESTIMATOR_CMLT, 2);
+        expect(
+            cmlt_renderer_new(null(), &good, &CAMERA, &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, null(), &CAMERA, &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, &good, null(), &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, &good, &CAMERA, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        for (what, bad) in [
+            ("zero width", cmlt_renderer_config { width: 0, ..good }),
+            (
+                "huge height",
+                cmlt_renderer_config {
+                    height: 1 << 20,
+                    ..good
+                },
+            ),
+            (
+                "estimator",
+                cmlt_renderer_config {
+                    estimator: 17,
+                    ..good
+                },
+            ),
+            ("no workers", cmlt_renderer_config { workers: 0, ..good }),
+            ("k = 0", cmlt_renderer_config { k: 0, ..good }),
+            ("k = 65", cmlt_renderer_config { k: 65, ..good }),
+            ("m = 0", cmlt_renderer_config { m: 0, ..good }),
+            (
+                "NaN lens σ",
+                cmlt_renderer_config {
+                    lens_sigma: f32::NAN,
+                    ..good
+                },
+            ),
+            (
+                "σ > 1",
+                cmlt_renderer_config {
+                    small_step_sigma: 2.0,
+                    ..good
+                },
+            ),
+            (
+                "large step p",
+                cmlt_renderer_config {
+                    large_step_probability: -0.5,
+                    ..good
+                },
+            ),
+            ("no chains", cmlt_renderer_config { chains: 0, ..good }),
+            (
+                "no bootstrap",
+                cmlt_renderer_config {
+                    bootstrap_samples: 0,
+                    ..good
+                },
+            ),
+            (
+                "depth",
+                cmlt_renderer_config {
+                    max_depth: 100_000,
+                    ..good
+                },
+            ),
+        ] {
+            let st = cmlt_renderer_new(s, &bad, &CAMERA, &mut r);
+            assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
+        }
+        for (what, cam) in [
+            (
+                "NaN position",
+                cmlt_camera {
+                    position: [f32::NAN, 0.0, 0.0],
+                    ..CAMERA
+                },
+            ),
+            (
+                "target = position",
+                cmlt_camera {
+                    target: CAMERA.position,
+                    ..CAMERA
+                },
+            ),
+            (
+                "up parallel",
+                cmlt_camera {
+                    target: [0.0, 0.25, 0.0],
+                    up: [0.0, -0.25, 2.0],
+                    ..CAMERA
+                },
+            ),
+            (
+                "fov 180",
+                cmlt_camera {
+                    fov_degrees: 180.0,
+                    ..CAMERA
+                },
+            ),
+            (
+                "fov NaN",
+                cmlt_camera {
+                    fov_degrees: f32::NAN,
+                    ..CAMERA
+                },
+            ),
+            (
+                "negative aperture",
+                cmlt_camera {
+                    aperture_radius: -1.0,
+                    ..CAMERA
+                },
+            ),
+        ] {
+            let st = cmlt_renderer_new(s, &good, &cam, &mut r);
+            assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
+        }
+        assert!(r.is_null());
+        let r = renderer(s, &good);
+
+        // Wrong order: render before prepare.
+        let f = "cmlt_renderer_render";
+        expect(
+            cmlt_renderer_render(r, 0, 100, null_mut()),
+            CMLT_ERROR_INVALID_OPERATION,
+            f,
+        );
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 2, 100, null_mut()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_render(null(), 0, 100, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        let mut done = 0;
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12 * 4, &mut done),
+            CMLT_OK,
+            f,
+        );
+        assert!(done >= 16 * 12 * 4);
+        let before = image(r);
+        assert!(before.iter().any(|&v| v > 0.0));
+
+        // Bad camera moves change nothing.
+        let f = "cmlt_renderer_set_camera";
+        expect(
+            cmlt_renderer_set_camera(
+                r,
+                &cmlt_camera {
+                    fov_degrees: -3.0,
+                    ..CAMERA
+                },
+            ),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_set_camera(r, null()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        assert_eq!(image(r), before, "a rejected camera changed the image");
+
+        // Resolve: sizes, strides, formats, alignment.
+        let f = "cmlt_renderer_resolve";
+        let mut buf = vec![0u8; 16 * 12 * 12 + 64];
+        let row = 16 * 12;
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, null_mut(), 0, buf.len()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, 7, buf.as_mut_ptr(), 0, buf.len()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, buf.as_mut_ptr(), 0, 12 * row - 1),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, buf.as_mut_ptr(), row - 4, buf.len()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        let aligned = buf.as_mut_ptr().align_offset(4);
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGB32F,
+                buf.as_mut_ptr().add(aligned + 1),
+                0,
+                12 * row,
+            ),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        // A padded stride writes the same pixels.
+        let mut rgba = vec![0u8; 13 * 16 * 4 * 2];
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGBA8_SRGB,
+                rgba.as_mut_ptr(),
+                16 * 4 * 2,
+                rgba.len(),
+            ),
+            CMLT_OK,
+            f,
+        );
+        assert!(rgba.chunks(4).step_by(1).take(16).all(|p| p[3] == 255));
+        assert!(
+            rgba[16 * 4..16 * 8].iter().all(|&b| b == 0),
+            "padding written"
+        );
+
+        let mut stats = cmlt_stats::default();
+        expect(
+            cmlt_renderer_get_stats(r, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_renderer_get_stats",
+        );
+        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
+        assert!(stats.mutations >= 16 * 12 * 4 && stats.rays > 0 && stats.b > 0.0);
+        assert_eq!(stats.nonfinite, 0);
+        assert!(stats.lens_steps + stats.caustic_steps > 0 || stats.mutations > 0);
+
+        // The renderer outlives the scene handle.
+        cmlt_scene_release(s);
+        expect(
+            cmlt_renderer_render(r, 1, 100, null_mut()),
+            CMLT_OK,
+            "render after scene release",
+        );
+        cmlt_renderer_release(r);
+    }
+}
+
+#[test]
+fn status_names_and_error_callback() {
+    thread_local! {
+        static SEEN: Cell<u32> = const { Cell::new(u32::MAX) };
+    }
+    unsafe extern "C" fn on_error(
+        _user: *mut c_void,
+        status: cmlt_status,
+        message: *const std::ffi::c_char,
+    ) {
+        // SAFETY: the library passes a NUL-terminated message.
+        assert!(!unsafe { CStr::from_ptr(message) }.to_bytes().is_empty());
+        SEEN.with(|s| s.set(status as u32));
+    }
+    // SAFETY: valid pointers.
+    unsafe {
+        // SAFETY: NUL-terminated static strings.
+        assert_eq!(
+            CStr::from_ptr(cmlt_status_name(2)).to_str().unwrap(),
+            "CMLT_ERROR_INVALID_ARGUMENT"
+        );
+        assert_eq!(
+            CStr::from_ptr(cmlt_status_name(12345)).to_str().unwrap(),
+            "unknown status"
+        );
+        expect(
+            cmlt_set_error_callback(Some(on_error), null_mut()),
+            CMLT_OK,
+            "set_error_callback",
+        );
+        let _ = cmlt_scene_new(null_mut());
+        assert_eq!(SEEN.with(Cell::get), CMLT_ERROR_NULL_POINTER as u32);
+        expect(
+            cmlt_set_error_callback(None, null_mut()),
+            CMLT_OK,
+            "set_error_callback",
+        );
+    }
+}
+
+/// A host intersector returning garbage: out-of-range primitives and NaN
+/// distances are rejected and counted, never crash, and the image stays
+/// finite.
+#[test]
+fn bad_host_hits_are_rejected() {
+    unsafe extern "C" fn garbage(_: *mut c_void, ray: *const cmlt_ray, hit: *mut cmlt_hit) {
+        // SAFETY: valid for the call.
+        let (ray, hit) = unsafe { (&*ray, &mut *hit) };
+        let odd = ray.dir[0] > 0.0;
+        *hit = cmlt_hit {
+            t: if odd { f32::NAN } else { 0.5 },
+            u: 0.2,
+            v: 0.2,
+            prim_id: if odd { 3 } else { 1_000_000 },
+        };
+    }
+    unsafe extern "C" fn never(_: *mut c_void, _: *const cmlt_ray) -> u32 {
+        0
+    }
+    let host = cmlt_intersector {
+        user: null_mut(),
+        intersect: Some(garbage),
+        occluded: Some(never),
+        intersect_packet: None,
+        occluded_packet: None,
+    };
+    let s = scene(Some(&host));
+    let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+    let mut stats = cmlt_stats::default();
+    // SAFETY: valid pointers.
+    unsafe {
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12 * 2, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
+    }
+    assert!(stats.rejected_host_hits > 0);
+    assert!(image(r).iter().all(|v| v.is_finite()));
+    // SAFETY: handles from this test.
+    unsafe {
+        cmlt_renderer_release(r);
+        cmlt_scene_release(s);
+    }
+}
+
+thread_local! {
+    /// Allocations made through the hooks by this thread while counting.
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+    static BYTES: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe extern "C" fn counting_alloc(_: *mut c_void, size: usize, align: usize) -> *mut c_void {
+    if COUNTING.with(Cell::get) {
+        ALLOCS.with(|a| a.set(a.get() + 1));
+        BYTES.with(|b| b.set(b.get() + size));
+    }
+    // SAFETY: valid layout (the library passes a power-of-two alignment).
+    unsafe { std::alloc::System.alloc(std::alloc::Layout::from_size_align_unchecked(size, align)) }
+        .cast()
+}
+
+unsafe extern "C" fn counting_free(_: *mut c_void, ptr: *mut c_void, size: usize, align: usize) {
+    if COUNTING.with(Cell::get) {
+        BYTES.with(|b| b.set(b.get().wrapping_sub(size)));
+    }
+    // SAFETY: `ptr` came from `counting_alloc` with this layout.
+    unsafe {
+        std::alloc::System.dealloc(
+            ptr.cast(),
+            std::alloc::Layout::from_size_align_unchecked(size, align),
+        )
+    }
+}
+
+use std::alloc::GlobalAlloc;
+
+/// Allocations (count, net bytes) `f` makes on this thread through the
+/// hooks.
+fn counted<R>(f: impl FnOnce() -> R) -> (R, u64, usize) {
+    ALLOCS.with(|a| a.set(0));
+    BYTES.with(|b| b.set(0));
+    COUNTING.with(|c| c.set(true));
+    let r = f();
+    COUNTING.with(|c| c.set(false));
+    (r, ALLOCS.with(Cell::get), BYTES.with(Cell::get))
+}
+
+#[test]
+fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
+    let hooks = cmlt_allocator {
+        user: null_mut(),
+        alloc: Some(counting_alloc),
+        free: Some(counting_free),
+    };
+    // SAFETY: valid allocator with process-lifetime callbacks.
+    unsafe {
+        expect(
+            cmlt_set_allocator(&cmlt_allocator {
+                alloc: None,
+                ..hooks
+            }),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_set_allocator",
+        );
+        expect(cmlt_set_allocator(&hooks), CMLT_OK, "set_allocator");
+    }
+    let s = scene(None);
+    for estimator in [
+        CMLT_ESTIMATOR_PT,
+        CMLT_ESTIMATOR_BDPT,
+        CMLT_ESTIMATOR_MLT,
+        CMLT_ESTIMATOR_CMLT,
+    ] {
+        let c = config(estimator, 2);
+        let (mut bytes, mut align) = (0usize, 0usize);
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_renderer_memory_requirements(s, &c, &mut bytes, &mut align),
+                CMLT_OK,
+                "memory_requirements",
+            )
+        };
+        let (r, n, created) = counted(|| renderer(s, &c));
+        assert!(n > 0, "creation went around the hooks");
+        // The query measures the renderer's storage; the handle's own box
+        // and the two lock-protected vectors are the same in both.
+        assert_eq!(
+            created, bytes,
+            "estimator {estimator}: query {bytes} B, creation {created} B"
+        );
+        assert!(align >= 8 && align.is_power_of_two());
+        let mut px = vec![0.0f32; 16 * 12 * 3];
+        let mut moved = CAMERA;
+        let ((), n, _) = counted(|| {
+            for frame in 0..3 {
+                moved.position[0] = 0.1 * frame as f32;
+                // SAFETY: valid pointers.
+                unsafe {
+                    expect(cmlt_renderer_set_camera(r, &moved), CMLT_OK, "set_camera");
+                    expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+                    for w in 0..2 {
+                        expect(
+                            cmlt_renderer_render(r, w, 16 * 12 * 2, null_mut()),
+                            CMLT_OK,
+                            "render",
+                        );
+                    }
+                    expect(
+                        cmlt_renderer_resolve(
+                            r,
+                            CMLT_FORMAT_RGB32F,
+                            px.as_mut_ptr().cast(),
+                            0,
+                            px.len() * 4,
+                        ),
+                        CMLT_OK,
+                        "resolve",
+                    );
+                    let mut st = cmlt_stats::default();
+                    expect(cmlt_renderer_get_stats(r, &mut st), CMLT_OK, "stats");
+                }
+            }
+        });
+        assert_eq!(n, 0, "estimator {estimator}: {n} allocations during frames");
+        assert!(px.iter().any(|&v| v > 0.0));
+        // SAFETY: handle from this test.
+        unsafe { cmlt_renderer_release(r) };
+    }
+    // SAFETY: handle from this test; NULL restores the system allocator.
+    unsafe {
+        cmlt_scene_release(s);
+        expect(cmlt_set_allocator(null()), CMLT_OK, "set_allocator");
+    }
+}
