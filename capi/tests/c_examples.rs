@@ -69,6 +69,7 @@ fn build_example(name: &str) -> PathBuf {
     .arg(staticlib())
     .arg("-o")
     .arg(&exe);
+    // The staticlib itself links Embree when built with the feature.
     if cfg!(feature = "embree") {
         cmd.arg("-lembree3");
     }
@@ -252,7 +253,22 @@ fn frame_loop_allocates_nothing_per_frame() {
 /// packet callbacks.
 #[test]
 fn host_intersector_matches_our_bvh() {
-    let exe = build_example("host_geometry");
+    check_host_example("host_geometry");
+}
+
+/// embree_host.c: the host's Embree scene serves the callbacks with
+/// rtcIntersect1/4/8/16 and renders the same picture as our BVH (the
+/// staticlib of an `embree` build links libembree3 already).
+#[cfg(feature = "embree")]
+#[test]
+fn embree_host_matches_our_bvh() {
+    check_host_example("embree_host");
+}
+
+/// Runs a host-intersector example (BDPT and CMLT) and compares its two
+/// renders.
+fn check_host_example(name: &str) {
+    let exe = build_example(name);
     for (method, budget) in [("bdpt", "16"), ("cmlt", "32")] {
         let out = run(&exe, &[method, budget]);
         let host = numbers(&out, "host mean")[0];
