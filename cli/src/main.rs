@@ -5,9 +5,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Method;
 use cmlt::mlt::MltSettings;
+use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::image_io::{self, Image};
 use cmlt_cli::metrics;
 use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
@@ -36,6 +36,15 @@ enum MethodArg {
     /// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
     /// traced as packets (level 2; --k, --m, --lens-sigma).
     Cmlt,
+}
+
+/// `--accel`: which ray-tracing backend renders.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum AccelArg {
+    /// Our BVH (4-wide, SIMD kernels; always available).
+    Ours,
+    /// Embree 3 (only in builds with `--features embree`; an error otherwise).
+    Embree,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -105,6 +114,10 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Ray-tracing backend for every method: our BVH, or Embree
+        /// (builds with `--features embree` only).
+        #[arg(long, value_enum, default_value = "ours")]
+        accel: AccelArg,
         /// Seed of all random streams.
         #[arg(long, default_value_t = 0)]
         seed: u64,
@@ -159,6 +172,14 @@ enum BenchCommand {
         /// Write one CSV row per measurement here.
         #[arg(long)]
         csv: Option<PathBuf>,
+        /// Only these kernels (e.g. `ours-avx512,ours-packet16,embree-16`;
+        /// default all).
+        #[arg(long, value_delimiter = ',')]
+        kernels: Vec<String>,
+        /// Only these ray sets (`primary,diffuse,mtm8,mtm16,shadow`;
+        /// default all).
+        #[arg(long, value_delimiter = ',')]
+        sets: Vec<String>,
     },
 }
 
@@ -235,7 +256,7 @@ fn compare_reference(img: &Image, r: &Path) -> Result<(), String> {
 #[allow(clippy::too_many_arguments)]
 fn run_mlt(
     loaded: &LoadedScene,
-    bvh: &Bvh,
+    accel: &Accel,
     mlt: &MltSettings,
     budget: MltBudget,
     threads: usize,
@@ -248,7 +269,7 @@ fn run_mlt(
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let pixels = w as u64 * h as u64;
     eprintln!(
-        "scene: {} triangles, {} lights, {w}x{h}, max_depth {} (MLT depths 1..={}), {} on {threads} threads, {} chains/thread, large step {}, sigma {}, {} seed samples/depth, {} b passes{} (setup {:.2} s)",
+        "scene: {} triangles, {} lights, {w}x{h}, max_depth {} (MLT depths 1..={}), {} on {threads} threads ({} BVH), {} chains/thread, large step {}, sigma {}, {} seed samples/depth, {} b passes{} (setup {:.2} s)",
         scene.triangle_count(),
         scene.lights.len(),
         loaded
@@ -257,6 +278,7 @@ fn run_mlt(
             .map_or("unbounded".to_string(), |d| d.to_string()),
         cmlt::mlt::path_depth(&loaded.settings, mlt),
         if mlt.m > 0 { "CMLT" } else { "MLT" },
+        accel.name(),
         mlt.n_chains,
         mlt.large_step_prob,
         mlt.sigma,
@@ -279,7 +301,7 @@ fn run_mlt(
     let bar = progress_bar(quiet, total, "{human_pos}/{human_len} mutations");
     let out = render_mlt(
         scene,
-        bvh,
+        accel,
         &loaded.settings,
         mlt,
         budget,
@@ -342,6 +364,8 @@ fn run(cli: Cli) -> Result<(), String> {
             mesh_triangles,
             scenes_dir,
             csv,
+            kernels,
+            sets,
         }) => {
             let opts = cmlt_cli::bench::rays::Options {
                 scenes,
@@ -350,6 +374,8 @@ fn run(cli: Cli) -> Result<(), String> {
                 rays,
                 mesh_triangles,
                 scenes_dir,
+                kernels,
+                sets,
             };
             let rows = cmlt_cli::bench::rays::run(&opts, &mut std::io::stdout())?;
             if let Some(path) = csv {
@@ -374,6 +400,7 @@ fn run(cli: Cli) -> Result<(), String> {
             candidates,
             time,
             threads,
+            accel,
             seed,
             output,
             png,
@@ -399,7 +426,11 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             let scene = &loaded.scene;
             let tris: Vec<_> = scene.triangles().collect();
-            let bvh = Bvh::build(&tris);
+            let kind = match accel {
+                AccelArg::Ours => AccelKind::Ours,
+                AccelArg::Embree => AccelKind::Embree,
+            };
+            let accel = Accel::build(kind, &tris)?;
             let setup = t0.elapsed();
             let threads = threads
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -449,7 +480,7 @@ fn run(cli: Cli) -> Result<(), String> {
                         reference: reference.as_deref(),
                     };
                     return run_mlt(
-                        &loaded, &bvh, &mlt, budget, threads, seed, quiet, setup, ctx,
+                        &loaded, &accel, &mlt, budget, threads, seed, quiet, setup, ctx,
                     );
                 }
             };
@@ -460,7 +491,7 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             let (w, h) = (scene.camera.width(), scene.camera.height());
             eprintln!(
-                "scene: {} triangles, {} lights, {w}x{h}, max_depth {}, {:?} on {threads} threads (setup {:.2} s)",
+                "scene: {} triangles, {} lights, {w}x{h}, max_depth {}, {:?} on {threads} threads ({} BVH, setup {:.2} s)",
                 scene.triangle_count(),
                 scene.lights.len(),
                 loaded
@@ -468,6 +499,7 @@ fn run(cli: Cli) -> Result<(), String> {
                     .max_depth
                     .map_or("unbounded".to_string(), |d| d.to_string()),
                 method,
+                accel.name(),
                 setup.as_secs_f64()
             );
             let total = match budget {
@@ -477,7 +509,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let bar = progress_bar(quiet, total, "{pos}/{len} spp");
             let out = render(
                 scene,
-                &bvh,
+                &accel,
                 &loaded.settings,
                 method,
                 budget,

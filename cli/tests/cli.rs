@@ -160,3 +160,22 @@ fn bad_scenes_fail_cleanly() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("/no/such/scene.xml"));
 }
+
+/// Without the `embree` feature, `--accel embree` is refused with a message
+/// that says how to get it (and `--accel ours` is the default).
+#[cfg(not(feature = "embree"))]
+#[test]
+fn accel_embree_needs_the_feature() {
+    let o = cmlt()
+        .args(["render", "--accel", "embree", "--spp", "1", "--quiet"])
+        .args(["-D", "resx=8", "-D", "resy=8", "-o"])
+        .arg(tmp("no-embree.exr"))
+        .output()
+        .expect("cmlt runs");
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("built without Embree") && stderr.contains("--features embree"),
+        "{stderr}"
+    );
+}

@@ -47,6 +47,21 @@ pub struct Options {
     pub mesh_triangles: usize,
     /// Directory of the shared scenes (`<dir>/<name>/scene.xml`).
     pub scenes_dir: std::path::PathBuf,
+    /// Only these kernels (names as in the table, e.g. `ours-packet16`);
+    /// empty = all.
+    pub kernels: Vec<String>,
+    /// Only these ray sets; empty = all.
+    pub sets: Vec<String>,
+}
+
+impl Options {
+    fn wants_kernel(&self, kernel: &str) -> bool {
+        self.kernels.is_empty() || self.kernels.iter().any(|k| k == kernel)
+    }
+
+    fn wants_set(&self, set: &str) -> bool {
+        self.sets.is_empty() || self.sets.iter().any(|s| s == set)
+    }
 }
 
 /// One throughput measurement (a CSV row).
@@ -395,6 +410,9 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
         .map_err(io)?;
         let sets = ray_sets(&scene, &bvh, opts.rays);
         for (set, rays, occlusion) in sets.sets {
+            if !opts.wants_set(set) {
+                continue;
+            }
             let packets = Packets {
                 p4: pack(&rays),
                 p8: pack(&rays),
@@ -415,24 +433,34 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                     });
                 };
                 for k in Kernel::ALL {
+                    let name = format!("ours-{}", k.name());
                     let Some(view) = bvh.view().with_kernel(k) else {
                         continue;
                     };
-                    let m = measure(&view, Mode::Single, &packets, threads, time) * 1e-6;
-                    record(format!("ours-{}", k.name()), m, &mut line);
+                    if opts.wants_kernel(&name) {
+                        let m = measure(&view, Mode::Single, &packets, threads, time) * 1e-6;
+                        record(name, m, &mut line);
+                    }
                 }
                 let view = bvh.view();
                 for n in [4, 8, 16] {
-                    let m = measure(&view, Mode::Packet(n), &packets, threads, time) * 1e-6;
-                    record(format!("ours-packet{n}"), m, &mut line);
+                    let name = format!("ours-packet{n}");
+                    if opts.wants_kernel(&name) {
+                        let m = measure(&view, Mode::Packet(n), &packets, threads, time) * 1e-6;
+                        record(name, m, &mut line);
+                    }
                 }
                 #[cfg(feature = "embree")]
-                {
-                    let m = measure(&embree, Mode::Single, &packets, threads, time) * 1e-6;
-                    record("embree-1".to_string(), m, &mut line);
-                    for n in [4, 8, 16] {
-                        let m = measure(&embree, Mode::Packet(n), &packets, threads, time) * 1e-6;
-                        record(format!("embree-{n}"), m, &mut line);
+                for n in [1, 4, 8, 16] {
+                    let name = format!("embree-{n}");
+                    if opts.wants_kernel(&name) {
+                        let mode = if n == 1 {
+                            Mode::Single
+                        } else {
+                            Mode::Packet(n)
+                        };
+                        let m = measure(&embree, mode, &packets, threads, time) * 1e-6;
+                        record(name, m, &mut line);
                     }
                 }
                 print_line(out, &scene.name, set, threads, &line).map_err(io)?;

@@ -512,8 +512,11 @@ pub fn compare_rays<I: Intersector>(
     }
 }
 
+/// The two alternating lane masks (even lanes, odd lanes).
+pub const ALTERNATING: [u32; 2] = [0x5555_5555, 0xaaaa_aaaa];
+
 /// Packets of random rays and of coherent bundles, with random active
-/// masks; inactive lanes hold garbage that must be neither read nor written.
+/// masks (all, none, one lane, alternating, random); inactive lanes hold garbage that must be neither read nor written.
 pub fn compare_packets<const N: usize, I: Intersector>(
     name: &str,
     backend: &I,
@@ -553,10 +556,11 @@ pub fn compare_packets<const N: usize, I: Intersector>(
         }
         let first = i;
         i += N;
-        let active = match rng.below(6) {
+        let active = match rng.below(7) {
             0 => LaneMask::first(N),
             1 => LaneMask(1 << rng.below(N)),
             2 => LaneMask::NONE,
+            3 => LaneMask(ALTERNATING[rng.below(2)] & LaneMask::first(N).0),
             _ => LaneMask(rng.next_u64() as u32 & LaneMask::first(N).0),
         };
         let mut packet = RayPacket::<N>::default();

@@ -87,6 +87,17 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
             let (mask, near) = B::box4(node, &r.br, *t_max);
+            // One child hit (the common case below the top levels):
+            // descend without sorting or touching the stack.
+            if mask != 0 && mask & (mask - 1) == 0 {
+                let c = mask.trailing_zeros() as usize;
+                cur = Entry {
+                    child: node.child[c],
+                    count: node.count[c],
+                    t: near[c],
+                };
+                continue;
+            }
             if mask != 0 {
                 let (order, n) = order4(mask, &near);
                 // Push the farther children far-to-near so the next pop is

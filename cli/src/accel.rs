@@ -1,0 +1,107 @@
+//! The ray-tracing backend a render uses, chosen at run time
+//! (`cmlt render --accel ours|embree`).
+//!
+//! [`Accel`] is one [`Intersector`] over either backend, so every method
+//! (PT, BDPT, MLT, CMLT) and the render driver stay generic over the trait
+//! and never learn which backend they trace through. The dispatch is one
+//! predictable branch per query, negligible next to a traversal.
+
+use cmlt::accel::Intersector;
+use cmlt::accel::bvh::Bvh;
+use cmlt::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
+use cmlt::math::Vec3;
+
+/// Which backend to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AccelKind {
+    /// Our BVH (`cmlt::accel::bvh`), always available.
+    Ours,
+    /// Embree 3 (`cmlt::accel::embree`); only in builds with the `embree`
+    /// feature.
+    Embree,
+}
+
+impl AccelKind {
+    /// Whether this build can use the backend.
+    pub fn is_available(self) -> bool {
+        match self {
+            AccelKind::Ours => true,
+            AccelKind::Embree => cfg!(feature = "embree"),
+        }
+    }
+}
+
+/// A built backend over a scene's triangles (scene-global numbering).
+pub enum Accel {
+    /// Our BVH.
+    Ours(Bvh),
+    /// Embree's BVH.
+    #[cfg(feature = "embree")]
+    Embree(cmlt::accel::embree::EmbreeScene),
+}
+
+impl Accel {
+    /// Builds `kind` over `tris`. Errors name the reason: Embree asked of a
+    /// build without the feature, or Embree failing to create its device.
+    pub fn build(kind: AccelKind, tris: &[[Vec3; 3]]) -> Result<Accel, String> {
+        match kind {
+            AccelKind::Ours => Ok(Accel::Ours(Bvh::build(tris))),
+            #[cfg(feature = "embree")]
+            AccelKind::Embree => cmlt::accel::embree::EmbreeScene::new(tris)
+                .map(Accel::Embree)
+                .map_err(|e| format!("Embree: {e}")),
+            #[cfg(not(feature = "embree"))]
+            AccelKind::Embree => Err(
+                "--accel embree: this cmlt was built without Embree (rebuild with `--features embree`)"
+                    .to_string(),
+            ),
+        }
+    }
+
+    /// Short name (`ours`, `embree`), for logs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Accel::Ours(_) => "ours",
+            #[cfg(feature = "embree")]
+            Accel::Embree(_) => "embree",
+        }
+    }
+}
+
+/// Calls `$body` with `$i` bound to the backend inside `$accel`.
+macro_rules! dispatch {
+    ($accel:expr, $i:ident => $body:expr) => {
+        match $accel {
+            Accel::Ours($i) => $body,
+            #[cfg(feature = "embree")]
+            Accel::Embree($i) => $body,
+        }
+    };
+}
+
+impl Intersector for Accel {
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        dispatch!(self, i => i.intersect(ray))
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        dispatch!(self, i => i.occluded(ray))
+    }
+
+    #[inline]
+    fn intersect_packet<const N: usize>(
+        &self,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
+        dispatch!(self, i => i.intersect_packet(rays, active, hits))
+    }
+
+    #[inline]
+    fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
+        dispatch!(self, i => i.occluded_packet(rays, active))
+    }
+}
