@@ -8,7 +8,6 @@
 
 use std::sync::{Arc, Mutex, RwLock};
 
-use cmlt_core::accel::Intersector;
 use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
 use cmlt_core::mlt::{Candidates, MltSettings};
@@ -355,50 +354,25 @@ pub unsafe extern "C" fn cmlt_renderer_set_camera(
     })
 }
 
-/// Calls `f` with the committed scene's intersector as a concrete type.
-fn with_accel<R>(scene: &Committed, f: impl FnOnce(&dyn AccelVisitor) -> R) -> R {
-    f(&scene.accel)
-}
-
-/// Dispatch from the closed set of backends to the generic core.
-trait AccelVisitor {
-    fn prepare(&self, r: &mut Renderer, scene: &cmlt_core::scene::Scene);
-    fn render(
-        &self,
-        r: &Renderer,
-        w: &mut RenderWorker,
-        scene: &cmlt_core::scene::Scene,
-        budget: u64,
-    ) -> std::result::Result<u64, RenderError>;
-}
-
-fn prepare_with<I: Intersector>(r: &mut Renderer, scene: &cmlt_core::scene::Scene, accel: &I) {
-    r.prepare(scene, accel)
-}
-
-impl AccelVisitor for Accel {
-    fn prepare(&self, r: &mut Renderer, scene: &cmlt_core::scene::Scene) {
-        match self {
-            Accel::Bvh(b) => prepare_with(r, scene, b),
-            Accel::Host(h) => prepare_with(r, scene, h),
-            #[cfg(feature = "embree")]
-            Accel::Embree(e) => prepare_with(r, scene, e),
-        }
+/// `Renderer::prepare` through the scene's backend (the core is generic
+/// over the intersector; the two kinds of backend meet here).
+fn prepare_frame(c: &Committed, r: &mut Renderer) {
+    match &c.accel {
+        Accel::Built(b) => r.prepare(&c.scene, b),
+        Accel::Host(h) => r.prepare(&c.scene, h),
     }
+}
 
-    fn render(
-        &self,
-        r: &Renderer,
-        w: &mut RenderWorker,
-        scene: &cmlt_core::scene::Scene,
-        budget: u64,
-    ) -> std::result::Result<u64, RenderError> {
-        match self {
-            Accel::Bvh(b) => r.render(w, scene, b, budget),
-            Accel::Host(h) => r.render(w, scene, h, budget),
-            #[cfg(feature = "embree")]
-            Accel::Embree(e) => r.render(w, scene, e, budget),
-        }
+/// `Renderer::render` through the scene's backend.
+fn render_worker(
+    c: &Committed,
+    r: &Renderer,
+    w: &mut RenderWorker,
+    budget: u64,
+) -> std::result::Result<u64, RenderError> {
+    match &c.accel {
+        Accel::Built(b) => r.render(w, &c.scene, b, budget),
+        Accel::Host(h) => r.render(w, &c.scene, h, budget),
     }
 }
 
@@ -418,7 +392,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
             .renderer
             .try_write()
             .map_err(|_| Error::busy("workers are rendering"))?;
-        with_accel(&r.scene, |a| a.prepare(&mut inner, &r.scene.scene));
+        prepare_frame(&r.scene, &mut inner);
         Ok(())
     })
 }
@@ -457,10 +431,7 @@ pub unsafe extern "C" fn cmlt_renderer_render(
                 "worker {worker} is being rendered by another thread"
             ))
         })?;
-        let done = with_accel(&r.scene, |a| {
-            a.render(&inner, &mut w, &r.scene.scene, budget)
-        })
-        .map_err(render_error)?;
+        let done = render_worker(&r.scene, &inner, &mut w, budget).map_err(render_error)?;
         if !out_done.is_null() {
             // SAFETY: the caller's contract.
             unsafe { *out_done = done };

@@ -6,7 +6,7 @@
 use std::ffi::{CStr, c_char};
 use std::sync::{Arc, Mutex};
 
-use cmlt_core::accel::bvh::Bvh;
+use cmlt_cli::accel::AccelKind;
 use cmlt_core::integrator::Settings;
 use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
@@ -155,12 +155,11 @@ impl cmlt_camera {
     }
 }
 
-/// What a committed scene traces with.
+/// What a committed scene traces with: a backend the library builds (our
+/// BVH or Embree, the CLI's run-time choice) or the host's callbacks.
 pub(crate) enum Accel {
-    Bvh(Bvh),
+    Built(cmlt_cli::accel::Accel),
     Host(HostIntersector),
-    #[cfg(feature = "embree")]
-    Embree(cmlt_core::accel::embree::EmbreeScene),
 }
 
 /// A committed scene: immutable, shared by renderers.
@@ -508,22 +507,33 @@ pub unsafe extern "C" fn cmlt_scene_set_accel(scene: *mut cmlt_scene, accel: u32
     guard("cmlt_scene_set_accel", || {
         // SAFETY: the caller's contract.
         let scene = unsafe { read(scene, "scene") }?;
-        match accel {
-            CMLT_ACCEL_BVH => {}
-            CMLT_ACCEL_EMBREE if cfg!(feature = "embree") => {}
-            CMLT_ACCEL_EMBREE => {
-                return Err(Error::new(
-                    cmlt_status::CMLT_ERROR_UNSUPPORTED,
-                    "this build of cmlt has no Embree backend (cargo feature `embree`)",
-                ));
-            }
-            a => return Err(Error::invalid(format!("unknown accel {a}"))),
+        if !accel_kind(accel)?.is_available() {
+            return Err(Error::new(
+                cmlt_status::CMLT_ERROR_UNSUPPORTED,
+                "this build of cmlt has no Embree backend (cargo feature `embree`)",
+            ));
         }
         scene.building(|b| {
             b.accel = accel;
             Ok(())
         })
     })
+}
+
+/// The backend a `CMLT_ACCEL_*` value names.
+fn accel_kind(accel: u32) -> Result<AccelKind> {
+    match accel {
+        CMLT_ACCEL_BVH => Ok(AccelKind::Ours),
+        CMLT_ACCEL_EMBREE => Ok(AccelKind::Embree),
+        a => Err(Error::invalid(format!("unknown accel {a}"))),
+    }
+}
+
+/// Builds a backend over `scene`'s triangles.
+fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
+    cmlt_cli::accel::Accel::build(kind, &scene.triangles().collect::<Vec<_>>())
+        .map(Accel::Built)
+        .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e))
 }
 
 /// Validates the scene and builds its acceleration structure; afterwards
@@ -551,20 +561,9 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
                 .map_err(|e| Error::invalid(e.to_string()))?,
         );
         let built = builder.build().map_err(|e| Error::invalid(e.to_string()))?;
-        let accel = match (b.intersector, b.accel) {
-            (Some(i), _) => Accel::Host(HostIntersector::new(i, b.triangles as u32)),
-            (None, CMLT_ACCEL_BVH) => {
-                Accel::Bvh(Bvh::build(&built.triangles().collect::<Vec<_>>()))
-            }
-            #[cfg(feature = "embree")]
-            (None, _) => Accel::Embree(
-                cmlt_core::accel::embree::EmbreeScene::new(&built.triangles().collect::<Vec<_>>())
-                    .map_err(|e| {
-                        Error::new(cmlt_status::CMLT_ERROR_INTERNAL, format!("Embree: {e}"))
-                    })?,
-            ),
-            #[cfg(not(feature = "embree"))]
-            (None, _) => unreachable!("set_accel refuses Embree without the feature"),
+        let accel = match b.intersector {
+            Some(i) => Accel::Host(HostIntersector::new(i, b.triangles as u32)),
+            None => build_accel(accel_kind(b.accel)?, &built)?,
         };
         *state = State::Committed(Arc::new(Committed {
             scene: built,
@@ -663,7 +662,7 @@ unsafe fn finish_loaded(
 ) -> Result<()> {
     let scene = loaded.scene;
     let cam = scene.camera;
-    let accel = Accel::Bvh(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
+    let accel = build_accel(AccelKind::Ours, &scene)?;
     *out = Box::into_raw(cmlt_scene::committed_from(Committed {
         scene,
         accel,
