@@ -146,6 +146,14 @@ typedef struct cmlt_renderer_config {
   float lens_sigma;
   // CMLT: non-zero = stratified candidates, 0 = independent.
   uint32_t stratified;
+  // Frames, MLT/CMLT: non-zero = keep the chains across frames
+  // (re-evaluated after a camera move) instead of restarting them.
+  uint32_t keep_chains;
+  // Frames, MLT/CMLT: average the normalisation over this many frames
+  // while the camera stays the same (0 or 1 = off; at most 64).
+  uint32_t b_window;
+  // Frames: non-zero = every frame reuses the same random sequences.
+  uint32_t fixed_sequence;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -25,6 +25,9 @@ pub mod host;
 pub mod renderer;
 pub mod scene;
 
+#[cfg(test)]
+mod api_tests;
+
 /// Major version of the C API.
 pub const CMLT_VERSION_MAJOR: u32 = 0;
 /// Minor version of the C API.

@@ -13,6 +13,7 @@ use cmlt_core::math::spectrum::linear_to_srgb;
 use cmlt_core::mlt::{Candidates, MltSettings};
 use cmlt_core::renderer::{
     Accumulator, Estimator, RenderError, RenderStats, RenderWorker, Renderer, RendererConfig,
+    Temporal,
 };
 
 use crate::alloc::measure_allocations;
@@ -69,6 +70,14 @@ pub struct cmlt_renderer_config {
     pub lens_sigma: f32,
     /// CMLT: non-zero = stratified candidates, 0 = independent.
     pub stratified: u32,
+    /// Frames, MLT/CMLT: non-zero = keep the chains across frames
+    /// (re-evaluated after a camera move) instead of restarting them.
+    pub keep_chains: u32,
+    /// Frames, MLT/CMLT: average the normalisation over this many frames
+    /// while the camera stays the same (0 or 1 = off; at most 64).
+    pub b_window: u32,
+    /// Frames: non-zero = every frame reuses the same random sequences.
+    pub fixed_sequence: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -156,6 +165,9 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
             m: mlt.m.max(1),
             lens_sigma: mlt.lens_sigma,
             stratified: (mlt.candidates == Candidates::Stratified) as u32,
+            keep_chains: 0,
+            b_window: 0,
+            fixed_sequence: 0,
         };
         Ok(())
     })
@@ -213,6 +225,11 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
         mlt,
         seed: c.seed,
         workers: c.workers,
+        temporal: Temporal {
+            keep_chains: c.keep_chains != 0,
+            b_window: c.b_window,
+            fixed_sequence: c.fixed_sequence != 0,
+        },
     })
 }
 

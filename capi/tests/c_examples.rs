@@ -198,6 +198,7 @@ fn minimal_matches_a_rust_render() {
             mlt,
             seed: 1,
             workers: 1,
+            temporal: Default::default(),
         };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();

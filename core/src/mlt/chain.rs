@@ -115,6 +115,19 @@ impl Chain {
         }
     }
 
+    /// Evaluates the target again at the current state (after the camera or
+    /// the scene changed) and makes that the current path: the chain goes
+    /// on from the same primary-sample point, under the new target. A state
+    /// whose contribution became zero moves to the next proposal that has
+    /// one.
+    pub fn reevaluate(&mut self, eval: impl FnOnce(&mut PrimarySampler) -> PathSample) {
+        self.sampler.begin_replay();
+        let s = eval(&mut self.sampler);
+        self.sampler.end_replay();
+        self.current = s;
+        self.current_y = s.target();
+    }
+
     /// Ends the chain, handing back its sampler (whose buffers a new chain
     /// can reuse after [`PrimarySampler::restart`]).
     pub fn into_sampler(self) -> PrimarySampler {

@@ -435,6 +435,42 @@ impl MltWorker {
         }
     }
 
+    /// Keeps every chain and evaluates its current state again through
+    /// `tracer` (a new camera or scene): the temporal alternative to
+    /// [`MltWorker::restart`] (no bootstrap sample is replayed, the chains
+    /// keep their depths and random streams). Counters start again from
+    /// zero. Allocates nothing.
+    pub fn reevaluate<I: Intersector>(&mut self, tracer: &mut Tracer<'_, I>, settings: &Settings) {
+        let MltWorker {
+            chains,
+            ws,
+            stats,
+            level2,
+            paths,
+            ..
+        } = self;
+        *stats = MltStats {
+            chains: chains.len() as u64,
+            ..MltStats::default()
+        };
+        for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
+            let depth = *depth;
+            chain.reevaluate(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+            if level2.is_some() {
+                bdpt::strategy_path(ws, &mut paths[ci]);
+            }
+        }
+    }
+
+    /// Zeroes the counters, keeping the chains as they are (a new frame
+    /// through the same camera).
+    pub fn reset_stats(&mut self) {
+        self.stats = MltStats {
+            chains: self.chains.len() as u64,
+            ..MltStats::default()
+        };
+    }
+
     /// Number of chains (mutations per round).
     pub fn chain_count(&self) -> usize {
         self.chains.len()

@@ -77,6 +77,9 @@ pub struct PrimarySampler {
     stream_index: u32,
     /// Second normal deviate of the last Box–Muller pair, if unused.
     spare_normal: Option<f32>,
+    /// Between `begin_replay` and `end_replay`: reads return the current
+    /// state instead of mutating it.
+    replaying: bool,
 }
 
 impl PrimarySampler {
@@ -107,6 +110,7 @@ impl PrimarySampler {
             stream: 0,
             stream_index: 0,
             spare_normal: None,
+            replaying: false,
         }
     }
 
@@ -178,6 +182,26 @@ impl PrimarySampler {
     /// Number of coordinates of X that exist so far.
     pub fn dimensions(&self) -> usize {
         self.x.len()
+    }
+
+    /// Starts re-reading the current state X, for evaluating the target at
+    /// it again after the camera or scene changed (a kept chain across
+    /// frames). Until [`PrimarySampler::end_replay`], every read brings its
+    /// coordinate up to the current state — the pending small steps of
+    /// accepted iterations, or a fresh uniform after an accepted large
+    /// step, drawn now exactly as a later read would draw them — and
+    /// returns it without proposing a mutation.
+    pub fn begin_replay(&mut self) {
+        self.replaying = true;
+        self.touched.clear();
+        self.stream = 0;
+        self.stream_index = 0;
+    }
+
+    /// Ends [`PrimarySampler::begin_replay`]; the chain continues from the
+    /// same state.
+    pub fn end_replay(&mut self) {
+        self.replaying = false;
     }
 
     /// Begins a mutation: decides large or small step with the large-step
@@ -257,6 +281,19 @@ impl PrimarySampler {
         if c.modified < self.last_large_step {
             c.value = self.uniform();
             c.modified = self.last_large_step;
+        }
+        if self.replaying {
+            // The current state is iteration `self.iteration` (no
+            // iteration is open): apply the small steps of the accepted
+            // iterations since the coordinate was drawn, and nothing more.
+            let n = self.iteration - c.modified;
+            if n > 0 {
+                let v = c.value + self.normal() * self.sigma * libm::sqrtf(n as f32);
+                c.value = wrap01(v);
+                c.modified = self.iteration;
+            }
+            self.x[index] = c;
+            return c.value;
         }
         c.backup_value = c.value;
         c.backup_modified = c.modified;

@@ -33,12 +33,16 @@
 //! with one worker it equals [`crate::mlt::render`] (MLT) and
 //! [`crate::integrator::render_pass`]'s passes (PT, BDPT) bit for bit.
 //!
-//! ## Camera changes
+//! ## Frames
 //!
-//! [`Renderer::set_camera`] starts a new accumulation: the next `prepare`
-//! re-runs the bootstrap (b depends on the view), and each worker clears
-//! its film and restarts its chains at its next `render`. Keeping chains
-//! and smoothing b across frames is left to the temporal mode.
+//! [`Renderer::set_camera`] starts a new frame — a new accumulation, even
+//! through the same camera: the next `prepare` re-runs the bootstrap (b
+//! depends on the view), and each worker clears its film at its next
+//! `render`. What carries over from frame to frame is set by [`Temporal`]:
+//! by default nothing (each frame restarts its chains and draws new random
+//! numbers: independent frames); with the switches on, chains are kept and
+//! re-evaluated, b is averaged over a window of frames while the camera
+//! stays put, and/or every frame reuses the same random sequences.
 
 use alloc::vec::Vec;
 
@@ -48,6 +52,7 @@ use crate::integrator::{self, Settings, Stats, Tracer, Worker, bdpt};
 use crate::math::Rgb;
 use crate::mlt::bootstrap::BootstrapScratch;
 use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker};
+use crate::sampler::mix64;
 use crate::scene::{Camera, Scene};
 
 /// Which estimator renders.
@@ -76,6 +81,36 @@ pub struct RendererConfig {
     pub seed: u64,
     /// Number of workers whose films make the image (≥ 1).
     pub workers: u32,
+    /// Frame-to-frame coherence switches (all off by default).
+    pub temporal: Temporal,
+}
+
+/// Largest [`Temporal::b_window`].
+pub const MAX_B_WINDOW: u32 = 64;
+
+/// How consecutive frames (accumulations started by
+/// [`Renderer::set_camera`]) relate. Each switch on its own lowers flicker;
+/// `cmlt bench flicker` measures each.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Temporal {
+    /// MLT: keep every chain across frames. With an unchanged camera the
+    /// chains simply go on; after a camera change each chain's current
+    /// primary-sample point is evaluated again under the new camera
+    /// ([`MltWorker::reevaluate`]) instead of restarting from the
+    /// bootstrap's samples, so the chains stay (near) stationary and
+    /// their depths keep the first frame's split by b_d.
+    pub keep_chains: bool,
+    /// MLT: the normalisation used for a frame is the mean of the last
+    /// `b_window` frames' bootstrap estimates while the camera stays the
+    /// same (a window restarts at every camera change, so a moving camera
+    /// never lags); 0 or 1 = each frame its own b. At most
+    /// [`MAX_B_WINDOW`].
+    pub b_window: u32,
+    /// Every frame draws the same random numbers (the seed's §3.1
+    /// reproducible perturbations): a static camera gives identical frames
+    /// and a moving one a noise pattern that moves with the image.
+    /// Otherwise frame f's streams are seeded by (seed, f).
+    pub fixed_sequence: bool,
 }
 
 impl Default for RendererConfig {
@@ -88,6 +123,7 @@ impl Default for RendererConfig {
             mlt: MltSettings::default(),
             seed: 0,
             workers: 1,
+            temporal: Temporal::default(),
         }
     }
 }
@@ -151,6 +187,17 @@ pub struct Renderer {
     scratch: BootstrapScratch,
     /// Identifies this renderer's workers.
     id: usize,
+    /// Frames (accumulations) started so far, minus one: 0 for the first.
+    frame: u64,
+    /// Whether the camera differs from the previous frame's.
+    camera_moved: bool,
+    /// The last frames' estimates of b while the camera stayed the same
+    /// (ring buffer of `b_count` entries, newest at `b_next − 1`).
+    b_history: [f64; MAX_B_WINDOW as usize],
+    b_count: usize,
+    b_next: usize,
+    /// The b the image is scaled with (the window's mean).
+    b_used: f64,
 }
 
 /// One worker's storage: film, subpaths, chains. Owned by the host, one per
@@ -159,6 +206,8 @@ pub struct RenderWorker {
     renderer: usize,
     index: u32,
     generation: Option<u64>,
+    /// The camera of this worker's last accumulation.
+    camera: Option<Camera>,
     film: Film,
     bdpt: Worker,
     mlt: Option<MltWorker>,
@@ -186,6 +235,9 @@ impl Renderer {
         if config.estimator == Estimator::Mlt {
             config.mlt.validate().map_err(RenderError::Config)?;
         }
+        if config.temporal.b_window > MAX_B_WINDOW {
+            return Err(RenderError::Config("the b window is at most 64 frames"));
+        }
         if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
             return Err(RenderError::Config("the depth cap must be at least 1"));
         }
@@ -199,6 +251,12 @@ impl Renderer {
             generation: 0,
             prepared: None,
             id: next_id(),
+            frame: 0,
+            camera_moved: true,
+            b_history: [0.0; MAX_B_WINDOW as usize],
+            b_count: 0,
+            b_next: 0,
+            b_used: 0.0,
         })
     }
 
@@ -212,20 +270,42 @@ impl Renderer {
         &self.camera
     }
 
-    /// The normalisation b of the current accumulation (MLT, after
-    /// `prepare`; 0 otherwise).
+    /// The normalisation b the current accumulation is scaled with (MLT,
+    /// after `prepare`: this frame's bootstrap estimate, or the mean over
+    /// the b window; 0 otherwise).
     pub fn b(&self) -> f64 {
-        self.bootstrap.b()
+        self.b_used
     }
 
-    /// Replaces the camera and starts a new accumulation; `prepare` must
+    /// Index of the current frame: the number of `set_camera` calls.
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// The seed of the current frame's random streams: the configured seed
+    /// in frame 0 and with [`Temporal::fixed_sequence`], else one derived
+    /// from (seed, frame).
+    pub fn frame_seed(&self) -> u64 {
+        let c = &self.config;
+        if c.temporal.fixed_sequence || self.frame == 0 {
+            c.seed
+        } else {
+            mix64(mix64(c.seed ^ 0xF7A3_E000_0000_0000) ^ self.frame)
+        }
+    }
+
+    /// Starts the next frame: a new accumulation through `camera` (the
+    /// same camera again is a new frame too — call it once per displayed
+    /// frame, or not at all to accumulate progressively); `prepare` must
     /// run before the next `render`. The resolution must not change.
     pub fn set_camera(&mut self, camera: Camera) -> Result<(), RenderError> {
         if camera.width() != self.camera.width() || camera.height() != self.camera.height() {
             return Err(RenderError::Resolution);
         }
+        self.camera_moved = camera != self.camera;
         self.camera = camera;
         self.generation += 1;
+        self.frame += 1;
         self.prepared = None;
         Ok(())
     }
@@ -239,12 +319,28 @@ impl Renderer {
             return;
         }
         if self.config.estimator == Estimator::Mlt {
+            let seed = self.frame_seed();
             let mut tracer = Tracer::new(scene, accel).with_camera(self.camera);
             let c = &self.config;
             self.bootstrap
-                .rerun(&mut tracer, &c.settings, &c.mlt, c.seed, &mut self.scratch);
+                .rerun(&mut tracer, &c.settings, &c.mlt, seed, &mut self.scratch);
+            self.push_b(self.bootstrap.b());
         }
         self.prepared = Some(self.generation);
+    }
+
+    /// Adds this frame's bootstrap estimate to the b window (restarted when
+    /// the camera moved) and sets the b in use to the window's mean.
+    fn push_b(&mut self, b: f64) {
+        let window = self.config.temporal.b_window.max(1) as usize;
+        if self.camera_moved || window == 1 {
+            self.b_count = 0;
+            self.b_next = 0;
+        }
+        self.b_history[self.b_next] = b;
+        self.b_next = (self.b_next + 1) % window;
+        self.b_count = (self.b_count + 1).min(window);
+        self.b_used = self.b_history[..self.b_count].iter().sum::<f64>() / self.b_count as f64;
     }
 
     /// Renders `budget` units (see the module docs) into `worker`, after
@@ -270,18 +366,28 @@ impl Renderer {
             worker.film.clear();
             worker.passes = 0;
             worker.stats = Stats::default();
+            let seed = self.frame_seed();
             if let Some(m) = &mut worker.mlt {
-                m.restart(
-                    &mut tracer,
-                    &c.settings,
-                    &c.mlt,
-                    &self.bootstrap,
-                    c.seed,
-                    worker.index as u64,
-                    c.workers as u64,
-                );
+                let kept =
+                    c.temporal.keep_chains && worker.generation.is_some() && m.chain_count() > 0;
+                if !kept {
+                    m.restart(
+                        &mut tracer,
+                        &c.settings,
+                        &c.mlt,
+                        &self.bootstrap,
+                        seed,
+                        worker.index as u64,
+                        c.workers as u64,
+                    );
+                } else if worker.camera != Some(self.camera) {
+                    m.reevaluate(&mut tracer, &c.settings);
+                } else {
+                    m.reset_stats();
+                }
             }
             worker.generation = Some(self.generation);
+            worker.camera = Some(self.camera);
         }
         if budget == 0 {
             worker.stats.merge(&tracer.stats);
@@ -311,7 +417,7 @@ impl Renderer {
                         &c.settings,
                         method,
                         &mut worker.bdpt,
-                        c.seed,
+                        self.frame_seed(),
                         pass,
                         &mut worker.film,
                     );
@@ -421,7 +527,7 @@ impl Renderer {
     pub fn worker_stats(&self, w: &RenderWorker) -> RenderStats {
         let mut s = RenderStats {
             b: if self.config.estimator == Estimator::Mlt {
-                self.bootstrap.b()
+                self.b_used
             } else {
                 0.0
             },
@@ -451,7 +557,7 @@ impl Renderer {
     /// b · pixels / records (MLT); 0 before anything was rendered.
     fn scale(&self, t: &Totals) -> f64 {
         match self.config.estimator {
-            Estimator::Mlt => mlt::image_scale(self.bootstrap.b(), self.pixels(), t.records),
+            Estimator::Mlt => mlt::image_scale(self.b_used, self.pixels(), t.records),
             _ if t.passes == 0 => 0.0,
             _ => 1.0 / t.passes as f64,
         }
@@ -514,6 +620,7 @@ impl RenderWorker {
             renderer: renderer.id,
             index,
             generation: None,
+            camera: None,
             film: Film::new(camera.width(), camera.height()),
             bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
             mlt: (c.estimator == Estimator::Mlt)

@@ -8,11 +8,11 @@ use std::cell::Cell;
 use std::ffi::{CStr, c_void};
 use std::ptr::{null, null_mut};
 
-use cmlt::alloc::{cmlt_allocator, cmlt_set_allocator};
-use cmlt::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
-use cmlt::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
-use cmlt::renderer::*;
-use cmlt::scene::*;
+use crate::alloc::{cmlt_allocator, cmlt_set_allocator};
+use crate::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
+use crate::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
+use crate::renderer::*;
+use crate::scene::*;
 
 use cmlt_status::*;
 
