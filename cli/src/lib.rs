@@ -5,6 +5,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod frames;
 pub mod image_io;
 pub mod metrics;
 pub mod render;

@@ -7,7 +7,9 @@ use std::time::Instant;
 use clap::{Parser, Subcommand, ValueEnum};
 use cmlt::integrator::Method;
 use cmlt::mlt::MltSettings;
+use cmlt::renderer::{Estimator, RendererConfig, Temporal};
 use cmlt_cli::accel::{Accel, AccelKind};
+use cmlt_cli::frames;
 use cmlt_cli::image_io::{self, Image};
 use cmlt_cli::metrics;
 use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
@@ -136,6 +138,29 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Render this many frames through the core's frame loop (one
+        /// worker per thread), written as OUTPUT-0000.exr, … next to the
+        /// output; the budget (--spp or --mutations-per-pixel) is per frame.
+        #[arg(long, conflicts_with = "time")]
+        frames: Option<usize>,
+        /// Frames: orbit the camera about the vertical through the point it
+        /// looks at, --orbit-degrees over all frames.
+        #[arg(long, requires = "frames")]
+        orbit: bool,
+        /// Frames: total orbit angle in degrees.
+        #[arg(long, default_value_t = 30.0, requires = "orbit")]
+        orbit_degrees: f32,
+        /// Frames, MLT/CMLT: keep the chains across frames (re-evaluated
+        /// after a camera move) instead of restarting them.
+        #[arg(long, requires = "frames")]
+        keep_chains: bool,
+        /// Frames, MLT/CMLT: average b over this many frames while the camera
+        /// stays put (0 = each frame its own b; at most 64).
+        #[arg(long, default_value_t = 0, requires = "frames")]
+        b_window: u32,
+        /// Frames: reuse the same random sequences in every frame.
+        #[arg(long, requires = "frames")]
+        fixed_sequence: bool,
     },
     /// Benchmarks.
     #[command(subcommand)]
@@ -354,6 +379,85 @@ fn run_mlt(
     Ok(())
 }
 
+/// What `--frames` asked for.
+struct FrameSpec {
+    frames: usize,
+    /// Total orbit in degrees, or a static camera.
+    orbit_degrees: Option<f32>,
+    /// Samples (PT, BDPT) or mutations (MLT) per pixel per frame, over all
+    /// workers.
+    per_pixel: u64,
+}
+
+/// `cmlt render --frames`: the frame loop, one numbered image per frame.
+fn run_frames(
+    loaded: &LoadedScene,
+    accel: &Accel,
+    cfg: RendererConfig,
+    spec: &FrameSpec,
+    output: &std::path::Path,
+    png: Option<&std::path::Path>,
+) -> Result<(), String> {
+    let scene = &loaded.scene;
+    let start = scene.camera;
+    let pivot = frames::look_at_point(&start, accel);
+    let pixels = start.width() as u64 * start.height() as u64;
+    // Each worker renders its share of the frame's budget.
+    let budget = (spec.per_pixel * pixels).div_ceil(cfg.workers as u64);
+    eprintln!(
+        "{} frames, {} per pixel per frame, {} workers, {:?}{}",
+        spec.frames,
+        spec.per_pixel,
+        cfg.workers,
+        cfg.temporal,
+        spec.orbit_degrees
+            .map_or(String::new(), |d| format!(", orbit {d}° about {pivot}"))
+    );
+    frames::render_frames(
+        scene,
+        accel,
+        cfg,
+        spec.frames,
+        budget,
+        |f| match spec.orbit_degrees {
+            Some(d) => frames::orbit_camera(&start, pivot, d, f, spec.frames),
+            None => start,
+        },
+        |f, result| {
+            let path = frames::frame_path(output, f);
+            let ctx = Output {
+                output: &path,
+                png: None,
+                reference: None,
+            };
+            write_outputs(&result.image, &ctx, 0)?;
+            if let Some(p) = png {
+                let p = frames::frame_path(p, f);
+                write_outputs(
+                    &result.image,
+                    &Output {
+                        output: &p,
+                        png: None,
+                        reference: None,
+                    },
+                    0,
+                )?;
+            }
+            let mean = result.image.mean();
+            println!(
+                "frame {f}: {:.2} s, b {:.5}, mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
+                result.seconds,
+                result.b,
+                mean.r,
+                mean.g,
+                mean.b,
+                path.display()
+            );
+            Ok(())
+        },
+    )
+}
+
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Bench(BenchCommand::Rays {
@@ -407,6 +511,12 @@ fn run(cli: Cli) -> Result<(), String> {
             define,
             reference,
             quiet,
+            frames,
+            orbit,
+            orbit_degrees,
+            keep_chains,
+            b_window,
+            fixed_sequence,
         } => {
             let t0 = Instant::now();
             let loaded: LoadedScene = match scene.as_deref() {
@@ -434,39 +544,73 @@ fn run(cli: Cli) -> Result<(), String> {
             let setup = t0.elapsed();
             let threads = threads
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let is_mlt = matches!(method, MethodArg::Mlt | MethodArg::Cmlt);
+            if is_mlt && bootstrap == 0 {
+                return Err("--bootstrap must be at least 1".to_string());
+            }
+            let base = match method {
+                MethodArg::Cmlt => MltSettings::cmlt(),
+                _ => MltSettings::default(),
+            };
+            let mlt = MltSettings {
+                n_bootstrap: bootstrap,
+                b_passes,
+                n_chains: chains,
+                large_step_prob: large_step,
+                sigma,
+                k: k.unwrap_or(base.k),
+                m: m.unwrap_or(base.m),
+                lens_sigma,
+                caustic_scale,
+                candidates: match candidates {
+                    CandidatesArg::Independent => cmlt::mlt::Candidates::Independent,
+                    CandidatesArg::Stratified => cmlt::mlt::Candidates::Stratified,
+                },
+                ..base
+            };
+            if is_mlt {
+                mlt.validate().map_err(|e| {
+                    format!(
+                        "{e} (--large-step {large_step}, --sigma {sigma}, --chains {chains}, --k {}, --lens-sigma {lens_sigma}, --caustic-scale {caustic_scale})",
+                        mlt.k
+                    )
+                })?;
+            }
+            if let Some(frames) = frames {
+                let estimator = match method {
+                    MethodArg::Pt => Estimator::Path,
+                    MethodArg::Bdpt => Estimator::Bdpt,
+                    MethodArg::Mlt | MethodArg::Cmlt => Estimator::Mlt,
+                };
+                let per_pixel = if is_mlt {
+                    mutations_per_pixel.or(spp)
+                } else {
+                    spp
+                }
+                .unwrap_or(loaded.spp.unwrap_or(16) as u64);
+                let cfg = RendererConfig {
+                    estimator,
+                    settings: loaded.settings,
+                    mlt: if is_mlt { mlt } else { MltSettings::default() },
+                    seed,
+                    workers: threads as u32,
+                    temporal: Temporal {
+                        keep_chains,
+                        b_window,
+                        fixed_sequence,
+                    },
+                };
+                let spec = FrameSpec {
+                    frames,
+                    orbit_degrees: orbit.then_some(orbit_degrees),
+                    per_pixel,
+                };
+                return run_frames(&loaded, &accel, cfg, &spec, &output, png.as_deref());
+            }
             let method = match method {
                 MethodArg::Pt => Method::Path,
                 MethodArg::Bdpt => Method::Bdpt,
                 MethodArg::Mlt | MethodArg::Cmlt => {
-                    if bootstrap == 0 {
-                        return Err("--bootstrap must be at least 1".to_string());
-                    }
-                    let base = match method {
-                        MethodArg::Cmlt => MltSettings::cmlt(),
-                        _ => MltSettings::default(),
-                    };
-                    let mlt = MltSettings {
-                        n_bootstrap: bootstrap,
-                        b_passes,
-                        n_chains: chains,
-                        large_step_prob: large_step,
-                        sigma,
-                        k: k.unwrap_or(base.k),
-                        m: m.unwrap_or(base.m),
-                        lens_sigma,
-                        caustic_scale,
-                        candidates: match candidates {
-                            CandidatesArg::Independent => cmlt::mlt::Candidates::Independent,
-                            CandidatesArg::Stratified => cmlt::mlt::Candidates::Stratified,
-                        },
-                        ..base
-                    };
-                    mlt.validate().map_err(|e| {
-                        format!(
-                            "{e} (--large-step {large_step}, --sigma {sigma}, --chains {chains}, --k {}, --lens-sigma {lens_sigma}, --caustic-scale {caustic_scale})",
-                            mlt.k
-                        )
-                    })?;
                     let budget = match (time, mutations_per_pixel.or(spp)) {
                         (Some(t), _) => MltBudget::Time(t),
                         (None, Some(n)) => MltBudget::MutationsPerPixel(n),

@@ -223,6 +223,19 @@ impl Camera {
         self.focus_distance
     }
 
+    /// This camera carried around the axis through `pivot` along `axis`
+    /// (unit length) by `angle` radians: position and orientation turn
+    /// together, so a camera looking at `pivot` keeps looking at it (a
+    /// turntable orbit). Field of view, lens and resolution are kept.
+    pub fn orbited(&self, pivot: Vec3, axis: Vec3, angle: f32) -> Camera {
+        let turn = Mat3::from_axis_angle(axis, angle);
+        Camera {
+            rot: turn * self.rot,
+            pos: pivot + turn * (self.pos - pivot),
+            ..*self
+        }
+    }
+
     /// True for a thin lens with non-zero aperture.
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0
