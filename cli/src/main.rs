@@ -206,6 +206,47 @@ enum BenchCommand {
         #[arg(long, value_delimiter = ',')]
         sets: Vec<String>,
     },
+    /// Flicker of frame-by-frame MLT/CMLT with and without each temporal
+    /// switch (static camera), and each orbit frame's mean against a BDPT
+    /// reference of its camera (moving camera).
+    Flicker {
+        /// Mitsuba 3 XML scene file, or a built-in name (default
+        /// `cornell-box`).
+        scene: Option<String>,
+        /// MLT or CMLT.
+        #[arg(long, value_enum, default_value = "cmlt")]
+        method: MethodArg,
+        /// Frames per configuration.
+        #[arg(long, default_value_t = 60)]
+        frames: usize,
+        /// Mutations per pixel per frame (over all workers).
+        #[arg(long, default_value_t = 4)]
+        mutations_per_pixel: u64,
+        /// Workers (one thread each).
+        #[arg(long, default_value_t = 2)]
+        threads: u32,
+        /// The b window of the b-window and all configurations.
+        #[arg(long, default_value_t = 16)]
+        b_window: u32,
+        /// Also measure an orbit (every switch on) against BDPT references.
+        #[arg(long)]
+        moving: bool,
+        /// Orbit: total angle in degrees.
+        #[arg(long, default_value_t = 30.0)]
+        orbit_degrees: f32,
+        /// Orbit: frames (each gets its own reference).
+        #[arg(long, default_value_t = 6)]
+        orbit_frames: usize,
+        /// Orbit: samples per pixel of each BDPT reference.
+        #[arg(long, default_value_t = 256)]
+        reference_spp: u64,
+        /// Seed.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Override a scene `<default>` (e.g. `-D resx=64`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+    },
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
@@ -458,8 +499,98 @@ fn run_frames(
     )
 }
 
+/// Loads a scene file or a built-in scene (the Cornell box by default).
+fn load(scene: Option<&str>, define: &[(String, String)]) -> Result<LoadedScene, String> {
+    let loaded = match scene {
+        None => builtin_scene("cornell-box", define)
+            .expect("cornell-box is built in")
+            .map_err(|e| e.to_string())?,
+        Some(name) => match builtin_scene(name, define) {
+            Some(r) if !std::path::Path::new(name).exists() => r.map_err(|e| e.to_string())?,
+            _ => load_scene(std::path::Path::new(name), define).map_err(|e| e.to_string())?,
+        },
+    };
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(loaded)
+}
+
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
+        Command::Bench(BenchCommand::Flicker {
+            scene,
+            method,
+            frames,
+            mutations_per_pixel,
+            threads,
+            b_window,
+            moving,
+            orbit_degrees,
+            orbit_frames,
+            reference_spp,
+            seed,
+            define,
+        }) => {
+            let loaded = load(scene.as_deref(), &define)?;
+            let scene = &loaded.scene;
+            let accel = Accel::build(AccelKind::Ours, &scene.triangles().collect::<Vec<_>>())?;
+            let mlt = match method {
+                MethodArg::Cmlt => MltSettings::cmlt(),
+                MethodArg::Mlt => MltSettings::default(),
+                _ => return Err("bench flicker measures --method mlt or cmlt".into()),
+            };
+            let base = RendererConfig {
+                estimator: Estimator::Mlt,
+                settings: loaded.settings,
+                mlt,
+                seed,
+                workers: threads.max(1),
+                temporal: Temporal::default(),
+            };
+            let pixels = scene.camera.width() as u64 * scene.camera.height() as u64;
+            let budget = (mutations_per_pixel * pixels).div_ceil(base.workers as u64);
+            println!(
+                "static camera: {frames} frames, {mutations_per_pixel} mutations/pixel/frame, {} workers, {:?}",
+                base.workers, method
+            );
+            let mut stdout = std::io::stdout();
+            cmlt_cli::bench::flicker::run_static(
+                scene,
+                &accel,
+                base,
+                frames,
+                budget,
+                b_window,
+                &mut stdout,
+            )?;
+            if moving {
+                let cfg = RendererConfig {
+                    temporal: Temporal {
+                        keep_chains: true,
+                        b_window,
+                        fixed_sequence: true,
+                    },
+                    ..base
+                };
+                println!(
+                    "moving camera: orbit {orbit_degrees}° in {orbit_frames} frames, every switch on; references: BDPT {reference_spp} spp"
+                );
+                let d = cmlt_cli::bench::flicker::run_moving(
+                    scene,
+                    &accel,
+                    cfg,
+                    orbit_frames,
+                    budget,
+                    orbit_degrees,
+                    reference_spp,
+                    &mut stdout,
+                )?;
+                let worst = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+                println!("largest |difference|: {:.2}%", 100.0 * worst);
+            }
+            Ok(())
+        }
         Command::Bench(BenchCommand::Rays {
             scenes,
             time,

@@ -1,3 +1,4 @@
 //! Benchmarks of the front end (`cmlt bench …`).
 
+pub mod flicker;
 pub mod rays;
