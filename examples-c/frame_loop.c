@@ -3,7 +3,8 @@
  *
  * Shows: the host's allocator handed to cmlt (cmlt_set_allocator), all
  * setup first (scene, renderer, two workers), then frames of a camera
- * orbiting the scene with a fixed per-frame budget, each worker rendered
+ * orbiting the scene with a fixed per-frame budget (chains kept from frame
+ * to frame), each worker rendered
  * on its own host thread, the image resolved into the host's RGBA8
  * buffer. After setup the allocator aborts on any allocation: the frames
  * must not allocate. Prints one line per frame (mean luminance) and the
@@ -105,6 +106,10 @@ int main(int argc, char **argv) {
     config.chains = 64;
     config.bootstrap_samples = 200;
     config.normalisation_passes = 1;
+    /* Frame-to-frame coherence: keep the chains across frames (re-evaluated
+     * as the camera moves) and average b while the camera stays put. */
+    config.keep_chains = 1;
+    config.b_window = 8;
     check(cmlt_renderer_memory_requirements(scene, &config, &bytes, &alignment),
           "cmlt_renderer_memory_requirements");
     printf("renderer needs %zu bytes, alignment %zu\n", bytes, alignment);
