@@ -164,9 +164,6 @@ int main(int argc, char **argv) {
     float *vb;
     unsigned *ib;
     cmlt_intersector isect;
-    cmlt_scene *host_traced, *bvh_traced;
-    cmlt_stats host_stats, bvh_stats;
-    double host_mean, bvh_mean;
 
     build_host_scene(&hs);
 
@@ -197,17 +194,7 @@ int main(int argc, char **argv) {
     isect.occluded = cb_occluded;
     isect.intersect_packet = cb_intersect_packet;
     isect.occluded_packet = cb_occluded_packet;
-    host_traced = make_scene(&hs, &isect);
-    bvh_traced = make_scene(&hs, NULL);
-    host_mean = render_mean(host_traced, estimator, per_pixel, &host_stats);
-    bvh_mean = render_mean(bvh_traced, estimator, per_pixel, &bvh_stats);
-    printf("host mean %.6f\n", host_mean);
-    printf("bvh mean %.6f\n", bvh_mean);
-    printf("callbacks %lu %lu %lu\n", hs.single_calls, hs.packet_calls, hs.packet_lanes);
-    printf("rejected %llu nonfinite %llu %llu\n", (unsigned long long)host_stats.rejected_host_hits,
-           (unsigned long long)host_stats.nonfinite, (unsigned long long)bvh_stats.nonfinite);
-    cmlt_scene_release(host_traced);
-    cmlt_scene_release(bvh_traced);
+    compare_with_our_bvh(&hs, &isect, estimator, per_pixel);
     rtcReleaseScene(host.scene);
     rtcReleaseDevice(device);
     return 0;

@@ -162,4 +162,23 @@ static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pi
     return sum / (W * H * 3);
 }
 
+/* Renders the host's scene traced by `isect` and by cmlt's own BVH and
+ * prints both means, the callback counts and the rejected hits (the tests
+ * read these lines). */
+static void compare_with_our_bvh(host_scene *hs, const cmlt_intersector *isect, uint32_t estimator,
+                                 uint64_t per_pixel) {
+    cmlt_scene *host_traced = make_scene(hs, isect);
+    cmlt_scene *bvh_traced = make_scene(hs, NULL);
+    cmlt_stats host_stats, bvh_stats;
+    double host_mean = render_mean(host_traced, estimator, per_pixel, &host_stats);
+    double bvh_mean = render_mean(bvh_traced, estimator, per_pixel, &bvh_stats);
+    printf("host mean %.6f\n", host_mean);
+    printf("bvh mean %.6f\n", bvh_mean);
+    printf("callbacks %lu %lu %lu\n", hs->single_calls, hs->packet_calls, hs->packet_lanes);
+    printf("rejected %llu nonfinite %llu %llu\n", (unsigned long long)host_stats.rejected_host_hits,
+           (unsigned long long)host_stats.nonfinite, (unsigned long long)bvh_stats.nonfinite);
+    cmlt_scene_release(host_traced);
+    cmlt_scene_release(bvh_traced);
+}
+
 #endif
