@@ -67,6 +67,20 @@
 // Embree 3 (`CMLT_ERROR_UNSUPPORTED` in builds without it).
 #define CMLT_ACCEL_EMBREE 1
 
+
+
+
+
+
+
+
+
+
+
+
+
+
+
 // Result of every C API call.
 typedef enum cmlt_status {
   // Success.
@@ -205,6 +219,8 @@ typedef struct cmlt_stats {
   uint64_t rejected_host_hits;
   // The normalisation b (MLT, CMLT).
   double b;
+  // The `CMLT_EFFECT_*` bits the scene calls for through this camera.
+  uint32_t effects;
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.
@@ -565,6 +581,17 @@ enum cmlt_status cmlt_scene_new_builtin(const char *name,
                                         uint32_t height,
                                         struct cmlt_scene **out,
                                         struct cmlt_camera *out_camera);
+
+// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
+// (materials of its meshes, its emitters); `*out_specular_chains` (may be
+// NULL) = 1 when a smooth conductor or dielectric is used, i.e. when the
+// caustic perturbation can apply.
+//
+// # Safety
+// `scene` is NULL or a valid handle; the out pointers are NULL or valid.
+enum cmlt_status cmlt_scene_get_effects(const struct cmlt_scene *scene,
+                                        uint32_t *out_effects,
+                                        uint32_t *out_specular_chains);
 
 // Number of triangles of a committed scene.
 //

@@ -710,6 +710,22 @@ fn renderer_inputs_and_call_order_are_checked() {
         assert_eq!(stats.nonfinite, 0);
         assert!(stats.lens_steps + stats.caustic_steps > 0 || stats.mutations > 0);
 
+        // Effects: a diffuse floor under an area light, through a pinhole.
+        let (mut fx, mut chains) = (0u32, 9u32);
+        expect(
+            cmlt_scene_get_effects(s, &mut fx, &mut chains),
+            CMLT_OK,
+            "get_effects",
+        );
+        assert_eq!(fx, CMLT_EFFECT_DIFFUSE | CMLT_EFFECT_AREA_LIGHTS);
+        assert_eq!(chains, 0);
+        assert_eq!(stats.effects, fx);
+        expect(
+            cmlt_scene_get_effects(s, null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_get_effects",
+        );
+
         // The renderer outlives the scene handle.
         cmlt_scene_release(s);
         expect(

@@ -113,6 +113,8 @@ pub struct cmlt_stats {
     pub rejected_host_hits: u64,
     /// The normalisation b (MLT, CMLT).
     pub b: f64,
+    /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
+    pub effects: u32,
 }
 
 /// A renderer handle (opaque to C).
@@ -599,6 +601,7 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
                 _ => 0,
             },
             b: s.b,
+            effects: r.scene.scene.analysis(inner.camera()).effects.0,
         };
         Ok(())
     })

@@ -10,8 +10,8 @@ use cmlt_cli::accel::AccelKind;
 use cmlt_core::integrator::Settings;
 use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
-    Camera, ConductorFresnel, Distribution, FovAxis, Material, MaterialId, MaterialKind, Mesh,
-    Scene, SceneBuilder, Texture,
+    Camera, ConductorFresnel, Distribution, Effect, FovAxis, Material, MaterialId, MaterialKind,
+    Mesh, Scene, SceneBuilder, Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -681,6 +681,51 @@ unsafe fn finish_loaded(
         }
     }
     Ok(())
+}
+
+/// Lambertian reflection (bit of `cmlt_scene_get_effects`' mask).
+pub const CMLT_EFFECT_DIFFUSE: u32 = 1 << Effect::Diffuse as u32;
+/// Rough (microfacet) reflection.
+pub const CMLT_EFFECT_GLOSSY: u32 = 1 << Effect::Glossy as u32;
+/// Smooth mirror reflection.
+pub const CMLT_EFFECT_SPECULAR_REFLECTION: u32 = 1 << Effect::SpecularReflection as u32;
+/// Smooth dielectric refraction.
+pub const CMLT_EFFECT_REFRACTION: u32 = 1 << Effect::Refraction as u32;
+/// Textured reflectance.
+pub const CMLT_EFFECT_TEXTURES: u32 = 1 << Effect::Textures as u32;
+/// Emitting surfaces.
+pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 1 << Effect::AreaLights as u32;
+/// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
+/// the camera).
+pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
+
+/// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
+/// (materials of its meshes, its emitters); `*out_specular_chains` (may be
+/// NULL) = 1 when a smooth conductor or dielectric is used, i.e. when the
+/// caustic perturbation can apply.
+///
+/// # Safety
+/// `scene` is NULL or a valid handle; the out pointers are NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_get_effects(
+    scene: *const cmlt_scene,
+    out_effects: *mut u32,
+    out_specular_chains: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_get_effects", || {
+        // SAFETY: the caller's contract.
+        let (scene, out) = unsafe { (read(scene, "scene")?, write(out_effects, "out_effects")?) };
+        let c = scene.committed()?;
+        let pinhole = Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 1, 1, 0.0, 1.0)
+            .map_err(|e| Error::invalid(e.to_string()))?;
+        let a = c.scene.analysis(&pinhole);
+        *out = a.effects.0;
+        // SAFETY: the caller's contract.
+        if let Some(sc) = unsafe { out_specular_chains.as_mut() } {
+            *sc = a.specular_chains as u32;
+        }
+        Ok(())
+    })
 }
 
 /// Number of triangles of a committed scene.

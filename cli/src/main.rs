@@ -673,6 +673,7 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             let accel = Accel::build(kind, &tris)?;
             let setup = t0.elapsed();
+            eprintln!("{}", scene.analysis(&scene.camera).report());
             let threads = threads
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
             let is_mlt = matches!(method, MethodArg::Mlt | MethodArg::Cmlt);

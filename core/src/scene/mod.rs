@@ -8,6 +8,7 @@
 //! numbering.
 
 pub mod camera;
+pub mod effects;
 #[cfg(feature = "alloc")]
 pub mod light;
 pub mod material;
@@ -19,6 +20,7 @@ mod store;
 pub use store::*;
 
 pub use camera::{Camera, CameraError, FovAxis};
+pub use effects::{Analysis, Effect, EffectSet};
 pub use material::{ConductorFresnel, Distribution, Material, MaterialId, MaterialKind};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;

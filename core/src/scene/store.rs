@@ -6,6 +6,7 @@ use core::fmt;
 use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
+use super::effects::Analysis;
 use super::light::LightSet;
 use super::material::{Material, MaterialId};
 use super::texture::{Bitmap, BitmapId, Texture};
@@ -304,6 +305,22 @@ pub struct SurfacePoint {
 }
 
 impl Scene {
+    /// What the scene calls for, seen through `camera` (its aperture
+    /// decides depth of field): materials of meshes with triangles, emitting
+    /// meshes.
+    pub fn analysis(&self, camera: &Camera) -> Analysis {
+        let used = |i: usize| {
+            self.meshes
+                .iter()
+                .any(|m| m.material.0 as usize == i && !m.indices.is_empty())
+        };
+        let emitters = self
+            .meshes
+            .iter()
+            .any(|m| m.emission.is_some() && !m.indices.is_empty());
+        Analysis::of(&self.materials, used, emitters, camera.aperture_radius())
+    }
+
     /// Number of triangles in the scene.
     pub fn triangle_count(&self) -> usize {
         self.tri_mesh.len()
