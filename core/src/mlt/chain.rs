@@ -128,6 +128,25 @@ impl Chain {
         self.current_y = s.target();
     }
 
+    /// Starts the chain afresh, as [`Chain::new`] with a sampler restarted
+    /// at the primary point of `start_seed` and then reseeded, evaluated by
+    /// `eval`; the accept/reject stream comes from `seed`. Keeps the
+    /// sampler's storage.
+    pub fn restart(
+        &mut self,
+        start_seed: u64,
+        seed: u64,
+        eval: impl FnOnce(&mut PrimarySampler) -> PathSample,
+    ) {
+        self.sampler.restart(start_seed);
+        let initial = eval(&mut self.sampler);
+        self.sampler.reseed(mix64(seed ^ 2));
+        self.sampler.accept();
+        self.rng = Pcg32::new(mix64(seed ^ 0xC4A1_0000), mix64(seed));
+        self.current = initial;
+        self.current_y = initial.target();
+    }
+
     /// Ends the chain, handing back its sampler (whose buffers a new chain
     /// can reuse after [`PrimarySampler::restart`]).
     pub fn into_sampler(self) -> PrimarySampler {

@@ -437,12 +437,22 @@ impl MltWorker {
 
     /// Keeps every chain and evaluates its current state again through
     /// `tracer` (a new camera or scene): the temporal alternative to
-    /// [`MltWorker::restart`] (no bootstrap sample is replayed, the chains
-    /// keep their depths and random streams). Counters start again from
+    /// [`MltWorker::restart`] (the chains keep their depths and random
+    /// streams). A chain whose state no longer contributes restarts from a
+    /// seed sample of its depth in `bootstrap` (the new frame's, seeded by
+    /// `seed`): left at zero it would record nothing until a proposal hits,
+    /// and those records would darken the image. Counters start again from
     /// zero. Allocates nothing.
-    pub fn reevaluate<I: Intersector>(&mut self, tracer: &mut Tracer<'_, I>, settings: &Settings) {
+    pub fn reevaluate<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        bootstrap: &Bootstrap,
+        seed: u64,
+    ) {
         let MltWorker {
             chains,
+            seeds,
             ws,
             stats,
             level2,
@@ -456,6 +466,15 @@ impl MltWorker {
         for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
             let depth = *depth;
             chain.reevaluate(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+            if !(chain.current().target() > 0.0) {
+                let cs = mix64(seeds[ci] ^ seed);
+                let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+                if let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) {
+                    chain.restart(bootstrap.seed_of(index), cs, |s| {
+                        bootstrap::evaluate_target(tracer, settings, ws, depth, s)
+                    });
+                }
+            }
             if level2.is_some() {
                 bdpt::strategy_path(ws, &mut paths[ci]);
             }

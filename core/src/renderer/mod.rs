@@ -381,7 +381,7 @@ impl Renderer {
                         c.workers as u64,
                     );
                 } else if worker.camera != Some(self.camera) {
-                    m.reevaluate(&mut tracer, &c.settings);
+                    m.reevaluate(&mut tracer, &c.settings, &self.bootstrap, seed);
                 } else {
                     m.reset_stats();
                 }
