@@ -2,8 +2,8 @@
  * minimal.c — the smallest complete cmlt program.
  *
  * Shows: loading the built-in Cornell box, a renderer with one worker,
- * one prepare/render/resolve round, writing a binary PPM, and checking
- * every status. Prints the image's mean RGB on stdout (the tests compare
+ * one prepare/render/resolve round, writing a binary PPM, checking every
+ * status, and a few deliberately wrong calls being refused. Prints the image's mean RGB on stdout (the tests compare
  * it with a Rust-side render of the same scene).
  *
  * Usage: minimal OUT.ppm [pt|bdpt|mlt|cmlt] [BUDGET_PER_PIXEL] [SIZE]
@@ -18,6 +18,14 @@
 static void check(cmlt_status s, const char *what) {
     if (s != CMLT_OK) {
         fprintf(stderr, "%s failed: %s (%s)\n", what, cmlt_status_name((uint32_t)s), cmlt_last_error());
+        exit(1);
+    }
+}
+
+/* Checks that a deliberately wrong call failed with `want`. */
+static void expect_status(cmlt_status got, cmlt_status want, const char *what) {
+    if (got != want) {
+        fprintf(stderr, "%s: got %s, want %s\n", what, cmlt_status_name((uint32_t)got), cmlt_status_name((uint32_t)want));
         exit(1);
     }
 }
@@ -55,6 +63,18 @@ int main(int argc, char **argv) {
     check(cmlt_renderer_new(scene, &config, &camera, &renderer), "cmlt_renderer_new");
     /* The renderer keeps what it needs of the scene. */
     cmlt_scene_release(scene);
+
+    /* Deliberately wrong calls: each is refused with a status and changes
+     * nothing. */
+    expect_status(cmlt_renderer_render(renderer, 0, 1, NULL), CMLT_ERROR_INVALID_OPERATION, "render before prepare");
+    expect_status(cmlt_renderer_render(renderer, 7, 1, NULL), CMLT_ERROR_INVALID_ARGUMENT, "no worker 7");
+    expect_status(cmlt_renderer_new(NULL, &config, &camera, &renderer), CMLT_ERROR_NULL_POINTER, "NULL scene");
+    {
+        cmlt_camera bad = camera;
+        bad.fov_degrees = 0.0f / 0.0f; /* NaN */
+        expect_status(cmlt_renderer_set_camera(renderer, &bad), CMLT_ERROR_INVALID_ARGUMENT, "NaN field of view");
+    }
+    printf("bad calls refused\n");
 
     check(cmlt_renderer_prepare(renderer), "cmlt_renderer_prepare");
     check(cmlt_renderer_render(renderer, 0, (uint64_t)per_pixel * size * size, NULL), "cmlt_renderer_render");

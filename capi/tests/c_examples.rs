@@ -177,6 +177,7 @@ fn minimal_matches_a_rust_render() {
     {
         let out = run(&exe, &["minimal.ppm", method, &per_pixel.to_string(), "32"]);
         let c_mean = numbers(&out, "mean");
+        assert!(out.contains("bad calls refused"), "{out}");
         assert_eq!(numbers(&out, "rays")[1], 0.0, "non-finite samples");
 
         let loaded = cmlt_cli::scene::builtin_scene(
