@@ -680,6 +680,21 @@ fn renderer_inputs_and_call_order_are_checked() {
             CMLT_ERROR_INVALID_ARGUMENT,
             f,
         );
+        // Issue 7 regression: a row stride whose (rows − 1) multiple wraps
+        // around must be refused, not write out of bounds.
+        for stride in [usize::MAX / 2 + 1, usize::MAX / 11 * 2, usize::MAX] {
+            expect(
+                cmlt_renderer_resolve(
+                    r,
+                    CMLT_FORMAT_RGBA8_SRGB,
+                    buf.as_mut_ptr(),
+                    stride,
+                    buf.len(),
+                ),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                f,
+            );
+        }
         // A padded stride writes the same pixels.
         let mut rgba = vec![0u8; 13 * 16 * 4 * 2];
         expect(

@@ -507,7 +507,17 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
                 "row_stride {stride} < {row} bytes of a row"
             )));
         }
-        let needed = (h - 1) * stride + row;
+        // Checked: a huge row_stride wrapped (h − 1) · stride around in
+        // release builds, passed the size check and wrote out of bounds
+        // (issue 7; debug builds panicked).
+        let needed = (h - 1)
+            .checked_mul(stride)
+            .and_then(|b| b.checked_add(row))
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "row_stride {stride} × {h} rows overflows the address space"
+                ))
+            })?;
         if buffer_size < needed {
             return Err(Error::invalid(format!(
                 "buffer_size {buffer_size} < {needed} bytes needed"

@@ -127,7 +127,9 @@ impl WatertightRay {
             return None;
         }
         let (t, b1, b2, dt) = solve(a, b, c, u, v, w, det);
-        (t > dt && t < t_max).then_some((t, b1, b2))
+        let positive = t > dt
+            || (t > 0.0 && t < t_max && positive_t_f64([p0, p1, p2], self.k, self.org, self.shear));
+        (positive && t < t_max).then_some((t, b1, b2))
     }
 }
 
@@ -255,6 +257,57 @@ fn solve(
     let delta_t =
         3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * abs(inv_det);
     (t, b1, b2, delta_t)
+}
+
+/// Whether the hit of a ray with a triangle whose edge functions say
+/// "inside" lies provably in front of the origin, decided in f64 from the
+/// unrounded inputs: the ray's permuted origin `org` and sheared direction
+/// `(shear₀, shear₁, 1)·d_z` (permutation `k`) and the world-space vertices.
+///
+/// Reached only when the f32 `t` is positive but not above the bound `δt`
+/// of [`solve`]. That bound grows with the triangle's extent, so a triangle
+/// much larger than its distance to the origin (a 10⁶-wide ceiling one unit
+/// above the camera: issue 7's huge-light case) was missed altogether. In
+/// f64, `t = ((p₀ − o)·n) / (d·n)` with `n = (p₁ − p₀) × (p₂ − p₀)` has a
+/// relative error near 2⁻⁵⁰ instead; the sign is accepted only when both
+/// numerator and denominator exceed their error bounds (conservatively
+/// counting the f32 rounding of the shear), so a ray spawned off its own
+/// triangle is still never re-hit.
+#[cold]
+#[inline(never)]
+fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3]) -> bool {
+    let perm = |p: Vec3| {
+        let a = p.to_array();
+        [a[k[0] % 3], a[k[1] % 3], a[k[2] % 3]].map(f64::from)
+    };
+    let [p0, p1, p2] = tri.map(perm);
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let (e1, e2) = (sub(p1, p0), sub(p2, p0));
+    let n = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let n_abs = [
+        (e1[1] * e2[2]).abs() + (e1[2] * e2[1]).abs(),
+        (e1[2] * e2[0]).abs() + (e1[0] * e2[2]).abs(),
+        (e1[0] * e2[1]).abs() + (e1[1] * e2[0]).abs(),
+    ];
+    let q = sub(p0, org.map(f64::from));
+    let d = [f64::from(shear[0]), f64::from(shear[1]), 1.0];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let abs3 = |a: [f64; 3]| a.map(f64::abs);
+    // γ(12) in f64 for the differences, the cross product and the dot
+    // product; 2⁻²² more for the denominator's f32 shear.
+    let g = 12.0 * f64::EPSILON;
+    let (num, num_err) = (dot(q, n), g * dot(abs3(q), n_abs));
+    let (den, den_err) = (dot(d, n), (g + 2f64.powi(-22)) * dot(abs3(d), n_abs));
+    if !(num.abs() > num_err && den.abs() > den_err) {
+        return false;
+    }
+    // t in units of |d| has the sign of num / den times that of d_z
+    // (shear₂ = 1 / d_z).
+    (num / den) * f64::from(shear[2]) > 0.0
 }
 
 #[inline(always)]
@@ -429,7 +482,25 @@ pub(crate) fn intersect_lanes<const N: usize>(
         b2[i] = b2i;
         ok[i] = det != 0.0 && ti > dt && ti < t_max[i];
     }
-    lane_mask(&ok) & inside
+    let mut ok = lane_mask(&ok) & inside;
+    // Hits whose f32 t is positive but not provably so: decide in f64 as
+    // the single-ray test does (rare; per lane, same result).
+    let mut unsure = [false; N];
+    for i in 0..N {
+        unsure[i] = u[i] + vv[i] + w[i] != 0.0 && t[i] > 0.0 && t[i] < t_max[i];
+    }
+    let mut unsure = lane_mask(&unsure) & inside & !ok;
+    while unsure != 0 {
+        let i = unsure.trailing_zeros() as usize;
+        unsure &= unsure - 1;
+        let k = [0, 1, 2].map(|j| r.k[j][i] as usize);
+        let org = [0, 1, 2].map(|j| r.org[j][i]);
+        let shear = [0, 1, 2].map(|j| r.shear[j][i]);
+        if positive_t_f64(*tri, k, org, shear) {
+            ok |= 1 << i;
+        }
+    }
+    ok
 }
 
 /// Bit `i` set where `flags[i]`: one `movemask`/`kmov` once vectorised.

@@ -147,6 +147,12 @@ impl MltSettings {
         if !(self.sigma > 0.0 && self.sigma <= 1.0) {
             return Err("primary-sample σ must be in (0, 1]");
         }
+        // Chains start from seed samples: with none, b > 0 from the
+        // normalisation passes left every chain without a start (the C API
+        // already refused 0; the Rust API let it through).
+        if self.n_bootstrap == 0 {
+            return Err("at least one seed sample per depth is needed");
+        }
         if self.n_chains == 0 {
             return Err("at least one chain per worker is needed");
         }

@@ -55,6 +55,10 @@ use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker};
 use crate::sampler::mix64;
 use crate::scene::{Camera, Scene};
 
+/// The deepest path (segments) a renderer accepts, through `max_depth` or
+/// the depth cap: every worker's storage is sized for it at creation.
+pub const MAX_DEPTH: u32 = 1024;
+
 /// Which estimator renders.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimator {
@@ -240,6 +244,12 @@ impl Renderer {
         }
         if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
             return Err(RenderError::Config("the depth cap must be at least 1"));
+        }
+        // Storage is sized for the deepest path up front: an absurd depth
+        // from a host (u32::MAX) aborted the process in the allocator
+        // instead of being refused (issue 7). The C API's limit.
+        if mlt::path_depth(&config.settings, &config.mlt) > MAX_DEPTH {
+            return Err(RenderError::Config("path depth must be at most 1024"));
         }
         let mut config = config;
         config.settings.max_depth = Some(mlt::path_depth(&config.settings, &config.mlt));

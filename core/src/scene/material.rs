@@ -110,7 +110,12 @@ impl Material {
                     color0,
                     color1,
                     to_uv,
-                } => color0.is_finite() && color1.is_finite() && to_uv.is_finite(),
+                } => {
+                    // Non-negative like a constant: a negative albedo made
+                    // negative contributions (issue 7's host-input cases).
+                    let ok = |c: &Rgb| c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0;
+                    ok(color0) && ok(color1) && to_uv.is_finite()
+                }
             }
         }
         fn fresnel_ok(f: &ConductorFresnel) -> bool {

@@ -1,0 +1,98 @@
+//! A small subset for Miri (`cargo +nightly miri test -p cmlt --test
+//! miri`): BVH construction and traversal with the scalar kernel forced
+//! (Miri runs no SIMD intrinsics), single rays and packets with partial
+//! lane masks against the brute-force reference, and one tiny render pass
+//! of each estimator. Natively it is just a fast test.
+
+mod common;
+
+use cmlt::accel::Intersector;
+use cmlt::accel::brute::BruteForce;
+use cmlt::accel::bvh::{Bvh, Kernel};
+use cmlt::film::Film;
+use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
+use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
+use cmlt::math::{Rgb, Vec3};
+use cmlt::scene::{Material, SceneBuilder};
+
+fn scalar(tris: &[[Vec3; 3]]) -> Bvh {
+    Bvh::build(tris).with_kernel(Kernel::Scalar).ok().unwrap()
+}
+
+#[test]
+fn scalar_bvh_matches_brute_force() {
+    let m = common::sphere(Vec3::ZERO, 1.0, cmlt::scene::MaterialId(0));
+    let tris: Vec<[Vec3; 3]> = m
+        .indices
+        .iter()
+        .step_by(7)
+        .map(|t| t.map(|i| m.positions[i as usize]))
+        .collect();
+    let bvh = scalar(&tris);
+    let brute = BruteForce::new(tris.iter().copied());
+    let mut rays = Vec::new();
+    for i in 0..16 {
+        let a = i as f32 * 0.7;
+        let o = Vec3::new(a.cos() * 3.0, (a * 1.3).sin(), a.sin() * 3.0);
+        rays.push(Ray::new(o, -o + Vec3::new(0.1, 0.05 * i as f32, 0.0)));
+    }
+    for r in &rays {
+        assert_eq!(bvh.intersect(r), brute.intersect(r));
+        assert_eq!(bvh.occluded(r), brute.occluded(r));
+    }
+    let mut packet = RayPacket::<8>::default();
+    for (i, r) in rays.iter().take(8).enumerate() {
+        packet.set(i, r);
+    }
+    for mask in [0xffu32, 0b1010_0101, 0b1] {
+        let mut hits = HitPacket::<8>::default();
+        bvh.intersect_packet(&packet, LaneMask(mask), &mut hits);
+        let occ = bvh.occluded_packet(&packet, LaneMask(mask)).0;
+        for (i, r) in rays.iter().take(8).enumerate() {
+            if mask & (1 << i) != 0 {
+                assert_eq!(hits.get(i), brute.intersect(r), "lane {i}");
+                assert_eq!(occ & (1 << i) != 0, brute.occluded(r), "lane {i}");
+            }
+        }
+    }
+}
+
+#[test]
+fn tiny_render_passes() {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    b.add_mesh(common::inward_box(m, 1.0));
+    b.set_camera(
+        cmlt::scene::Camera::perspective(
+            cmlt::math::Mat4::IDENTITY,
+            60.0,
+            cmlt::scene::FovAxis::X,
+            2,
+            2,
+            0.0,
+            1.0,
+        )
+        .unwrap(),
+    );
+    let scene = b.build().unwrap();
+    let bvh = scalar(&scene.triangles().collect::<Vec<_>>());
+    let settings = Settings {
+        max_depth: Some(3),
+        ..Settings::default()
+    };
+    for method in [Method::Path, Method::Bdpt] {
+        let mut tracer = Tracer::new(&scene, &bvh);
+        let mut film = Film::new(2, 2);
+        render_pass(
+            &mut tracer,
+            &settings,
+            method,
+            &mut Worker::new(),
+            1,
+            0,
+            &mut film,
+        );
+        assert!(film.resolve().iter().all(|c| c.is_finite()));
+        assert_eq!(film.nonfinite(), 0);
+    }
+}

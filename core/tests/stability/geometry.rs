@@ -1,0 +1,228 @@
+//! Grazing and edge-on surfaces, watertight closed meshes, and
+//! self-intersection of secondary rays at extreme scales.
+
+use cmlt::accel::Intersector;
+use cmlt::accel::bvh::{Bvh, Kernel};
+use cmlt::geometry::Ray;
+use cmlt::math::{Rgb, Vec3};
+use cmlt::scene::{Material, MaterialId, Mesh, SceneBuilder};
+
+use super::*;
+
+/// A white (albedo 1, two-sided) plate in the furnace is invisible — also
+/// when the camera sees it exactly edge-on (its plane contains the camera)
+/// or at a grazing angle of 10⁻³ rad.
+#[test]
+fn edge_on_and_grazing_plates_in_the_furnace_are_invisible() {
+    let cam_y = -0.2;
+    for (what, tilt) in [("edge-on", 0.0f32), ("grazing", 1e-3)] {
+        let scene = furnace_with(1.0, Vec3::ZERO, |_, white, b| {
+            // In the plane y = cam_y (tilted about x), in front of the camera.
+            let (z0, z1) = (-0.3f32, 0.9f32);
+            let y = |z: f32| cam_y + (z - (-0.6)) * tilt;
+            b.add_mesh(Mesh {
+                positions: vec![
+                    Vec3::new(-0.9, y(z0), z0),
+                    Vec3::new(0.9, y(z0), z0),
+                    Vec3::new(0.9, y(z1), z1),
+                    Vec3::new(-0.9, y(z1), z1),
+                ],
+                normals: vec![],
+                uvs: vec![],
+                indices: vec![[0, 2, 1], [0, 3, 2]],
+                material: white,
+                emission: None,
+            });
+        });
+        for m in ALL {
+            render(what, &scene, m, None, 16)
+                .assert_finite()
+                .assert_mean(2.0, furnace_tol(m));
+        }
+    }
+}
+
+/// An axis-aligned cube `[-1, 1]³` split into `n × n` quads per face, all
+/// vertices shared (seams included): many edges and vertices where four or
+/// six triangles meet. Normals point inwards.
+fn grid_cube(n: u32, material: MaterialId) -> Mesh {
+    let mut positions = Vec::new();
+    let mut index_of = std::collections::HashMap::new();
+    let mut vertex = |p: Vec3, positions: &mut Vec<Vec3>| -> u32 {
+        let key = p.to_array().map(f32::to_bits);
+        *index_of.entry(key).or_insert_with(|| {
+            positions.push(p);
+            positions.len() as u32 - 1
+        })
+    };
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let at = |i: u32, j: u32| {
+                let mut p = Vec3::ZERO;
+                p[axis] = sign;
+                p[u] = -1.0 + 2.0 * i as f32 / n as f32;
+                p[v] = -1.0 + 2.0 * j as f32 / n as f32;
+                p
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]
+                        .map(|p| vertex(p, &mut positions));
+                    for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                        let [a, b, c] = t.map(|k| positions[k as usize]);
+                        let inward = (b - a).cross(c - a)[axis] * sign < 0.0;
+                        indices.push(if inward { t } else { [t[0], t[2], t[1]] });
+                    }
+                }
+            }
+        }
+    }
+    Mesh {
+        positions,
+        normals: vec![],
+        uvs: vec![],
+        indices,
+        material,
+        emission: None,
+    }
+}
+
+/// A closed box around the camera, lit from outside by an emitting shell:
+/// no light leaks through its shared edges and vertices, so every method
+/// renders exact black (and MLT finds b = 0). The rays that would leak
+/// first — connections from points on the light to the camera through the
+/// box's vertices and edges — are checked one by one with every kernel.
+/// Whether the ignored strict variants are running (they set it).
+fn strict() -> bool {
+    std::env::var_os("CMLT_STRICT_STABILITY").is_some()
+}
+
+/// The open leak of BDPT through closed meshes: exact black for every
+/// method. Run with `CMLT_STRICT_STABILITY=1 cargo test --test stability
+/// -- --ignored`.
+#[test]
+#[ignore = "open: BDPT connections leak through shared edges (stability README)"]
+fn strict_closed_box_is_black_for_every_method() {
+    assert!(strict(), "set CMLT_STRICT_STABILITY=1");
+    closed_box_around_the_camera_is_black_with_the_light_outside();
+}
+
+/// Strict tolerances at 10⁵ from the origin for BDPT-based methods.
+#[test]
+#[ignore = "open: BDPT is 4.5% dark 10⁵ from the origin (stability README)"]
+fn strict_far_from_origin_furnace() {
+    assert!(strict(), "set CMLT_STRICT_STABILITY=1");
+    furnace_is_two_at_extreme_scales_and_far_from_the_origin();
+}
+
+#[test]
+fn closed_box_around_the_camera_is_black_with_the_light_outside() {
+    type Make = fn(MaterialId) -> Mesh;
+    let inner: [(&str, Make); 3] = [
+        ("cube", |m| {
+            cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), m, true)
+        }),
+        ("grid cube", |m| grid_cube(5, m)),
+        ("uv sphere", |m| common::sphere(Vec3::ZERO, 1.2, m)),
+    ];
+    for (what, make) in inner {
+        let mut b = SceneBuilder::new();
+        let grey = b.add_material(Material::diffuse(Rgb::splat(0.8)));
+        let enclosure = make(grey);
+        b.add_mesh(enclosure.clone());
+        let mut shell = cuboid(Vec3::splat(-3.0), Vec3::splat(3.0), grey, true);
+        shell.emission = Some(Rgb::splat(5.0));
+        b.add_mesh(shell);
+        // Square image, 90°: the image corners look at the cube's corners.
+        b.set_camera(look_at(Vec3::ZERO, Vec3::Z, 90.0, 8, 8));
+        let scene = b.build().unwrap();
+
+        let tris: Vec<_> = scene.triangles().collect();
+        let bvh = Bvh::build(&tris);
+        for kernel in Kernel::ALL.into_iter().filter(|k| k.is_available()) {
+            let bvh = bvh.clone().with_kernel(kernel).ok().unwrap();
+            // Every vertex and edge midpoint of the enclosure, from a
+            // point of the light beyond it towards the camera.
+            let mut targets = enclosure.positions.clone();
+            for t in &enclosure.indices {
+                for e in 0..3 {
+                    let (a, c) = (
+                        enclosure.positions[t[e] as usize],
+                        enclosure.positions[t[(e + 1) % 3] as usize],
+                    );
+                    targets.push((a + c) * 0.5);
+                    targets.push(a + (c - a) * 0.25);
+                }
+            }
+            for p in targets {
+                let from = p * (2.9 / p.abs().max_element());
+                let to_camera = Ray {
+                    o: from,
+                    d: -from,
+                    t_max: 1.0,
+                };
+                assert!(
+                    bvh.occluded(&to_camera),
+                    "{what}, {kernel:?}: a connection through {p} leaks"
+                );
+                let from_camera = Ray::new(Vec3::ZERO, p);
+                let hit = bvh.intersect(&from_camera);
+                assert!(
+                    hit.is_some_and(|h| h.t <= 1.0 + 1e-5),
+                    "{what}, {kernel:?}: the camera ray through {p} leaks: {hit:?}"
+                );
+            }
+        }
+
+        for m in ALL {
+            let r = render(what, &scene, m, Some(6), 8);
+            r.assert_finite();
+            // PT is exactly black. BDPT's interior connections (found:
+            // s = 2, t = 2 and t ≥ 4) let light through at a few pixels —
+            // ~10⁻¹⁴ of the outside radiance for the cube, 5·10⁻⁵ for the
+            // UV sphere's pole fans: a known, unfixed leak (stability
+            // README, "open"); `strict_closed_box_is_black_for_every_method`
+            // (ignored) demands exact black.
+            if m == Method::Pt || strict() {
+                r.assert_black();
+            } else {
+                assert!(r.mean() < 1e-3, "{}: leak {}", r.what, r.mean());
+            }
+            if (m == Method::Mlt || m == Method::Cmlt) && (strict() || what == "cube") {
+                assert_eq!(r.stats.b, 0.0, "{}", r.what);
+                assert_eq!(r.stats.mlt.chains, 0, "{}", r.what);
+            }
+        }
+    }
+}
+
+/// Secondary rays leave their surfaces cleanly at any scale: the furnace
+/// (with a white sphere, whose small curved triangles are the hardest) is
+/// 2 at scale 10⁻⁴, 10⁶, and 10⁵ away from the origin. Self-intersection
+/// loses energy (rays re-hit their own triangle), leaks lose it too.
+#[test]
+fn furnace_is_two_at_extreme_scales_and_far_from_the_origin() {
+    for (scale, offset) in [
+        (1e-4f32, Vec3::ZERO),
+        (1e6, Vec3::ZERO),
+        (1.0, Vec3::splat(1e5)),
+        (100.0, Vec3::new(1e5, -1e5, 1e5)),
+    ] {
+        let scene = furnace_with(scale, offset, |_, white, b| {
+            b.add_mesh(common::sphere(Vec3::new(0.2, 0.1, 0.4), 0.3, white));
+        });
+        let what = format!("scale {scale}, offset {offset}");
+        for m in ALL {
+            // Open: 10⁵ from the origin BDPT (and MLT over it) comes out
+            // 4.5% dark; PT is exact. Bounded at 10% until fixed
+            // (`strict_far_from_origin_furnace`).
+            let far = offset != Vec3::ZERO && m != Method::Pt && !strict();
+            let tol = if far { 0.1 } else { furnace_tol(m) };
+            render(&what, &scene, m, None, 16)
+                .assert_finite()
+                .assert_mean(2.0, tol);
+        }
+    }
+}
