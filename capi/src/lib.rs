@@ -1,6 +1,7 @@
 //! # The C API of cmlt
 //!
-//! A C or C++ renderer links `libcmlt.a` (or the shared library) and
+//! A C or C++ renderer links the staticlib (`libcmlt_capi.a` in the build
+//! tree, installed as `libcmlt.a`) or the shared library and
 //! includes `include/cmlt.h`, generated from this crate by cbindgen. The
 //! surface, in the order a host uses it:
 //!

@@ -32,7 +32,7 @@ fn staticlib() -> &'static Path {
         let target = std::env::var_os("CARGO_TARGET_DIR")
             .map(PathBuf::from)
             .unwrap_or_else(|| workspace().join("target"));
-        target.join("release/libcmlt.a")
+        target.join("release/libcmlt_capi.a")
     })
 }
 

@@ -11,11 +11,11 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::ffi::c_void;
 use std::ptr::{null, null_mut};
 
-use cmlt::alloc::{cmlt_allocator, cmlt_set_allocator};
-use cmlt::error::cmlt_status::*;
-use cmlt::host::{CMLT_INVALID_ID, cmlt_hit, cmlt_intersector, cmlt_ray};
-use cmlt::renderer::*;
-use cmlt::scene::*;
+use cmlt_capi::alloc::{cmlt_allocator, cmlt_set_allocator};
+use cmlt_capi::error::cmlt_status::*;
+use cmlt_capi::host::{CMLT_INVALID_ID, cmlt_hit, cmlt_intersector, cmlt_ray};
+use cmlt_capi::renderer::*;
+use cmlt_capi::scene::*;
 
 unsafe extern "C" fn host_alloc(_: *mut c_void, size: usize, align: usize) -> *mut c_void {
     // SAFETY: size > 0 (the library never asks for 0), align a power of two.

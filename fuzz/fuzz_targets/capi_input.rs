@@ -10,9 +10,9 @@
 
 use std::ptr::{null, null_mut};
 
-use cmlt::error::cmlt_status;
-use cmlt::renderer::*;
-use cmlt::scene::*;
+use cmlt_capi::error::cmlt_status;
+use cmlt_capi::renderer::*;
+use cmlt_capi::scene::*;
 use libfuzzer_sys::arbitrary::{Result, Unstructured};
 use libfuzzer_sys::fuzz_target;
 
@@ -21,7 +21,7 @@ fn ok(st: cmlt_status) -> bool {
         st,
         cmlt_status::CMLT_ERROR_INTERNAL,
         "a panic crossed into a status: {:?}",
-        unsafe { std::ffi::CStr::from_ptr(cmlt::error::cmlt_last_error()) }
+        unsafe { std::ffi::CStr::from_ptr(cmlt_capi::error::cmlt_last_error()) }
     );
     st == cmlt_status::CMLT_OK
 }

@@ -87,6 +87,7 @@ pub fn config(method: Method, max_depth: Option<u32>) -> RendererConfig {
         mlt,
         seed: 3,
         workers: 1,
+        temporal: Default::default(),
     }
 }
 
