@@ -129,22 +129,29 @@ unsafe impl GlobalAlloc for HostAllocator {
             return base;
         }
         tally(outer, 1);
+        // `dealloc` gets back only the block pointer, whose provenance the
+        // caller may have narrowed to the block (Box/Vec retag it); the
+        // header in front is reached through the base pointer's exposed
+        // provenance instead (see `dealloc`).
+        base.expose_provenance();
         // SAFETY: `base` spans `h + size` bytes, `h` ≥ size_of::<usize>()
         // and both `base` and `h` are multiples of align_of::<usize>().
         unsafe {
-            let block = base.add(h);
-            block.cast::<usize>().sub(1).write(slot);
-            block
+            base.add(h - std::mem::size_of::<usize>()).cast::<usize>().write(slot);
+            base.add(h)
         }
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         let h = header(layout);
+        // The allocation's base, with the provenance `alloc` exposed: `ptr`
+        // itself may only be valid for the block.
+        let base = std::ptr::with_exposed_provenance_mut::<u8>(ptr.addr() - h);
         // SAFETY: `ptr` came from `alloc` with this layout (GlobalAlloc's
-        // contract), so the slot word and the base are where `alloc` put them.
+        // contract), so the base and the slot word are where `alloc` put
+        // them, and `alloc` exposed the base's provenance.
         unsafe {
-            let slot = ptr.cast::<usize>().sub(1).read();
-            let base = ptr.sub(h);
+            let slot = base.add(h - std::mem::size_of::<usize>()).cast::<usize>().read();
             let outer = Layout::from_size_align_unchecked(layout.size() + h, layout.align().max(h));
             tally(outer, -1);
             match SLOTS[slot].get() {
