@@ -1,3 +1,13 @@
 //! Benchmarks of the front end (`cmlt bench …`).
+//!
+//! - [`rays`]: ray throughput of every traversal kernel;
+//! - [`convergence`]: error against a reference versus time, per method;
+//! - [`params`]: CMLT's σ × k × m grid at a fixed time;
+//! - [`study`]: what the accuracy benchmarks share (one scored render);
+//! - [`plot`]: their PNG/SVG plots.
 
+pub mod convergence;
+pub mod params;
+pub mod plot;
 pub mod rays;
+pub mod study;
