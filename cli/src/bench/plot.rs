@@ -10,7 +10,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Once;
 
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::SegmentValue;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -222,7 +221,7 @@ pub fn heat_maps(
         .filter(|v| v.is_finite() && **v > 0.0);
     let (lo, hi) = finite.fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(*v), b.max(*v)));
     let scale = (lo.ln(), hi.ln().max(lo.ln() + 1e-9));
-    let width = 80 + 420 * panels.len() as u32;
+    let width = (80 + 420 * panels.len() as u32).max(720);
     write_both(
         prefix,
         (width, 520),
@@ -262,36 +261,41 @@ where
     let root = root.titled(title, ("sans-serif", 22))?;
     let areas = root.split_evenly((1, panels.len()));
     for (panel, area) in panels.iter().zip(&areas) {
-        let (nx, ny) = (panel.x_labels.len() as i32, panel.y_labels.len() as i32);
+        let (nx, ny) = (panel.x_labels.len(), panel.y_labels.len());
+        // Cell (i, j) spans [i − ½, i + ½] × [j − ½, j + ½], so the axes'
+        // integer key points fall on cell centres and carry the labels.
         let mut chart = ChartBuilder::on(area)
             .caption(&panel.title, ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(44)
             .y_label_area_size(56)
-            .build_cartesian_2d((0..nx).into_segmented(), (0..ny).into_segmented())?;
-        let label = |labels: &[String], v: &SegmentValue<i32>| match v {
-            SegmentValue::CenterOf(i) => labels.get(*i as usize).cloned().unwrap_or_default(),
-            _ => String::new(),
+            .build_cartesian_2d(-0.5..nx as f64 - 0.5, -0.5..ny as f64 - 0.5)?;
+        let label = |labels: &[String], v: f64| {
+            let i = v.round();
+            if (v - i).abs() < 1e-6 && i >= 0.0 {
+                labels.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
         };
         chart
             .configure_mesh()
             .disable_mesh()
             .x_desc(x_desc)
             .y_desc(y_desc)
-            .x_labels(nx as usize)
-            .y_labels(ny as usize)
+            .x_labels(nx)
+            .y_labels(ny)
             .label_style(("sans-serif", 15))
             .axis_desc_style(("sans-serif", 16))
-            .x_label_formatter(&|v| label(&panel.x_labels, v))
-            .y_label_formatter(&|v| label(&panel.y_labels, v))
+            .x_label_formatter(&|v| label(&panel.x_labels, *v))
+            .y_label_formatter(&|v| label(&panel.y_labels, *v))
             .draw()?;
+        let cell = |x: usize, y: usize| {
+            let (x, y) = (x as f64, y as f64);
+            [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)]
+        };
         for (y, row) in panel.values.iter().enumerate() {
             for (x, &v) in row.iter().enumerate() {
-                let (xi, yi) = (x as i32, y as i32);
-                let cell = [
-                    (SegmentValue::Exact(xi), SegmentValue::Exact(yi)),
-                    (SegmentValue::Exact(xi + 1), SegmentValue::Exact(yi + 1)),
-                ];
                 let t = if v.is_finite() && v > 0.0 {
                     (v.ln() - scale.0) / (scale.1 - scale.0)
                 } else {
@@ -302,7 +306,7 @@ where
                 } else {
                     ramp(t)
                 };
-                chart.draw_series(std::iter::once(Rectangle::new(cell, fill.filled())))?;
+                chart.draw_series(std::iter::once(Rectangle::new(cell(x, y), fill.filled())))?;
                 let text = if v.is_finite() {
                     format!("{v:.4}")
                 } else {
@@ -315,19 +319,14 @@ where
                     .pos(Pos::new(HPos::Center, VPos::Center));
                 chart.draw_series(std::iter::once(Text::new(
                     text,
-                    (SegmentValue::CenterOf(xi), SegmentValue::CenterOf(yi)),
+                    (x as f64, y as f64),
                     style,
                 )))?;
             }
         }
         if let Some((x, y)) = panel.mark {
-            let (xi, yi) = (x as i32, y as i32);
-            let cell = [
-                (SegmentValue::Exact(xi), SegmentValue::Exact(yi)),
-                (SegmentValue::Exact(xi + 1), SegmentValue::Exact(yi + 1)),
-            ];
             chart.draw_series(std::iter::once(Rectangle::new(
-                cell,
+                cell(x, y),
                 RGBColor(220, 20, 60).stroke_width(4),
             )))?;
         }
