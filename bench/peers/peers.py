@@ -214,7 +214,7 @@ def write_ply(path, pos, uv):
               "property float x", "property float y", "property float z"]
     if uv is not None:
         cols.append(uv.astype(np.float32))
-        header += ["property float u", "property float v"]
+        header += ["property float s", "property float t"]
     header += [f"element face {n // 3}", "property list uchar int vertex_indices", "end_header"]
     verts = np.concatenate(cols, axis=1)
     faces = np.zeros(n // 3, dtype=[("n", "u1"), ("i", "<i4", (3,))])

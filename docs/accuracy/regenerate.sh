@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates everything under docs/accuracy/ (about 16 minutes on 2 cores):
+# Regenerates everything under docs/accuracy/ (about 17 minutes on 2 cores):
 #  1. our methods' error-vs-time curves on veach-bidir (128x128) and
 #     veach-ajar (160x90), half the references' resolution, 2 threads:
 #     <scene>.csv (replaced), <scene>.log;
@@ -21,6 +21,6 @@ for spec in "veach-bidir 128 128" "veach-ajar 160 90"; do
     --threads 2 --seeds 2 --seeds-up-to 2 --csv $OUT/$1.csv --plot $OUT/$1 | tee $OUT/$1.log
 done
 $BIN bench params tests/scenes/veach-bidir/scene.xml --reference tests/scenes/veach-bidir/reference.exr \
-  -D resx=128 -D resy=128 --time 3 --lens-sigmas 1,2,4,8 --ks 1,4,16 --ms 1,4 \
+  -D resx=128 -D resy=128 --time 8 --lens-sigmas 1,2,8 --ks 1,4,16 --ms 1,4 \
   --threads 2 --csv $OUT/params-veach-bidir.csv --plot $OUT/params-veach-bidir | tee $OUT/params-veach-bidir.log
 BIDIR_BUDGETS=${BIDIR_BUDGETS:-4,30} bench/peers/run_peers.sh $OUT
