@@ -53,7 +53,7 @@ against the reference means:
     of the shape's normal, as Mitsuba.
   - shapes: obj (triangles; flat shading with face_normals), rectangle,
     cube, sphere (tessellated, 64 x 32), all transformed to world space
-    into binary PLY files.
+    into binary PLY files (uv as s, t: LuxCore ignores u, v).
 """
 import argparse
 import math
@@ -214,6 +214,8 @@ def write_ply(path, pos, uv):
               "property float x", "property float y", "property float z"]
     if uv is not None:
         cols.append(uv.astype(np.float32))
+        # LuxCore's PLY reader takes texture coordinates as s, t: with u, v
+        # veach-ajar rendered untextured (every lookup at uv = 0).
         header += ["property float s", "property float t"]
     header += [f"element face {n // 3}", "property list uchar int vertex_indices", "end_header"]
     verts = np.concatenate(cols, axis=1)

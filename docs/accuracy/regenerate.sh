@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates everything under docs/accuracy/ (about 17 minutes on 2 cores):
+# Regenerates everything under docs/accuracy/ (about 19 minutes on 2 busy cores):
 #  1. our methods' error-vs-time curves on veach-bidir (128x128) and
 #     veach-ajar (160x90), half the references' resolution, 2 threads:
 #     <scene>.csv (replaced), <scene>.log;

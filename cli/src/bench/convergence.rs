@@ -73,7 +73,8 @@ impl Row {
             self.budget_s.map_or(String::new(), |b| b.to_string()),
             m.wall_s,
             self.seed,
-            m.samples,
+            // Mutations per pixel are fractional; three decimals suffice.
+            (m.samples * 1e3).round() / 1e3,
             m.rel_mse,
             m.rmse,
             m.mean[0],
