@@ -137,7 +137,9 @@ unsafe impl GlobalAlloc for HostAllocator {
         // SAFETY: `base` spans `h + size` bytes, `h` ≥ size_of::<usize>()
         // and both `base` and `h` are multiples of align_of::<usize>().
         unsafe {
-            base.add(h - std::mem::size_of::<usize>()).cast::<usize>().write(slot);
+            base.add(h - std::mem::size_of::<usize>())
+                .cast::<usize>()
+                .write(slot);
             base.add(h)
         }
     }
@@ -151,7 +153,10 @@ unsafe impl GlobalAlloc for HostAllocator {
         // contract), so the base and the slot word are where `alloc` put
         // them, and `alloc` exposed the base's provenance.
         unsafe {
-            let slot = base.add(h - std::mem::size_of::<usize>()).cast::<usize>().read();
+            let slot = base
+                .add(h - std::mem::size_of::<usize>())
+                .cast::<usize>()
+                .read();
             let outer = Layout::from_size_align_unchecked(layout.size() + h, layout.align().max(h));
             tally(outer, -1);
             match SLOTS[slot].get() {

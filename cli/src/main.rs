@@ -9,11 +9,12 @@ use cmlt::integrator::Method;
 use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig, Temporal};
 use cmlt_cli::accel::{Accel, AccelKind};
+use cmlt_cli::bench::study::load_scene_or_builtin;
 use cmlt_cli::frames;
 use cmlt_cli::image_io::{self, Image};
 use cmlt_cli::metrics;
 use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
-use cmlt_cli::scene::{LoadedScene, builtin_scene, load_scene};
+use cmlt_cli::scene::LoadedScene;
 use indicatif::{ProgressBar, ProgressStyle};
 
 #[derive(Parser)]
@@ -247,6 +248,139 @@ enum BenchCommand {
         #[arg(short = 'D', value_parser = parse_define)]
         define: Vec<(String, String)>,
     },
+    /// Error against a reference versus time: every method at every
+    /// budget (CSV and a log–log plot of relMSE vs wall time).
+    Convergence {
+        /// Mitsuba 3 XML scene file, or a built-in name.
+        scene: String,
+        /// Reference OpenEXR (full size, or any integer multiple of the
+        /// render's size: box-filtered down).
+        #[arg(long)]
+        reference: PathBuf,
+        /// Methods (pt, bdpt, mlt, cmlt; CMLT with its defaults).
+        #[arg(long, value_delimiter = ',', default_value = "pt,bdpt,mlt,cmlt")]
+        methods: Vec<String>,
+        /// Budgets in seconds (or samples per pixel with --samples).
+        #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32,64")]
+        budgets: Vec<f64>,
+        /// Budgets are samples per pixel (PT, BDPT) or mutations per pixel
+        /// (MLT, CMLT): deterministic renders, for tests.
+        #[arg(long)]
+        samples: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Seeds per budget (0..S), for budgets up to --seeds-up-to.
+        #[arg(long, default_value_t = 3)]
+        seeds: u64,
+        /// Larger budgets render one seed only.
+        #[arg(long, default_value_t = 4.0)]
+        seeds_up_to: f64,
+        /// Override a scene `<default>` (e.g. `-D resx=128`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+        /// Write one CSV row per render here (replaced).
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Write the plot to PREFIX.png and PREFIX.svg.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Plot title (default: the scene's name).
+        #[arg(long)]
+        title: Option<String>,
+    },
+    /// CMLT's σ × k × m grid at a fixed time (the seed's §2.5.1): CSV, a
+    /// heat map per m, and the best setting.
+    Params {
+        /// Mitsuba 3 XML scene file, or a built-in name.
+        scene: String,
+        /// Reference OpenEXR (full size or an integer multiple).
+        #[arg(long)]
+        reference: PathBuf,
+        /// Seconds per render (bootstrap included).
+        #[arg(long)]
+        time: f64,
+        /// Lens-perturbation σ values, pixels.
+        #[arg(long, value_delimiter = ',', default_value = "0.5,1,2,4,8,16")]
+        lens_sigmas: Vec<f32>,
+        /// Candidates per multiple-try step.
+        #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16")]
+        ks: Vec<u32>,
+        /// Side-chain lengths (≥ 1; plain MLT is measured as the baseline).
+        #[arg(long, value_delimiter = ',', default_value = "1,4")]
+        ms: Vec<u32>,
+        /// How the k candidates of a step are drawn.
+        #[arg(long, value_enum, default_value = "stratified")]
+        candidates: CandidatesArg,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Seeds per cell (0..S).
+        #[arg(long, default_value_t = 1)]
+        seeds: u64,
+        /// Override a scene `<default>` (e.g. `-D resx=128`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+        /// Write one CSV row per render here.
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Write the heat maps to PREFIX.png and PREFIX.svg.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// Scores an image rendered elsewhere (a peer renderer) against a
+    /// reference and appends a `bench convergence` CSV row.
+    Score {
+        /// The image (OpenEXR).
+        image: PathBuf,
+        /// Reference OpenEXR (full size or an integer multiple).
+        #[arg(long)]
+        reference: PathBuf,
+        /// Method name for the row (e.g. `mitsuba-path`).
+        #[arg(long)]
+        method: String,
+        /// The time budget, seconds (empty column if not given).
+        #[arg(long)]
+        budget_s: Option<f64>,
+        /// Measured wall-clock seconds of the render.
+        #[arg(long)]
+        wall_s: f64,
+        /// Seed of the render.
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        /// Samples per pixel of the render.
+        #[arg(long, default_value_t = 0.0)]
+        samples: f64,
+        /// Mrays/s, if the renderer reports it (0 otherwise).
+        #[arg(long, default_value_t = 0.0)]
+        mrays_per_s: f64,
+        /// The CSV to append to (created with its header if new).
+        #[arg(long)]
+        csv: PathBuf,
+    },
+    /// Redraws a `bench convergence` CSV (ours and peers' rows) as a plot
+    /// and prints the curves; optionally how long each method takes to
+    /// reach the error one method reaches at a given time.
+    Plot {
+        /// The CSV.
+        #[arg(long)]
+        csv: PathBuf,
+        /// Write the plot to PREFIX.png and PREFIX.svg.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Plot title.
+        #[arg(long, default_value = "relative MSE vs time")]
+        title: String,
+        /// The reference, to print each method's mean ratio to it.
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        /// Compare every method with this one …
+        #[arg(long, requires = "at")]
+        versus: Option<String>,
+        /// … at this many seconds.
+        #[arg(long, requires = "versus")]
+        at: Option<f64>,
+    },
 }
 
 fn parse_define(s: &str) -> Result<(String, String), String> {
@@ -288,25 +422,7 @@ fn write_outputs(img: &Image, ctx: &Output<'_>, nonfinite: u64) -> Result<(), St
 
 /// Prints relMSE and mean ratios against a reference OpenEXR.
 fn compare_reference(img: &Image, r: &Path) -> Result<(), String> {
-    let mut reference = image_io::read_exr(r)?;
-    // A reference n times larger in both axes is box-filtered down: the
-    // exact reference of the same scene at 1/n resolution.
-    if img.width > 0 && reference.width % img.width == 0 {
-        let n = reference.width / img.width;
-        if n > 1 && reference.height == img.height * n {
-            reference = reference.downsample(n);
-        }
-    }
-    if (reference.width, reference.height) != (img.width, img.height) {
-        return Err(format!(
-            "reference {} is {}x{}, image is {}x{}",
-            r.display(),
-            reference.width,
-            reference.height,
-            img.width,
-            img.height
-        ));
-    }
+    let reference = metrics::load_reference(r, img.width, img.height)?;
     let (mean, rm) = (img.mean(), reference.mean());
     println!(
         "vs reference: relMSE {:.6}, RMSE {:.6}; mean ratio ({:.4}, {:.4}, {:.4})",
@@ -499,23 +615,6 @@ fn run_frames(
     )
 }
 
-/// Loads a scene file or a built-in scene (the Cornell box by default).
-fn load(scene: Option<&str>, define: &[(String, String)]) -> Result<LoadedScene, String> {
-    let loaded = match scene {
-        None => builtin_scene("cornell-box", define)
-            .expect("cornell-box is built in")
-            .map_err(|e| e.to_string())?,
-        Some(name) => match builtin_scene(name, define) {
-            Some(r) if !std::path::Path::new(name).exists() => r.map_err(|e| e.to_string())?,
-            _ => load_scene(std::path::Path::new(name), define).map_err(|e| e.to_string())?,
-        },
-    };
-    for w in &loaded.warnings {
-        eprintln!("warning: {w}");
-    }
-    Ok(loaded)
-}
-
 fn run(cli: Cli) -> Result<(), String> {
     match cli.command {
         Command::Bench(BenchCommand::Flicker {
@@ -532,7 +631,7 @@ fn run(cli: Cli) -> Result<(), String> {
             seed,
             define,
         }) => {
-            let loaded = load(scene.as_deref(), &define)?;
+            let loaded = load_scene_or_builtin(scene.as_deref().unwrap_or("cornell-box"), &define)?;
             let scene = &loaded.scene;
             let accel = Accel::build(AccelKind::Ours, &scene.triangles().collect::<Vec<_>>())?;
             let mlt = match method {
@@ -618,6 +717,164 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
+        Command::Bench(BenchCommand::Convergence {
+            scene,
+            reference,
+            methods,
+            budgets,
+            samples,
+            threads,
+            seeds,
+            seeds_up_to,
+            define,
+            csv,
+            plot,
+            title,
+        }) => {
+            use cmlt_cli::bench::{convergence, plot as draw};
+            let title = title.unwrap_or_else(|| scene_title(&scene));
+            let opts = convergence::Options {
+                scene,
+                reference,
+                defines: define,
+                methods,
+                budgets,
+                samples,
+                threads: threads_or_all(threads),
+                seeds,
+                seeds_up_to,
+            };
+            let rows = convergence::run(&opts, &mut std::io::stdout())?;
+            if let Some(path) = &csv {
+                convergence::write_csv(path, &rows)?;
+            }
+            let curves = convergence::curves(&rows);
+            let ref_mean = image_io::read_exr(&opts.reference)?.mean();
+            let ref_mean = [ref_mean.r as f64, ref_mean.g as f64, ref_mean.b as f64];
+            convergence::summarize(&curves, Some(ref_mean), None, &mut std::io::stdout())?;
+            if let Some(prefix) = &plot {
+                for p in draw::convergence(&curves, &title, prefix)? {
+                    println!("wrote {}", p.display());
+                }
+            }
+            Ok(())
+        }
+        Command::Bench(BenchCommand::Params {
+            scene,
+            reference,
+            time,
+            lens_sigmas,
+            ks,
+            ms,
+            candidates,
+            threads,
+            seeds,
+            define,
+            csv,
+            plot,
+        }) => {
+            use cmlt_cli::bench::{params, plot as draw};
+            let candidates = match candidates {
+                CandidatesArg::Independent => cmlt::mlt::Candidates::Independent,
+                CandidatesArg::Stratified => cmlt::mlt::Candidates::Stratified,
+            };
+            let title = format!(
+                "{}: CMLT relMSE after {time} s ({candidates:?} candidates)",
+                scene_title(&scene)
+            );
+            let opts = params::Options {
+                scene,
+                reference,
+                defines: define,
+                time,
+                lens_sigmas,
+                ks,
+                ms,
+                candidates,
+                threads: threads_or_all(threads),
+                seeds,
+            };
+            let cells = params::run(&opts, &mut std::io::stdout())?;
+            if let Some(path) = &csv {
+                params::write_csv(path, &cells, candidates)?;
+            }
+            if let Some(b) = params::best(&opts, &cells) {
+                println!(
+                    "best: --lens-sigma {} --k {} --m {} (relMSE {:.5}; plain MLT {:.5}, ratio {:.2})",
+                    b.lens_sigma,
+                    b.k,
+                    b.m,
+                    b.rel_mse,
+                    b.mlt_rel_mse,
+                    b.rel_mse / b.mlt_rel_mse
+                );
+            }
+            if let Some(prefix) = &plot {
+                let panels = params::panels(&opts, &cells);
+                for p in draw::heat_maps(&panels, &title, "lens σ (pixels)", "k", prefix)? {
+                    println!("wrote {}", p.display());
+                }
+            }
+            Ok(())
+        }
+        Command::Bench(BenchCommand::Score {
+            image,
+            reference,
+            method,
+            budget_s,
+            wall_s,
+            seed,
+            samples,
+            mrays_per_s,
+            csv,
+        }) => {
+            use cmlt_cli::bench::{convergence, study};
+            let img = image_io::read_exr(&image)?;
+            let r = metrics::load_reference(&reference, img.width, img.height)?;
+            let m = study::score(&img, &r, wall_s, samples, mrays_per_s);
+            let rm = r.mean();
+            println!(
+                "{method}: relMSE {:.5}, mean ratio ({:.4}, {:.4}, {:.4})",
+                m.rel_mse,
+                m.mean[0] / rm.r as f64,
+                m.mean[1] / rm.g as f64,
+                m.mean[2] / rm.b as f64
+            );
+            let row = convergence::Row {
+                method,
+                budget_s,
+                seed,
+                m,
+            };
+            convergence::append_csv(&csv, &row)
+        }
+        Command::Bench(BenchCommand::Plot {
+            csv,
+            plot,
+            title,
+            reference,
+            versus,
+            at,
+        }) => {
+            use cmlt_cli::bench::{convergence, plot as draw};
+            let rows = convergence::read_csv(&csv)?;
+            let curves = convergence::curves(&rows);
+            let ref_mean = match reference {
+                Some(r) => {
+                    let m = image_io::read_exr(&r)?.mean();
+                    Some([m.r as f64, m.g as f64, m.b as f64])
+                }
+                None => None,
+            };
+            let versus = versus.as_deref().zip(at);
+            convergence::summarize(&curves, ref_mean, versus, &mut std::io::stdout())?;
+            if let Some(prefix) = &plot {
+                for p in draw::convergence(&curves, &title, prefix)? {
+                    println!("wrote {}", p.display());
+                }
+            }
+            Ok(())
+        }
         Command::Render {
             scene,
             method,
@@ -650,18 +907,8 @@ fn run(cli: Cli) -> Result<(), String> {
             fixed_sequence,
         } => {
             let t0 = Instant::now();
-            let loaded: LoadedScene = match scene.as_deref() {
-                None => builtin_scene("cornell-box", &define)
-                    .expect("cornell-box is built in")
-                    .map_err(|e| e.to_string())?,
-                Some(name) => match builtin_scene(name, &define) {
-                    Some(r) if !std::path::Path::new(name).exists() => {
-                        r.map_err(|e| e.to_string())?
-                    }
-                    _ => load_scene(std::path::Path::new(name), &define)
-                        .map_err(|e| e.to_string())?,
-                },
-            };
+            let loaded: LoadedScene =
+                load_scene_or_builtin(scene.as_deref().unwrap_or("cornell-box"), &define)?;
             for w in &loaded.warnings {
                 eprintln!("warning: {w}");
             }
@@ -674,8 +921,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let accel = Accel::build(kind, &tris)?;
             let setup = t0.elapsed();
             eprintln!("{}", scene.analysis(&scene.camera).report());
-            let threads = threads
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let threads = threads_or_all(threads);
             let is_mlt = matches!(method, MethodArg::Mlt | MethodArg::Cmlt);
             if is_mlt && bootstrap == 0 {
                 return Err("--bootstrap must be at least 1".to_string());
@@ -837,4 +1083,21 @@ fn progress_bar(quiet: bool, total: Option<u64>, counter: &str) -> ProgressBar {
         ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
+}
+
+/// `--threads`, or all cores.
+fn threads_or_all(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// A plot title from a scene argument: `tests/scenes/veach-ajar/scene.xml`
+/// → `veach-ajar`.
+fn scene_title(scene: &str) -> String {
+    let p = Path::new(scene);
+    let name = if p.file_stem().is_some_and(|s| s == "scene") {
+        p.parent().and_then(|d| d.file_name())
+    } else {
+        p.file_stem()
+    };
+    name.map_or_else(|| scene.to_string(), |n| n.to_string_lossy().into_owned())
 }

@@ -1,4 +1,16 @@
 //! Benchmarks of the front end (`cmlt bench …`).
+//!
+//! - [`rays`]: ray throughput of every traversal kernel;
+//! - [`convergence`]: error against a reference versus time, per method;
+//! - [`params`]: CMLT's σ × k × m grid at a fixed time;
+//! - [`flicker`]: frame-to-frame flicker with and without the temporal
+//!   switches;
+//! - [`study`]: what the accuracy benchmarks share (one scored render);
+//! - [`plot`]: their PNG/SVG plots.
 
+pub mod convergence;
 pub mod flicker;
+pub mod params;
+pub mod plot;
 pub mod rays;
+pub mod study;

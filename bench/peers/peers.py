@@ -1,0 +1,517 @@
+#!/usr/bin/env python3
+"""Peer renderers on the shared scenes: Mitsuba 3 and LuxCoreRender.
+
+Run through bench/peers/run_peers.sh (it creates the venv). Subcommands, each
+meant to run in a process of its own (pyluxcore and mitsuba crash when
+imported into one process):
+
+  convert SCENE_XML OUTDIR --resx W --resy H [--max-depth D]
+      Mitsuba 3 XML -> LuxCore SDL (OUTDIR/scene.scn, PLY meshes, linear EXR
+      textures). Pure Python + numpy, except bitmap textures, which are
+      decoded sRGB -> linear by a Mitsuba subprocess (`decode-texture`).
+  decode-texture IN OUT
+      (mitsuba) 8-bit sRGB image -> linear float EXR.
+  luxcore SCN OUT.exr --resx W --resy H --time T --threads N --seed S
+           --engine PATHCPU|BIDIRCPU --sampler METROPOLIS|SOBOL|RANDOM
+      (pyluxcore) renders for T seconds; prints "RESULT wall_s spp".
+  mitsuba SCENE_XML OUT.exr --resx W --resy H --time T --threads N --seed S
+      (mitsuba, scalar_rgb, path) Mitsuba 3 has no time budget: renders
+      1 spp to measure the cost of a sample, then spp = T / cost; prints
+      "RESULT wall_s spp" of that render.
+
+Conversion to LuxCore (what differs and why), checked by run_peers.sh
+against the reference means:
+  - camera: Mitsuba's to_world matrix -> lookat (origin, origin + z, y up);
+    Mitsuba's fov is horizontal (fov_axis x), LuxCore's applies to the
+    shorter image side, so it is converted for non-square films. LuxCore
+    2.11.2's camera sits one pixel too high (the image content lands one
+    row low): the screen window is shifted by --shift-pixels (default -1).
+    Measured on veach-bidir at 64x64: relMSE against the reference over
+    row shifts -2..2 of the LuxCore image is lowest at 0 with -1 and at -1
+    with 0.
+  - film: box filter of width 0.5 (one pixel, like the references' box
+    rfilter); output RGB (linear, before the image pipeline).
+  - max_depth: Mitsuba counts segments (1 = emitters seen directly);
+    LuxCore's path depth counts bounces, so depth = max_depth - 1.
+    Russian roulette from depth 5 as Mitsuba's rr_depth.
+  - diffuse -> matte (kd = rgb, or an imagemap of the linearised bitmap,
+    gamma 1); twosided is LuxCore's default for these materials.
+  - roughconductor with rgb specular_reflectance 1 -> metal2 with the
+    scene's n, k and u/vroughness = alpha. LuxCore's metal2 has one
+    microfacet model of its own (not Beckmann or GGX), so highlights differ
+    in shape and a little in energy: on veach-bidir (lit mostly off the
+    lamp's rough-metal shade) the image mean is 2-3% low with roughness =
+    alpha and 1.5-2.5% high with roughness = alpha^2 (PATHCPU + SOBOL,
+    64x64, 12 s); we keep alpha, the documented meaning. A textured
+    specular_reflectance (veach-ajar's checkerboard floor) is folded into a
+    fresnelcolor texture: the checkerboard times the conductor's
+    normal-incidence reflectance (its angular dependence is LuxCore's
+    approximation, not the exact conductor Fresnel term).
+  - dielectric -> glass (interior IOR int_ior, exterior ext_ior).
+  - area emitters -> the shape's material with `emission` = radiance,
+    gain 1, power/efficiency 0 (radiance as given); one-sided, on the side
+    of the shape's normal, as Mitsuba.
+  - shapes: obj (triangles; flat shading with face_normals), rectangle,
+    cube, sphere (tessellated, 64 x 32), all transformed to world space
+    into binary PLY files (uv as s, t: LuxCore ignores u, v).
+"""
+import argparse
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+# ---------------------------------------------------------------- Mitsuba XML
+
+
+def parse_values(text):
+    return [float(v) for v in re.split(r"[,\s]+", text.strip()) if v]
+
+
+class MitsubaScene:
+    """The subset of Mitsuba 3 XML the shared scenes use (tests/scenes/README.md)."""
+
+    def __init__(self, path, defines):
+        self.dir = os.path.dirname(os.path.abspath(path))
+        root = ET.parse(path).getroot()
+        self.defaults = {}
+        for d in root.findall("default"):
+            self.defaults[d.get("name")] = d.get("value")
+        self.defaults.update(defines)
+        self.root = root
+        self.bsdfs = {b.get("id"): b for b in root.findall("bsdf")}
+
+    def value(self, text):
+        return re.sub(r"\$(\w+)", lambda m: self.defaults[m.group(1)], text)
+
+    def prop(self, elem, tag, name, default=None):
+        for c in elem.findall(tag):
+            if c.get("name") == name:
+                return self.value(c.get("value"))
+        return default
+
+    def transform(self, elem, name="to_world"):
+        m = [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
+        for t in elem.findall("transform"):
+            if t.get("name") != name:
+                continue
+            for op in t:
+                if op.tag == "matrix":
+                    v = parse_values(op.get("value"))
+                    a = [v[4 * i:4 * i + 4] for i in range(4)]
+                elif op.tag == "scale":
+                    if op.get("value") is not None:
+                        s = [float(op.get("value"))] * 3
+                    else:
+                        s = [float(op.get(k, "1")) for k in "xyz"]
+                    a = [[s[0], 0, 0, 0], [0, s[1], 0, 0], [0, 0, s[2], 0], [0, 0, 0, 1]]
+                elif op.tag == "translate":
+                    d = [float(op.get(k, "0")) for k in "xyz"]
+                    a = [[1, 0, 0, d[0]], [0, 1, 0, d[1]], [0, 0, 1, d[2]], [0, 0, 0, 1]]
+                else:
+                    raise SystemExit(f"unsupported transform op <{op.tag}>")
+                m = matmul(a, m)
+        return m
+
+
+def matmul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+
+
+def apply_point(m, p):
+    return [sum(m[i][k] * p[k] for k in range(3)) + m[i][3] for i in range(3)]
+
+
+def det3(m):
+    return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+
+# ------------------------------------------------------------------- geometry
+
+
+def load_obj(path):
+    import numpy as np
+    vs, vts, faces = [], [], []
+    with open(path) as f:
+        for line in f:
+            if line.startswith("v "):
+                vs.append([float(x) for x in line.split()[1:4]])
+            elif line.startswith("vt "):
+                vts.append([float(x) for x in line.split()[1:3]])
+            elif line.startswith("f "):
+                idx = []
+                for tok in line.split()[1:]:
+                    parts = tok.split("/")
+                    vi = int(parts[0]) - 1
+                    ti = int(parts[1]) - 1 if len(parts) > 1 and parts[1] else -1
+                    idx.append((vi, ti))
+                for i in range(1, len(idx) - 1):
+                    faces.append((idx[0], idx[i], idx[i + 1]))
+    # Unweld: one vertex per face corner (uvs are per corner in OBJ).
+    pos = np.array([[vs[v] for v, _ in f] for f in faces], dtype=np.float64).reshape(-1, 3)
+    if vts:
+        # Mitsuba flips OBJ v on load (flip_tex_coords); LuxCore's imagemap
+        # has row 0 at the bottom, so LuxCore wants the unflipped v.
+        uv = np.array([[vts[t] if t >= 0 else [0, 0] for _, t in f] for f in faces],
+                      dtype=np.float64).reshape(-1, 2)
+    else:
+        uv = None
+    return pos, uv
+
+
+def rectangle():
+    import numpy as np
+    pos = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    uv = np.array([[0, 0], [1, 0], [1, 1], [0, 0], [1, 1], [0, 1]], float)
+    return pos, uv
+
+
+def cube():
+    import numpy as np
+    tris = []
+    for axis in range(3):
+        for sign in (-1, 1):
+            u, v = [(axis + 1) % 3, (axis + 2) % 3]
+            quad = []
+            for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]:
+                p = [0, 0, 0]
+                p[axis], p[u], p[v] = sign, a, b
+                quad.append(p)
+            if sign < 0:
+                quad.reverse()
+            tris += [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]
+    return np.array(tris, float), None
+
+
+def sphere(center, radius, nu=64, nv=32):
+    import numpy as np
+    def p(i, j):
+        th, ph = math.pi * j / nv, 2 * math.pi * i / nu
+        return [center[0] + radius * math.sin(th) * math.cos(ph),
+                center[1] + radius * math.sin(th) * math.sin(ph),
+                center[2] + radius * math.cos(th)]
+    tris = []
+    for j in range(nv):
+        for i in range(nu):
+            a, b, c, d = p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1)
+            tris += [a, c, b, a, d, c]
+    return np.array(tris, float), None
+
+
+def write_ply(path, pos, uv):
+    import numpy as np
+    n = len(pos)
+    cols = [pos.astype(np.float32)]
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {n}",
+              "property float x", "property float y", "property float z"]
+    if uv is not None:
+        cols.append(uv.astype(np.float32))
+        # LuxCore's PLY reader takes texture coordinates as s, t: with u, v
+        # veach-ajar rendered untextured (every lookup at uv = 0).
+        header += ["property float s", "property float t"]
+    header += [f"element face {n // 3}", "property list uchar int vertex_indices", "end_header"]
+    verts = np.concatenate(cols, axis=1)
+    faces = np.zeros(n // 3, dtype=[("n", "u1"), ("i", "<i4", (3,))])
+    faces["n"] = 3
+    faces["i"] = np.arange(n, dtype=np.int32).reshape(-1, 3)
+    with open(path, "wb") as f:
+        f.write(("\n".join(header) + "\n").encode())
+        f.write(verts.astype("<f4").tobytes())
+        f.write(faces.tobytes())
+
+
+# ------------------------------------------------------------------ convert
+
+
+def fmt(v):
+    return " ".join(f"{x:.9g}" for x in v)
+
+
+def conductor_f0(eta, k):
+    """Normal-incidence reflectance of a conductor, per channel."""
+    return [((n - 1) ** 2 + kk ** 2) / ((n + 1) ** 2 + kk ** 2) for n, kk in zip(eta, k)]
+
+
+def convert(args):
+    import numpy as np
+    defines = dict(d.split("=", 1) for d in args.define)
+    sc = MitsubaScene(args.scene, defines)
+    os.makedirs(args.out, exist_ok=True)
+    lines = []
+    tex_count = [0]
+
+    def texture(elem, name):
+        """A LuxCore texture or colour for property `name` of a BSDF."""
+        for c in elem:
+            if c.get("name") != name:
+                continue
+            if c.tag == "rgb":
+                return fmt(parse_values(sc.value(c.get("value"))))
+            if c.tag == "float":
+                return fmt([float(sc.value(c.get("value")))] * 3)
+            if c.tag == "texture" and c.get("type") == "bitmap":
+                src = os.path.join(sc.dir, sc.prop(c, "string", "filename"))
+                tex_count[0] += 1
+                t = f"tex{tex_count[0]}"
+                exr = os.path.join(args.out, f"{t}.exr")
+                if not os.path.exists(exr):
+                    subprocess.run([sys.executable, __file__, "decode-texture", src, exr], check=True)
+                lines.append(f'scene.textures.{t}.type = "imagemap"')
+                lines.append(f'scene.textures.{t}.file = "{exr}"')
+                lines.append(f"scene.textures.{t}.gamma = 1")
+                lines.append(f'scene.textures.{t}.filter = "linear"')
+                return t
+            if c.tag == "texture" and c.get("type") == "checkerboard":
+                tex_count[0] += 1
+                t = f"tex{tex_count[0]}"
+                m = sc.transform(c, "to_uv")
+                c0 = parse_values(sc.prop(c, "rgb", "color0"))
+                c1 = parse_values(sc.prop(c, "rgb", "color1"))
+                # LuxCore's checkerboard2d: tex1 where floor(u) + floor(v) is
+                # even. Mitsuba's: color0 where (frac(u') > .5) == (frac(v') >
+                # .5), u' = to_uv · uv, i.e. a checker of period 1 in u' with
+                # cells of 1/2: scale uv by 2·to_uv and start on color0.
+                lines.append(f'scene.textures.{t}.type = "checkerboard2d"')
+                lines.append(f"scene.textures.{t}.texture1 = {fmt(c0)}")
+                lines.append(f"scene.textures.{t}.texture2 = {fmt(c1)}")
+                lines.append(f'scene.textures.{t}.mapping.type = "uvmapping2d"')
+                lines.append(f"scene.textures.{t}.mapping.uvscale = {2 * m[0][0]:.9g} {-2 * m[1][1]:.9g}")
+                return t
+            raise SystemExit(f"unsupported texture {c.tag} {c.get('type')} for {name}")
+        return None
+
+    def material(name, bsdf, emission=None):
+        if bsdf.get("type") == "twosided":
+            bsdf = bsdf.find("bsdf")
+        p = f"scene.materials.{name}"
+        t = bsdf.get("type")
+        if t == "diffuse":
+            lines.append(f'{p}.type = "matte"')
+            lines.append(f"{p}.kd = {texture(bsdf, 'reflectance') or '0.5 0.5 0.5'}")
+        elif t == "roughconductor":
+            alpha = float(sc.prop(bsdf, "float", "alpha", "0.1"))
+            eta = parse_values(sc.prop(bsdf, "rgb", "eta"))
+            k = parse_values(sc.prop(bsdf, "rgb", "k"))
+            spec = texture(bsdf, "specular_reflectance")
+            lines.append(f'{p}.type = "metal2"')
+            if spec is None or spec.replace(" ", "") == "111":
+                lines.append(f"{p}.n = {fmt(eta)}")
+                lines.append(f"{p}.k = {fmt(k)}")
+            else:
+                tex_count[0] += 1
+                s, fr = f"tex{tex_count[0]}", f"tex{tex_count[0]}f"
+                lines.append(f'scene.textures.{s}.type = "scale"')
+                lines.append(f"scene.textures.{s}.texture1 = {spec}")
+                lines.append(f"scene.textures.{s}.texture2 = {fmt(conductor_f0(eta, k))}")
+                lines.append(f'scene.textures.{fr}.type = "fresnelcolor"')
+                lines.append(f"scene.textures.{fr}.kr = {s}")
+                lines.append(f"{p}.fresnel = {fr}")
+            lines.append(f"{p}.uroughness = {alpha:.9g}")
+            lines.append(f"{p}.vroughness = {alpha:.9g}")
+        elif t == "dielectric":
+            lines.append(f'{p}.type = "glass"')
+            lines.append(f"{p}.kr = 1 1 1")
+            lines.append(f"{p}.kt = 1 1 1")
+            lines.append(f"{p}.interiorior = {float(sc.prop(bsdf, 'float', 'int_ior', '1.5')):.9g}")
+            lines.append(f"{p}.exteriorior = {float(sc.prop(bsdf, 'float', 'ext_ior', '1')):.9g}")
+        else:
+            raise SystemExit(f"unsupported bsdf {t}")
+        if emission is not None:
+            lines.append(f"{p}.emission = {fmt(emission)}")
+            lines.append(f"{p}.emission.gain = 1 1 1")
+            lines.append(f"{p}.emission.power = 0")
+            lines.append(f"{p}.emission.efficency = 0")
+            lines.append(f"{p}.emission.normalizebycolor = 0")
+
+    # Camera.
+    sensor = sc.root.find("sensor")
+    m = sc.transform(sensor)
+    origin = [m[i][3] for i in range(3)]
+    fwd = [m[i][2] for i in range(3)]
+    up = [m[i][1] for i in range(3)]
+    w, h = args.resx, args.resy
+    fov = float(sc.prop(sensor, "float", "fov"))
+    axis = sc.prop(sensor, "string", "fov_axis", "x")
+    if axis != "x":
+        raise SystemExit(f"fov_axis {axis} not supported")
+    # LuxCore's fieldofview spans the shorter side.
+    if w > h:
+        fov = 2 * math.degrees(math.atan(math.tan(math.radians(fov) / 2) * h / w))
+    aspect = w / h
+    sw = [-aspect, aspect, -1.0, 1.0] if w >= h else [-1.0, 1.0, -1 / aspect, 1 / aspect]
+    # One pixel is 2/min(w, h) screen units; LuxCore renders one pixel too
+    # high, so the window moves by args.shift_pixels pixels.
+    px = 2.0 / min(w, h)
+    sw[2] += args.shift_pixels * px
+    sw[3] += args.shift_pixels * px
+    # Mitsuba's camera has +x to the image's left; LuxCore's lookat camera
+    # has the image's right at fwd × up in a right-handed frame — the same
+    # world direction as Mitsuba's −x when to_world is a rotation.
+    lines.append('scene.camera.type = "perspective"')
+    lines.append(f"scene.camera.lookat.orig = {fmt(origin)}")
+    lines.append(f"scene.camera.lookat.target = {fmt([o + f for o, f in zip(origin, fwd)])}")
+    lines.append(f"scene.camera.up = {fmt(up)}")
+    lines.append(f"scene.camera.fieldofview = {fov:.9g}")
+    lines.append(f"scene.camera.screenwindow = {fmt(sw)}")
+
+    # Shapes.
+    for i, shape in enumerate(sc.root.findall("shape")):
+        name = f"shape{i}"
+        t = shape.get("type")
+        tm = sc.transform(shape)
+        if t == "obj":
+            pos, uv = load_obj(os.path.join(sc.dir, sc.prop(shape, "string", "filename")))
+        elif t == "rectangle":
+            pos, uv = rectangle()
+        elif t == "cube":
+            pos, uv = cube()
+        elif t == "sphere":
+            c = shape.find("point")
+            center = [float(c.get(k, "0")) for k in "xyz"] if c is not None else [0, 0, 0]
+            pos, uv = sphere(center, float(sc.prop(shape, "float", "radius", "1")))
+        else:
+            raise SystemExit(f"unsupported shape {t}")
+        pos = np.array([apply_point(tm, p) for p in pos])
+        if det3(tm) < 0:
+            # A mirroring transform flips the winding; Mitsuba's normal is
+            # the transformed normal, so restore the winding.
+            pos = pos.reshape(-1, 3, 3)[:, ::-1].reshape(-1, 3)
+            if uv is not None:
+                uv = uv.reshape(-1, 3, 2)[:, ::-1].reshape(-1, 2)
+        ply = os.path.join(args.out, f"{name}.ply")
+        write_ply(ply, pos, uv)
+        ref = shape.find("ref")
+        bsdf = sc.bsdfs[ref.get("id")] if ref is not None else shape.find("bsdf")
+        em = shape.find("emitter")
+        emission = parse_values(sc.prop(em, "rgb", "radiance")) if em is not None else None
+        material(f"mat{i}", bsdf, emission)
+        lines.append(f'scene.objects.{name}.ply = "{ply}"')
+        lines.append(f"scene.objects.{name}.material = mat{i}")
+    # Path depth (LuxCore counts bounces, Mitsuba segments).
+    depth = int(sc.value(sc.prop(sc.root.find("integrator"), "integer", "max_depth", "-1")))
+    with open(os.path.join(args.out, "scene.scn"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(args.out, "depth.txt"), "w") as f:
+        f.write(f"{depth}\n")
+    print(f"wrote {args.out}/scene.scn ({len(sc.root.findall('shape'))} shapes, max_depth {depth})")
+
+
+def decode_texture(args):
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    b = mi.Bitmap(args.src).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
+    b.write(args.dst)
+
+
+# -------------------------------------------------------------------- render
+
+
+def render_luxcore(args):
+    import pyluxcore
+    pyluxcore.Init(lambda msg: None)
+    scn_dir = os.path.dirname(os.path.abspath(args.scn))
+    depth = int(open(os.path.join(scn_dir, "depth.txt")).read())
+    props = pyluxcore.Properties()
+    props.SetFromString(f"""
+renderengine.type = "{args.engine}"
+sampler.type = "{args.sampler}"
+renderengine.seed = {args.seed + 1}
+native.threads.count = {args.threads}
+film.width = {args.resx}
+film.height = {args.resy}
+film.filter.type = "BOX"
+film.filter.width = 0.5
+film.outputs.0.type = "RGB"
+film.outputs.0.filename = "{args.out}"
+film.imagepipelines.0.0.type = "TONEMAP_LINEAR"
+film.imagepipelines.0.0.scale = 1
+path.russianroulette.depth = 5
+light.maxdepth = {max(depth - 1, 1)}
+path.maxdepth = {max(depth - 1, 1)}
+path.pathdepth.total = {max(depth - 1, 1)}
+path.pathdepth.diffuse = {max(depth - 1, 1)}
+path.pathdepth.glossy = {max(depth - 1, 1)}
+path.pathdepth.specular = {max(depth - 1, 1)}
+path.clamping.variance.maxvalue = 0
+batch.halttime = {args.time}
+scene.file = "{os.path.abspath(args.scn)}"
+""")
+    config = pyluxcore.RenderConfig(props)
+    session = pyluxcore.RenderSession(config)
+    t0 = time.perf_counter()
+    session.Start()
+    while not session.HasDone():
+        time.sleep(0.02)
+        session.UpdateStats()
+    wall = time.perf_counter() - t0
+    session.Stop()
+    film = session.GetFilm()
+    film.SaveOutputs()
+    stats = session.GetStats()
+    spp = stats.Get("stats.renderengine.pass").GetFloat()
+    print(f"RESULT {wall:.4f} {spp:.3f}", flush=True)
+    # pyluxcore 2.11.2 segfaults while tearing down after a METROPOLIS
+    # render; everything is written by now, so skip the teardown.
+    os._exit(0)
+
+
+def render_mitsuba(args):
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("scalar_rgb")
+    dr.set_thread_count(args.threads)
+    scene = mi.load_file(args.scene, resx=args.resx, resy=args.resy, integrator="path")
+    # Mitsuba 3 has no time budget: time one sample per pixel (after a
+    # warm-up render), then render the spp that fills the budget.
+    mi.render(scene, spp=1, seed=10_000 + args.seed)
+    t = time.perf_counter()
+    mi.render(scene, spp=2, seed=20_000 + args.seed)
+    per_spp = (time.perf_counter() - t) / 2
+    spp = max(1, int(args.time / per_spp))
+    t = time.perf_counter()
+    img = mi.render(scene, spp=spp, seed=args.seed)
+    wall = time.perf_counter() - t
+    mi.Bitmap(img).write(args.out)
+    print(f"RESULT {wall:.4f} {spp}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("convert")
+    c.add_argument("scene")
+    c.add_argument("out")
+    c.add_argument("--resx", type=int, required=True)
+    c.add_argument("--resy", type=int, required=True)
+    c.add_argument("--shift-pixels", type=float, default=-1.0)
+    c.add_argument("-D", dest="define", action="append", default=[])
+    d = sub.add_parser("decode-texture")
+    d.add_argument("src")
+    d.add_argument("dst")
+    for name in ("luxcore", "mitsuba"):
+        r = sub.add_parser(name)
+        r.add_argument("scn" if name == "luxcore" else "scene")
+        r.add_argument("out")
+        r.add_argument("--resx", type=int, required=True)
+        r.add_argument("--resy", type=int, required=True)
+        r.add_argument("--time", type=float, required=True)
+        r.add_argument("--threads", type=int, default=2)
+        r.add_argument("--seed", type=int, default=0)
+        if name == "luxcore":
+            r.add_argument("--engine", default="PATHCPU")
+            r.add_argument("--sampler", default="METROPOLIS")
+    args = ap.parse_args()
+    {"convert": convert, "decode-texture": decode_texture,
+     "luxcore": render_luxcore, "mitsuba": render_mitsuba}[args.cmd](args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Peer renderers' curves next to ours: Mitsuba 3 (scalar_rgb, path) and
+# LuxCoreRender 2.11.2 (PATHCPU + METROPOLIS; BIDIRCPU + METROPOLIS, which is
+# biased, see docs/accuracy.md) render the shared scenes at the same
+# resolution, budgets and thread count as `cmlt bench convergence`; every
+# render is scored by `cmlt bench score` against the same reference and
+# appended to the same CSV, then `cmlt bench plot` redraws the plot and
+# prints how long each method takes to reach LuxCore METROPOLIS's error at
+# 30 s.
+#
+#   bench/peers/run_peers.sh [OUTDIR]     (default docs/accuracy)
+#
+# Environment: PEER_BUDGETS (2,4,8,15,30), BIDIR_BUDGETS (4,15,30),
+# THREADS (2), VERSUS_AT (30; empty: no comparison), SCENES ("veach-bidir:128:128 veach-ajar:160:90").
+# Creates bench/peers/.venv (pyluxcore, mitsuba, numpy from PyPI) on first
+# use. Each render runs in a process of its own: pyluxcore and mitsuba crash
+# when imported into one process.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
+cd "$ROOT"
+OUT=${1:-docs/accuracy}
+PEER_BUDGETS=${PEER_BUDGETS:-2,4,8,15,30}
+BIDIR_BUDGETS=${BIDIR_BUDGETS:-4,15,30}
+THREADS=${THREADS:-2}
+VERSUS_AT=${VERSUS_AT-30}
+SCENES=${SCENES:-"veach-bidir:128:128 veach-ajar:160:90"}
+VENV=bench/peers/.venv
+PY=$VENV/bin/python
+WORK=bench/peers/work
+if [ ! -x "$PY" ]; then
+  python3 -m venv "$VENV"
+  "$VENV/bin/pip" install -q pyluxcore==2.11.2 mitsuba==3.9.1 numpy
+fi
+cargo build --release -q -p cmlt-cli
+BIN=target/release/cmlt
+mkdir -p "$WORK" "$OUT"
+
+# score SCENE METHOD BUDGET IMAGE "RESULT wall spp" CSV
+score() {
+  local scene=$1 method=$2 budget=$3 img=$4 result=$5 csv=$6
+  read -r _ wall spp <<<"$result"
+  "$BIN" bench score "$img" --reference "tests/scenes/$scene/reference.exr" --method "$method" \
+    --budget-s "$budget" --wall-s "$wall" --samples "$spp" --csv "$csv"
+}
+
+for spec in $SCENES; do
+  IFS=: read -r scene w h <<<"$spec"
+  xml=tests/scenes/$scene/scene.xml
+  csv=$OUT/$scene.csv
+  lux=$WORK/$scene-${w}x$h
+  "$PY" bench/peers/peers.py convert "$xml" "$lux" --resx "$w" --resy "$h"
+  for b in ${PEER_BUDGETS//,/ }; do
+    img=$WORK/$scene-mitsuba-$b.exr
+    r=$("$PY" bench/peers/peers.py mitsuba "$xml" "$img" --resx "$w" --resy "$h" --time "$b" --threads "$THREADS" | grep RESULT)
+    score "$scene" mitsuba-path "$b" "$img" "$r" "$csv"
+    img=$WORK/$scene-luxcore-metropolis-$b.exr
+    r=$("$PY" bench/peers/peers.py luxcore "$lux/scene.scn" "$img" --resx "$w" --resy "$h" --time "$b" \
+        --threads "$THREADS" --engine PATHCPU --sampler METROPOLIS 2>/dev/null | grep RESULT)
+    score "$scene" luxcore-metropolis-path "$b" "$img" "$r" "$csv"
+  done
+  for b in ${BIDIR_BUDGETS//,/ }; do
+    img=$WORK/$scene-luxcore-bidir-$b.exr
+    r=$("$PY" bench/peers/peers.py luxcore "$lux/scene.scn" "$img" --resx "$w" --resy "$h" --time "$b" \
+        --threads "$THREADS" --engine BIDIRCPU --sampler METROPOLIS 2>/dev/null | grep RESULT)
+    score "$scene" luxcore-bidir "$b" "$img" "$r" "$csv"
+  done
+  versus=()
+  if [ -n "$VERSUS_AT" ]; then versus=(--versus luxcore-metropolis-path --at "$VERSUS_AT"); fi
+  "$BIN" bench plot --csv "$csv" --plot "$OUT/$scene" --title "$scene (${w}x$h, $THREADS threads)" \
+    --reference "tests/scenes/$scene/reference.exr" "${versus[@]}" | tee "$OUT/$scene-summary.txt"
+done

@@ -1,0 +1,451 @@
+//! `cmlt bench convergence`: error against a reference versus time, per
+//! method — what accuracy costs.
+//!
+//! Every method renders the scene at every budget (seconds of wall-clock
+//! time, or samples per pixel for deterministic runs) from several seeds;
+//! each render is one CSV row ([`CSV_HEADER`]). Curves average the seeds
+//! of each (method, budget): mean wall time against mean relMSE. Peer
+//! renderers (`bench/peers/`) append rows of the same shape with
+//! `cmlt bench score`, and `cmlt bench plot` redraws the curves from the
+//! CSV.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use super::study::{Estimator, Measurement, Study, StudyBudget};
+
+/// The CSV header of [`write_csv`]. `budget_s` is empty for sample-count
+/// budgets; `samples` is samples per pixel (PT, BDPT, peers) or mutations
+/// per pixel (MLT, CMLT).
+pub const CSV_HEADER: &str =
+    "method,budget_s,wall_s,seed,samples,rel_mse,rmse,mean_r,mean_g,mean_b,mrays_per_s";
+
+/// Settings of one convergence study.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Scene file (Mitsuba 3 XML) or built-in name.
+    pub scene: String,
+    /// Reference OpenEXR (full size or an integer multiple of the render).
+    pub reference: PathBuf,
+    /// `-D` overrides of the scene's defaults (e.g. `resx`, `resy`).
+    pub defines: Vec<(String, String)>,
+    /// Method names (`pt`, `bdpt`, `mlt`, `cmlt`).
+    pub methods: Vec<String>,
+    /// Budgets, ascending: seconds, or samples per pixel with `samples`.
+    pub budgets: Vec<f64>,
+    /// Budgets are samples (PT, BDPT) or mutations (MLT, CMLT) per pixel
+    /// rather than seconds.
+    pub samples: bool,
+    /// Worker threads.
+    pub threads: usize,
+    /// Seeds 0..seeds for budgets up to `seeds_up_to`.
+    pub seeds: u64,
+    /// Larger budgets render seed 0 only (a long render's own error is
+    /// already an average over many samples; extra seeds would cost the
+    /// most where they help the least).
+    pub seeds_up_to: f64,
+}
+
+/// One render: a CSV row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Method name (`pt`, …, or a peer's, e.g. `mitsuba-path`).
+    pub method: String,
+    /// The time budget in seconds; `None` for a sample-count budget.
+    pub budget_s: Option<f64>,
+    /// Seed of the render.
+    pub seed: u64,
+    /// What the render measured.
+    pub m: Measurement,
+}
+
+impl Row {
+    /// The budget the row belongs to: seconds, or else samples per pixel.
+    pub fn budget(&self) -> f64 {
+        self.budget_s.unwrap_or(self.m.samples)
+    }
+
+    fn to_csv(&self) -> String {
+        let m = &self.m;
+        format!(
+            "{},{},{:.4},{},{},{:.6e},{:.6e},{:.6},{:.6},{:.6},{:.3}",
+            self.method,
+            self.budget_s.map_or(String::new(), |b| b.to_string()),
+            m.wall_s,
+            self.seed,
+            // Mutations per pixel are fractional; three decimals suffice.
+            (m.samples * 1e3).round() / 1e3,
+            m.rel_mse,
+            m.rmse,
+            m.mean[0],
+            m.mean[1],
+            m.mean[2],
+            m.mrays_per_s
+        )
+    }
+
+    fn from_csv(line: &str) -> Result<Row, String> {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        if f.len() != 11 {
+            return Err(format!("expected 11 fields, got {}: '{line}'", f.len()));
+        }
+        let num = |i: usize| -> Result<f64, String> {
+            f[i].parse::<f64>()
+                .map_err(|e| format!("field {} '{}': {e}", i + 1, f[i]))
+        };
+        Ok(Row {
+            method: f[0].to_string(),
+            budget_s: if f[1].is_empty() { None } else { Some(num(1)?) },
+            seed: f[3].parse().map_err(|e| format!("seed '{}': {e}", f[3]))?,
+            m: Measurement {
+                wall_s: num(2)?,
+                samples: num(4)?,
+                rel_mse: num(5)?,
+                rmse: num(6)?,
+                mean: [num(7)?, num(8)?, num(9)?],
+                mrays_per_s: num(10)?,
+            },
+        })
+    }
+}
+
+/// Writes `rows` with [`CSV_HEADER`], replacing `path`.
+pub fn write_csv(path: &Path, rows: &[Row]) -> Result<(), String> {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for r in rows {
+        s.push_str(&r.to_csv());
+        s.push('\n');
+    }
+    std::fs::write(path, s).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Appends `row` to `path`, writing the header first if the file is new.
+pub fn append_csv(path: &Path, row: &Row) -> Result<(), String> {
+    let fresh = !path.exists();
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut s = String::new();
+    if fresh {
+        s.push_str(CSV_HEADER);
+        s.push('\n');
+    }
+    s.push_str(&row.to_csv());
+    s.push('\n');
+    f.write_all(s.as_bytes())
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads a CSV written by [`write_csv`] / [`append_csv`].
+pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    if lines.next().map(str::trim) != Some(CSV_HEADER) {
+        return Err(format!(
+            "{}: the first line is not '{CSV_HEADER}'",
+            path.display()
+        ));
+    }
+    lines
+        .filter(|l| !l.trim().is_empty())
+        .enumerate()
+        .map(|(i, l)| Row::from_csv(l).map_err(|e| format!("{}:{}: {e}", path.display(), i + 2)))
+        .collect()
+}
+
+/// One point of a curve: the mean over the seeds of one (method, budget).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point {
+    /// The budget (seconds, or samples per pixel).
+    pub budget: f64,
+    /// Mean wall-clock seconds.
+    pub wall_s: f64,
+    /// Mean relative MSE.
+    pub rel_mse: f64,
+    /// Mean of the image's channel means (bias shows here).
+    pub mean: [f64; 3],
+    /// Seeds averaged.
+    pub seeds: usize,
+}
+
+/// A method's error-versus-time curve, points in ascending budget.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Curve {
+    /// Method name.
+    pub method: String,
+    /// Points by ascending budget.
+    pub points: Vec<Point>,
+}
+
+impl Curve {
+    /// The wall time at which the curve reaches `rel_mse`, interpolated
+    /// linearly in log time and log error between the two points that
+    /// bracket it (the curves are close to straight lines in log–log);
+    /// `None` if the curve never gets that low. The first point that is
+    /// already below counts as reached at its own time.
+    pub fn time_to_reach(&self, rel_mse: f64) -> Option<f64> {
+        let mut prev: Option<&Point> = None;
+        for p in &self.points {
+            if p.rel_mse <= rel_mse {
+                return Some(match prev {
+                    None => p.wall_s,
+                    Some(q) => {
+                        let t = (rel_mse.ln() - q.rel_mse.ln()) / (p.rel_mse.ln() - q.rel_mse.ln());
+                        (q.wall_s.ln() + t * (p.wall_s.ln() - q.wall_s.ln())).exp()
+                    }
+                });
+            }
+            prev = Some(p);
+        }
+        None
+    }
+
+    /// The curve's relMSE at wall time `t`, interpolated in log–log
+    /// between the bracketing points (`None` outside the measured range).
+    pub fn rel_mse_at(&self, t: f64) -> Option<f64> {
+        self.points.windows(2).find_map(|w| {
+            let (q, p) = (&w[0], &w[1]);
+            (q.wall_s <= t && t <= p.wall_s).then(|| {
+                let s = (t.ln() - q.wall_s.ln()) / (p.wall_s.ln() - q.wall_s.ln()).max(1e-12);
+                (q.rel_mse.ln() + s * (p.rel_mse.ln() - q.rel_mse.ln())).exp()
+            })
+        })
+    }
+}
+
+/// Groups rows into one curve per method (in first-appearance order),
+/// averaging the seeds of each budget.
+pub fn curves(rows: &[Row]) -> Vec<Curve> {
+    let mut out: Vec<Curve> = Vec::new();
+    for r in rows {
+        let i = match out.iter().position(|c| c.method == r.method) {
+            Some(i) => i,
+            None => {
+                out.push(Curve {
+                    method: r.method.clone(),
+                    points: Vec::new(),
+                });
+                out.len() - 1
+            }
+        };
+        let budget = r.budget();
+        let points = &mut out[i].points;
+        // Running sums first; divided by the seed count below.
+        match points.iter_mut().find(|p| p.budget == budget) {
+            Some(p) => {
+                p.wall_s += r.m.wall_s;
+                p.rel_mse += r.m.rel_mse;
+                for c in 0..3 {
+                    p.mean[c] += r.m.mean[c];
+                }
+                p.seeds += 1;
+            }
+            None => points.push(Point {
+                budget,
+                wall_s: r.m.wall_s,
+                rel_mse: r.m.rel_mse,
+                mean: r.m.mean,
+                seeds: 1,
+            }),
+        }
+    }
+    for c in &mut out {
+        for p in &mut c.points {
+            let n = p.seeds as f64;
+            p.wall_s /= n;
+            p.rel_mse /= n;
+            for m in &mut p.mean {
+                *m /= n;
+            }
+        }
+        c.points.sort_by(|a, b| a.budget.total_cmp(&b.budget));
+    }
+    out
+}
+
+/// Runs the study, printing one line per render to `out`; returns the rows
+/// in order (method, budget, seed).
+pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
+    let estimators = opts
+        .methods
+        .iter()
+        .map(|m| Estimator::from_name(m).map(|e| (m.clone(), e)))
+        .collect::<Result<Vec<_>, _>>()?;
+    if opts.budgets.iter().any(|b| !(b.is_finite() && *b > 0.0)) {
+        return Err("budgets must be positive numbers".to_string());
+    }
+    let study = Study::load(&opts.scene, &opts.defines, &opts.reference)?;
+    let (w, h) = study.resolution();
+    let io = |e: std::io::Error| e.to_string();
+    writeln!(
+        out,
+        "{} at {w}x{h} on {} threads; budgets {:?} {}",
+        opts.scene,
+        opts.threads,
+        opts.budgets,
+        if opts.samples { "samples/pixel" } else { "s" }
+    )
+    .map_err(io)?;
+    let mut rows = Vec::new();
+    for (name, estimator) in &estimators {
+        for &b in &opts.budgets {
+            let (budget, budget_s) = if opts.samples {
+                (StudyBudget::Samples(b.round().max(1.0) as u64), None)
+            } else {
+                (StudyBudget::Seconds(b), Some(b))
+            };
+            let seeds = if b <= opts.seeds_up_to {
+                opts.seeds.max(1)
+            } else {
+                1
+            };
+            for seed in 0..seeds {
+                let m = study.measure(estimator, budget, opts.threads, seed);
+                writeln!(
+                    out,
+                    "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5}, mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s",
+                    m.wall_s, m.samples, m.rel_mse, m.mean[0], m.mean[1], m.mean[2], m.mrays_per_s
+                )
+                .map_err(io)?;
+                rows.push(Row {
+                    method: name.clone(),
+                    budget_s,
+                    seed,
+                    m,
+                });
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// Prints the curves as a table (mean relMSE and wall time per budget,
+/// and each method's mean ratio to the reference's mean), and, with
+/// `versus = Some((method, t))`, how long every other method takes to reach
+/// the relMSE `method` reaches at `t` seconds, and that time's ratio to `t`.
+pub fn summarize(
+    curves: &[Curve],
+    reference_mean: Option<[f64; 3]>,
+    versus: Option<(&str, f64)>,
+    out: &mut dyn Write,
+) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    for c in curves {
+        write!(out, "{:<26}", c.method).map_err(io)?;
+        for p in &c.points {
+            write!(out, " {:>7.2}s:{:.5}", p.wall_s, p.rel_mse).map_err(io)?;
+        }
+        if let (Some(r), Some(last)) = (reference_mean, c.points.last()) {
+            write!(
+                out,
+                "  (mean/ref {:.3} {:.3} {:.3} at the largest budget)",
+                last.mean[0] / r[0],
+                last.mean[1] / r[1],
+                last.mean[2] / r[2]
+            )
+            .map_err(io)?;
+        }
+        writeln!(out).map_err(io)?;
+    }
+    if let Some((base, t)) = versus {
+        let Some(b) = curves.iter().find(|c| c.method == base) else {
+            return Err(format!("--versus: no method '{base}' in the data"));
+        };
+        let Some(target) = b.rel_mse_at(t) else {
+            return Err(format!(
+                "--versus: {base}'s curve does not span {t} s (wall times {:?})",
+                b.points.iter().map(|p| p.wall_s).collect::<Vec<_>>()
+            ));
+        };
+        writeln!(out, "relMSE of {base} at {t} s: {target:.5}").map_err(io)?;
+        for c in curves.iter().filter(|c| c.method != base) {
+            match c.time_to_reach(target) {
+                Some(s) => writeln!(
+                    out,
+                    "  {:<26} reaches it in {s:>7.2} s = {:.2} × {t} s",
+                    c.method,
+                    s / t
+                ),
+                None => writeln!(
+                    out,
+                    "  {:<26} does not reach it within its largest budget",
+                    c.method
+                ),
+            }
+            .map_err(io)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(method: &str, budget: f64, seed: u64, wall_s: f64, rel_mse: f64) -> Row {
+        Row {
+            method: method.to_string(),
+            budget_s: Some(budget),
+            seed,
+            m: Measurement {
+                wall_s,
+                samples: 1.0,
+                rel_mse,
+                rmse: 0.1,
+                mean: [0.5; 3],
+                mrays_per_s: 1.0,
+            },
+        }
+    }
+
+    #[test]
+    fn curves_average_seeds_and_sort_budgets() {
+        let rows = [
+            row("a", 2.0, 0, 2.0, 0.5),
+            row("a", 1.0, 0, 1.0, 1.0),
+            row("a", 1.0, 1, 3.0, 3.0),
+            row("b", 1.0, 0, 1.0, 0.1),
+        ];
+        let c = curves(&rows);
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0].method, "a");
+        assert_eq!(c[0].points.len(), 2);
+        let p = c[0].points[0];
+        assert_eq!((p.budget, p.wall_s, p.rel_mse, p.seeds), (1.0, 2.0, 2.0, 2));
+        assert_eq!(c[0].points[1].budget, 2.0);
+    }
+
+    #[test]
+    fn time_to_reach_interpolates_in_log_log() {
+        // relMSE = 1/t: a straight line of slope −1 in log–log.
+        let rows: Vec<Row> = [1.0, 4.0, 16.0]
+            .iter()
+            .map(|&t| row("pt", t, 0, t, 1.0 / t))
+            .collect();
+        let c = &curves(&rows)[0];
+        let t = c.time_to_reach(0.125).unwrap();
+        assert!((t - 8.0).abs() < 1e-9, "{t}");
+        assert_eq!(c.time_to_reach(2.0), Some(1.0));
+        assert_eq!(c.time_to_reach(0.01), None);
+        let e = c.rel_mse_at(2.0).unwrap();
+        assert!((e - 0.5).abs() < 1e-9, "{e}");
+        assert_eq!(c.rel_mse_at(32.0), None);
+    }
+
+    #[test]
+    fn csv_rows_round_trip() {
+        let mut r = row("luxcore-metropolis-path", 8.0, 3, 8.25, 0.0123);
+        r.m.samples = 123.5;
+        let back = Row::from_csv(&r.to_csv()).unwrap();
+        assert_eq!(back.method, r.method);
+        assert_eq!(back.budget_s, Some(8.0));
+        assert_eq!(back.seed, 3);
+        assert_eq!(back.m.samples, 123.5);
+        assert!((back.m.rel_mse - 0.0123).abs() < 1e-9);
+        r.budget_s = None;
+        assert_eq!(Row::from_csv(&r.to_csv()).unwrap().budget_s, None);
+    }
+}
