@@ -146,12 +146,16 @@ unsafe impl GlobalAlloc for HostAllocator {
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         let h = header(layout);
-        // The allocation's base, with the provenance `alloc` exposed: `ptr`
-        // itself may only be valid for the block.
-        let base = std::ptr::with_exposed_provenance_mut::<u8>(ptr.addr() - h);
+        // The header and the base are reached through `ptr` itself: freeing
+        // through any other pointer would be a foreign write to memory the
+        // caller's (protected) reference still covers. This is sound under
+        // the Tree Borrows model, which Miri checks this crate with
+        // (`-Zmiri-tree-borrows`); Stacked Borrows narrows `ptr` to the
+        // block and rejects every header-prefix allocator.
+        let base = ptr.wrapping_sub(h);
         // SAFETY: `ptr` came from `alloc` with this layout (GlobalAlloc's
         // contract), so the base and the slot word are where `alloc` put
-        // them, and `alloc` exposed the base's provenance.
+        // them, inside the same allocation.
         unsafe {
             let slot = base
                 .add(h - std::mem::size_of::<usize>())
