@@ -189,6 +189,11 @@ typedef struct cmlt_camera {
   float focus_distance;
 } cmlt_camera;
 
+// Host clock for `cmlt_renderer_render_while`: return non-zero to let
+// the worker render another step, 0 to stop. `done` is the number of units
+// rendered so far in this call.
+typedef uint32_t (*cmlt_keep_going_fn)(void *user, uint64_t done);
+
 // Counters of the current accumulation (since the last camera change).
 typedef struct cmlt_stats {
   // Camera samples (PT, BDPT).
@@ -475,6 +480,23 @@ enum cmlt_status cmlt_renderer_render(const struct cmlt_renderer *renderer,
                                       uint32_t worker,
                                       uint64_t budget,
                                       uint64_t *out_done);
+
+// `cmlt_renderer_render` in steps (one round of mutations, or one pass),
+// calling `keep_going(user, done)` before every step after the first and
+// stopping when it returns 0 or `budget` units are done: a frame bounded
+// by the host's own clock (the library never reads time). `*out_done`
+// (may be NULL) receives the units rendered. Same thread rules as
+// `cmlt_renderer_render`; the callback must not call into cmlt.
+//
+// # Safety
+// `renderer` is NULL or valid; `keep_going` is callable with `user`;
+// `out_done` is NULL or valid.
+enum cmlt_status cmlt_renderer_render_while(const struct cmlt_renderer *renderer,
+                                            uint32_t worker,
+                                            uint64_t budget,
+                                            cmlt_keep_going_fn keep_going,
+                                            void *user,
+                                            uint64_t *out_done);
 
 // Writes the image of all workers (merged in worker order) into `pixels`:
 // `height` rows of `width` pixels of `format`, row 0 at the top, rows

@@ -725,6 +725,38 @@ fn renderer_inputs_and_call_order_are_checked() {
         assert_eq!(stats.nonfinite, 0);
         assert!(stats.lens_steps + stats.caustic_steps > 0 || stats.mutations > 0);
 
+        // A host clock that allows two steps of one round each.
+        unsafe extern "C" fn two_steps(user: *mut c_void, _done: u64) -> u32 {
+            // SAFETY: `user` is the counter below.
+            let n = unsafe { &mut *user.cast::<u32>() };
+            *n += 1;
+            (*n < 2) as u32
+        }
+        let mut asked = 0u32;
+        let mut done = 0u64;
+        expect(
+            cmlt_renderer_render_while(
+                r,
+                1,
+                u64::MAX,
+                Some(two_steps),
+                (&mut asked as *mut u32).cast(),
+                &mut done,
+            ),
+            CMLT_OK,
+            "render_while",
+        );
+        assert_eq!(
+            (asked, done),
+            (2, 2 * 16),
+            "two rounds of the worker's 16 chains"
+        );
+        expect(
+            cmlt_renderer_render_while(r, 1, 10, None, null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_renderer_render_while",
+        );
+
         // Effects: a diffuse floor under an area light, through a pinhole.
         let (mut fx, mut chains) = (0u32, 9u32);
         expect(

@@ -6,6 +6,7 @@
 //! Everything is allocated by `cmlt_renderer_new`; the frame calls allocate
 //! nothing.
 
+use std::ffi::c_void;
 use std::sync::{Arc, Mutex, RwLock};
 
 use cmlt_core::math::Rgb;
@@ -451,6 +452,65 @@ pub unsafe extern "C" fn cmlt_renderer_render(
             ))
         })?;
         let done = render_worker(&r.scene, &inner, &mut w, budget).map_err(render_error)?;
+        if !out_done.is_null() {
+            // SAFETY: the caller's contract.
+            unsafe { *out_done = done };
+        }
+        Ok(())
+    })
+}
+
+/// Host clock for `cmlt_renderer_render_while`: return non-zero to let
+/// the worker render another step, 0 to stop. `done` is the number of units
+/// rendered so far in this call.
+#[allow(non_camel_case_types)]
+pub type cmlt_keep_going_fn = Option<unsafe extern "C" fn(user: *mut c_void, done: u64) -> u32>;
+
+/// `cmlt_renderer_render` in steps (one round of mutations, or one pass),
+/// calling `keep_going(user, done)` before every step after the first and
+/// stopping when it returns 0 or `budget` units are done: a frame bounded
+/// by the host's own clock (the library never reads time). `*out_done`
+/// (may be NULL) receives the units rendered. Same thread rules as
+/// `cmlt_renderer_render`; the callback must not call into cmlt.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `keep_going` is callable with `user`;
+/// `out_done` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_render_while(
+    renderer: *const cmlt_renderer,
+    worker: u32,
+    budget: u64,
+    keep_going: cmlt_keep_going_fn,
+    user: *mut c_void,
+    out_done: *mut u64,
+) -> cmlt_status {
+    guard("cmlt_renderer_render_while", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let keep_going = keep_going.ok_or_else(|| Error::null("keep_going"))?;
+        let slot = r.workers.get(worker as usize).ok_or_else(|| {
+            Error::invalid(format!(
+                "worker {worker} ≥ the renderer's {} workers",
+                r.workers.len()
+            ))
+        })?;
+        let inner = r
+            .renderer
+            .try_read()
+            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
+        let mut w = slot.try_lock().map_err(|_| {
+            Error::busy(format!(
+                "worker {worker} is being rendered by another thread"
+            ))
+        })?;
+        // SAFETY: the caller's contract on the callback.
+        let ask = |done: u64| unsafe { keep_going(user, done) } != 0;
+        let done = match &r.scene.accel {
+            Accel::Built(b) => inner.render_while(&mut w, &r.scene.scene, b, budget, ask),
+            Accel::Host(h) => inner.render_while(&mut w, &r.scene.scene, h, budget, ask),
+        }
+        .map_err(render_error)?;
         if !out_done.is_null() {
             // SAFETY: the caller's contract.
             unsafe { *out_done = done };

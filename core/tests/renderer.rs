@@ -497,3 +497,36 @@ fn temporal_switches_keep_moving_frames_right_and_steady_frames_steady() {
     eprintln!("frame-mean spread: own b {s_own:.4}, windowed b {s_win:.4}");
     assert!(s_win < s_own, "windowed {s_win} vs own {s_own}");
 }
+
+#[test]
+fn render_while_stops_when_the_host_clock_says_so() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
+        let cfg = config(estimator, mlt_settings(2, 1), 1);
+        let step = if estimator == Estimator::Mlt {
+            24
+        } else {
+            16 * 12
+        };
+        // A "clock" that allows three steps.
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        r.prepare(&scene, &bvh);
+        let mut asked = 0;
+        let done = r
+            .render_while(&mut w, &scene, &bvh, 100 * step, |_| {
+                asked += 1;
+                asked < 3
+            })
+            .unwrap();
+        assert_eq!(done, 3 * step, "{estimator:?}");
+        let timed = resolve(&r, &[&w]);
+        // The same as rendering those units at once.
+        let mut r2 = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w2 = RenderWorker::new(&r2, 0).unwrap();
+        r2.prepare(&scene, &bvh);
+        r2.render(&mut w2, &scene, &bvh, 3 * step).unwrap();
+        assert_eq!(timed, resolve(&r2, &[&w2]), "{estimator:?}");
+    }
+}

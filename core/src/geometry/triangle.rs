@@ -301,7 +301,10 @@ fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3])
     // product; 2⁻²² more for the denominator's f32 shear.
     let g = 12.0 * f64::EPSILON;
     let (num, num_err) = (dot(q, n), g * dot(abs3(q), n_abs));
-    let (den, den_err) = (dot(d, n), (g + 2f64.powi(-22)) * dot(abs3(d), n_abs));
+    let (den, den_err) = (
+        dot(d, n),
+        (g + 1.0 / 4_194_304.0/* 2⁻²² */) * dot(abs3(d), n_abs),
+    );
     if !(num.abs() > num_err && den.abs() > den_err) {
         return false;
     }

@@ -440,6 +440,37 @@ impl Renderer {
         Ok(done)
     }
 
+    /// [`Renderer::render`] in steps — one round of mutations (MLT) or one
+    /// pass (PT, BDPT) — asking `keep_going(units_so_far)` before every
+    /// step after the first, up to `budget` units: how a host bounds a
+    /// frame by its own clock (the core never reads time, so it stays
+    /// `no_std`). The image then depends on how many steps the clock
+    /// allowed; with a callback that always says yes it equals
+    /// `render(budget)`. Returns the units rendered.
+    pub fn render_while<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &Scene,
+        accel: &I,
+        budget: u64,
+        mut keep_going: impl FnMut(u64) -> bool,
+    ) -> Result<u64, RenderError> {
+        // A step of 1 unit renders exactly one round or one pass (budgets
+        // round up to whole steps).
+        let mut done = 0;
+        while done < budget {
+            if done > 0 && !keep_going(done) {
+                break;
+            }
+            let step = self.render(worker, scene, accel, 1)?;
+            if step == 0 {
+                break;
+            }
+            done += step;
+        }
+        Ok(done)
+    }
+
     /// Merges `workers`' films (in the given order) into the image and
     /// hands each pixel to `out(index, colour)`, row-major, row 0 at the
     /// top. Workers that have not rendered since the last camera change
