@@ -450,8 +450,11 @@ enum cmlt_status cmlt_renderer_new(const struct cmlt_scene *scene,
 // `renderer` is NULL or a handle not released before and not in use.
 void cmlt_renderer_release(struct cmlt_renderer *renderer);
 
-// Moves the camera: the accumulation restarts (call `cmlt_renderer_prepare`
-// before rendering again). `CMLT_ERROR_BUSY` while a worker renders.
+// Starts the next frame through `camera` (the same camera again is a new
+// frame too; skip the call to keep accumulating): the accumulation
+// restarts, and what carries over is set by the config's `keep_chains`,
+// `b_window` and `fixed_sequence`. Call `cmlt_renderer_prepare` before
+// rendering again. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` and `camera` are NULL or valid.

@@ -953,8 +953,8 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
         };
         let (r, n, created) = counted(|| renderer(s, &c));
         assert!(n > 0, "creation went around the hooks");
-        // The query measures the renderer's storage; the handle's own box
-        // and the two lock-protected vectors are the same in both.
+        // The query builds the same handle (renderer, workers, accumulator)
+        // and measures it: byte for byte what creation takes.
         assert_eq!(
             created, bytes,
             "estimator {estimator}: query {bytes} B, creation {created} B"
