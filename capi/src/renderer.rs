@@ -377,26 +377,31 @@ pub unsafe extern "C" fn cmlt_renderer_set_camera(
     })
 }
 
-/// `Renderer::prepare` through the scene's backend (the core is generic
-/// over the intersector; the two kinds of backend meet here).
-fn prepare_frame(c: &Committed, r: &mut Renderer) {
-    match &c.accel {
-        Accel::Built(b) => r.prepare(&c.scene, b),
-        Accel::Host(h) => r.prepare(&c.scene, h),
-    }
-}
-
-/// `Renderer::render` through the scene's backend.
-fn render_worker(
-    c: &Committed,
-    r: &Renderer,
-    w: &mut RenderWorker,
-    budget: u64,
-) -> std::result::Result<u64, RenderError> {
-    match &c.accel {
-        Accel::Built(b) => r.render(w, &c.scene, b, budget),
-        Accel::Host(h) => r.render(w, &c.scene, h, budget),
-    }
+/// Runs `f` on worker `worker` with the renderer read-locked and the worker
+/// locked: the thread rules of `cmlt_renderer_render` (an index out of
+/// range is `INVALID_ARGUMENT`, a renderer being prepared or a worker being
+/// rendered is `BUSY`).
+fn with_worker(
+    r: &cmlt_renderer,
+    worker: u32,
+    f: impl FnOnce(&Renderer, &mut RenderWorker) -> std::result::Result<u64, RenderError>,
+) -> Result<u64> {
+    let slot = r.workers.get(worker as usize).ok_or_else(|| {
+        Error::invalid(format!(
+            "worker {worker} ≥ the renderer's {} workers",
+            r.workers.len()
+        ))
+    })?;
+    let inner = r
+        .renderer
+        .try_read()
+        .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
+    let mut w = slot.try_lock().map_err(|_| {
+        Error::busy(format!(
+            "worker {worker} is being rendered by another thread"
+        ))
+    })?;
+    f(&inner, &mut w).map_err(render_error)
 }
 
 /// Readies the renderer for this frame's `cmlt_renderer_render` calls:
@@ -415,7 +420,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
             .renderer
             .try_write()
             .map_err(|_| Error::busy("workers are rendering"))?;
-        prepare_frame(&r.scene, &mut inner);
+        inner.prepare(&r.scene.scene, &r.scene.accel);
         Ok(())
     })
 }
@@ -439,22 +444,10 @@ pub unsafe extern "C" fn cmlt_renderer_render(
     guard("cmlt_renderer_render", || {
         // SAFETY: the caller's contract.
         let r = unsafe { read(renderer, "renderer") }?;
-        let slot = r.workers.get(worker as usize).ok_or_else(|| {
-            Error::invalid(format!(
-                "worker {worker} ≥ the renderer's {} workers",
-                r.workers.len()
-            ))
+        let c = &r.scene;
+        let done = with_worker(r, worker, |inner, w| {
+            inner.render(w, &c.scene, &c.accel, budget)
         })?;
-        let inner = r
-            .renderer
-            .try_read()
-            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
-        let mut w = slot.try_lock().map_err(|_| {
-            Error::busy(format!(
-                "worker {worker} is being rendered by another thread"
-            ))
-        })?;
-        let done = render_worker(&r.scene, &inner, &mut w, budget).map_err(render_error)?;
         if !out_done.is_null() {
             // SAFETY: the caller's contract.
             unsafe { *out_done = done };
@@ -492,28 +485,12 @@ pub unsafe extern "C" fn cmlt_renderer_render_while(
         // SAFETY: the caller's contract.
         let r = unsafe { read(renderer, "renderer") }?;
         let keep_going = keep_going.ok_or_else(|| Error::null("keep_going"))?;
-        let slot = r.workers.get(worker as usize).ok_or_else(|| {
-            Error::invalid(format!(
-                "worker {worker} ≥ the renderer's {} workers",
-                r.workers.len()
-            ))
-        })?;
-        let inner = r
-            .renderer
-            .try_read()
-            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
-        let mut w = slot.try_lock().map_err(|_| {
-            Error::busy(format!(
-                "worker {worker} is being rendered by another thread"
-            ))
-        })?;
         // SAFETY: the caller's contract on the callback.
         let ask = |done: u64| unsafe { keep_going(user, done) } != 0;
-        let done = match &r.scene.accel {
-            Accel::Built(b) => inner.render_while(&mut w, &r.scene.scene, b, budget, ask),
-            Accel::Host(h) => inner.render_while(&mut w, &r.scene.scene, h, budget, ask),
-        }
-        .map_err(render_error)?;
+        let c = &r.scene;
+        let done = with_worker(r, worker, |inner, w| {
+            inner.render_while(w, &c.scene, &c.accel, budget, ask)
+        })?;
         if !out_done.is_null() {
             // SAFETY: the caller's contract.
             unsafe { *out_done = done };

@@ -7,6 +7,8 @@ use std::ffi::{CStr, c_char};
 use std::sync::{Arc, Mutex};
 
 use cmlt_cli::accel::AccelKind;
+use cmlt_core::accel::Intersector;
+use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use cmlt_core::integrator::Settings;
 use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
@@ -160,6 +162,41 @@ impl cmlt_camera {
 pub(crate) enum Accel {
     Built(cmlt_cli::accel::Accel),
     Host(HostIntersector),
+}
+
+/// Calls `$body` with `$i` bound to the backend inside `$accel`.
+macro_rules! dispatch {
+    ($accel:expr, $i:ident => $body:expr) => {
+        match $accel {
+            Accel::Built($i) => $body,
+            Accel::Host($i) => $body,
+        }
+    };
+}
+
+/// One intersector over either kind of backend, so the renderer calls stay
+/// generic; the branch per query is negligible next to a traversal.
+impl Intersector for Accel {
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        dispatch!(self, i => i.intersect(ray))
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        dispatch!(self, i => i.occluded(ray))
+    }
+
+    fn intersect_packet<const N: usize>(
+        &self,
+        rays: &RayPacket<N>,
+        active: LaneMask,
+        hits: &mut HitPacket<N>,
+    ) {
+        dispatch!(self, i => i.intersect_packet(rays, active, hits))
+    }
+
+    fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
+        dispatch!(self, i => i.occluded_packet(rays, active))
+    }
 }
 
 /// A committed scene: immutable, shared by renderers.
