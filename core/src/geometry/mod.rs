@@ -51,12 +51,16 @@ impl Ray {
 /// `prim` is the scene-global triangle index (meshes are numbered in the
 /// order they were added, triangles consecutively within each mesh); every
 /// backend — our BVH, Embree, host callbacks — reports this numbering.
-/// `(b1, b2)` are the barycentric weights of vertices 1 and 2.
+/// `(b1, b2)` are the barycentric weights of vertices 1 and 2. A host
+/// intersector hitting one of its own analytic shapes reports
+/// `prim = SHAPE_PRIM_BIT | shape` and its surface parameters in
+/// `(b1, b2)` instead (`scene::shapes`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     /// Ray parameter of the hit, in `(0, t_max)`.
     pub t: f32,
-    /// Scene-global triangle index.
+    /// Scene-global triangle index (or host shape index with
+    /// `SHAPE_PRIM_BIT`).
     pub prim: u32,
     /// Barycentric weight of the triangle's second vertex.
     pub b1: f32,

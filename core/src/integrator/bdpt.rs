@@ -349,7 +349,7 @@ fn camera_vertex(p: Vec3, forward: Vec3) -> Vertex {
         ng: forward,
         ns: forward,
         uv: Vec2::ZERO,
-        mesh: u32::MAX,
+        surface: u32::MAX,
         prim: u32::MAX,
     };
     Vertex {
@@ -772,7 +772,7 @@ fn mis_weight(
         return 1.0;
     }
     let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(l, to);
-    let origin_pdf = |v: &Vertex| scene.lights.pdf_area(v.sp.mesh as usize);
+    let origin_pdf = |v: &Vertex| scene.lights.pdf_area(v.sp.surface as usize);
 
     // Work on copies of the at most six vertices the strategy changes, then
     // restore them, so the subpaths stay valid for the next strategy.

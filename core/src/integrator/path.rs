@@ -50,7 +50,7 @@ pub fn radiance<I: Intersector>(
             } else {
                 let d2 = (sp.p - ray.o).length_squared();
                 let cos_l = sp.ng.dot(wo_world).abs();
-                let pdf_light = t.scene.lights.pdf_area(sp.mesh as usize) * d2 / cos_l;
+                let pdf_light = t.scene.lights.pdf_area(sp.surface as usize) * d2 / cos_l;
                 power_heuristic(prev_pdf, pdf_light)
             };
             l += beta * le * w;

@@ -145,10 +145,11 @@ impl LightSet {
     }
 
     /// Density per unit area with which [`LightSet::sample`] picks a point
-    /// on mesh `mesh` (zero for non-emissive meshes).
+    /// on surface `surface` (a `SurfacePoint::surface`: zero for
+    /// non-emissive meshes and for host shapes, which never emit).
     #[inline]
-    pub fn pdf_area(&self, mesh: usize) -> f32 {
-        match self.mesh_light.get(mesh) {
+    pub fn pdf_area(&self, surface: usize) -> f32 {
+        match self.mesh_light.get(surface) {
             Some(&li) if li != u32::MAX => self.pmf[li as usize] / self.lights[li as usize].area,
             _ => 0.0,
         }

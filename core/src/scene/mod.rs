@@ -2,10 +2,12 @@
 //!
 //! A [`Scene`] is built through [`SceneBuilder`], which rejects non-finite or
 //! out-of-range host data with a [`SceneError`] before anything renders.
-//! Geometry is triangles only; spheres and other shapes are tessellated by
-//! the front end. Triangles are numbered scene-globally (meshes in insertion
-//! order, triangles consecutively), and every intersector reports that
-//! numbering.
+//! Geometry the core intersects is triangles; the scene loader tessellates
+//! spheres and other shapes. A host with its own ray tracer may add
+//! analytic [`shapes`] it intersects itself. Triangles are numbered
+//! scene-globally (meshes in insertion order, triangles consecutively),
+//! host shapes likewise with [`SHAPE_PRIM_BIT`] set, and every intersector
+//! reports that numbering.
 
 pub mod camera;
 pub mod effects;
@@ -15,7 +17,11 @@ pub mod material;
 pub mod texture;
 
 #[cfg(feature = "alloc")]
+pub mod shapes;
+#[cfg(feature = "alloc")]
 mod store;
+#[cfg(feature = "alloc")]
+pub use shapes::{SHAPE_PRIM_BIT, ShapeGroup, ShapePoint, ShapeSurface};
 #[cfg(feature = "alloc")]
 pub use store::*;
 

@@ -9,6 +9,7 @@ use super::camera::Camera;
 use super::effects::Analysis;
 use super::light::LightSet;
 use super::material::{Material, MaterialId};
+use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
 use super::texture::{Bitmap, BitmapId, Texture};
 use crate::geometry::{Hit, offset::barycentric_error};
 use crate::math::Rgb;
@@ -121,8 +122,15 @@ pub enum SceneError {
         /// Mesh index.
         mesh: usize,
     },
-    /// More triangles than a `u32` can number.
+    /// More triangles than scene-global numbering allows (2^31 − 1).
     TooManyTriangles,
+    /// A shape group names a material that was never added.
+    UnknownShapeMaterial {
+        /// Shape group index.
+        group: usize,
+    },
+    /// More host shapes than their numbering allows (2^31 − 1).
+    TooManyShapes,
     /// No camera was set.
     MissingCamera,
 }
@@ -163,7 +171,11 @@ impl fmt::Display for SceneError {
                     "mesh {mesh}: emitted radiance must be finite and non-negative"
                 )
             }
-            SceneError::TooManyTriangles => write!(f, "scene has more than 2^32 - 1 triangles"),
+            SceneError::TooManyTriangles => write!(f, "scene has more than 2^31 - 1 triangles"),
+            SceneError::UnknownShapeMaterial { group } => {
+                write!(f, "shape group {group}: material id does not exist")
+            }
+            SceneError::TooManyShapes => write!(f, "scene has more than 2^31 - 1 host shapes"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
         }
     }
@@ -179,6 +191,7 @@ pub struct SceneBuilder {
     meshes: Vec<Mesh>,
     materials: Vec<Material>,
     bitmaps: Vec<Bitmap>,
+    shapes: Vec<ShapeGroup>,
     camera: Option<Camera>,
 }
 
@@ -204,6 +217,15 @@ impl SceneBuilder {
     pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
         self.meshes.push(mesh);
         self.meshes.len() - 1
+    }
+
+    /// Adds a group of host shapes (see [`super::shapes`]); returns the
+    /// shape index of its first shape, the one the host's intersector
+    /// reports as `SHAPE_PRIM_BIT | index`. Validation happens in `build`.
+    pub fn add_shapes(&mut self, group: ShapeGroup) -> u32 {
+        let first = self.shapes.iter().map(|g| g.count).sum();
+        self.shapes.push(group);
+        first
     }
 
     /// Sets the camera.
@@ -243,8 +265,21 @@ impl SceneBuilder {
             m.validate(mi, self.materials.len())?;
             total += m.indices.len() as u64;
         }
-        if total >= u32::MAX as u64 {
+        // Triangle and shape indices share `Hit::prim`, split by its top bit.
+        if total >= SHAPE_PRIM_BIT as u64 {
             return Err(SceneError::TooManyTriangles);
+        }
+        let mut first_shape = Vec::with_capacity(self.shapes.len());
+        let mut shapes: u64 = 0;
+        for (gi, g) in self.shapes.iter().enumerate() {
+            if g.material.0 as usize >= self.materials.len() {
+                return Err(SceneError::UnknownShapeMaterial { group: gi });
+            }
+            first_shape.push(shapes as u32);
+            shapes += g.count as u64;
+        }
+        if shapes >= SHAPE_PRIM_BIT as u64 {
+            return Err(SceneError::TooManyShapes);
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
@@ -258,9 +293,11 @@ impl SceneBuilder {
             meshes: self.meshes,
             materials: self.materials,
             bitmaps: self.bitmaps,
+            shapes: self.shapes,
             camera,
             tri_mesh,
             first_tri,
+            first_shape,
             lights,
         })
     }
@@ -275,12 +312,16 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Bitmaps referenced by textures.
     pub bitmaps: Vec<Bitmap>,
+    /// Host shape groups in insertion order.
+    pub shapes: Vec<ShapeGroup>,
     /// The camera.
     pub camera: Camera,
     /// Mesh index of each scene-global triangle.
     tri_mesh: Vec<u32>,
     /// Global index of each mesh's first triangle.
     first_tri: Vec<u32>,
+    /// Shape index of each shape group's first shape.
+    first_shape: Vec<u32>,
     /// Emitters, with the power distribution used to pick one.
     pub lights: LightSet,
 }
@@ -298,9 +339,11 @@ pub struct SurfacePoint {
     pub ns: Vec3,
     /// Texture coordinates (zero when the mesh has none).
     pub uv: Vec2,
-    /// Mesh index.
-    pub mesh: u32,
-    /// Scene-global triangle index.
+    /// The surface the point lies on: a mesh index, or
+    /// `SHAPE_PRIM_BIT | g` for host shape group `g`.
+    pub surface: u32,
+    /// The `Hit::prim` of the point: a scene-global triangle index, or
+    /// `SHAPE_PRIM_BIT | shape` for a host shape.
     pub prim: u32,
 }
 
@@ -313,6 +356,10 @@ impl Scene {
             self.meshes
                 .iter()
                 .any(|m| m.material.0 as usize == i && !m.indices.is_empty())
+                || self
+                    .shapes
+                    .iter()
+                    .any(|g| g.material.0 as usize == i && g.count > 0)
         };
         let emitters = self
             .meshes
@@ -402,15 +449,50 @@ impl Scene {
             ng,
             ns,
             uv,
-            mesh: mi as u32,
+            surface: mi as u32,
             prim,
         })
     }
 
-    /// The surface point of an intersection.
+    /// The surface point the host reports at parameters `(u, v)` of shape
+    /// `shape`; `None` for an unknown shape or an invalid host answer.
+    fn shape_point(&self, shape: u32, u: f32, v: f32) -> Option<SurfacePoint> {
+        let g = self
+            .first_shape
+            .partition_point(|&f| f <= shape)
+            .checked_sub(1)?;
+        let group = &self.shapes[g];
+        let local = shape - self.first_shape[g];
+        if local >= group.count {
+            return None;
+        }
+        let hp = group.surface.surface(local, u, v)?;
+        let (ng, ns) = hp.unit_normals()?;
+        Some(SurfacePoint {
+            p: hp.p,
+            p_error: hp.p_error,
+            ng,
+            ns,
+            uv: hp.uv,
+            surface: SHAPE_PRIM_BIT | g as u32,
+            prim: SHAPE_PRIM_BIT | shape,
+        })
+    }
+
+    /// The surface point of an intersection: on a triangle, or on a host
+    /// shape (asked of the host; `None` when its answer is invalid).
     #[inline]
     pub fn hit_point(&self, hit: &Hit) -> Option<SurfacePoint> {
-        self.surface_point(hit.prim, hit.b1, hit.b2)
+        if hit.prim & SHAPE_PRIM_BIT == 0 {
+            self.surface_point(hit.prim, hit.b1, hit.b2)
+        } else {
+            self.shape_point(hit.prim & !SHAPE_PRIM_BIT, hit.b1, hit.b2)
+        }
+    }
+
+    /// Number of host shapes (all groups).
+    pub fn shape_count(&self) -> u32 {
+        self.shapes.iter().map(|g| g.count).sum()
     }
 
     /// Scene-global index of triangle `tri` of mesh `mesh`.
@@ -432,7 +514,12 @@ impl Scene {
     /// The material of a surface point.
     #[inline]
     pub fn material(&self, sp: &SurfacePoint) -> &Material {
-        &self.materials[self.meshes[sp.mesh as usize].material.0 as usize]
+        let id = if sp.surface & SHAPE_PRIM_BIT == 0 {
+            self.meshes[sp.surface as usize].material
+        } else {
+            self.shapes[(sp.surface & !SHAPE_PRIM_BIT) as usize].material
+        };
+        &self.materials[id.0 as usize]
     }
 
     /// Radiance emitted from `sp` towards direction `w` (unit, pointing away
@@ -440,7 +527,12 @@ impl Scene {
     /// shading normal points to (Mitsuba's `area`).
     #[inline]
     pub fn emitted(&self, sp: &SurfacePoint, w: Vec3) -> Rgb {
-        match self.meshes[sp.mesh as usize].emission {
+        // Host shapes never emit (see `shapes`); `get` misses them.
+        match self
+            .meshes
+            .get(sp.surface as usize)
+            .and_then(|m| m.emission)
+        {
             Some(le) if w.dot(sp.ns) > 0.0 => le,
             _ => Rgb::ZERO,
         }
