@@ -17,6 +17,73 @@
 
 #include "example_scene.h"
 
+/* ---- The scene: floor, light and a tessellated mirror sphere. ---- */
+
+/* The floor (triangles 0–1), the light (2–3), the sphere (4–). */
+static void build_host_scene(host_scene *hs) {
+    build_floor_and_light(hs);
+    add_sphere(hs, 0.0f, 0.7f, 0.0f, 0.6f, 12, 24);
+}
+
+/* Builds the cmlt scene from the host arrays; with `isect` given, cmlt
+ * traces through the callbacks instead of its own BVH. */
+static cmlt_scene *make_scene(host_scene *hs, const cmlt_intersector *isect) {
+    cmlt_scene *scene = NULL;
+    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0};
+    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0};
+    uint32_t m_white, m_mirror, first;
+    cmlt_mesh mesh;
+    check(cmlt_scene_new(&scene), "cmlt_scene_new");
+    check(cmlt_scene_add_material(scene, &white, &m_white), "add_material");
+    check(cmlt_scene_add_material(scene, &mirror, &m_mirror), "add_material");
+    /* Three meshes over the one host vertex array: floor (2 triangles),
+     * light (2), sphere (the rest). Triangle numbers are the host's. */
+    memset(&mesh, 0, sizeof mesh);
+    mesh.positions = &hs->verts[0][0];
+    mesh.vertex_count = hs->nverts;
+    mesh.position_stride = sizeof hs->verts[0];
+    mesh.index_stride = 0;
+    mesh.material = m_white;
+    mesh.indices = &hs->tris[0][0];
+    mesh.triangle_count = 2;
+    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh floor");
+    mesh.indices = &hs->tris[2][0];
+    mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 8.0f;
+    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh light");
+    mesh.indices = &hs->tris[4][0];
+    mesh.triangle_count = hs->ntris - 4;
+    mesh.material = m_mirror;
+    mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 0.0f;
+    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh sphere");
+    if (first != 4) {
+        fprintf(stderr, "unexpected triangle numbering\n");
+        exit(1);
+    }
+    if (isect) check(cmlt_scene_set_intersector(scene, isect), "cmlt_scene_set_intersector");
+    check(cmlt_scene_commit(scene), "cmlt_scene_commit");
+    return scene;
+}
+
+/* Renders the host's scene traced by `isect` and by cmlt's own BVH and
+ * prints both means, the callback counts and the rejected hits (the tests
+ * read these lines). */
+static void compare_with_our_bvh(host_scene *hs, const cmlt_intersector *isect, uint32_t estimator,
+                                 uint64_t per_pixel) {
+    cmlt_scene *host_traced = make_scene(hs, isect);
+    cmlt_scene *bvh_traced = make_scene(hs, NULL);
+    cmlt_stats host_stats, bvh_stats;
+    double host_mean = render_mean(host_traced, estimator, per_pixel, &host_stats);
+    double bvh_mean = render_mean(bvh_traced, estimator, per_pixel, &bvh_stats);
+    printf("host mean %.6f\n", host_mean);
+    printf("bvh mean %.6f\n", bvh_mean);
+    printf("callbacks %lu %lu %lu\n", hs->single_calls, hs->packet_calls, hs->packet_lanes);
+    printf("rejected %llu nonfinite %llu %llu\n", (unsigned long long)host_stats.rejected_host_hits,
+           (unsigned long long)host_stats.nonfinite, (unsigned long long)bvh_stats.nonfinite);
+    cmlt_scene_release(host_traced);
+    cmlt_scene_release(bvh_traced);
+}
+
+
 /* cmlt wants hits in the open interval (0, tfar); Embree's [tnear, tfar]
  * is closed and with tnear = 0 reports t = 0 for rays leaving a surface. */
 static float near_bound(void) { return FLT_MIN; }

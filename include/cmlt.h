@@ -28,6 +28,10 @@
 // `prim_id` of a miss.
 #define CMLT_INVALID_ID UINT32_MAX
 
+// `prim_id = CMLT_SHAPE_BIT | shape` names host shape `shape` (numbered
+// from 0 across all `cmlt_scene_add_shapes` calls, in order).
+#define CMLT_SHAPE_BIT 2147483648
+
 // Path tracing with next-event estimation and MIS.
 #define CMLT_ESTIMATOR_PT 0
 
@@ -222,6 +226,9 @@ typedef struct cmlt_stats {
   uint64_t nonfinite;
   // Hits from a host intersector rejected as invalid (treated as misses).
   uint64_t rejected_host_hits;
+  // Host shape points (`cmlt_surface_fn` answers) rejected as invalid
+  // or missing (they scatter nothing).
+  uint64_t rejected_host_surfaces;
   // The normalisation b (MLT, CMLT).
   double b;
   // The `CMLT_EFFECT_*` bits the scene calls for through this camera.
@@ -277,6 +284,45 @@ typedef struct cmlt_mesh {
   float emission[3];
 } cmlt_mesh;
 
+// A point on a host shape, as its `surface` callback describes it.
+typedef struct cmlt_surface {
+  // Position.
+  float p[3];
+  // Absolute error bound of `p` per axis (≥ 0): ray origins leaving the
+  // point are pushed past it. For a point computed on an analytic
+  // surface, `5 · FLT_EPSILON · |p|` per axis is a safe choice.
+  float p_error[3];
+  // Geometric normal (any non-zero length; normalised by the library).
+  float ng[3];
+  // Shading normal (any non-zero length); equal to `ng` if unsure.
+  float ns[3];
+  // Texture coordinates.
+  float uv[2];
+} cmlt_surface;
+
+// The point of shape `shape` (an index within its group, `0..count`) at
+// the surface parameters `u`, `v` the host's intersector reported: fill
+// `out` and return 1, or return 0 when there is none. Called from every
+// rendering thread; must not call back into cmlt.
+typedef uint32_t (*cmlt_surface_fn)(void *user,
+                                    uint32_t shape,
+                                    float u,
+                                    float v,
+                                    struct cmlt_surface *out);
+
+// A group of analytic shapes the host intersects itself (spheres,
+// patches, …), all of one material. Shapes scatter but never emit.
+typedef struct cmlt_shapes {
+  // Number of shapes (≥ 1).
+  uint32_t count;
+  // Material id from `cmlt_scene_add_material`.
+  uint32_t material;
+  // Passed to `surface`.
+  void *user;
+  // Surface reconstruction (required).
+  cmlt_surface_fn surface;
+} cmlt_shapes;
+
 // One ray: points `org + t·dir` for `t` in the open interval (0, `tfar`).
 // `dir` is not necessarily unit length; `t` is in units of `|dir|`.
 typedef struct cmlt_ray {
@@ -292,7 +338,9 @@ typedef struct cmlt_ray {
 // (meshes numbered in the order they were added, triangles consecutively
 // within a mesh; `cmlt_scene_add_mesh` returns a mesh's first index), `u`
 // and `v` the barycentric weights of the triangle's second and third
-// vertex. A miss has `prim_id` = `CMLT_INVALID_ID`.
+// vertex. A hit on a host shape has `prim_id = CMLT_SHAPE_BIT | shape` and
+// the host's surface parameters (any finite values) in `u`, `v`. A miss
+// has `prim_id` = `CMLT_INVALID_ID`.
 typedef struct cmlt_hit {
   // Ray parameter of the hit, in (0, tfar).
   float t;
@@ -557,9 +605,26 @@ enum cmlt_status cmlt_scene_add_mesh(struct cmlt_scene *scene,
                                      const struct cmlt_mesh *mesh,
                                      uint32_t *out_first_prim);
 
+// Adds a group of analytic shapes the host intersects itself (see
+// `cmlt_shapes`, `cmlt_surface_fn`); the callbacks are copied.
+// `*out_first_shape` (may be NULL) receives the index of its first shape:
+// the host's intersector reports shape `i` of the group as
+// `prim_id = CMLT_SHAPE_BIT | (first + i)`. A scene with shapes needs a
+// host intersector (`cmlt_scene_set_intersector`) by commit time. On
+// failure the scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle; `shapes` is NULL or valid, and its callback
+// stays callable while any renderer of the scene exists;
+// `out_first_shape` is NULL or valid.
+enum cmlt_status cmlt_scene_add_shapes(struct cmlt_scene *scene,
+                                       const struct cmlt_shapes *shapes,
+                                       uint32_t *out_first_shape);
+
 // Makes the scene trace through the host's ray tracer instead of building
 // an acceleration structure (see `cmlt_intersector`); the callbacks are
-// copied. Hits must use the triangle numbering of the meshes added.
+// copied. Hits must use the triangle numbering of the meshes added (and
+// `CMLT_SHAPE_BIT | shape` for host shapes).
 //
 // # Safety
 // `scene` is a valid handle; `intersector` is NULL or valid, and its

@@ -1,20 +1,134 @@
 //! The host's own ray tracer behind the core's intersector seam: C
 //! callbacks for single rays and SoA packets of 4, 8 or 16 lanes.
 //!
+//! The host may also own analytic shapes ([`cmlt_shapes`]): its
+//! intersector reports them with [`CMLT_SHAPE_BIT`] set in `prim_id` and
+//! its own surface parameters in `u`, `v`, which the core hands back to
+//! the shapes' `surface` callback for the point to shade.
+//!
 //! Hits the host reports are checked before the core sees them — a
-//! primitive index past the scene's triangles, a non-finite or
+//! primitive index past the scene's triangles or shapes, a non-finite or
 //! out-of-interval distance or barycentric, is counted
-//! ([`HostIntersector::rejected_hits`]) and treated as a miss, so a buggy
+//! ([`HostIntersector::rejected_hits`]) and treated as a miss; an invalid
+//! surface point is counted ([`HostShapes`]) and scatters nothing. A buggy
 //! callback can cost image quality but never memory safety or a panic.
 
 use std::ffi::c_void;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use cmlt_core::accel::Intersector;
 use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
+use cmlt_core::math::{Vec2, Vec3};
+use cmlt_core::scene::{SHAPE_PRIM_BIT, ShapePoint, ShapeSurface};
 
 /// `prim_id` of a miss.
 pub const CMLT_INVALID_ID: u32 = u32::MAX;
+
+/// `prim_id = CMLT_SHAPE_BIT | shape` names host shape `shape` (numbered
+/// from 0 across all `cmlt_scene_add_shapes` calls, in order).
+pub const CMLT_SHAPE_BIT: u32 = 0x8000_0000;
+
+// cbindgen writes the literal above into cmlt.h; it must be the core's bit.
+const _: () = assert!(CMLT_SHAPE_BIT == SHAPE_PRIM_BIT);
+
+/// A point on a host shape, as its `surface` callback describes it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_surface {
+    /// Position.
+    pub p: [f32; 3],
+    /// Absolute error bound of `p` per axis (≥ 0): ray origins leaving the
+    /// point are pushed past it. For a point computed on an analytic
+    /// surface, `5 · FLT_EPSILON · |p|` per axis is a safe choice.
+    pub p_error: [f32; 3],
+    /// Geometric normal (any non-zero length; normalised by the library).
+    pub ng: [f32; 3],
+    /// Shading normal (any non-zero length); equal to `ng` if unsure.
+    pub ns: [f32; 3],
+    /// Texture coordinates.
+    pub uv: [f32; 2],
+}
+
+/// The point of shape `shape` (an index within its group, `0..count`) at
+/// the surface parameters `u`, `v` the host's intersector reported: fill
+/// `out` and return 1, or return 0 when there is none. Called from every
+/// rendering thread; must not call back into cmlt.
+#[allow(non_camel_case_types)]
+pub type cmlt_surface_fn = Option<
+    unsafe extern "C" fn(
+        user: *mut c_void,
+        shape: u32,
+        u: f32,
+        v: f32,
+        out: *mut cmlt_surface,
+    ) -> u32,
+>;
+
+/// A group of analytic shapes the host intersects itself (spheres,
+/// patches, …), all of one material. Shapes scatter but never emit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_shapes {
+    /// Number of shapes (≥ 1).
+    pub count: u32,
+    /// Material id from `cmlt_scene_add_material`.
+    pub material: u32,
+    /// Passed to `surface`.
+    pub user: *mut c_void,
+    /// Surface reconstruction (required).
+    pub surface: cmlt_surface_fn,
+}
+
+/// [`cmlt_shapes`] as the core's [`ShapeSurface`], counting invalid
+/// answers in a counter shared by the scene's groups.
+pub(crate) struct HostShapes {
+    callbacks: cmlt_shapes,
+    rejected: Arc<AtomicU64>,
+}
+
+// SAFETY: as for HostIntersector: the API contract makes `surface`
+// callable from any rendering thread, concurrently.
+unsafe impl Send for HostShapes {}
+// SAFETY: as for Send; the only shared state is an atomic counter.
+unsafe impl Sync for HostShapes {}
+
+impl HostShapes {
+    /// Wraps `callbacks` (`surface` checked non-null by the caller).
+    pub fn new(callbacks: cmlt_shapes, rejected: Arc<AtomicU64>) -> Self {
+        HostShapes {
+            callbacks,
+            rejected,
+        }
+    }
+}
+
+impl ShapeSurface for HostShapes {
+    fn surface(&self, shape: u32, u: f32, v: f32) -> Option<ShapePoint> {
+        let f = self.callbacks.surface?;
+        let mut out = cmlt_surface::default();
+        // SAFETY: the host's callback contract; `out` is valid for the call.
+        let found = unsafe { f(self.callbacks.user, shape, u, v, &mut out) } != 0;
+        if !found {
+            self.rejected.fetch_add(1, Ordering::Relaxed);
+            return None;
+        }
+        let point = ShapePoint {
+            p: Vec3::from_array(out.p),
+            p_error: Vec3::from_array(out.p_error),
+            ng: Vec3::from_array(out.ng),
+            ns: Vec3::from_array(out.ns),
+            uv: Vec2::from_array(out.uv),
+        };
+        if point.unit_normals().is_none() {
+            self.rejected.fetch_add(1, Ordering::Relaxed);
+            return None;
+        }
+        Some(point)
+    }
+}
 
 /// One ray: points `org + t·dir` for `t` in the open interval (0, `tfar`).
 /// `dir` is not necessarily unit length; `t` is in units of `|dir|`.
@@ -34,7 +148,9 @@ pub struct cmlt_ray {
 /// (meshes numbered in the order they were added, triangles consecutively
 /// within a mesh; `cmlt_scene_add_mesh` returns a mesh's first index), `u`
 /// and `v` the barycentric weights of the triangle's second and third
-/// vertex. A miss has `prim_id` = `CMLT_INVALID_ID`.
+/// vertex. A hit on a host shape has `prim_id = CMLT_SHAPE_BIT | shape` and
+/// the host's surface parameters (any finite values) in `u`, `v`. A miss
+/// has `prim_id` = `CMLT_INVALID_ID`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 #[allow(non_camel_case_types)]
@@ -147,10 +263,11 @@ pub struct cmlt_intersector {
 }
 
 /// [`cmlt_intersector`] as an [`Intersector`] over a scene of `triangles`
-/// triangles.
+/// triangles and `shapes` host shapes.
 pub(crate) struct HostIntersector {
     callbacks: cmlt_intersector,
     triangles: u32,
+    shapes: u32,
     rejected: AtomicU64,
 }
 
@@ -163,10 +280,11 @@ unsafe impl Sync for HostIntersector {}
 
 impl HostIntersector {
     /// Wraps `callbacks` (their required entries checked by the caller).
-    pub fn new(callbacks: cmlt_intersector, triangles: u32) -> Self {
+    pub fn new(callbacks: cmlt_intersector, triangles: u32, shapes: u32) -> Self {
         HostIntersector {
             callbacks,
             triangles,
+            shapes,
             rejected: AtomicU64::new(0),
         }
     }
@@ -181,12 +299,15 @@ impl HostIntersector {
         if prim == CMLT_INVALID_ID {
             return None;
         }
-        let valid = prim < self.triangles
-            && t > 0.0
-            && t < t_max
-            && (0.0..=1.0).contains(&u)
-            && (0.0..=1.0).contains(&v)
-            && u + v <= 1.0 + 1e-4;
+        let surface_ok = if prim & CMLT_SHAPE_BIT != 0 {
+            prim & !CMLT_SHAPE_BIT < self.shapes && u.is_finite() && v.is_finite()
+        } else {
+            prim < self.triangles
+                && (0.0..=1.0).contains(&u)
+                && (0.0..=1.0).contains(&v)
+                && u + v <= 1.0 + 1e-4
+        };
+        let valid = surface_ok && t > 0.0 && t < t_max;
         if !valid {
             self.rejected.fetch_add(1, Ordering::Relaxed);
             return None;

@@ -112,6 +112,9 @@ pub struct cmlt_stats {
     pub nonfinite: u64,
     /// Hits from a host intersector rejected as invalid (treated as misses).
     pub rejected_host_hits: u64,
+    /// Host shape points (`cmlt_surface_fn` answers) rejected as invalid
+    /// or missing (they scatter nothing).
+    pub rejected_host_surfaces: u64,
     /// The normalisation b (MLT, CMLT).
     pub b: f64,
     /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
@@ -650,6 +653,7 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
                 Accel::Host(h) => h.rejected_hits(),
                 _ => 0,
             },
+            rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
             effects: r.scene.scene.analysis(inner.camera()).effects.0,
         };

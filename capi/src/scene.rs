@@ -1,9 +1,11 @@
 //! Scenes: materials and meshes handed over by pointer (copied), an
-//! optional host intersector, then `cmlt_scene_commit` builds the
-//! acceleration structure and freezes the scene. Renderers share a
+//! optional host intersector with optional analytic host shapes, then
+//! `cmlt_scene_commit` builds the acceleration structure and freezes the
+//! scene. Renderers share a
 //! committed scene; releasing the handle while renderers use it is fine.
 
 use std::ffi::{CStr, c_char};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use cmlt_cli::accel::AccelKind;
@@ -13,11 +15,11 @@ use cmlt_core::integrator::Settings;
 use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
     Camera, ConductorFresnel, Distribution, Effect, FovAxis, Material, MaterialId, MaterialKind,
-    Mesh, Scene, SceneBuilder, Texture,
+    Mesh, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup, Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
-use crate::host::{HostIntersector, cmlt_intersector};
+use crate::host::{HostIntersector, HostShapes, cmlt_intersector, cmlt_shapes};
 
 /// Lambertian diffuse: `color` is the albedo.
 pub const CMLT_MATERIAL_DIFFUSE: u32 = 0;
@@ -206,6 +208,15 @@ pub(crate) struct Committed {
     /// Integrator settings a loaded scene file asked for (defaults
     /// otherwise).
     pub settings: Settings,
+    /// Host shape points rejected as invalid (they scatter nothing).
+    pub rejected_surfaces: Arc<AtomicU64>,
+}
+
+impl Committed {
+    /// Host shape points rejected so far.
+    pub fn rejected_surfaces(&self) -> u64 {
+        self.rejected_surfaces.load(Ordering::Relaxed)
+    }
 }
 
 struct Building {
@@ -213,8 +224,10 @@ struct Building {
     materials: usize,
     meshes: usize,
     triangles: u64,
+    shapes: u64,
     intersector: Option<cmlt_intersector>,
     accel: u32,
+    rejected_surfaces: Arc<AtomicU64>,
 }
 
 enum State {
@@ -278,8 +291,10 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
                 materials: 0,
                 meshes: 0,
                 triangles: 0,
+                shapes: 0,
                 intersector: None,
                 accel: CMLT_ACCEL_BVH,
+                rejected_surfaces: Arc::default(),
             }))),
         }));
         Ok(())
@@ -484,9 +499,10 @@ pub unsafe extern "C" fn cmlt_scene_add_mesh(
             mesh.validate(b.meshes, b.materials)
                 .map_err(|e| Error::invalid(e.to_string()))?;
             let first = b.triangles;
-            if first + mesh.indices.len() as u64 >= u32::MAX as u64 {
+            // Triangle and shape numbers share `prim_id`, split by its top bit.
+            if first + mesh.indices.len() as u64 >= SHAPE_PRIM_BIT as u64 {
                 return Err(Error::invalid(
-                    "scene: too many triangles (2^32 − 1 at most)",
+                    "scene: too many triangles (2^31 − 1 at most)",
                 ));
             }
             b.triangles += mesh.indices.len() as u64;
@@ -501,6 +517,59 @@ pub unsafe extern "C" fn cmlt_scene_add_mesh(
     })
 }
 
+/// Adds a group of analytic shapes the host intersects itself (see
+/// `cmlt_shapes`, `cmlt_surface_fn`); the callbacks are copied.
+/// `*out_first_shape` (may be NULL) receives the index of its first shape:
+/// the host's intersector reports shape `i` of the group as
+/// `prim_id = CMLT_SHAPE_BIT | (first + i)`. A scene with shapes needs a
+/// host intersector (`cmlt_scene_set_intersector`) by commit time. On
+/// failure the scene is unchanged.
+///
+/// # Safety
+/// `scene` is a valid handle; `shapes` is NULL or valid, and its callback
+/// stays callable while any renderer of the scene exists;
+/// `out_first_shape` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_add_shapes(
+    scene: *mut cmlt_scene,
+    shapes: *const cmlt_shapes,
+    out_first_shape: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_add_shapes", || {
+        // SAFETY: the caller's contract.
+        let (scene, g) = unsafe { (read(scene, "scene")?, read(shapes, "shapes")?) };
+        if g.surface.is_none() {
+            return Err(Error::null("shapes->surface"));
+        }
+        if g.count == 0 {
+            return Err(Error::invalid("shapes: count must be at least 1"));
+        }
+        scene.building(|b| {
+            if g.material as usize >= b.materials {
+                return Err(Error::invalid(format!(
+                    "shapes: material id {} does not exist",
+                    g.material
+                )));
+            }
+            let first = b.shapes;
+            if first + g.count as u64 >= SHAPE_PRIM_BIT as u64 {
+                return Err(Error::invalid("scene: too many shapes (2^31 − 1 at most)"));
+            }
+            b.builder.add_shapes(ShapeGroup {
+                count: g.count,
+                material: MaterialId(g.material),
+                surface: Arc::new(HostShapes::new(*g, b.rejected_surfaces.clone())),
+            });
+            b.shapes += g.count as u64;
+            if !out_first_shape.is_null() {
+                // SAFETY: the caller's contract.
+                unsafe { *out_first_shape = first as u32 };
+            }
+            Ok(())
+        })
+    })
+}
+
 fn normals_ok(m: &Mesh) -> bool {
     m.normals
         .iter()
@@ -509,7 +578,8 @@ fn normals_ok(m: &Mesh) -> bool {
 
 /// Makes the scene trace through the host's ray tracer instead of building
 /// an acceleration structure (see `cmlt_intersector`); the callbacks are
-/// copied. Hits must use the triangle numbering of the meshes added.
+/// copied. Hits must use the triangle numbering of the meshes added (and
+/// `CMLT_SHAPE_BIT | shape` for host shapes).
 ///
 /// # Safety
 /// `scene` is a valid handle; `intersector` is NULL or valid, and its
@@ -591,6 +661,12 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
         let State::Building(b) = &*state else {
             return Err(Error::operation("the scene is already committed"));
         };
+        if b.shapes > 0 && b.intersector.is_none() {
+            return Err(Error::operation(
+                "a scene with host shapes needs the host's intersector \
+                 (cmlt_scene_set_intersector): cmlt cannot intersect them",
+            ));
+        }
         let mut builder = b.builder.clone();
         // Renderers bring their own camera; the builder wants one.
         builder.set_camera(
@@ -599,13 +675,14 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
         );
         let built = builder.build().map_err(|e| Error::invalid(e.to_string()))?;
         let accel = match b.intersector {
-            Some(i) => Accel::Host(HostIntersector::new(i, b.triangles as u32)),
+            Some(i) => Accel::Host(HostIntersector::new(i, b.triangles as u32, b.shapes as u32)),
             None => build_accel(accel_kind(b.accel)?, &built)?,
         };
         *state = State::Committed(Arc::new(Committed {
             scene: built,
             accel,
             settings: Settings::default(),
+            rejected_surfaces: b.rejected_surfaces.clone(),
         }));
         Ok(())
     })
@@ -704,6 +781,7 @@ unsafe fn finish_loaded(
         scene,
         accel,
         settings: loaded.settings,
+        rejected_surfaces: Arc::default(),
     }));
     // SAFETY: the caller's contract.
     unsafe {

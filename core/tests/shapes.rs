@@ -122,7 +122,7 @@ fn render(
     let mlt = MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
-        n_chains: 32,
+        n_chains: 64,
         k: if cmlt { 4 } else { 1 },
         m: if cmlt { 2 } else { 0 },
         ..MltSettings::default()
@@ -233,7 +233,7 @@ fn convex_diffuse_sphere_reflects_albedo_times_radiance() {
         "the sphere covers {} pixels",
         covered.len()
     );
-    for estimator in [Estimator::Path, Estimator::Bdpt] {
+    for estimator in ALL {
         let (img, stats) = render(&scene, &host, estimator, false, 1024);
         assert_eq!(stats.nonfinite, 0);
         let sphere: f32 = covered.iter().map(|&i| img[i].g).sum::<f32>() / covered.len() as f32;

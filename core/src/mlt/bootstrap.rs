@@ -33,7 +33,10 @@
 //! expectation exactly C·b_d/b, which is what makes the histogram of all
 //! chains, each run for the same number of mutations, one estimate
 //! normalised by b. (pbrt draws each chain's depth independently, which
-//! adds multinomial noise to the split between depths.)
+//! adds multinomial noise to the split between depths.) The rounding of
+//! C·b_d/b to whole chains is then removed by weighting each chain
+//! (`depth_weights` in the parent module), so every depth with at least
+//! one expected chain contributes exactly its b_d.
 //!
 //! Everything can be evaluated in any split across workers (index ranges of
 //! seed samples, pass numbers) and combined in index order: the result does

@@ -315,6 +315,11 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// depths must be weighted equally for the normalisation to hold.
 pub struct MltWorker {
     chains: Vec<(Chain, u32)>,
+    /// Splat weight of each chain: its depth's share of b over its share
+    /// of the chains ([`depth_weights`]).
+    weights: Vec<f32>,
+    /// Size of the systematic sample the chains were drawn as.
+    n_chains: u32,
     /// Samplers of dropped chains, whose buffers new chains reuse.
     spare: Vec<PrimarySampler>,
     /// Seed of each chain (its level-2 random streams derive from it).
@@ -369,6 +374,8 @@ impl MltWorker {
         };
         MltWorker {
             chains: Vec::with_capacity(n),
+            weights: Vec::with_capacity(n),
+            n_chains: mlt.n_chains,
             spare: (0..n)
                 .map(|_| PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth))
                 .collect(),
@@ -422,8 +429,11 @@ impl MltWorker {
             };
             let cs = chain_seed(seed, worker, c);
             let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            // A depth the normalisation passes found light at but no seed
+            // sample did has nowhere to start: its chain is skipped (its
+            // light is missing from the image), the others still start.
             let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) else {
-                break;
+                continue;
             };
             let Some(mut sampler) = spare.pop() else {
                 break;
@@ -439,6 +449,7 @@ impl MltWorker {
             seeds.push(cs);
             stats.chains += 1;
         }
+        depth_weights(chains, bootstrap, mlt.n_chains, &mut self.weights);
     }
 
     /// Keeps every chain and evaluates its current state again through
@@ -485,6 +496,7 @@ impl MltWorker {
                 bdpt::strategy_path(ws, &mut paths[ci]);
             }
         }
+        depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
     }
 
     /// Zeroes the counters, keeping the chains as they are (a new frame
@@ -515,6 +527,7 @@ impl MltWorker {
     ) -> u64 {
         let MltWorker {
             chains,
+            weights,
             seeds,
             ws,
             stats,
@@ -526,6 +539,7 @@ impl MltWorker {
         for _ in 0..rounds {
             for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
                 let depth = *depth;
+                let w = weights[ci];
                 let keep_path = level2.is_some();
                 let st = chain.step(|s| {
                     let r = bootstrap::evaluate_target(tracer, settings, ws, depth, s);
@@ -535,7 +549,7 @@ impl MltWorker {
                     r
                 });
                 for sp in st.splats() {
-                    film.add_splat(sp.raster, sp.value);
+                    film.add_splat(sp.raster, sp.value * w);
                 }
                 stats.record(&st);
                 if let Some(l2) = level2 {
@@ -550,7 +564,7 @@ impl MltWorker {
                         &chain.current(),
                         &mut rng,
                         stats,
-                        &mut |r, v| film.add_splat(r, v),
+                        &mut |r, v| film.add_splat(r, v * w),
                     );
                     stats.records += l2.m() as u64;
                 }
@@ -567,6 +581,36 @@ impl MltWorker {
     /// The chains with their path depths.
     pub fn chains(&self) -> impl Iterator<Item = (&Chain, u32)> {
         self.chains.iter().map(|(c, d)| (c, *d))
+    }
+}
+
+/// Sets `weights[c]` to the splat weight of chain `c` of a worker whose
+/// chains were a systematic sample of `n` points over the depths by
+/// b_d / b (see [`bootstrap`]).
+///
+/// A depth d expects e_d = n·b_d/b chains and gets n_d ∈ {⌊e_d⌋, ⌈e_d⌉}.
+/// Unweighted, its share of the image is n_d/n of b instead of b_d/b: an
+/// error of up to one chain in e_d that more mutations never average out
+/// (a sphere lit only at depth 2 rendered 15% dark with 32 chains, still
+/// 8% at 4096 mutations per pixel). Where e_d ≥ 1, weighting its chains by e_d/n_d gives the depth
+/// exactly b_d. Where e_d < 1, n_d is 0 or 1 with probability e_d of 1, so
+/// weight 1 is right in expectation, and no weight could restore a depth
+/// that got no chain. The weights sum to about n, so the image's scale
+/// ([`image_scale`]) is unchanged. Chains kept from another frame
+/// ([`MltWorker::reevaluate`]) get the weights of the new b_d for the
+/// depths they have.
+fn depth_weights(chains: &[(Chain, u32)], bootstrap: &Bootstrap, n: u32, weights: &mut Vec<f32>) {
+    weights.clear();
+    let b = bootstrap.b();
+    for &(_, depth) in chains {
+        let n_d = chains.iter().filter(|&&(_, d)| d == depth).count() as f64;
+        let b_d = bootstrap
+            .depth_b()
+            .get(depth as usize - 1)
+            .copied()
+            .unwrap_or(0.0);
+        let e_d = if b > 0.0 { n as f64 * b_d / b } else { 0.0 };
+        weights.push(if e_d >= 1.0 { (e_d / n_d) as f32 } else { 1.0 });
     }
 }
 
