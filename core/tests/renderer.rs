@@ -530,3 +530,81 @@ fn render_while_stops_when_the_host_clock_says_so() {
         assert_eq!(timed, resolve(&r2, &[&w2]), "{estimator:?}");
     }
 }
+
+/// Moving a mesh between frames (`Scene::update_mesh` + `Bvh::refit`):
+/// `render` refuses the updated scene until `prepare`, which starts a new
+/// frame on its own — the same image as a fresh renderer on the moved
+/// scene (fixed sequences, b window restarted although the camera stayed);
+/// with kept chains the chains are re-evaluated and the mean agrees.
+#[test]
+fn scene_update_starts_a_frame_and_matches_a_fresh_renderer() {
+    let mut scene = room();
+    let mut bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    // The mirror sphere (mesh 1) slides and the light (mesh 2) rises.
+    let sphere: Vec<Vec3> = scene.meshes[1]
+        .positions
+        .iter()
+        .map(|p| *p + Vec3::new(-0.4, -0.1, 0.1))
+        .collect();
+    let light: Vec<Vec3> = scene.meshes[2]
+        .positions
+        .iter()
+        .map(|p| *p * Vec3::new(1.5, 1.0, 1.5) + Vec3::Y * 0.01)
+        .collect();
+    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
+        for keep_chains in [false, true] {
+            let mut scene = scene.clone();
+            let mut bvh = bvh.clone();
+            let cfg = RendererConfig {
+                temporal: Temporal {
+                    fixed_sequence: true,
+                    keep_chains,
+                    b_window: 4,
+                },
+                ..config(estimator, mlt_settings(1, 0), 1)
+            };
+            let mut r = Renderer::new(cfg, scene.camera).unwrap();
+            let mut w = RenderWorker::new(&r, 0).unwrap();
+            r.prepare(&scene, &bvh);
+            r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+            let before = resolve(&r, &[&w]);
+
+            scene.update_mesh(1, &sphere, None).unwrap();
+            scene.update_mesh(2, &light, None).unwrap();
+            bvh.refit(|p| scene.triangle(p));
+            assert_eq!(
+                r.render(&mut w, &scene, &bvh, 1),
+                Err(RenderError::NotPrepared)
+            );
+            let frame = r.frame();
+            r.prepare(&scene, &bvh);
+            assert_eq!(r.frame(), frame + 1, "the update started a frame");
+            r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+            let after = resolve(&r, &[&w]);
+            assert_ne!(before, after);
+
+            let mut fresh = Renderer::new(cfg, scene.camera).unwrap();
+            let mut fw = RenderWorker::new(&fresh, 0).unwrap();
+            fresh.prepare(&scene, &bvh);
+            fresh.render(&mut fw, &scene, &bvh, 16 * 12 * 4).unwrap();
+            let want = resolve(&fresh, &[&fw]);
+            assert_eq!(r.b(), fresh.b(), "{estimator:?}: b window restarted");
+            if keep_chains && estimator == Estimator::Mlt {
+                let (a, b) = (mean(&after), mean(&want));
+                assert!((a / b - 1.0).abs() < 0.05, "kept chains: {a} vs {b}");
+            } else {
+                assert_eq!(after, want, "{estimator:?}, keep {keep_chains}");
+            }
+        }
+    }
+    // A bad update changes nothing.
+    let light_before = scene.meshes[2].positions.clone();
+    let mut bad = light.clone();
+    bad[3].x = f32::NAN;
+    assert!(scene.update_mesh(2, &bad, None).is_err());
+    assert!(scene.update_mesh(2, &light[..3], None).is_err());
+    assert!(scene.update_mesh(7, &light, None).is_err());
+    assert_eq!(scene.meshes[2].positions, light_before);
+    assert_eq!(scene.revision(), 0);
+    bvh.refit(|p| scene.triangle(p));
+}

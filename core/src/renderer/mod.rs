@@ -6,6 +6,7 @@
 //!   Renderer::new(config, camera)      RenderWorker::new(&renderer, i)   ← all allocation
 //!   loop per frame:
 //!     renderer.set_camera(camera)                    (optional: resets accumulation)
+//!     scene.update_mesh(…); bvh.refit(…)             (optional: moved geometry, new frame)
 //!     renderer.prepare(scene, accel)                 (MLT: bootstrap b when stale)
 //!     renderer.render(&mut worker_i, …, budget)      (any thread, one call per worker)
 //!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
@@ -38,7 +39,10 @@
 //! [`Renderer::set_camera`] starts a new frame — a new accumulation, even
 //! through the same camera: the next `prepare` re-runs the bootstrap (b
 //! depends on the view), and each worker clears its film at its next
-//! `render`. What carries over from frame to frame is set by [`Temporal`]:
+//! `render`. A scene update ([`Scene::update_mesh`], with the host
+//! refitting its acceleration structure, e.g. `Bvh::refit`) starts a new
+//! frame at the next `prepare`, which notices the scene's new revision;
+//! `render` refuses a scene updated since `prepare`. What carries over from frame to frame is set by [`Temporal`]:
 //! by default nothing (each frame restarts its chains and draws new random
 //! numbers: independent frames); with the switches on, chains are kept and
 //! re-evaluated, b is averaged over a window of frames while the camera
@@ -141,7 +145,8 @@ pub enum RenderError {
     Resolution,
     /// The worker belongs to another renderer or has an index ≥ `workers`.
     Worker,
-    /// `render` before `prepare` (after creation or a camera change).
+    /// `render` before `prepare` (after creation, a camera change or a
+    /// scene update).
     NotPrepared,
 }
 
@@ -154,7 +159,7 @@ impl core::fmt::Display for RenderError {
             }
             RenderError::Worker => f.write_str("the worker does not belong to this renderer"),
             RenderError::NotPrepared => f.write_str(
-                "prepare the renderer (after creating it or changing the camera) before rendering",
+                "prepare the renderer (after creating it, changing the camera or updating the scene) before rendering",
             ),
         }
     }
@@ -193,8 +198,11 @@ pub struct Renderer {
     id: usize,
     /// Frames (accumulations) started so far, minus one: 0 for the first.
     frame: u64,
-    /// Whether the camera differs from the previous frame's.
-    camera_moved: bool,
+    /// Whether the view differs from the previous frame's: the camera
+    /// moved or the scene changed (the b window restarts).
+    view_changed: bool,
+    /// The [`Scene::revision`] the current frame was prepared for.
+    scene_revision: Option<u64>,
     /// The last frames' estimates of b while the camera stayed the same
     /// (ring buffer of `b_count` entries, newest at `b_next − 1`).
     b_history: [f64; MAX_B_WINDOW as usize],
@@ -212,6 +220,8 @@ pub struct RenderWorker {
     generation: Option<u64>,
     /// The camera of this worker's last accumulation.
     camera: Option<Camera>,
+    /// The scene revision of this worker's last accumulation.
+    scene_revision: Option<u64>,
     film: Film,
     bdpt: Worker,
     mlt: Option<MltWorker>,
@@ -262,7 +272,8 @@ impl Renderer {
             prepared: None,
             id: next_id(),
             frame: 0,
-            camera_moved: true,
+            view_changed: true,
+            scene_revision: None,
             b_history: [0.0; MAX_B_WINDOW as usize],
             b_count: 0,
             b_next: 0,
@@ -312,19 +323,32 @@ impl Renderer {
         if camera.width() != self.camera.width() || camera.height() != self.camera.height() {
             return Err(RenderError::Resolution);
         }
-        self.camera_moved = camera != self.camera;
+        self.view_changed = camera != self.camera;
         self.camera = camera;
-        self.generation += 1;
-        self.frame += 1;
-        self.prepared = None;
+        self.next_frame();
         Ok(())
     }
 
-    /// Makes the renderer ready for `render` after creation or a camera
-    /// change: for MLT, runs the bootstrap (seed samples and normalisation
-    /// passes) on the calling thread. Does nothing when already prepared.
-    /// `scene` and `accel` must be the ones every `render` uses.
+    fn next_frame(&mut self) {
+        self.generation += 1;
+        self.frame += 1;
+        self.prepared = None;
+    }
+
+    /// Makes the renderer ready for `render` after creation, a camera
+    /// change or a scene update: for MLT, runs the bootstrap (seed samples
+    /// and normalisation passes) on the calling thread. A scene whose
+    /// [`Scene::revision`] differs from the one the frame was prepared for
+    /// (meshes moved) starts a new frame here, as `set_camera` does.
+    /// Does nothing when already prepared. `scene` and `accel` must be the
+    /// ones every `render` uses.
     pub fn prepare<I: Intersector>(&mut self, scene: &Scene, accel: &I) {
+        let revision = Some(scene.revision());
+        if self.scene_revision.is_some() && self.scene_revision != revision {
+            self.view_changed = true;
+            self.next_frame();
+        }
+        self.scene_revision = revision;
         if self.prepared == Some(self.generation) {
             return;
         }
@@ -343,7 +367,7 @@ impl Renderer {
     /// the camera moved) and sets the b in use to the window's mean.
     fn push_b(&mut self, b: f64) {
         let window = self.config.temporal.b_window.max(1) as usize;
-        if self.camera_moved || window == 1 {
+        if self.view_changed || window == 1 {
             self.b_count = 0;
             self.b_next = 0;
         }
@@ -367,7 +391,7 @@ impl Renderer {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
-        if self.prepared != Some(self.generation) {
+        if self.prepared != Some(self.generation) || self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
         }
         let c = &self.config;
@@ -390,7 +414,9 @@ impl Renderer {
                         worker.index as u64,
                         c.workers as u64,
                     );
-                } else if worker.camera != Some(self.camera) {
+                } else if worker.camera != Some(self.camera)
+                    || worker.scene_revision != self.scene_revision
+                {
                     m.reevaluate(&mut tracer, &c.settings, &self.bootstrap, seed);
                 } else {
                     m.reset_stats();
@@ -398,6 +424,7 @@ impl Renderer {
             }
             worker.generation = Some(self.generation);
             worker.camera = Some(self.camera);
+            worker.scene_revision = self.scene_revision;
         }
         if budget == 0 {
             worker.stats.merge(&tracer.stats);
@@ -662,6 +689,7 @@ impl RenderWorker {
             index,
             generation: None,
             camera: None,
+            scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
             bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
             mlt: (c.estimator == Estimator::Mlt)

@@ -124,6 +124,11 @@ pub enum SceneError {
     },
     /// More triangles than scene-global numbering allows (2^31 − 1).
     TooManyTriangles,
+    /// An update names a mesh that does not exist.
+    UnknownMesh {
+        /// Mesh index.
+        mesh: usize,
+    },
     /// A shape group names a material that was never added.
     UnknownShapeMaterial {
         /// Shape group index.
@@ -172,6 +177,7 @@ impl fmt::Display for SceneError {
                 )
             }
             SceneError::TooManyTriangles => write!(f, "scene has more than 2^31 - 1 triangles"),
+            SceneError::UnknownMesh { mesh } => write!(f, "mesh {mesh} does not exist"),
             SceneError::UnknownShapeMaterial { group } => {
                 write!(f, "shape group {group}: material id does not exist")
             }
@@ -299,6 +305,7 @@ impl SceneBuilder {
             first_tri,
             first_shape,
             lights,
+            revision: 0,
         })
     }
 }
@@ -324,6 +331,9 @@ pub struct Scene {
     first_shape: Vec<u32>,
     /// Emitters, with the power distribution used to pick one.
     pub lights: LightSet,
+    /// Bumped by every [`Scene::update_mesh`]: renderers compare it to
+    /// notice that the scene changed under them.
+    revision: u64,
 }
 
 /// A point on a surface with everything shading needs.
@@ -488,6 +498,59 @@ impl Scene {
         } else {
             self.shape_point(hit.prim & !SHAPE_PRIM_BIT, hit.b1, hit.b2)
         }
+    }
+
+    /// Moves mesh `mesh`'s vertices to `positions` (and its shading
+    /// normals to `normals`, when given): the scene update of an animated
+    /// frame, e.g. a rigid transform the host applied. Topology, material
+    /// and emission stay; counts must match the mesh's (normals: one per
+    /// position). Everything is checked before anything changes, so on
+    /// error the scene is as it was. An emitting mesh's light distribution
+    /// is rebuilt (that allocates); nothing else does.
+    ///
+    /// Acceleration structures over the scene must follow (e.g.
+    /// `Bvh::refit`); renderers notice the new [`Scene::revision`] at
+    /// their next `prepare`, which starts a new frame.
+    pub fn update_mesh(
+        &mut self,
+        mesh: usize,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+    ) -> Result<(), SceneError> {
+        let m = self
+            .meshes
+            .get(mesh)
+            .ok_or(SceneError::UnknownMesh { mesh })?;
+        let n = m.positions.len();
+        if positions.len() != n || normals.is_some_and(|ns| ns.len() != n) {
+            return Err(SceneError::AttributeCount { mesh });
+        }
+        let bad = positions
+            .iter()
+            .chain(normals.unwrap_or(&[]))
+            .position(|v| !v.is_finite());
+        if let Some(v) = bad {
+            return Err(SceneError::NonFiniteVertex {
+                mesh,
+                vertex: v % n.max(1),
+            });
+        }
+        let m = &mut self.meshes[mesh];
+        m.positions.copy_from_slice(positions);
+        if let Some(ns) = normals {
+            m.normals.clear();
+            m.normals.extend_from_slice(ns);
+        }
+        if m.emission.is_some() {
+            self.lights = LightSet::new(&self.meshes);
+        }
+        self.revision += 1;
+        Ok(())
+    }
+
+    /// How many times the scene was updated ([`Scene::update_mesh`]).
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
 
     /// Number of host shapes (all groups).

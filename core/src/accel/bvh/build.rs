@@ -77,7 +77,7 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> Bvh {
         out_ids,
         ..
     } = c;
-    refit(&mut nodes, &out_tris);
+    super::node::refit(&mut nodes, &out_tris);
     Bvh::from_parts(nodes, out_tris, out_ids).expect("the builder produces valid layouts")
 }
 
@@ -167,41 +167,4 @@ impl Collapser<'_> {
         self.nodes[n].child[slot] = first as u32;
         self.nodes[n].count[slot] = (self.out_tris.len() - first) as u32;
     }
-}
-
-/// Recomputes every child box exactly from the stored triangles, bottom up
-/// (children come after parents). obvhs' boxes would do, but this way the
-/// conservativeness of the boxes never depends on the builder.
-fn refit(nodes: &mut [Node4], tris: &[[Vec3; 3]]) {
-    for i in (0..nodes.len()).rev() {
-        for c in 0..4 {
-            let node = &nodes[i];
-            let (lo, hi) = if node.is_leaf(c) {
-                let first = node.child[c] as usize;
-                let mut lo = Vec3::INFINITY;
-                let mut hi = Vec3::NEG_INFINITY;
-                for v in tris[first..first + node.count[c] as usize].iter().flatten() {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
-                }
-                (lo, hi)
-            } else if node.is_inner(c) {
-                let child = &nodes[node.child[c] as usize];
-                let lo = Vec3::new(min4(child.min[0]), min4(child.min[1]), min4(child.min[2]));
-                let hi = Vec3::new(max4(child.max[0]), max4(child.max[1]), max4(child.max[2]));
-                (lo, hi)
-            } else {
-                continue;
-            };
-            nodes[i].set_bounds(c, lo.to_array(), hi.to_array());
-        }
-    }
-}
-
-fn min4(v: [f32; 4]) -> f32 {
-    v.into_iter().fold(f32::INFINITY, f32::min)
-}
-
-fn max4(v: [f32; 4]) -> f32 {
-    v.into_iter().fold(f32::NEG_INFINITY, f32::max)
 }

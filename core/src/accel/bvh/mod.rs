@@ -330,6 +330,23 @@ impl Bvh {
         self.kernel
     }
 
+    /// Moves the triangles to `triangle(prim)` (scene-global ids, the
+    /// numbering of the build) and recomputes every box bottom-up, keeping
+    /// the tree: what a host does when meshes move but keep their
+    /// topology. Allocates nothing.
+    ///
+    /// Boxes stay exact (min/max of vertex coordinates, no rounding), so
+    /// traversal stays watertight; only the tree's quality decays as
+    /// triangles travel far from the neighbours they were grouped with
+    /// (rebuild then). Triangles that were degenerate at build time are
+    /// not in the tree and stay out: rebuild if one unfolds.
+    pub fn refit(&mut self, triangle: impl Fn(u32) -> [Vec3; 3]) {
+        for (t, &prim) in self.tris.iter_mut().zip(&self.prim_ids) {
+            *t = triangle(prim);
+        }
+        node::refit(&mut self.nodes, &self.tris);
+    }
+
     /// The storage: nodes, leaf-ordered triangles, scene-global ids.
     pub fn into_parts(self) -> (Vec<Node4>, Vec<[Vec3; 3]>, Vec<u32>) {
         (self.nodes, self.tris, self.prim_ids)

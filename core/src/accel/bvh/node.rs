@@ -1,4 +1,8 @@
-//! The 4-wide node layout and its robust box test.
+//! The 4-wide node layout, its robust box test, and the exact refit of its
+//! boxes.
+
+#[cfg(feature = "alloc")]
+use glam::Vec3;
 
 use crate::geometry::offset::gamma;
 
@@ -160,4 +164,44 @@ pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
         mask |= ((near[c] <= far[c] * FAR_SCALE) as u32) << c;
     }
     (mask, near)
+}
+
+/// Recomputes every child box exactly from the stored triangles, bottom up
+/// (children come after parents). obvhs' boxes would do, but this way the
+/// conservativeness of the boxes never depends on the builder.
+#[cfg(feature = "alloc")]
+pub(super) fn refit(nodes: &mut [Node4], tris: &[[Vec3; 3]]) {
+    for i in (0..nodes.len()).rev() {
+        for c in 0..4 {
+            let node = &nodes[i];
+            let (lo, hi) = if node.is_leaf(c) {
+                let first = node.child[c] as usize;
+                let mut lo = Vec3::INFINITY;
+                let mut hi = Vec3::NEG_INFINITY;
+                for v in tris[first..first + node.count[c] as usize].iter().flatten() {
+                    lo = lo.min(*v);
+                    hi = hi.max(*v);
+                }
+                (lo, hi)
+            } else if node.is_inner(c) {
+                let child = &nodes[node.child[c] as usize];
+                let lo = Vec3::new(min4(child.min[0]), min4(child.min[1]), min4(child.min[2]));
+                let hi = Vec3::new(max4(child.max[0]), max4(child.max[1]), max4(child.max[2]));
+                (lo, hi)
+            } else {
+                continue;
+            };
+            nodes[i].set_bounds(c, lo.to_array(), hi.to_array());
+        }
+    }
+}
+
+#[cfg(feature = "alloc")]
+fn min4(v: [f32; 4]) -> f32 {
+    v.into_iter().fold(f32::INFINITY, f32::min)
+}
+
+#[cfg(feature = "alloc")]
+fn max4(v: [f32; 4]) -> f32 {
+    v.into_iter().fold(f32::NEG_INFINITY, f32::max)
 }
