@@ -647,6 +647,28 @@ enum cmlt_status cmlt_scene_set_accel(struct cmlt_scene *scene, uint32_t accel);
 // `scene` is NULL or a valid handle.
 enum cmlt_status cmlt_scene_commit(struct cmlt_scene *scene);
 
+// Moves mesh `mesh` (0 for the first `cmlt_scene_add_mesh`, and so on)
+// of a committed scene: `vertex_count` new positions (as many as the mesh
+// has) and, unless `normals` is NULL, new shading normals — the scene
+// update of an animated frame, e.g. a rigid transform the host applied.
+// Topology, material and emission stay. cmlt's BVH is refitted (Embree's
+// scene rebuilt; a host intersector must follow on its own). Renderers of
+// the scene start a new frame at their next `cmlt_renderer_prepare`;
+// until then `cmlt_renderer_render` returns `CMLT_ERROR_INVALID_OPERATION`.
+// `CMLT_ERROR_BUSY` while a renderer of the scene prepares or renders.
+// On error the scene is unchanged.
+//
+// # Safety
+// `scene` is NULL or a valid handle; `positions` (and `normals`, unless
+// NULL) hold `vertex_count` elements of 3 floats at their strides.
+enum cmlt_status cmlt_scene_update_mesh(struct cmlt_scene *scene,
+                                        uint32_t mesh,
+                                        const float *positions,
+                                        size_t vertex_count,
+                                        size_t position_stride,
+                                        const float *normals,
+                                        size_t normal_stride);
+
 // Loads a Mitsuba 3 XML scene file (the subset `cmlt render` reads) as a
 // committed scene with our BVH. `*out_camera`, `*out_width` and
 // `*out_height` (each may be NULL) receive the file's sensor.

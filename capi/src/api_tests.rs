@@ -1258,3 +1258,98 @@ fn host_shapes_are_checked_and_rendered() {
     assert_eq!(stats.nonfinite, 0);
     assert!(img.iter().all(|v| v.is_finite()));
 }
+
+/// `cmlt_scene_update_mesh`: bad updates are refused and change nothing
+/// (renderers keep rendering their frame); a good one (the light rises)
+/// refits the BVH, makes `render` ask for `prepare`, and the next frame
+/// shows the dimmer floor.
+#[test]
+fn mesh_updates_between_frames() {
+    let s = scene(None);
+    let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+    let mean = |img: &[f32]| img.iter().sum::<f32>() / img.len() as f32;
+    let mut raised = POSITIONS;
+    for v in 4..8 {
+        raised[3 * v + 1] = 1.8;
+    }
+    // SAFETY: valid or deliberately invalid pointers and sizes.
+    unsafe {
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12 * 16, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        let before = mean(&image(r));
+
+        let f = "cmlt_scene_update_mesh";
+        let mut nan = raised;
+        nan[13] = f32::NAN;
+        expect(
+            cmlt_scene_update_mesh(s, 1, null(), 8, 0, null(), 0),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 7, 0, null(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 8, null(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_scene_update_mesh(s, 1, nan.as_ptr(), 8, 0, null(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_scene_update_mesh(s, 2, raised.as_ptr(), 8, 0, null(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        let zero = [0.0f32; 24];
+        expect(
+            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 0, zero.as_ptr(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        let mut building = null_mut();
+        expect(cmlt_scene_new(&mut building), CMLT_OK, "new");
+        expect(
+            cmlt_scene_update_mesh(building, 0, raised.as_ptr(), 8, 0, null(), 0),
+            CMLT_ERROR_INVALID_OPERATION,
+            f,
+        );
+        cmlt_scene_release(building);
+        // Nothing changed: the frame goes on without a new prepare.
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+
+        expect(
+            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 0, null(), 0),
+            CMLT_OK,
+            f,
+        );
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12, null_mut()),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_renderer_render",
+        );
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12 * 16, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        let after = mean(&image(r));
+        assert!(after < 0.9 * before, "raised light: {after} vs {before}");
+        cmlt_renderer_release(r);
+        cmlt_scene_release(s);
+    }
+}

@@ -423,7 +423,8 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
             .renderer
             .try_write()
             .map_err(|_| Error::busy("workers are rendering"))?;
-        inner.prepare(&r.scene.scene, &r.scene.accel);
+        let live = r.scene.live()?;
+        inner.prepare(&live.scene, &live.accel);
         Ok(())
     })
 }
@@ -447,7 +448,7 @@ pub unsafe extern "C" fn cmlt_renderer_render(
     guard("cmlt_renderer_render", || {
         // SAFETY: the caller's contract.
         let r = unsafe { read(renderer, "renderer") }?;
-        let c = &r.scene;
+        let c = r.scene.live()?;
         let done = with_worker(r, worker, |inner, w| {
             inner.render(w, &c.scene, &c.accel, budget)
         })?;
@@ -490,7 +491,7 @@ pub unsafe extern "C" fn cmlt_renderer_render_while(
         let keep_going = keep_going.ok_or_else(|| Error::null("keep_going"))?;
         // SAFETY: the caller's contract on the callback.
         let ask = |done: u64| unsafe { keep_going(user, done) } != 0;
-        let c = &r.scene;
+        let c = r.scene.live()?;
         let done = with_worker(r, worker, |inner, w| {
             inner.render_while(w, &c.scene, &c.accel, budget, ask)
         })?;
@@ -631,6 +632,7 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
                 .map_err(|_| Error::busy("a worker is being rendered"))?;
             s.merge(&inner.worker_stats(&w));
         }
+        let live = r.scene.live()?;
         let m = &s.mlt;
         *out = cmlt_stats {
             samples: s.tracer.samples,
@@ -649,13 +651,13 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             packets: s.tracer.packets,
             packet_rays: s.tracer.packet_rays,
             nonfinite: s.nonfinite,
-            rejected_host_hits: match &r.scene.accel {
+            rejected_host_hits: match &live.accel {
                 Accel::Host(h) => h.rejected_hits(),
                 _ => 0,
             },
             rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
-            effects: r.scene.scene.analysis(inner.camera()).effects.0,
+            effects: live.scene.analysis(inner.camera()).effects.0,
         };
         Ok(())
     })

@@ -6,7 +6,7 @@
 
 use std::ffi::{CStr, c_char};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 
 use cmlt_cli::accel::AccelKind;
 use cmlt_core::accel::Intersector;
@@ -201,10 +201,19 @@ impl Intersector for Accel {
     }
 }
 
-/// A committed scene: immutable, shared by renderers.
-pub(crate) struct Committed {
+/// What renderers trace: the scene and its acceleration structure, which
+/// change together (`cmlt_scene_update_mesh`).
+pub(crate) struct Live {
     pub scene: Scene,
     pub accel: Accel,
+}
+
+/// A committed scene, shared by renderers: its structure is frozen; its
+/// meshes can move between frames.
+pub(crate) struct Committed {
+    /// Read-locked while renderers prepare, render or report; write-locked
+    /// by an update (each side gets `CMLT_ERROR_BUSY` rather than waiting).
+    live: RwLock<Live>,
     /// Integrator settings a loaded scene file asked for (defaults
     /// otherwise).
     pub settings: Settings,
@@ -213,6 +222,26 @@ pub(crate) struct Committed {
 }
 
 impl Committed {
+    pub fn new(
+        scene: Scene,
+        accel: Accel,
+        settings: Settings,
+        rejected_surfaces: Arc<AtomicU64>,
+    ) -> Self {
+        Committed {
+            live: RwLock::new(Live { scene, accel }),
+            settings,
+            rejected_surfaces,
+        }
+    }
+
+    /// The scene and accel for reading, or busy while an update runs.
+    pub fn live(&self) -> Result<RwLockReadGuard<'_, Live>> {
+        self.live
+            .try_read()
+            .map_err(|_| Error::busy("the scene is being updated"))
+    }
+
     /// Host shape points rejected so far.
     pub fn rejected_surfaces(&self) -> u64 {
         self.rejected_surfaces.load(Ordering::Relaxed)
@@ -678,12 +707,90 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
             Some(i) => Accel::Host(HostIntersector::new(i, b.triangles as u32, b.shapes as u32)),
             None => build_accel(accel_kind(b.accel)?, &built)?,
         };
-        *state = State::Committed(Arc::new(Committed {
-            scene: built,
+        *state = State::Committed(Arc::new(Committed::new(
+            built,
             accel,
-            settings: Settings::default(),
-            rejected_surfaces: b.rejected_surfaces.clone(),
-        }));
+            Settings::default(),
+            b.rejected_surfaces.clone(),
+        )));
+        Ok(())
+    })
+}
+
+/// Moves mesh `mesh` (0 for the first `cmlt_scene_add_mesh`, and so on)
+/// of a committed scene: `vertex_count` new positions (as many as the mesh
+/// has) and, unless `normals` is NULL, new shading normals — the scene
+/// update of an animated frame, e.g. a rigid transform the host applied.
+/// Topology, material and emission stay. cmlt's BVH is refitted (Embree's
+/// scene rebuilt; a host intersector must follow on its own). Renderers of
+/// the scene start a new frame at their next `cmlt_renderer_prepare`;
+/// until then `cmlt_renderer_render` returns `CMLT_ERROR_INVALID_OPERATION`.
+/// `CMLT_ERROR_BUSY` while a renderer of the scene prepares or renders.
+/// On error the scene is unchanged.
+///
+/// # Safety
+/// `scene` is NULL or a valid handle; `positions` (and `normals`, unless
+/// NULL) hold `vertex_count` elements of 3 floats at their strides.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_update_mesh(
+    scene: *mut cmlt_scene,
+    mesh: u32,
+    positions: *const f32,
+    vertex_count: usize,
+    position_stride: usize,
+    normals: *const f32,
+    normal_stride: usize,
+) -> cmlt_status {
+    guard("cmlt_scene_update_mesh", || {
+        // SAFETY: the caller's contract.
+        let scene = unsafe { read(scene, "scene") }?;
+        if positions.is_null() {
+            return Err(Error::null("positions"));
+        }
+        let c = scene.committed()?;
+        // SAFETY: the caller's contract on the arrays.
+        let (p, n) = unsafe {
+            (
+                gather::<f32, 3>(positions, vertex_count, position_stride, "positions")?,
+                if normals.is_null() {
+                    None
+                } else {
+                    Some(gather::<f32, 3>(
+                        normals,
+                        vertex_count,
+                        normal_stride,
+                        "normals",
+                    )?)
+                },
+            )
+        };
+        let p: Vec<Vec3> = p.into_iter().map(Vec3::from_array).collect();
+        let n: Option<Vec<Vec3>> = n.map(|n| n.into_iter().map(Vec3::from_array).collect());
+        if n.iter().flatten().any(|v| v.length_squared() == 0.0) {
+            return Err(Error::invalid("normals: a shading normal has zero length"));
+        }
+        let mut live = c
+            .live
+            .try_write()
+            .map_err(|_| Error::busy("renderers of this scene are preparing or rendering"))?;
+        let Live { scene, accel } = &mut *live;
+        let index = mesh as usize;
+        let old = scene
+            .meshes
+            .get(index)
+            .map(|m| (m.positions.clone(), m.normals.clone()));
+        scene
+            .update_mesh(index, &p, n.as_deref())
+            .map_err(|e| Error::invalid(e.to_string()))?;
+        if let Accel::Built(built) = accel {
+            if let Err(e) = built.update(scene) {
+                // Put the mesh back so scene and accel agree again.
+                if let Some((op, on)) = old {
+                    let _ = scene.update_mesh(index, &op, Some(&on));
+                }
+                return Err(Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e));
+            }
+        }
         Ok(())
     })
 }
@@ -777,12 +884,12 @@ unsafe fn finish_loaded(
     let scene = loaded.scene;
     let cam = scene.camera;
     let accel = build_accel(AccelKind::Ours, &scene)?;
-    *out = Box::into_raw(cmlt_scene::committed_from(Committed {
+    *out = Box::into_raw(cmlt_scene::committed_from(Committed::new(
         scene,
         accel,
-        settings: loaded.settings,
-        rejected_surfaces: Arc::default(),
-    }));
+        loaded.settings,
+        Arc::default(),
+    )));
     // SAFETY: the caller's contract.
     unsafe {
         if let Some(c) = out_camera.as_mut() {
@@ -833,7 +940,7 @@ pub unsafe extern "C" fn cmlt_scene_get_effects(
         let c = scene.committed()?;
         let pinhole = Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 1, 1, 0.0, 1.0)
             .map_err(|e| Error::invalid(e.to_string()))?;
-        let a = c.scene.analysis(&pinhole);
+        let a = c.live()?.scene.analysis(&pinhole);
         *out = a.effects.0;
         // SAFETY: the caller's contract.
         if let Some(sc) = unsafe { out_specular_chains.as_mut() } {
@@ -855,7 +962,7 @@ pub unsafe extern "C" fn cmlt_scene_triangle_count(
     guard("cmlt_scene_triangle_count", || {
         // SAFETY: the caller's contract.
         let (scene, out) = unsafe { (read(scene, "scene")?, write(out, "out")?) };
-        *out = scene.committed()?.scene.triangle_count() as u32;
+        *out = scene.committed()?.live()?.scene.triangle_count() as u32;
         Ok(())
     })
 }

@@ -58,6 +58,21 @@ impl Accel {
         }
     }
 
+    /// Follows `scene`'s triangles after meshes moved (same topology,
+    /// `Scene::update_mesh`): our BVH is refitted in place, Embree's scene
+    /// is rebuilt (its build is fast; a refit would need vertex buffers
+    /// shared with Embree). On error `self` is unchanged.
+    pub fn update(&mut self, scene: &cmlt::scene::Scene) -> Result<(), String> {
+        match self {
+            Accel::Ours(bvh) => bvh.refit(|p| scene.triangle(p)),
+            #[cfg(feature = "embree")]
+            Accel::Embree(_) => {
+                *self = Accel::build(AccelKind::Embree, &scene.triangles().collect::<Vec<_>>())?;
+            }
+        }
+        Ok(())
+    }
+
     /// Short name (`ours`, `embree`), for logs.
     pub fn name(&self) -> &'static str {
         match self {

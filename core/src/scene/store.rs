@@ -500,11 +500,11 @@ impl Scene {
         }
     }
 
-    /// Moves mesh `mesh`'s vertices to `positions` (and its shading
-    /// normals to `normals`, when given): the scene update of an animated
-    /// frame, e.g. a rigid transform the host applied. Topology, material
-    /// and emission stay; counts must match the mesh's (normals: one per
-    /// position). Everything is checked before anything changes, so on
+    /// Moves mesh `mesh`'s vertices to `positions` (and replaces its
+    /// shading normals by `normals`, when given; an empty slice removes
+    /// them): the scene update of an animated frame, e.g. a rigid
+    /// transform the host applied. Topology, material and emission stay;
+    /// counts must match the mesh's (normals: one per position). Everything is checked before anything changes, so on
     /// error the scene is as it was. An emitting mesh's light distribution
     /// is rebuilt (that allocates); nothing else does.
     ///
@@ -522,7 +522,7 @@ impl Scene {
             .get(mesh)
             .ok_or(SceneError::UnknownMesh { mesh })?;
         let n = m.positions.len();
-        if positions.len() != n || normals.is_some_and(|ns| ns.len() != n) {
+        if positions.len() != n || normals.is_some_and(|ns| !ns.is_empty() && ns.len() != n) {
             return Err(SceneError::AttributeCount { mesh });
         }
         let bad = positions
