@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use cmlt::accel::Intersector;
 use cmlt::accel::bvh::{Bvh, Kernel};
-use cmlt::geometry::offset::{barycentric_error, spawn_ray, spawn_ray_between};
+use cmlt::geometry::offset::{barycentric_error, spawn_ray, spawn_rays_between};
 use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
 use cmlt::math::{Frame, Mat4, Vec2, Vec3};
 use cmlt::sampler::SampleStream;
@@ -239,7 +239,11 @@ fn ray_sets(s: &BenchScene, bvh: &Bvh, count: usize) -> RaySets {
             Frame::from_normal(ng).to_world(local),
         ));
         let (lp, le, ln) = (s.light)(&mut rng);
-        shadow.push(spawn_ray_between(p, err, ng, lp, le, ln));
+        // The main ray of each connection (the short tail ray is left out
+        // of the throughput measurement).
+        if let Some(seg) = spawn_rays_between(p, err, ng, lp, le, ln) {
+            shadow.push(seg.main);
+        }
     }
     // Shuffle the bounces: incoherent.
     for i in (1..diffuse.len()).rev() {

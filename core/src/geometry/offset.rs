@@ -15,9 +15,11 @@ use super::Ray;
 /// Unit roundoff of f32 (2^-24).
 pub const MACHINE_EPSILON: f32 = f32::EPSILON * 0.5;
 
-/// Shadow rays stop this fraction short of their (already offset) target so
-/// that the target's own surface, reached at t ≈ 1, is not reported as an
-/// occluder. A relative bound on the segment, not a scene-scale epsilon.
+/// Where a segment's occlusion test hands over from the ray leaving its
+/// first point to the ray leaving its second (see [`spawn_rays_between`]):
+/// a relative position on the segment, not a scene-scale epsilon. The first
+/// ray stops this fraction short of the far end, whose own surface it could
+/// otherwise report through the rounding of the hit distance near t = 1.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
 /// γ(n) = nε / (1 − nε), the rounding-error growth bound of n operations
@@ -62,13 +64,16 @@ pub fn barycentric_error(p0: Vec3, p1: Vec3, p2: Vec3, b0: f32, b1: f32, b2: f32
 /// geometric normal `ng` to the side that `w` points into.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
-    let d = ng.abs().dot(p_error);
-    let mut offset = ng * d;
-    if w.dot(ng) < 0.0 {
-        offset = -offset;
-    }
+    offset_to_side(p, p_error, ng, if w.dot(ng) < 0.0 { -1.0 } else { 1.0 })
+}
+
+/// Moves `p` off its surface by the projection of its error box onto `ng`,
+/// to the side `side` (±1) of `ng`, rounding each coordinate one ulp further
+/// so the offset is not lost to the rounding of the sum.
+#[inline]
+fn offset_to_side(p: Vec3, p_error: Vec3, ng: Vec3, side: f32) -> Vec3 {
+    let offset = ng * (ng.abs().dot(p_error) * side);
     let mut po = p + offset;
-    // Round away from p so the offset is not lost to rounding of the sum.
     for i in 0..3 {
         if offset[i] > 0.0 {
             po[i] = next_float_up(po[i]);
@@ -85,19 +90,91 @@ pub fn spawn_ray(p: Vec3, p_error: Vec3, ng: Vec3, d: Vec3) -> Ray {
     Ray::new(offset_ray_origin(p, p_error, ng, d), d)
 }
 
-/// A shadow/connection ray between two surface points; both ends are offset
-/// off their surfaces, and the ray covers `t ∈ (0, 1 − SHADOW_EPSILON)`.
-/// A zero normal (`Vec3::ZERO`) marks a point that is not on a surface
-/// (a pinhole camera), which is then not offset.
+/// The occlusion test of the open segment between two points, as rays that
+/// each start off their own surface (see [`spawn_rays_between`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentRays {
+    /// From the first point towards the second, over `t ∈ (0, 1 −
+    /// SHADOW_EPSILON)`, or up to the second point itself when that is not
+    /// on a surface.
+    pub main: Ray,
+    /// From the second point back over the last `2·SHADOW_EPSILON` of the
+    /// segment, overlapping `main`; `None` when the second point is not on a
+    /// surface (`main` then reaches it).
+    pub tail: Option<Ray>,
+}
+
+/// The side (±1) of the plane through a surface point with normal `ng` on
+/// which the point `p + w` lies; 0 for a point on no surface (`ng` zero);
+/// `None` when `ng · w` is within its rounding error bound, so that its sign
+/// may disagree with the BSDF's (which evaluates the same cosine through the
+/// normalised direction): such a connection is tangent to the surface to
+/// within γ(5) and carries nothing.
 #[inline]
-pub fn spawn_ray_between(p0: Vec3, e0: Vec3, n0: Vec3, p1: Vec3, e1: Vec3, n1: Vec3) -> Ray {
-    let o = offset_ray_origin(p0, e0, n0, p1 - p0);
-    let t = offset_ray_origin(p1, e1, n1, o - p1);
-    Ray {
-        o,
-        d: t - o,
-        t_max: 1.0 - SHADOW_EPSILON,
+pub fn side_of(ng: Vec3, w: Vec3) -> Option<f32> {
+    if ng == Vec3::ZERO {
+        return Some(0.0);
     }
+    let c = ng.dot(w);
+    if c.abs() <= gamma(5) * ng.abs().dot(w.abs()) {
+        None
+    } else if c < 0.0 {
+        Some(-1.0)
+    } else {
+        Some(1.0)
+    }
+}
+
+/// Occlusion rays between two points `p0`, `p1` with error bounds and
+/// geometric normals (a zero normal marks a point on no surface, such as a
+/// pinhole lens, which is not offset). `None` when the segment is tangent
+/// to one of the surfaces to within rounding ([`side_of`]); callers treat
+/// it as blocked.
+///
+/// Each end is offset to the side of its surface on which the *other
+/// point* lies, the side that the BSDF at that end sees the connection
+/// leave on. (pbrt-v4 offsets the second end towards the already offset
+/// first end instead: when both points lie on one plane within their error
+/// bounds — a light path on the outside of a wall, a camera path on its
+/// inside — that pushed both ends outside, and the ray between them crossed
+/// nothing while both BSDFs reflected.) With consistent sides, the ray
+/// crosses every surface whose two sides the two BSDFs put the ends on.
+///
+/// The segment is covered by two rays, each starting at an offset point
+/// (where the intersector's provably-positive-t test excludes that point's
+/// own surface and still finds any other surface, even one crossed
+/// immediately): `main` from `p0` up to 1 − `SHADOW_EPSILON`, `tail` from
+/// `p1` back over 2·`SHADOW_EPSILON`. A single ray stopping short of `p1`
+/// (pbrt's `SpawnRayTo`) misses a surface crossed within that margin of
+/// `p1`, which on a convex mesh is every exit through a face next to `p1`'s
+/// at a grazing connection: light leaked into closed meshes.
+#[inline]
+pub fn spawn_rays_between(
+    p0: Vec3,
+    e0: Vec3,
+    n0: Vec3,
+    p1: Vec3,
+    e1: Vec3,
+    n1: Vec3,
+) -> Option<SegmentRays> {
+    let d = p1 - p0;
+    let side0 = side_of(n0, d)?;
+    let side1 = side_of(n1, -d)?;
+    let o = offset_to_side(p0, e0, n0, side0);
+    let end = offset_to_side(p1, e1, n1, side1);
+    let free_end = side1 == 0.0;
+    Some(SegmentRays {
+        main: Ray {
+            o,
+            d: end - o,
+            t_max: if free_end { 1.0 } else { 1.0 - SHADOW_EPSILON },
+        },
+        tail: (!free_end).then(|| Ray {
+            o: end,
+            d: o - end,
+            t_max: 2.0 * SHADOW_EPSILON,
+        }),
+    })
 }
 
 #[cfg(test)]
@@ -123,5 +200,84 @@ mod tests {
             let down = offset_ray_origin(p, err, ng, -Vec3::Z);
             assert!(up.z > 0.0 && down.z < 0.0);
         }
+    }
+
+    /// Whether any of the segment's rays hits one of `tris`.
+    fn blocked(seg: &SegmentRays, tris: &[[Vec3; 3]]) -> bool {
+        let hits = |r: &Ray| {
+            tris.iter()
+                .any(|t| super::super::triangle::intersect_triangle(r, t[0], t[1], t[2]).is_some())
+        };
+        hits(&seg.main) || seg.tail.as_ref().is_some_and(hits)
+    }
+
+    /// The square z = 1, |x|, |y| ≤ 1, as two triangles.
+    const WALL: [[Vec3; 3]; 2] = [
+        [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+        ],
+        [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(-1.0, 1.0, 1.0),
+        ],
+    ];
+
+    /// Two points of one wall, the first lit from outside, the second seen
+    /// from inside, whose computed positions put each on its own side (the
+    /// first rounded one ulp inside, issue 7's cube leak): the segment's
+    /// rays cross the wall, so the connection is blocked.
+    #[test]
+    fn a_connection_between_the_two_sides_of_a_wall_crosses_it() {
+        let ng = Vec3::new(0.0, 0.0, -1.0);
+        let e = Vec3::splat(gamma(7));
+        let outside = Vec3::new(-0.4996641, 0.12642178, 0.99999994);
+        let inside = Vec3::new(0.6616, 0.74359167, 1.0);
+        let seg = spawn_rays_between(outside, e, ng, inside, e, ng).unwrap();
+        assert!(seg.main.o.z > 1.0, "the first end stays outside");
+        assert!(seg.main.at(1.0).z < 1.0, "the second end stays inside");
+        assert!(blocked(&seg, &WALL));
+    }
+
+    /// A segment tangent to a surface to within rounding is refused.
+    #[test]
+    fn a_tangent_connection_is_refused() {
+        let ng = Vec3::new(0.0, 0.0, -1.0);
+        let e = Vec3::splat(gamma(7));
+        let a = Vec3::new(-0.5, 0.1, 1.0);
+        let b = Vec3::new(0.6, 0.7, 1.0);
+        assert_eq!(spawn_rays_between(a, e, ng, b, e, ng), None);
+        assert!(spawn_rays_between(a, e, ng, b - 1e-3 * ng, e, Vec3::ZERO).is_some());
+    }
+
+    /// A wall crossed 10⁻⁵ before the far end of a unit segment (inside
+    /// the margin the first ray leaves out near its target) blocks it:
+    /// the tail ray from the far end finds it.
+    #[test]
+    fn a_surface_crossed_next_to_the_far_end_blocks() {
+        // Floor z = 0 (p1 on it, normal up); a wall y = 0 just in front.
+        let p1 = Vec3::new(0.0, 1e-5, 0.0);
+        let p0 = Vec3::new(0.0, -1.0, 1.0);
+        let wall = [[
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 2.0),
+        ]];
+        let e = Vec3::splat(gamma(7));
+        let seg = spawn_rays_between(p0, Vec3::ZERO, Vec3::ZERO, p1, e, Vec3::Z).unwrap();
+        assert!(blocked(&seg, &wall));
+        assert!(
+            !blocked(&SegmentRays { tail: None, ..seg }, &wall),
+            "the main ray alone leaves the crossing out"
+        );
+        // Without the wall nothing is hit, the floor under p1 included.
+        let floor = [[
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(0.0, 2.0, 0.0),
+        ]];
+        assert!(!blocked(&seg, &floor));
     }
 }

@@ -117,18 +117,38 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// Whether the segment between two surface points is blocked.
     #[inline]
     pub fn occluded_between(&mut self, a: &SurfacePoint, b: &SurfacePoint) -> bool {
-        self.stats.shadow_rays += 1;
-        let r = offset::spawn_ray_between(a.p, a.p_error, a.ng, b.p, b.p_error, b.ng);
-        self.accel.occluded(&r)
+        self.occluded_segment(offset::spawn_rays_between(
+            a.p, a.p_error, a.ng, b.p, b.p_error, b.ng,
+        ))
     }
 
     /// Whether the segment from a surface point to a free point (a camera
     /// lens) is blocked.
     #[inline]
     pub fn occluded_to_point(&mut self, a: &SurfacePoint, p: Vec3) -> bool {
+        self.occluded_segment(offset::spawn_rays_between(
+            a.p,
+            a.p_error,
+            a.ng,
+            p,
+            Vec3::ZERO,
+            Vec3::ZERO,
+        ))
+    }
+
+    /// Whether a segment spawned by [`offset::spawn_rays_between`] is
+    /// blocked (a segment it refused is: it is tangent to a surface).
+    #[inline]
+    pub fn occluded_segment(&mut self, seg: Option<offset::SegmentRays>) -> bool {
+        let Some(seg) = seg else { return true };
         self.stats.shadow_rays += 1;
-        let r = offset::spawn_ray_between(a.p, a.p_error, a.ng, p, Vec3::ZERO, Vec3::ZERO);
-        self.accel.occluded(&r)
+        if self.accel.occluded(&seg.main) {
+            return true;
+        }
+        seg.tail.is_some_and(|tail| {
+            self.stats.shadow_rays += 1;
+            self.accel.occluded(&tail)
+        })
     }
 
     /// Closest surfaces along a bundle of rays, traced as packets of 4, 8

@@ -191,14 +191,16 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
             }
             value[i] = v;
             raster[i] = conn.raster;
-            shadow[i] = Some(offset::spawn_ray_between(
+            // The lens is on no surface: the main ray reaches it, no tail.
+            shadow[i] = offset::spawn_rays_between(
                 h.sp.p,
                 h.sp.p_error,
                 h.sp.ng,
                 conn.p_lens,
                 Vec3::ZERO,
                 Vec3::ZERO,
-            ));
+            )
+            .map(|seg| seg.main);
         }
         let mut blocked = [false; MAX_LANES];
         self.tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);

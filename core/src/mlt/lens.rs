@@ -108,6 +108,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
         let mut value = [Rgb::ZERO; MAX_LANES];
         // Connection rays to x_{t+1}, traced as one occlusion packet.
         let mut shadow: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
+        let mut tails: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
         for i in 0..n {
             let Some(e) = &ends[i] else { continue };
             let h = &e.hit;
@@ -144,22 +145,35 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
                         continue;
                     }
                     value[i] = v;
-                    shadow[i] = Some(offset::spawn_ray_between(
+                    if let Some(seg) = offset::spawn_rays_between(
                         h.sp.p,
                         h.sp.p_error,
                         h.sp.ng,
                         next.sp.p,
                         next.sp.p_error,
                         next.sp.ng,
-                    ));
+                    ) {
+                        shadow[i] = Some(seg.main);
+                        tails[i] = seg.tail;
+                    }
                 }
             }
         }
         if matches!(a.end, LensEnd::Connect { .. }) {
             let mut blocked = [false; MAX_LANES];
             self.tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);
+            // The tails all leave the shared vertex x_{t+1}: a coherent
+            // bundle of its own, for the lanes still open.
             for i in 0..n {
-                if shadow[i].is_none() || blocked[i] {
+                if blocked[i] {
+                    tails[i] = None;
+                }
+            }
+            let mut tail_blocked = [false; MAX_LANES];
+            self.tracer
+                .occluded_bundle(&tails[..n], &mut tail_blocked[..n]);
+            for i in 0..n {
+                if shadow[i].is_none() || blocked[i] || tail_blocked[i] {
                     value[i] = Rgb::ZERO;
                 }
             }
