@@ -11,7 +11,11 @@
 #   bench/peers/run_peers.sh [OUTDIR]     (default docs/accuracy)
 #
 # Environment: PEER_BUDGETS (2,4,8,15,30), BIDIR_BUDGETS (4,15,30),
-# THREADS (2), VERSUS_AT (30; empty: no comparison), SCENES ("veach-bidir:128:128 veach-ajar:160:90").
+# THREADS (2), VERSUS_AT (30; empty: no comparison), SCENES ("veach-bidir:128:128 veach-ajar:160:90"),
+# CHECK_SEEDS (0; n > 0 first checks the conversion: `peers.py check`, n
+# renders of CHECK_TIME (30) s with PATHCPU + RANDOM on 1 thread, image
+# means against the reference's, written to OUTDIR/<scene>-luxcore-check.txt;
+# 8 seeds take about 4.5 minutes per scene).
 # Creates bench/peers/.venv (pyluxcore, mitsuba, numpy from PyPI) on first
 # use. Each render runs in a process of its own: pyluxcore and mitsuba crash
 # when imported into one process.
@@ -24,6 +28,8 @@ BIDIR_BUDGETS=${BIDIR_BUDGETS:-4,15,30}
 THREADS=${THREADS:-2}
 VERSUS_AT=${VERSUS_AT-30}
 SCENES=${SCENES:-"veach-bidir:128:128 veach-ajar:160:90"}
+CHECK_SEEDS=${CHECK_SEEDS:-0}
+CHECK_TIME=${CHECK_TIME:-30}
 VENV=bench/peers/.venv
 PY=$VENV/bin/python
 WORK=bench/peers/work
@@ -48,6 +54,11 @@ for spec in $SCENES; do
   xml=tests/scenes/$scene/scene.xml
   csv=$OUT/$scene.csv
   lux=$WORK/$scene-${w}x$h
+  if [ "$CHECK_SEEDS" -gt 0 ]; then
+    { echo "# bench/peers/peers.py check $xml --reference tests/scenes/$scene/reference.exr --resx $w --resy $h --time $CHECK_TIME --seeds $CHECK_SEEDS --threads 1 --sampler RANDOM"
+      "$PY" bench/peers/peers.py check "$xml" --reference "tests/scenes/$scene/reference.exr" --resx "$w" --resy "$h" \
+        --time "$CHECK_TIME" --seeds "$CHECK_SEEDS" --threads 1 --sampler RANDOM; } | tee "$OUT/$scene-luxcore-check.txt"
+  fi
   "$PY" bench/peers/peers.py convert "$xml" "$lux" --resx "$w" --resy "$h"
   for b in ${PEER_BUDGETS//,/ }; do
     img=$WORK/$scene-mitsuba-$b.exr
