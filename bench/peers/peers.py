@@ -580,6 +580,14 @@ def check_stats(args):
     print(f"reference {args.reference} ({W}x{H} box-filtered to {w}x{h}): mean {f3(rm)}")
     for p, m, r in zip(args.images, means, ratios):
         print(f"  {p}: mean {f3(m)}  mean/ref {f3(r)}")
+    # Where a mismatch sits: mean/ref of the renders' mean in 5 bands of
+    # rows, top to bottom.
+    refd = box_down(ref, w, h)
+    avg = imgs.mean(0)
+    for b in range(5):
+        rows = slice(b * h // 5, (b + 1) * h // 5)
+        br = avg[rows].reshape(-1, 3).mean(0) / refd[rows].reshape(-1, 3).mean(0)
+        print(f"  rows {rows.start}-{rows.stop - 1}: mean/ref {f3(br)}")
     print(f"mean/ref over {n} renders (R G B): {f3(ratio)}")
     print(f"  standard error: seeds {f3(se_seeds)}, pixels {f3(se_pix)}, reference {f3(se_ref)}")
     print(f"  combined        {f3(se)}")
