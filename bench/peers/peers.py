@@ -13,11 +13,14 @@ imported into one process):
       (mitsuba) 8-bit sRGB image -> linear float EXR.
   luxcore SCN OUT.exr --resx W --resy H --time T --threads N --seed S
            --engine PATHCPU|BIDIRCPU --sampler METROPOLIS|SOBOL|RANDOM
+           [--max-depth D]
       (pyluxcore) renders for T seconds; prints "RESULT wall_s spp".
   mitsuba SCENE_XML OUT.exr --resx W --resy H --time T --threads N --seed S
+          [--max-depth D]
       (mitsuba, scalar_rgb, path) Mitsuba 3 has no time budget: renders
       1 spp to measure the cost of a sample, then spp = T / cost; prints
-      "RESULT wall_s spp" of that render.
+      "RESULT wall_s spp" of that render. With --threads 1 it hung
+      (Mitsuba 3.9.1 here, after the 1 spp render); use 2 or more.
   check SCENE_XML --reference REF.exr --resx W --resy H [--time 30]
         [--seeds 8] [--threads 1] [--sampler RANDOM] [--json FILE]
       The conversion check: converts the scene, renders it --seeds times
@@ -440,12 +443,13 @@ def render_luxcore(args):
     import pyluxcore
     pyluxcore.Init(lambda msg: None)
     scn_dir = os.path.dirname(os.path.abspath(args.scn))
-    depth = int(open(os.path.join(scn_dir, "depth.txt")).read())
+    depth = args.max_depth or int(open(os.path.join(scn_dir, "depth.txt")).read())
     # PATHCPU's path.pathdepth.total = N keeps paths of up to N segments
     # for N >= 2 (no direct light sampling at the last vertex, see
     # slg PathTracer::RenderEyePath), the same count as Mitsuba's
     # max_depth; measured: cornell-box 64x64 at N = 2 and 3 matches
-    # Mitsuba's max_depth 2 and 3 within 0.3%. (N = 1 would also add
+    # Mitsuba's max_depth 2 and 3 within 0.2%, N = 2 is 11-16% below
+    # max_depth 3 (docs/accuracy/luxcore-depth-check.txt). (N = 1 would also add
     # direct lighting; Mitsuba's max_depth 1 has no LuxCore equivalent.)
     # BIDIRCPU's path.maxdepth / light.maxdepth keep max_depth - 1
     # (unchecked; BIDIRCPU is biased anyway, see docs/accuracy.md).
@@ -501,7 +505,8 @@ def render_mitsuba(args):
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     dr.set_thread_count(args.threads)
-    scene = mi.load_file(args.scene, resx=args.resx, resy=args.resy, integrator="path")
+    extra = {"max_depth": args.max_depth} if args.max_depth else {}
+    scene = mi.load_file(args.scene, resx=args.resx, resy=args.resy, integrator="path", **extra)
     # Mitsuba 3 has no time budget: time one sample per pixel (after a
     # warm-up render), then render the spp that fills the budget.
     mi.render(scene, spp=1, seed=10_000 + args.seed)
@@ -575,8 +580,8 @@ def check_stats(args):
     else:
         print("(no reference_half0/1.exr next to the reference: its own error is not included)")
     se_render = np.fmax(np.nan_to_num(se_seeds), np.nan_to_num(se_pix))
-    se = np.sqrt(se_render ** 2 + se_ref ** 2)
-    f3 = lambda v: " ".join(f"{x:.4f}" for x in v)
+    se = np.sqrt(se_render ** 2 + se_ref ** 2) if n > 1 else np.full(3, np.nan)
+    f3 = lambda v: " ".join(f"{x:.4f}" if np.isfinite(x) else "n/a" for x in v)
     print(f"reference {args.reference} ({W}x{H} box-filtered to {w}x{h}): mean {f3(rm)}")
     for p, m, r in zip(args.images, means, ratios):
         print(f"  {p}: mean {f3(m)}  mean/ref {f3(r)}")
@@ -591,7 +596,7 @@ def check_stats(args):
     print(f"mean/ref over {n} renders (R G B): {f3(ratio)}")
     print(f"  standard error: seeds {f3(se_seeds)}, pixels {f3(se_pix)}, reference {f3(se_ref)}")
     print(f"  combined        {f3(se)}")
-    worst = np.abs(ratio - 1) + 2 * se
+    worst = np.abs(ratio - 1) + 2 * np.nan_to_num(se)
     ok = bool(np.all(np.abs(ratio - 1) < args.tolerance))
     print(f"|mean/ref - 1| < {args.tolerance:g} in every channel: {'yes' if ok else 'NO'}"
           f" (|mean/ref - 1| + 2 SE: {f3(worst)})")
@@ -654,6 +659,8 @@ def main():
         r.add_argument("--time", type=float, required=True)
         r.add_argument("--threads", type=int, default=2)
         r.add_argument("--seed", type=int, default=0)
+        # Overrides the scene's max_depth (Mitsuba's meaning).
+        r.add_argument("--max-depth", type=int, default=0)
         if name == "luxcore":
             r.add_argument("--engine", default="PATHCPU")
             r.add_argument("--sampler", default="METROPOLIS")
