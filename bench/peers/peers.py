@@ -572,7 +572,7 @@ def check_stats(args):
         se_pix = np.sqrt(var_pix.sum(0) / n) / (h * w) / rm
     else:
         se_pix = np.full(3, np.nan)
-    se_ref = np.zeros(3)
+    se_ref = np.full(3, np.nan)
     halves = [os.path.join(os.path.dirname(ref_path), f"reference_half{i}.exr") for i in (0, 1)]
     if all(os.path.exists(p) for p in halves):
         d = (load_exr(halves[0]) - load_exr(halves[1])).reshape(-1, 3)
@@ -580,7 +580,7 @@ def check_stats(args):
     else:
         print("(no reference_half0/1.exr next to the reference: its own error is not included)")
     se_render = np.fmax(np.nan_to_num(se_seeds), np.nan_to_num(se_pix))
-    se = np.sqrt(se_render ** 2 + se_ref ** 2) if n > 1 else np.full(3, np.nan)
+    se = np.sqrt(se_render ** 2 + np.nan_to_num(se_ref) ** 2) if n > 1 else np.full(3, np.nan)
     f3 = lambda v: " ".join(f"{x:.4f}" if np.isfinite(x) else "n/a" for x in v)
     print(f"reference {args.reference} ({W}x{H} box-filtered to {w}x{h}): mean {f3(rm)}")
     for p, m, r in zip(args.images, means, ratios):
