@@ -328,6 +328,8 @@ def convert(args):
                 # mix of the unscaled metal2 (weight spec) and a black
                 # matte (weight 1 − spec): f = spec · f_metal2, exactly
                 # Mitsuba's scaling. spec must be grey (a scalar weight).
+                if not spec.startswith("tex") and len(set(spec.split())) > 1:
+                    raise SystemExit(f"coloured specular_reflectance {spec} not supported")
                 metal, black = f"{p}metal", f"{p}black"
                 lines.append(f'{black}.type = "matte"')
                 lines.append(f"{black}.kd = 0 0 0")
