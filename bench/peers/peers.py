@@ -5,7 +5,7 @@ Run through bench/peers/run_peers.sh (it creates the venv). Subcommands, each
 meant to run in a process of its own (pyluxcore and mitsuba crash when
 imported into one process):
 
-  convert SCENE_XML OUTDIR --resx W --resy H [--max-depth D]
+  convert SCENE_XML OUTDIR --resx W --resy H [-D name=value]
       Mitsuba 3 XML -> LuxCore SDL (OUTDIR/scene.scn, PLY meshes, linear EXR
       textures). Pure Python + numpy, except bitmap textures, which are
       decoded sRGB -> linear by a Mitsuba subprocess (`decode-texture`).
@@ -13,14 +13,27 @@ imported into one process):
       (mitsuba) 8-bit sRGB image -> linear float EXR.
   luxcore SCN OUT.exr --resx W --resy H --time T --threads N --seed S
            --engine PATHCPU|BIDIRCPU --sampler METROPOLIS|SOBOL|RANDOM
+           [--max-depth D]
       (pyluxcore) renders for T seconds; prints "RESULT wall_s spp".
   mitsuba SCENE_XML OUT.exr --resx W --resy H --time T --threads N --seed S
+          [--max-depth D]
       (mitsuba, scalar_rgb, path) Mitsuba 3 has no time budget: renders
       1 spp to measure the cost of a sample, then spp = T / cost; prints
-      "RESULT wall_s spp" of that render.
+      "RESULT wall_s spp" of that render. With --threads 1 it hung
+      (Mitsuba 3.9.1 here, after the 1 spp render); use 2 or more.
+  check SCENE_XML --reference REF.exr --resx W --resy H [--time 30]
+        [--seeds 8] [--threads 1] [--sampler RANDOM] [--json FILE]
+      The conversion check: converts the scene, renders it --seeds times
+      with LuxCore PATHCPU and an unbiased sampler (seeds 0..n-1, each in a
+      process of its own), then `check-stats` compares the image means with
+      the reference's (box-filtered to W x H, as `cmlt bench score` does)
+      and prints mean/ref per channel with standard errors and whether it
+      is within --tolerance (0.02).
+  check-stats IMG... --reference REF.exr
+      (mitsuba) the statistics of `check` on existing images.
 
-Conversion to LuxCore (what differs and why), checked by run_peers.sh
-against the reference means:
+Conversion to LuxCore (what differs and why), checked with `check` against
+the reference means (docs/accuracy.md):
   - camera: Mitsuba's to_world matrix -> lookat (origin, origin + z, y up);
     Mitsuba's fov is horizontal (fov_axis x), LuxCore's applies to the
     shorter image side, so it is converted for non-square films. LuxCore
@@ -28,25 +41,28 @@ against the reference means:
     row low): the screen window is shifted by --shift-pixels (default -1).
     Measured on veach-bidir at 64x64: relMSE against the reference over
     row shifts -2..2 of the LuxCore image is lowest at 0 with -1 and at -1
-    with 0.
+    with 0; on veach-ajar at 160x90 LuxCore's ALBEDO output against
+    Mitsuba's aov albedo is closest unshifted, over shifts of -1..1 pixel
+    in x and y.
   - film: box filter of width 0.5 (one pixel, like the references' box
     rfilter); output RGB (linear, before the image pipeline).
-  - max_depth: Mitsuba counts segments (1 = emitters seen directly);
-    LuxCore's path depth counts bounces, so depth = max_depth - 1.
-    Russian roulette from depth 5 as Mitsuba's rr_depth.
+  - max_depth: PATHCPU's path.pathdepth.total = N keeps paths of up to N
+    segments (N >= 2), like Mitsuba's max_depth, so N = max_depth
+    (measured, see render_luxcore). Russian roulette from depth 5 as
+    Mitsuba's rr_depth.
   - diffuse -> matte (kd = rgb, or an imagemap of the linearised bitmap,
-    gamma 1); twosided is LuxCore's default for these materials.
-  - roughconductor with rgb specular_reflectance 1 -> metal2 with the
-    scene's n, k and u/vroughness = alpha. LuxCore's metal2 has one
-    microfacet model of its own (not Beckmann or GGX), so highlights differ
-    in shape and a little in energy: on veach-bidir (lit mostly off the
-    lamp's rough-metal shade) the image mean is 2-3% low with roughness =
-    alpha and 1.5-2.5% high with roughness = alpha^2 (PATHCPU + SOBOL,
-    64x64, 12 s); we keep alpha, the documented meaning. A textured
-    specular_reflectance (veach-ajar's checkerboard floor) is folded into a
-    fresnelcolor texture: the checkerboard times the conductor's
-    normal-incidence reflectance (its angular dependence is LuxCore's
-    approximation, not the exact conductor Fresnel term).
+    gamma 1); twosided is LuxCore's default for these materials. OBJ
+    texture coordinates get Mitsuba's v -> 1 - v.
+  - roughconductor -> metal2 with the scene's n, k and u/vroughness =
+    alpha. metal2's microfacet distribution (Schlick's, D = r / (pi (1 +
+    (r - 1) cos^2)^2) with r = uroughness * vroughness) is GGX's D with
+    alpha = uroughness; its shadowing term and its conductor Fresnel
+    formula are LuxCore's own approximations, not the exact ones, and
+    differ with the angle: on veach-ajar the rough aluminium floor renders
+    about 6% low in red and 4% high in blue against the reference. A
+    textured specular_reflectance (veach-ajar's checkerboard floor) becomes
+    a mix material: the checkerboard weighs the metal2 against a black
+    matte, f = spec * f_metal2, Mitsuba's scaling of the Fresnel term.
   - dielectric -> glass (interior IOR int_ior, exterior ext_ior).
   - area emitters -> the shape's material with `emission` = radiance,
     gain 1, power/efficiency 0 (radiance as given); one-sided, on the side
@@ -158,10 +174,14 @@ def load_obj(path):
     # Unweld: one vertex per face corner (uvs are per corner in OBJ).
     pos = np.array([[vs[v] for v, _ in f] for f in faces], dtype=np.float64).reshape(-1, 3)
     if vts:
-        # Mitsuba flips OBJ v on load (flip_tex_coords); LuxCore's imagemap
-        # has row 0 at the bottom, so LuxCore wants the unflipped v.
+        # Mitsuba flips OBJ v on load (flip_tex_coords: v -> 1 - v) and
+        # looks up bitmaps with row 0 at v = 0; LuxCore's imagemap lookup
+        # has row 0 at v = 0 too, so it wants the same flipped v. (With
+        # the unflipped v, veach-ajar's painting and door rendered upside
+        # down: compare the ALBEDO output with Mitsuba's aov albedo.)
         uv = np.array([[vts[t] if t >= 0 else [0, 0] for _, t in f] for f in faces],
                       dtype=np.float64).reshape(-1, 2)
+        uv[:, 1] = 1.0 - uv[:, 1]
     else:
         uv = None
     return pos, uv
@@ -235,11 +255,6 @@ def fmt(v):
     return " ".join(f"{x:.9g}" for x in v)
 
 
-def conductor_f0(eta, k):
-    """Normal-incidence reflectance of a conductor, per channel."""
-    return [((n - 1) ** 2 + kk ** 2) / ((n + 1) ** 2 + kk ** 2) for n, kk in zip(eta, k)]
-
-
 def convert(args):
     import numpy as np
     defines = dict(d.split("=", 1) for d in args.define)
@@ -301,21 +316,33 @@ def convert(args):
             eta = parse_values(sc.prop(bsdf, "rgb", "eta"))
             k = parse_values(sc.prop(bsdf, "rgb", "k"))
             spec = texture(bsdf, "specular_reflectance")
-            lines.append(f'{p}.type = "metal2"')
             if spec is None or spec.replace(" ", "") == "111":
-                lines.append(f"{p}.n = {fmt(eta)}")
-                lines.append(f"{p}.k = {fmt(k)}")
+                metal = p
             else:
-                tex_count[0] += 1
-                s, fr = f"tex{tex_count[0]}", f"tex{tex_count[0]}f"
-                lines.append(f'scene.textures.{s}.type = "scale"')
-                lines.append(f"scene.textures.{s}.texture1 = {spec}")
-                lines.append(f"scene.textures.{s}.texture2 = {fmt(conductor_f0(eta, k))}")
-                lines.append(f'scene.textures.{fr}.type = "fresnelcolor"')
-                lines.append(f"scene.textures.{fr}.kr = {s}")
-                lines.append(f"{p}.fresnel = {fr}")
-            lines.append(f"{p}.uroughness = {alpha:.9g}")
-            lines.append(f"{p}.vroughness = {alpha:.9g}")
+                # Mitsuba scales the conductor's Fresnel term by
+                # specular_reflectance. metal2 cannot scale its Fresnel
+                # term (a fresnelcolor texture fitted to spec · F0 is a
+                # different conductor: on veach-ajar's floor it reflects
+                # 30% more at normal incidence in the dark checker cells
+                # and tends to 1 at grazing angles), so the material is a
+                # mix of the unscaled metal2 (weight spec) and a black
+                # matte (weight 1 − spec): f = spec · f_metal2, exactly
+                # Mitsuba's scaling. spec must be grey (a scalar weight).
+                if not spec.startswith("tex") and len(set(spec.split())) > 1:
+                    raise SystemExit(f"coloured specular_reflectance {spec} not supported")
+                metal, black = f"{p}metal", f"{p}black"
+                lines.append(f'{black}.type = "matte"')
+                lines.append(f"{black}.kd = 0 0 0")
+            lines.append(f'{metal}.type = "metal2"')
+            lines.append(f"{metal}.n = {fmt(eta)}")
+            lines.append(f"{metal}.k = {fmt(k)}")
+            lines.append(f"{metal}.uroughness = {alpha:.9g}")
+            lines.append(f"{metal}.vroughness = {alpha:.9g}")
+            if metal != p:
+                lines.append(f'{p}.type = "mix"')
+                lines.append(f"{p}.material1 = {name}black")
+                lines.append(f"{p}.material2 = {name}metal")
+                lines.append(f"{p}.amount = {spec}")
         elif t == "dielectric":
             lines.append(f'{p}.type = "glass"')
             lines.append(f"{p}.kr = 1 1 1")
@@ -418,7 +445,19 @@ def render_luxcore(args):
     import pyluxcore
     pyluxcore.Init(lambda msg: None)
     scn_dir = os.path.dirname(os.path.abspath(args.scn))
-    depth = int(open(os.path.join(scn_dir, "depth.txt")).read())
+    depth = args.max_depth or int(open(os.path.join(scn_dir, "depth.txt")).read())
+    # PATHCPU's path.pathdepth.total = N keeps paths of up to N segments
+    # for N >= 2 (no direct light sampling at the last vertex, see
+    # slg PathTracer::RenderEyePath), the same count as Mitsuba's
+    # max_depth; measured: cornell-box 64x64 at N = 2 and 3 matches
+    # Mitsuba's max_depth 2 and 3 within 0.2%, N = 2 is 11-16% below
+    # max_depth 3 (docs/accuracy/luxcore-depth-check.txt). (N = 1 would also add
+    # direct lighting; Mitsuba's max_depth 1 has no LuxCore equivalent.)
+    # BIDIRCPU's path.maxdepth / light.maxdepth keep max_depth - 1
+    # (unchecked; BIDIRCPU is biased anyway, see docs/accuracy.md).
+    if depth < 2:
+        raise SystemExit(f"max_depth {depth}: no LuxCore equivalent (needs >= 2)")
+    lux_depth = depth
     props = pyluxcore.Properties()
     props.SetFromString(f"""
 renderengine.type = "{args.engine}"
@@ -436,10 +475,10 @@ film.imagepipelines.0.0.scale = 1
 path.russianroulette.depth = 5
 light.maxdepth = {max(depth - 1, 1)}
 path.maxdepth = {max(depth - 1, 1)}
-path.pathdepth.total = {max(depth - 1, 1)}
-path.pathdepth.diffuse = {max(depth - 1, 1)}
-path.pathdepth.glossy = {max(depth - 1, 1)}
-path.pathdepth.specular = {max(depth - 1, 1)}
+path.pathdepth.total = {lux_depth}
+path.pathdepth.diffuse = {lux_depth}
+path.pathdepth.glossy = {lux_depth}
+path.pathdepth.specular = {lux_depth}
 path.clamping.variance.maxvalue = 0
 batch.halttime = {args.time}
 scene.file = "{os.path.abspath(args.scn)}"
@@ -468,7 +507,8 @@ def render_mitsuba(args):
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     dr.set_thread_count(args.threads)
-    scene = mi.load_file(args.scene, resx=args.resx, resy=args.resy, integrator="path")
+    extra = {"max_depth": args.max_depth} if args.max_depth else {}
+    scene = mi.load_file(args.scene, resx=args.resx, resy=args.resy, integrator="path", **extra)
     # Mitsuba 3 has no time budget: time one sample per pixel (after a
     # warm-up render), then render the spp that fills the budget.
     mi.render(scene, spp=1, seed=10_000 + args.seed)
@@ -481,6 +521,122 @@ def render_mitsuba(args):
     wall = time.perf_counter() - t
     mi.Bitmap(img).write(args.out)
     print(f"RESULT {wall:.4f} {spp}")
+
+
+
+# --------------------------------------------------------------------- check
+
+
+def load_exr(path):
+    import mitsuba as mi
+    import numpy as np
+    b = mi.Bitmap(path).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
+    return np.array(b, dtype=np.float64)
+
+
+def box_down(img, w, h):
+    """The reference box-filtered to w x h (integer factor), as
+    `cmlt bench score` does (Image::downsample)."""
+    H, W, _ = img.shape
+    f = W // w
+    if f * w != W or f * h != H:
+        raise SystemExit(f"reference {W}x{H} is not an integer multiple of {w}x{h}")
+    return img.reshape(h, f, w, f, 3).mean(axis=(1, 3))
+
+
+def check_stats(args):
+    """(mitsuba) Image means of independent renders against the reference's.
+
+    Standard errors (per channel, of mean/ref):
+      seeds  - across the renders' means: std / sqrt(n);
+      pixels - from the per-pixel spread across the renders (pixels are
+               independent for a non-Metropolis sampler): sqrt(sum of
+               per-pixel variances / n) / pixels;
+      ref    - the reference's own, from its two independent halves
+               (reference_half0/1.exr next to it, if present): half the
+               pixel-based standard error of their difference's mean.
+    The combined standard error of the ratio uses the larger of the two
+    render estimates and the reference's, in quadrature."""
+    import json
+    import numpy as np
+    ref_path = os.path.abspath(args.reference)
+    ref = load_exr(ref_path)
+    H, W, _ = ref.shape
+    imgs = np.array([load_exr(p) for p in args.images])
+    n, h, w, _ = imgs.shape
+    rm = box_down(ref, w, h).reshape(-1, 3).mean(0)
+    means = imgs.reshape(n, -1, 3).mean(1)
+    ratios = means / rm
+    ratio = ratios.mean(0)
+    se_seeds = ratios.std(0, ddof=1) / math.sqrt(n) if n > 1 else np.full(3, np.nan)
+    if n > 1:
+        var_pix = imgs.reshape(n, -1, 3).var(0, ddof=1)
+        se_pix = np.sqrt(var_pix.sum(0) / n) / (h * w) / rm
+    else:
+        se_pix = np.full(3, np.nan)
+    se_ref = np.full(3, np.nan)
+    halves = [os.path.join(os.path.dirname(ref_path), f"reference_half{i}.exr") for i in (0, 1)]
+    if all(os.path.exists(p) for p in halves):
+        d = (load_exr(halves[0]) - load_exr(halves[1])).reshape(-1, 3)
+        se_ref = 0.5 * np.sqrt(d.var(0, ddof=1) / len(d)) / rm * ratio
+    else:
+        print("(no reference_half0/1.exr next to the reference: its own error is not included)")
+    se_render = np.fmax(np.nan_to_num(se_seeds), np.nan_to_num(se_pix))
+    se = np.sqrt(se_render ** 2 + np.nan_to_num(se_ref) ** 2) if n > 1 else np.full(3, np.nan)
+    f3 = lambda v: " ".join(f"{x:.4f}" if np.isfinite(x) else "n/a" for x in v)
+    print(f"reference {args.reference} ({W}x{H} box-filtered to {w}x{h}): mean {f3(rm)}")
+    for p, m, r in zip(args.images, means, ratios):
+        print(f"  {p}: mean {f3(m)}  mean/ref {f3(r)}")
+    # Where a mismatch sits: mean/ref of the renders' mean in 5 bands of
+    # rows, top to bottom.
+    refd = box_down(ref, w, h)
+    avg = imgs.mean(0)
+    for b in range(5):
+        rows = slice(b * h // 5, (b + 1) * h // 5)
+        br = avg[rows].reshape(-1, 3).mean(0) / refd[rows].reshape(-1, 3).mean(0)
+        print(f"  rows {rows.start}-{rows.stop - 1}: mean/ref {f3(br)}")
+    print(f"mean/ref over {n} renders (R G B): {f3(ratio)}")
+    print(f"  standard error: seeds {f3(se_seeds)}, pixels {f3(se_pix)}, reference {f3(se_ref)}")
+    print(f"  combined        {f3(se)}")
+    worst = np.abs(ratio - 1) + 2 * np.nan_to_num(se)
+    ok = bool(np.all(np.abs(ratio - 1) < args.tolerance))
+    print(f"|mean/ref - 1| < {args.tolerance:g} in every channel: {'yes' if ok else 'NO'}"
+          f" (|mean/ref - 1| + 2 SE: {f3(worst)})")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"images": args.images, "ref_mean": rm.tolist(), "means": means.tolist(),
+                       "ratio": ratio.tolist(), "se_seeds": se_seeds.tolist(), "se_pixels": se_pix.tolist(),
+                       "se_ref": se_ref.tolist(), "se": se.tolist(), "ok": ok}, f, indent=1)
+
+
+def check(args):
+    """Converts SCENE_XML, renders it with LuxCore --seeds times (each in a
+    process of its own, seeds 0..n-1) and compares the image means with the
+    reference (check-stats, in a Mitsuba process)."""
+    name = os.path.basename(os.path.dirname(os.path.abspath(args.scene)))
+    work = os.path.join(args.work, f"check-{name}-{args.resx}x{args.resy}")
+    me = os.path.relpath(__file__)
+    defines = [x for d in args.define for x in ("-D", d)]
+    subprocess.run([sys.executable, me, "convert", args.scene, work, "--resx", str(args.resx),
+                    "--resy", str(args.resy), *defines], check=True)
+    imgs = []
+    for seed in range(args.seeds):
+        img = os.path.join(work, f"{args.engine.lower()}-{args.sampler.lower()}-{args.time:g}s-seed{seed}.exr")
+        out = subprocess.run([sys.executable, me, "luxcore", os.path.join(work, "scene.scn"), img,
+                              "--resx", str(args.resx), "--resy", str(args.resy), "--time", str(args.time),
+                              "--threads", str(args.threads), "--seed", str(seed),
+                              "--engine", args.engine, "--sampler", args.sampler],
+                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        res = [l for l in out.stdout.splitlines() if l.startswith("RESULT")]
+        if not res:
+            raise SystemExit(f"luxcore render failed (seed {seed}, exit {out.returncode})")
+        print(f"seed {seed}: {res[0]} -> {img}", flush=True)
+        imgs.append(img)
+    cmd = [sys.executable, me, "check-stats", "--reference", args.reference,
+           "--tolerance", str(args.tolerance), *imgs]
+    if args.json:
+        cmd += ["--json", args.json]
+    subprocess.run(cmd, check=True)
 
 
 def main():
@@ -505,12 +661,34 @@ def main():
         r.add_argument("--time", type=float, required=True)
         r.add_argument("--threads", type=int, default=2)
         r.add_argument("--seed", type=int, default=0)
+        # Overrides the scene's max_depth (Mitsuba's meaning).
+        r.add_argument("--max-depth", type=int, default=0)
         if name == "luxcore":
             r.add_argument("--engine", default="PATHCPU")
             r.add_argument("--sampler", default="METROPOLIS")
+    k = sub.add_parser("check")
+    k.add_argument("scene")
+    k.add_argument("--reference", required=True)
+    k.add_argument("--resx", type=int, required=True)
+    k.add_argument("--resy", type=int, required=True)
+    k.add_argument("--time", type=float, default=30)
+    k.add_argument("--seeds", type=int, default=8)
+    k.add_argument("--threads", type=int, default=1)
+    k.add_argument("--engine", default="PATHCPU")
+    k.add_argument("--sampler", default="RANDOM")
+    k.add_argument("--tolerance", type=float, default=0.02)
+    k.add_argument("--work", default=os.path.relpath(os.path.join(HERE, "work")))
+    k.add_argument("--json")
+    k.add_argument("-D", dest="define", action="append", default=[])
+    t = sub.add_parser("check-stats")
+    t.add_argument("images", nargs="+")
+    t.add_argument("--reference", required=True)
+    t.add_argument("--tolerance", type=float, default=0.02)
+    t.add_argument("--json")
     args = ap.parse_args()
     {"convert": convert, "decode-texture": decode_texture,
-     "luxcore": render_luxcore, "mitsuba": render_mitsuba}[args.cmd](args)
+     "luxcore": render_luxcore, "mitsuba": render_mitsuba,
+     "check": check, "check-stats": check_stats}[args.cmd](args)
 
 
 if __name__ == "__main__":
