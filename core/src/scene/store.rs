@@ -6,7 +6,7 @@ use core::fmt;
 use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
-use super::effects::Analysis;
+use super::effects::{self, Analysis, Effect};
 use super::light::LightSet;
 use super::material::{Material, MaterialId};
 use super::texture::{Bitmap, BitmapId, Texture};
@@ -125,6 +125,12 @@ pub enum SceneError {
     TooManyTriangles,
     /// No camera was set.
     MissingCamera,
+    /// The scene needs an effect whose code this build of the core left
+    /// out (its cargo feature is off).
+    EffectNotBuilt {
+        /// The effect.
+        effect: Effect,
+    },
 }
 
 impl fmt::Display for SceneError {
@@ -165,6 +171,12 @@ impl fmt::Display for SceneError {
             }
             SceneError::TooManyTriangles => write!(f, "scene has more than 2^32 - 1 triangles"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
+            SceneError::EffectNotBuilt { effect } => write!(
+                f,
+                "the scene needs {}, which this build of cmlt leaves out (enable the `{}` feature)",
+                effect.name(),
+                effect.feature().unwrap_or("?")
+            ),
         }
     }
 }
@@ -247,6 +259,7 @@ impl SceneBuilder {
             return Err(SceneError::TooManyTriangles);
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
+        effects::check_built(&self.materials, &self.meshes, &camera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
         let mut first_tri = Vec::with_capacity(self.meshes.len());
         for (mi, m) in self.meshes.iter().enumerate() {
