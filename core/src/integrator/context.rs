@@ -57,7 +57,7 @@ pub struct Stats {
     pub bsdf_samples: LobeCounts,
     /// BSDF evaluations by lobe kind: every connection through a surface
     /// vertex (PT's light samples, BDPT's edges, light-tracing and
-    /// light-sample strategies).
+    /// light-sample strategies, the perturbations' reconnections).
     pub bsdf_evals: LobeCounts,
     /// Camera rays that sampled a point on a thin lens (zero for a
     /// pinhole camera).
