@@ -172,6 +172,10 @@ typedef struct cmlt_renderer_config {
   uint32_t b_window;
   // Frames: non-zero = every frame reuses the same random sequences.
   uint32_t fixed_sequence;
+  // Non-zero = simulate every effect, whatever the scene calls for (the
+  // scene analysis off; the CLI's `--all-effects`). 0 by default: only
+  // what the scene needs is simulated.
+  uint32_t all_effects;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving
@@ -233,6 +237,14 @@ typedef struct cmlt_stats {
   double b;
   // The `CMLT_EFFECT_*` bits the scene calls for through this camera.
   uint32_t effects;
+  // BSDF samples per lobe kind, indexed diffuse, glossy, specular
+  // reflection, refraction (the `CMLT_EFFECT_*` values 0–3).
+  uint64_t bsdf_samples[4];
+  // BSDF evaluations (connections) per lobe kind, indexed as
+  // `bsdf_samples`.
+  uint64_t bsdf_evals[4];
+  // Camera rays that sampled the thin lens (0 for a pinhole).
+  uint64_t lens_samples;
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.

@@ -767,6 +767,11 @@ fn renderer_inputs_and_call_order_are_checked() {
         assert_eq!(fx, CMLT_EFFECT_DIFFUSE | CMLT_EFFECT_AREA_LIGHTS);
         assert_eq!(chains, 0);
         assert_eq!(stats.effects, fx);
+        // Work per lobe kind: diffuse only; no lens sampled.
+        assert!(stats.bsdf_samples[0] > 0 && stats.bsdf_evals[0] > 0);
+        assert_eq!(stats.bsdf_samples[1..], [0; 3]);
+        assert_eq!(stats.bsdf_evals[1..], [0; 3]);
+        assert_eq!(stats.lens_samples, 0);
         expect(
             cmlt_scene_get_effects(s, null_mut(), null_mut()),
             CMLT_ERROR_NULL_POINTER,

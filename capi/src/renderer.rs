@@ -79,6 +79,10 @@ pub struct cmlt_renderer_config {
     pub b_window: u32,
     /// Frames: non-zero = every frame reuses the same random sequences.
     pub fixed_sequence: u32,
+    /// Non-zero = simulate every effect, whatever the scene calls for (the
+    /// scene analysis off; the CLI's `--all-effects`). 0 by default: only
+    /// what the scene needs is simulated.
+    pub all_effects: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -119,6 +123,14 @@ pub struct cmlt_stats {
     pub b: f64,
     /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
     pub effects: u32,
+    /// BSDF samples per lobe kind, indexed diffuse, glossy, specular
+    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3).
+    pub bsdf_samples: [u64; 4],
+    /// BSDF evaluations (connections) per lobe kind, indexed as
+    /// `bsdf_samples`.
+    pub bsdf_evals: [u64; 4],
+    /// Camera rays that sampled the thin lens (0 for a pinhole).
+    pub lens_samples: u64,
 }
 
 /// A renderer handle (opaque to C).
@@ -174,6 +186,7 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
             keep_chains: 0,
             b_window: 0,
             fixed_sequence: 0,
+            all_effects: 0,
         };
         Ok(())
     })
@@ -236,14 +249,16 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
             b_window: c.b_window,
             fixed_sequence: c.fixed_sequence != 0,
         },
+        all_effects: c.all_effects != 0,
     })
 }
 
 fn render_error(e: RenderError) -> Error {
     match e {
-        RenderError::Config(_) | RenderError::Resolution | RenderError::Worker => {
-            Error::invalid(e.to_string())
-        }
+        RenderError::Config(_)
+        | RenderError::Resolution
+        | RenderError::Worker
+        | RenderError::EffectNotBuilt(_) => Error::invalid(e.to_string()),
         RenderError::NotPrepared => Error::operation(e.to_string()),
     }
 }
@@ -658,6 +673,9 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
             effects: live.scene.analysis(inner.camera()).effects.0,
+            bsdf_samples: s.tracer.bsdf_samples.0,
+            bsdf_evals: s.tracer.bsdf_evals.0,
+            lens_samples: s.tracer.lens_samples,
         };
         Ok(())
     })

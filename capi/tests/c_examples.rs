@@ -200,6 +200,7 @@ fn minimal_matches_a_rust_render() {
             seed: 1,
             workers: 1,
             temporal: Default::default(),
+            all_effects: false,
         };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();

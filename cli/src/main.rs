@@ -8,12 +8,13 @@ use clap::{Parser, Subcommand, ValueEnum};
 use cmlt::integrator::Method;
 use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig, Temporal};
+use cmlt::scene::Analysis;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::bench::study::load_scene_or_builtin;
 use cmlt_cli::frames;
 use cmlt_cli::image_io::{self, Image};
 use cmlt_cli::metrics;
-use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
+use cmlt_cli::render::{Budget, MltBudget, render, render_mlt, work_line};
 use cmlt_cli::scene::LoadedScene;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -162,6 +163,11 @@ enum Command {
         /// Frames: reuse the same random sequences in every frame.
         #[arg(long, requires = "frames")]
         fixed_sequence: bool,
+        /// Simulate every effect (all lobes, lens sampling, caustic
+        /// perturbations, full depth) instead of only those the scene
+        /// calls for: switches the scene analysis off.
+        #[arg(long)]
+        all_effects: bool,
     },
     /// Benchmarks.
     #[command(subcommand)]
@@ -245,6 +251,33 @@ enum BenchCommand {
         #[arg(long, default_value_t = 0)]
         seed: u64,
         /// Override a scene `<default>` (e.g. `-D resx=64`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+    },
+    /// Samples/s (PT, BDPT) and mutations/s (MLT, CMLT) with the scene
+    /// analysis on versus --all-effects, per scene, in one run.
+    Effects {
+        /// Scenes: shared scene names (under --scenes-dir), XML paths or
+        /// built-in names. Defaults: a diffuse-only scene and a pinhole
+        /// scene with glossy plates.
+        #[arg(long, value_delimiter = ',', default_value = "cornell-box,veach-mis")]
+        scenes: Vec<String>,
+        /// Methods (pt, bdpt, mlt, cmlt).
+        #[arg(long, value_delimiter = ',', default_value = "pt,bdpt,cmlt")]
+        methods: Vec<String>,
+        /// Seconds per render (MLT: bootstrap included).
+        #[arg(long, default_value_t = 2.0)]
+        time: f64,
+        /// Renders per side (alternating on/off; the best counts).
+        #[arg(long, default_value_t = 2)]
+        repeats: usize,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Directory of the shared scenes.
+        #[arg(long, default_value = "tests/scenes")]
+        scenes_dir: PathBuf,
+        /// Override a scene `<default>` in every scene (e.g. `-D resx=64`).
         #[arg(short = 'D', value_parser = parse_define)]
         define: Vec<(String, String)>,
     },
@@ -435,18 +468,31 @@ fn compare_reference(img: &Image, r: &Path) -> Result<(), String> {
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
-fn run_mlt(
-    loaded: &LoadedScene,
-    accel: &Accel,
-    mlt: &MltSettings,
+/// How `run_mlt` renders, besides the scene and the MLT settings.
+struct MltRun<'a> {
+    analysis: &'a Analysis,
     budget: MltBudget,
     threads: usize,
     seed: u64,
     quiet: bool,
     setup: std::time::Duration,
+}
+
+fn run_mlt(
+    loaded: &LoadedScene,
+    accel: &Accel,
+    mlt: &MltSettings,
+    run: MltRun<'_>,
     ctx: Output<'_>,
 ) -> Result<(), String> {
+    let MltRun {
+        analysis,
+        budget,
+        threads,
+        seed,
+        quiet,
+        setup,
+    } = run;
     let scene = &loaded.scene;
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let pixels = w as u64 * h as u64;
@@ -485,6 +531,7 @@ fn run_mlt(
         scene,
         accel,
         &loaded.settings,
+        analysis,
         mlt,
         budget,
         threads,
@@ -530,6 +577,7 @@ fn run_mlt(
             100.0 * out.stats.packet_rays as f64 / out.stats.total_rays().max(1) as f64
         );
     }
+    println!("{}", work_line(&out.stats, Some(m)));
     if let Some(r) = ctx.reference {
         compare_reference(&img, r)?;
     }
@@ -646,6 +694,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 seed,
                 workers: threads.max(1),
                 temporal: Temporal::default(),
+                all_effects: false,
             };
             let pixels = scene.camera.width() as u64 * scene.camera.height() as u64;
             let budget = (mutations_per_pixel * pixels).div_ceil(base.workers as u64);
@@ -688,6 +737,47 @@ fn run(cli: Cli) -> Result<(), String> {
                 let worst = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
                 println!("largest |difference|: {:.2}%", 100.0 * worst);
             }
+            Ok(())
+        }
+        Command::Bench(BenchCommand::Effects {
+            scenes,
+            methods,
+            time,
+            repeats,
+            threads,
+            scenes_dir,
+            define,
+        }) => {
+            use cmlt_cli::bench::effects::{BenchMethod, run};
+            let methods = methods
+                .iter()
+                .map(|m| BenchMethod::parse(m))
+                .collect::<Result<Vec<_>, _>>()?;
+            let mut loaded = Vec::new();
+            for name in &scenes {
+                let shared = scenes_dir.join(name).join("scene.xml");
+                let path = if shared.is_file() {
+                    shared.to_string_lossy().into_owned()
+                } else {
+                    name.clone()
+                };
+                let l = load_scene_or_builtin(&path, &define)?;
+                let tris: Vec<_> = l.scene.triangles().collect();
+                let accel = Accel::build(AccelKind::Ours, &tris)?;
+                loaded.push((name.clone(), l, accel));
+            }
+            let threads = threads_or_all(threads);
+            println!(
+                "effects: {time} s per render, {repeats} per side, {threads} threads; ratio = analysis on / --all-effects"
+            );
+            run(
+                &loaded,
+                &methods,
+                time,
+                repeats,
+                threads,
+                &mut std::io::stdout(),
+            )?;
             Ok(())
         }
         Command::Bench(BenchCommand::Rays {
@@ -905,6 +995,7 @@ fn run(cli: Cli) -> Result<(), String> {
             keep_chains,
             b_window,
             fixed_sequence,
+            all_effects,
         } => {
             let t0 = Instant::now();
             let loaded: LoadedScene =
@@ -920,7 +1011,14 @@ fn run(cli: Cli) -> Result<(), String> {
             };
             let accel = Accel::build(kind, &tris)?;
             let setup = t0.elapsed();
-            eprintln!("{}", scene.analysis(&scene.camera).report());
+            let analysis = if all_effects {
+                eprintln!("effects: all (--all-effects: scene analysis off)");
+                Analysis::all()
+            } else {
+                let a = scene.analysis(&scene.camera);
+                eprintln!("{}", a.report());
+                a
+            };
             let threads = threads_or_all(threads);
             let is_mlt = matches!(method, MethodArg::Mlt | MethodArg::Cmlt);
             if is_mlt && bootstrap == 0 {
@@ -977,6 +1075,7 @@ fn run(cli: Cli) -> Result<(), String> {
                         b_window,
                         fixed_sequence,
                     },
+                    all_effects,
                 };
                 let spec = FrameSpec {
                     frames,
@@ -1001,9 +1100,15 @@ fn run(cli: Cli) -> Result<(), String> {
                         png: png.as_deref(),
                         reference: reference.as_deref(),
                     };
-                    return run_mlt(
-                        &loaded, &accel, &mlt, budget, threads, seed, quiet, setup, ctx,
-                    );
+                    let run = MltRun {
+                        analysis: &analysis,
+                        budget,
+                        threads,
+                        seed,
+                        quiet,
+                        setup,
+                    };
+                    return run_mlt(&loaded, &accel, &mlt, run, ctx);
                 }
             };
             let budget = match (spp, time) {
@@ -1033,6 +1138,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 scene,
                 &accel,
                 &loaded.settings,
+                &analysis,
                 method,
                 budget,
                 threads,
@@ -1063,6 +1169,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 mean.b,
                 output.display()
             );
+            println!("{}", work_line(&out.stats, None));
             if let Some(r) = ctx.reference {
                 compare_reference(&img, r)?;
             }

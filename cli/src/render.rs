@@ -14,7 +14,7 @@ use cmlt::accel::Intersector;
 use cmlt::film::Film;
 use cmlt::integrator::{Method, Settings, Stats, Tracer, Worker, render_pass};
 use cmlt::mlt::{Bootstrap, MltSettings, MltStats, MltWorker, bootstrap, image_scale, rounds_for};
-use cmlt::scene::Scene;
+use cmlt::scene::{Analysis, Scene};
 
 /// When to stop rendering.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,13 +47,17 @@ impl RenderOutput {
     }
 }
 
-/// Renders `scene` with `method` under `budget` on `threads` threads.
-/// `on_pass` is called after every finished pass (progress reporting).
+/// Renders `scene` with `method` under `budget` on `threads` threads,
+/// specialised to `analysis` (the scene's, or [`Analysis::all`] for
+/// `--all-effects`; [`Settings::specialised`] and
+/// [`Tracer::with_analysis`]). `on_pass` is called after every finished
+/// pass (progress reporting).
 #[allow(clippy::too_many_arguments)]
 pub fn render<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
     settings: &Settings,
+    analysis: &Analysis,
     method: Method,
     budget: Budget,
     threads: usize,
@@ -61,6 +65,7 @@ pub fn render<I: Intersector + Sync>(
     on_pass: &(dyn Fn() + Sync),
 ) -> RenderOutput {
     let threads = threads.max(1);
+    let settings = &settings.specialised(analysis);
     let start = Instant::now();
     let deadline = match budget {
         Budget::Time(s) => Some(start + Duration::from_secs_f64(s.max(0.0))),
@@ -72,7 +77,7 @@ pub fn render<I: Intersector + Sync>(
             .map(|i| {
                 let stop = &stop;
                 sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel);
+                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
                     let mut worker = Worker::new();
                     let mut film = Film::new(scene.camera.width(), scene.camera.height());
                     let mut pass = i as u64;
@@ -120,6 +125,30 @@ pub fn render<I: Intersector + Sync>(
         stats.merge(s);
     }
     RenderOutput { film, stats, wall }
+}
+
+/// The work counters per effect, as `cmlt render` prints them: BSDF
+/// samples and evaluations by lobe kind, lens samples, and (MLT) the
+/// level-2 perturbation steps by kind.
+pub fn work_line(stats: &Stats, mlt: Option<&MltStats>) -> String {
+    let mut line = String::from("work:");
+    for lobe in cmlt::bsdf::Lobe::ALL {
+        line += &format!(
+            " {} {}/{}",
+            lobe.name(),
+            stats.bsdf_samples.get(lobe),
+            stats.bsdf_evals.get(lobe)
+        );
+    }
+    line += " (BSDF samples/evaluations); lens samples ";
+    line += &stats.lens_samples.to_string();
+    if let Some(m) = mlt {
+        line += &format!(
+            "; perturbation steps: lens {}, caustic {}",
+            m.lens_steps, m.caustic_steps
+        );
+    }
+    line
 }
 
 /// When an MLT render stops.
@@ -182,12 +211,14 @@ impl MltOutput {
 /// [`rounds_for`]); a time budget runs batches of rounds until the deadline.
 /// Films are merged in thread order: the image is bit-identical for a fixed
 /// seed, mutation budget and thread count. `on_progress(n)` reports `n`
-/// more mutations done.
+/// more mutations done. `analysis` specialises the render as in
+/// [`render`].
 #[allow(clippy::too_many_arguments)]
 pub fn render_mlt<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
     settings: &Settings,
+    analysis: &Analysis,
     mlt: &MltSettings,
     budget: MltBudget,
     threads: usize,
@@ -195,6 +226,7 @@ pub fn render_mlt<I: Intersector + Sync>(
     on_progress: &(dyn Fn(u64) + Sync),
 ) -> MltOutput {
     let threads = threads.max(1);
+    let settings = &settings.specialised(analysis);
     let start = Instant::now();
     let deadline = match budget {
         MltBudget::Time(s) => Some(start + Duration::from_secs_f64(s.max(0.0))),
@@ -213,7 +245,7 @@ pub fn render_mlt<I: Intersector + Sync>(
         let handles: Vec<_> = (0..threads as u64)
             .map(|i| {
                 sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel);
+                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
                     let mut ys = Vec::new();
                     let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
                     bootstrap::evaluate_seeds(&mut tracer, settings, mlt, seed, range, &mut ys);
@@ -273,7 +305,7 @@ pub fn render_mlt<I: Intersector + Sync>(
             .map(|i| {
                 let (stop, boot) = (&stop, &boot);
                 sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel);
+                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
                     let mut film = Film::new(w, h);
                     let mut worker =
                         MltWorker::new(&mut tracer, settings, mlt, boot, seed, i, threads as u64);

@@ -32,6 +32,7 @@ fn render(
         &loaded.scene,
         &bvh,
         &loaded.settings,
+        &loaded.scene.analysis(&loaded.scene.camera),
         mlt,
         MltBudget::MutationsPerPixel(mpp),
         threads,

@@ -140,6 +140,7 @@ fn config(estimator: Estimator, mlt: MltSettings, workers: u32) -> RendererConfi
         seed: 7,
         workers,
         temporal: Temporal::default(),
+        all_effects: false,
     }
 }
 

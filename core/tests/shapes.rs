@@ -134,6 +134,7 @@ fn render(
         seed: 3,
         workers: 1,
         temporal: Temporal::default(),
+        all_effects: false,
     };
     let mut r = Renderer::new(config, scene.camera).unwrap();
     let mut w = RenderWorker::new(&r, 0).unwrap();

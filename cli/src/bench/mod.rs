@@ -5,10 +5,13 @@
 //! - [`params`]: CMLT's σ × k × m grid at a fixed time;
 //! - [`flicker`]: frame-to-frame flicker with and without the temporal
 //!   switches;
+//! - [`effects`]: samples/s and mutations/s with the scene analysis on
+//!   versus `--all-effects`;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
 //! - [`plot`]: their PNG/SVG plots.
 
 pub mod convergence;
+pub mod effects;
 pub mod flicker;
 pub mod params;
 pub mod plot;

@@ -55,6 +55,7 @@ pub fn render_scene(
         &loaded.scene,
         &bvh,
         &loaded.settings,
+        &loaded.scene.analysis(&loaded.scene.camera),
         method,
         Budget::Spp(spp),
         2,

@@ -1,8 +1,15 @@
 //! Smooth (`conductor`) and rough (`roughconductor`) metals, in the upper
 //! hemisphere.
 
-use glam::{Vec2, Vec3};
+//!
+//! Each half is built with its feature: `specular` (smooth) and `glossy`
+//! (rough).
 
+#[cfg(feature = "glossy")]
+use glam::Vec2;
+use glam::Vec3;
+
+#[cfg(feature = "glossy")]
 use super::microfacet::Microfacet;
 use super::{BsdfSample, fresnel};
 use crate::math::Rgb;
@@ -19,6 +26,7 @@ pub(super) fn fresnel(fresnel: &ConductorFresnel, cos_i: f32) -> Rgb {
 
 /// Ideal mirror reflection: the only direction is (−x, −y, z), chosen with
 /// probability 1, and the throughput weight is F(cos θo)·tint.
+#[cfg(feature = "specular")]
 pub(super) fn sample_smooth(fr: &ConductorFresnel, tint: Rgb, wo: Vec3) -> Option<BsdfSample> {
     // Seen edge-on the mirror reflects nothing back (and 1/cos θ below
     // would be infinite).
@@ -39,6 +47,7 @@ pub(super) fn sample_smooth(fr: &ConductorFresnel, tint: Rgb, wo: Vec3) -> Optio
 
 /// The factors shared by the rough lobe's value and density for a pair of
 /// upper-hemisphere directions; `None` where both vanish.
+#[cfg(feature = "glossy")]
 struct RoughTerms {
     /// Half vector, the only microfacet normal reflecting wo into wi.
     m: Vec3,
@@ -48,6 +57,7 @@ struct RoughTerms {
     g1_o: f32,
 }
 
+#[cfg(feature = "glossy")]
 impl RoughTerms {
     #[inline]
     fn new(mf: &Microfacet, wo: Vec3, wi: Vec3) -> Option<Self> {
@@ -83,6 +93,7 @@ impl RoughTerms {
 }
 
 /// f(wo, wi) of the rough conductor (see `RoughTerms::f`).
+#[cfg(feature = "glossy")]
 pub(super) fn eval_rough(
     mf: &Microfacet,
     fr: &ConductorFresnel,
@@ -94,6 +105,7 @@ pub(super) fn eval_rough(
 }
 
 /// Density of [`sample_rough`] (see `RoughTerms::pdf`).
+#[cfg(feature = "glossy")]
 pub(super) fn pdf_rough(mf: &Microfacet, wo: Vec3, wi: Vec3) -> f32 {
     RoughTerms::new(mf, wo, wi).map_or(0.0, |t| t.pdf(wo))
 }
@@ -104,6 +116,7 @@ pub(super) fn pdf_rough(mf: &Microfacet, wo: Vec3, wi: Vec3) -> f32 {
 /// `eval` and `pdf` return bit for bit (MIS weights and Metropolis
 /// acceptance ratios compare those values); the weight is
 /// f·cos θi/pdf = F·G1(wi) ≤ 1.
+#[cfg(feature = "glossy")]
 pub(super) fn sample_rough(
     mf: &Microfacet,
     fr: &ConductorFresnel,

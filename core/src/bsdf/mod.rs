@@ -15,22 +15,34 @@
 //! Files: [`fresnel`] (public Fresnel equations), `microfacet`
 //! (distributions, Smith masking, visible-normal sampling), and one file per
 //! material model.
+//!
+//! Models other than the diffuse one are built with their cargo features
+//! (`glossy`, `specular`, `refraction`); a build without one resolves that
+//! material to black, which never renders because
+//! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
+#[cfg(any(feature = "glossy", feature = "specular"))]
 mod conductor;
+#[cfg(feature = "refraction")]
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
+#[cfg(feature = "glossy")]
 mod microfacet;
 
-#[cfg(all(test, feature = "std"))]
+// The tests exercise every model.
+#[cfg(all(test, feature = "std", feature = "effects"))]
 mod chi2;
-#[cfg(all(test, feature = "std"))]
+#[cfg(all(test, feature = "std", feature = "effects"))]
 mod tests;
 
 use glam::{Vec2, Vec3};
 
 use crate::math::Rgb;
-use crate::scene::{ConductorFresnel, Material, MaterialKind, Texture};
+#[cfg(any(feature = "glossy", feature = "specular"))]
+use crate::scene::ConductorFresnel;
+use crate::scene::{Material, MaterialKind, Texture};
+#[cfg(feature = "glossy")]
 use microfacet::Microfacet;
 
 /// Whether a path carries radiance (camera side) or importance (light side);
@@ -41,6 +53,41 @@ pub enum TransportMode {
     Radiance,
     /// Light subpaths.
     Importance,
+}
+
+/// The kind of scattering a BSDF does, one per material model: what the
+/// work counters ([`crate::integrator::Stats`]) are kept by, and the
+/// [`crate::scene::Effect`] that model stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// Lambertian reflection.
+    Diffuse = 0,
+    /// Microfacet (rough conductor) reflection.
+    Glossy = 1,
+    /// Smooth conductor: Dirac reflection.
+    SpecularReflection = 2,
+    /// Smooth dielectric: Dirac reflection and refraction.
+    Refraction = 3,
+}
+
+impl Lobe {
+    /// Every lobe kind, in index order.
+    pub const ALL: [Lobe; 4] = [
+        Lobe::Diffuse,
+        Lobe::Glossy,
+        Lobe::SpecularReflection,
+        Lobe::Refraction,
+    ];
+
+    /// A short lower-case name (the matching effect's).
+    pub fn name(self) -> &'static str {
+        match self {
+            Lobe::Diffuse => "diffuse",
+            Lobe::Glossy => "glossy",
+            Lobe::SpecularReflection => "specular-reflection",
+            Lobe::Refraction => "refraction",
+        }
+    }
 }
 
 /// Result of sampling a BSDF.
@@ -65,15 +112,18 @@ enum Model {
     Diffuse {
         albedo: Rgb,
     },
+    #[cfg(feature = "specular")]
     Conductor {
         fresnel: ConductorFresnel,
         tint: Rgb,
     },
+    #[cfg(feature = "glossy")]
     RoughConductor {
         mf: Microfacet,
         fresnel: ConductorFresnel,
         tint: Rgb,
     },
+    #[cfg(feature = "refraction")]
     Dielectric {
         eta: f32,
     },
@@ -102,11 +152,17 @@ impl Bsdf {
     ///
     /// Rough-conductor α is clamped to ≥ 1e-4, where the lobe is already a
     /// mirror for all practical purposes and D(m) still fits in f32.
+    ///
+    /// A model left out of the build (see the module docs) resolves to
+    /// black diffuse.
     pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
+        // With every model built the fallback arm is unreachable.
+        #[allow(unreachable_patterns)]
         let model = match &material.kind {
             MaterialKind::Diffuse { reflectance } => Model::Diffuse {
                 albedo: texture(reflectance),
             },
+            #[cfg(feature = "specular")]
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,
@@ -114,6 +170,7 @@ impl Bsdf {
                 fresnel: *fresnel,
                 tint: texture(specular_reflectance),
             },
+            #[cfg(feature = "glossy")]
             MaterialKind::RoughConductor {
                 distribution,
                 alpha,
@@ -124,26 +181,43 @@ impl Bsdf {
                 fresnel: *fresnel,
                 tint: texture(specular_reflectance),
             },
+            #[cfg(feature = "refraction")]
             MaterialKind::Dielectric { eta } => Model::Dielectric { eta: *eta },
+            _ => Model::Diffuse { albedo: Rgb::ZERO },
+        };
+        let mut bsdf = Bsdf {
+            model,
+            two_sided: material.two_sided,
         };
         // A dielectric is one interface with an inside and an outside.
-        let two_sided = material.two_sided && !matches!(model, Model::Dielectric { .. });
-        Bsdf { model, two_sided }
+        bsdf.two_sided &= bsdf.lobe() != Lobe::Refraction;
+        bsdf
+    }
+
+    /// The kind of scattering of this BSDF's model.
+    #[inline]
+    pub fn lobe(&self) -> Lobe {
+        match self.model {
+            Model::Diffuse { .. } => Lobe::Diffuse,
+            #[cfg(feature = "glossy")]
+            Model::RoughConductor { .. } => Lobe::Glossy,
+            #[cfg(feature = "specular")]
+            Model::Conductor { .. } => Lobe::SpecularReflection,
+            #[cfg(feature = "refraction")]
+            Model::Dielectric { .. } => Lobe::Refraction,
+        }
     }
 
     /// True when every lobe is a Dirac delta (no connection can end here).
     pub fn is_delta(&self) -> bool {
-        matches!(
-            self.model,
-            Model::Conductor { .. } | Model::Dielectric { .. }
-        )
+        matches!(self.lobe(), Lobe::SpecularReflection | Lobe::Refraction)
     }
 
     /// True when the BSDF can scatter to the other side of the surface
     /// (only dielectrics); callers use it to pick the side a continuation
     /// ray starts from.
     pub fn has_transmission(&self) -> bool {
-        matches!(self.model, Model::Dielectric { .. })
+        self.lobe() == Lobe::Refraction
     }
 
     /// A coarse roughness hint in the microfacet α scale: 0 for Dirac-only
@@ -153,8 +227,10 @@ impl Bsdf {
     pub fn roughness(&self) -> f32 {
         match &self.model {
             Model::Diffuse { .. } => 1.0,
+            #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => mf.alpha,
-            Model::Conductor { .. } | Model::Dielectric { .. } => 0.0,
+            #[cfg(any(feature = "specular", feature = "refraction"))]
+            _ => 0.0,
         }
     }
 
@@ -178,11 +254,13 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 diffuse::eval(*albedo, wo, wi)
             }
+            #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, fresnel, tint } => {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::eval_rough(mf, fresnel, *tint, wo, wi)
             }
-            Model::Conductor { .. } | Model::Dielectric { .. } => Rgb::ZERO,
+            #[cfg(any(feature = "specular", feature = "refraction"))]
+            _ => Rgb::ZERO,
         }
     }
 
@@ -195,11 +273,13 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 diffuse::pdf(wo, wi)
             }
+            #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::pdf_rough(mf, wo, wi)
             }
-            Model::Conductor { .. } | Model::Dielectric { .. } => 0.0,
+            #[cfg(any(feature = "specular", feature = "refraction"))]
+            _ => 0.0,
         }
     }
 
@@ -237,6 +317,8 @@ impl Bsdf {
     /// `pdf(wo, wi)` exactly. Directions depend continuously on `u` (only the
     /// discrete lobe choice by `u_lobe` jumps), which primary-sample-space
     /// Metropolis mutations rely on.
+    // Only the dielectric reads `u_lobe` and `mode`.
+    #[cfg_attr(not(feature = "refraction"), allow(unused_variables))]
     pub fn sample(
         &self,
         wo: Vec3,
@@ -248,11 +330,14 @@ impl Bsdf {
         let wo_up = if flip { flip_z(wo) } else { wo };
         let mut s = match &self.model {
             Model::Diffuse { albedo } => diffuse::sample(*albedo, wo_up, u),
+            #[cfg(feature = "specular")]
             Model::Conductor { fresnel, tint } => conductor::sample_smooth(fresnel, *tint, wo_up),
+            #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, fresnel, tint } => {
                 conductor::sample_rough(mf, fresnel, *tint, wo_up, u)
             }
             // Never two-sided: both sides are handled by the Fresnel code.
+            #[cfg(feature = "refraction")]
             Model::Dielectric { eta } => dielectric::sample(*eta, wo, u_lobe, mode),
         }?;
         if flip {

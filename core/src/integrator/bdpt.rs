@@ -147,6 +147,15 @@ pub fn scatter(sh: &Shading, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb
     }
 }
 
+/// Counts the BSDF evaluation [`Vertex::f`] did at `v` (the work
+/// statistics; `f` itself has no tracer to count in).
+#[inline]
+fn count_eval<I: Intersector>(tr: &mut Tracer<'_, I>, v: &Vertex) {
+    if let Some(sh) = &v.shading {
+        tr.stats.bsdf_evals.add(sh.bsdf.lobe());
+    }
+}
+
 /// |wo·ns||wi·ng| / (|wo·ng||wi·ns|): makes light-path throughput with
 /// shading normals consistent with camera paths (Veach 1997, eq. 5.19).
 pub fn shading_correction(sp: &SurfacePoint, wo: Vec3, wi: Vec3) -> f32 {
@@ -334,7 +343,7 @@ fn random_walk<I: Intersector, S: Sampler>(
         let wo = hit.frame.to_local(wo_world);
         let u_lobe = rng.next_f32();
         let u = rng.next_2d();
-        let Some(bs) = hit.bsdf.sample(wo, u_lobe, u, mode) else {
+        let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u, mode) else {
             break;
         };
         if bs.pdf <= 0.0 || bs.f.is_black() {
@@ -475,9 +484,9 @@ fn camera_subpath<I: Intersector, S: Sampler>(
     rr_depth: u32,
     rng: &mut S,
 ) {
-    let camera = &t.camera;
     ws.camera.clear();
-    let ray = camera.generate_ray(raster, u_lens);
+    let ray = t.camera_ray(raster, u_lens);
+    let camera = &t.camera;
     ws.camera.push(camera_vertex(ray.o, camera.forward()));
     random_walk(
         t,
@@ -693,6 +702,7 @@ fn connect<I: Intersector, S: Sampler>(
         let w = to_cam / libm::sqrtf(d2);
         let prev = ws.light[s - 2].sp.p;
         let f = qs.f(prev, conn.p_lens, TransportMode::Importance);
+        count_eval(tr, &qs);
         if f.is_black() {
             return None;
         }
@@ -725,6 +735,7 @@ fn connect<I: Intersector, S: Sampler>(
             return None;
         }
         let f = pt.f(ws.camera[t - 2].sp.p, lp.p, TransportMode::Radiance);
+        count_eval(tr, &pt);
         let g = pt.sp.ns.dot(dir).abs() * lp.ng.dot(dir).abs() / d2;
         let l = pt.beta * f * le * (g / pdf_area);
         if l.is_black() || tr.occluded_between(&pt.sp, &lp) {
@@ -759,6 +770,8 @@ fn connect<I: Intersector, S: Sampler>(
         let dn = d / libm::sqrtf(d2);
         let fq = qs.f(ws.light[s - 2].sp.p, pt.sp.p, TransportMode::Importance);
         let fp = pt.f(ws.camera[t - 2].sp.p, qs.sp.p, TransportMode::Radiance);
+        count_eval(tr, &qs);
+        count_eval(tr, &pt);
         let g = qs.sp.ns.dot(dn).abs() * pt.sp.ns.dot(dn).abs() / d2;
         let l = qs.beta * fq * fp * pt.beta * g;
         if l.is_black() || tr.occluded_between(&qs.sp, &pt.sp) {

@@ -1,13 +1,41 @@
 //! What every estimator needs per sample: the scene, the intersector and
 //! counters.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::accel::Intersector;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, BsdfSample, Lobe, TransportMode};
 use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket, offset};
-use crate::math::Frame;
-use crate::scene::{Camera, Scene, SurfacePoint};
+use crate::math::{Frame, Rgb};
+use crate::scene::{Analysis, Camera, Effect, Scene, SurfacePoint};
+
+/// One counter per [`Lobe`] kind (index `lobe as usize`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LobeCounts(pub [u64; 4]);
+
+impl LobeCounts {
+    /// The count of `lobe`.
+    pub fn get(&self, lobe: Lobe) -> u64 {
+        self.0[lobe as usize]
+    }
+
+    /// Counts one more of `lobe`.
+    #[inline]
+    pub fn add(&mut self, lobe: Lobe) {
+        self.0[lobe as usize] += 1;
+    }
+
+    /// All lobes together.
+    pub fn total(&self) -> u64 {
+        self.0.iter().sum()
+    }
+
+    fn merge(&mut self, o: &LobeCounts) {
+        for (a, b) in self.0.iter_mut().zip(o.0) {
+            *a += b;
+        }
+    }
+}
 
 /// Work counters of one worker; summed across workers by the host.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -23,6 +51,17 @@ pub struct Stats {
     pub packets: u64,
     /// Active lanes over all packets: rays that went as packets.
     pub packet_rays: u64,
+    /// BSDF samples by lobe kind: every continuation of a path (PT, BDPT
+    /// subpaths, MLT's BDPT) and every specular lobe a level-2 retrace
+    /// follows.
+    pub bsdf_samples: LobeCounts,
+    /// BSDF evaluations by lobe kind: every connection through a surface
+    /// vertex (PT's light samples, BDPT's edges, light-tracing and
+    /// light-sample strategies, the perturbations' reconnections).
+    pub bsdf_evals: LobeCounts,
+    /// Camera rays that sampled a point on a thin lens (zero for a
+    /// pinhole camera).
+    pub lens_samples: u64,
 }
 
 impl Stats {
@@ -33,6 +72,9 @@ impl Stats {
         self.samples += o.samples;
         self.packets += o.packets;
         self.packet_rays += o.packet_rays;
+        self.bsdf_samples.merge(&o.bsdf_samples);
+        self.bsdf_evals.merge(&o.bsdf_evals);
+        self.lens_samples += o.lens_samples;
     }
 
     /// Mean active lanes per packet (0 when none was traced).
@@ -62,6 +104,12 @@ pub struct Tracer<'a, I: Intersector> {
     pub camera: Camera,
     /// This worker's counters.
     pub stats: Stats,
+    /// What the scene calls for: the estimators skip what it leaves out
+    /// (lens sampling without depth of field, the caustic perturbation
+    /// without specular chains). [`Analysis::all`] unless set with
+    /// [`Tracer::with_analysis`]; it must describe `scene` seen through
+    /// `camera` (or be a superset), or images come out wrong.
+    pub analysis: Analysis,
 }
 
 /// A surface point with its resolved BSDF and shading frame.
@@ -83,7 +131,49 @@ impl<'a, I: Intersector> Tracer<'a, I> {
             accel,
             camera: scene.camera,
             stats: Stats::default(),
+            analysis: Analysis::all(),
         }
+    }
+
+    /// The same tracer specialised to `analysis` (see [`Tracer::analysis`]).
+    pub fn with_analysis(mut self, analysis: Analysis) -> Self {
+        self.analysis = analysis;
+        self
+    }
+
+    /// The primary ray through `raster` (lens point from `u_lens`): without
+    /// depth of field in the analysis, the pinhole ray with no lens code
+    /// run. Callers draw `u_lens` either way, so the random streams (and
+    /// images) do not depend on the analysis.
+    #[inline]
+    pub fn camera_ray(&mut self, raster: Vec2, u_lens: Vec2) -> Ray {
+        if self.analysis.effects.contains(Effect::DepthOfField) && self.camera.has_lens() {
+            self.stats.lens_samples += 1;
+            self.camera.generate_ray(raster, u_lens)
+        } else {
+            self.camera.pinhole_ray(raster)
+        }
+    }
+
+    /// [`Bsdf::sample`], counted in [`Stats::bsdf_samples`].
+    #[inline]
+    pub fn sample_bsdf(
+        &mut self,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        self.stats.bsdf_samples.add(bsdf.lobe());
+        bsdf.sample(wo, u_lobe, u, mode)
+    }
+
+    /// [`Bsdf::eval`], counted in [`Stats::bsdf_evals`].
+    #[inline]
+    pub fn eval_bsdf(&mut self, bsdf: &Bsdf, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
+        self.stats.bsdf_evals.add(bsdf.lobe());
+        bsdf.eval(wo, wi, mode)
     }
 
     /// The same tracer looking through `camera` instead of the scene's.

@@ -27,17 +27,32 @@ impl Default for Settings {
     }
 }
 
+impl Settings {
+    /// These settings specialised to what a scene calls for: a scene whose
+    /// surfaces do not scatter ([`Analysis::emitters_only`]) needs paths of
+    /// one segment (emitters seen directly) and no deeper, which also
+    /// shrinks MLT's bootstrap and chains to that one depth.
+    pub fn specialised(&self, analysis: &Analysis) -> Settings {
+        let mut s = *self;
+        if analysis.emitters_only {
+            s.max_depth = Some(s.max_depth.map_or(1, |d| d.min(1)));
+        }
+        s
+    }
+}
+
 pub mod bdpt;
 pub mod context;
 pub mod path;
 
-pub use context::{Stats, Tracer};
+pub use context::{LobeCounts, Stats, Tracer};
 
 use glam::Vec2;
 
 use crate::accel::Intersector;
 use crate::film::Film;
 use crate::sampler::SampleStream;
+use crate::scene::Analysis;
 
 /// Which estimator renders a pass.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -96,7 +111,7 @@ pub fn render_pass<I: Intersector>(
             let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
             match method {
                 Method::Path => {
-                    let ray = camera.generate_ray(raster, rng.next_2d());
+                    let ray = tracer.camera_ray(raster, rng.next_2d());
                     let l = path::radiance(tracer, settings, ray, &mut rng);
                     film.add_sample(x, y, l);
                 }

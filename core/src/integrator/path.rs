@@ -75,7 +75,7 @@ pub fn radiance<I: Intersector>(
                     let cos_l = lp.ng.dot(dir).abs();
                     if !le.is_black() && cos_l > 0.0 {
                         let wi = hit.frame.to_local(dir);
-                        let f = hit.bsdf.eval(wo, wi, TransportMode::Radiance);
+                        let f = t.eval_bsdf(&hit.bsdf, wo, wi, TransportMode::Radiance);
                         if !f.is_black() && !t.occluded_between(&sp, &lp) {
                             let pdf_light = pdf_area * d2 / cos_l;
                             let w = power_heuristic(pdf_light, hit.bsdf.pdf(wo, wi));
@@ -89,7 +89,7 @@ pub fn radiance<I: Intersector>(
         // Continue the path by sampling the BSDF.
         let u_lobe = rng.next_f32();
         let u_dir: Vec2 = rng.next_2d();
-        let Some(bs) = hit.bsdf.sample(wo, u_lobe, u_dir, TransportMode::Radiance) else {
+        let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u_dir, TransportMode::Radiance) else {
             break;
         };
         if bs.pdf <= 0.0 || bs.f.is_black() {

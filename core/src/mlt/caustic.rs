@@ -149,6 +149,7 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
             let f = match (&a.before, &o.shading) {
                 (None, _) => scene.emitted(&o.sp, w) * o.sp.ng.dot(w).abs(),
                 (Some(before), Some(sh)) => {
+                    self.tracer.stats.bsdf_evals.add(sh.bsdf.lobe());
                     scatter(sh, *before, o.sp.p + w, TransportMode::Importance)
                         * o.sp.ns.dot(w).abs()
                 }
@@ -182,6 +183,7 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
             let d2 = to_cam.length_squared();
             let w = to_cam / libm::sqrtf(d2);
             let f1 = scatter(h, e.prev, conn.p_lens, TransportMode::Importance);
+            self.tracer.stats.bsdf_evals.add(h.bsdf.lobe());
             let v = start[i]
                 * e.beta
                 * f1

@@ -125,6 +125,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
                     }
                     let dn = d / libm::sqrtf(d2);
                     let f_t = scatter(h, e.prev, next.sp.p, TransportMode::Radiance);
+                    self.tracer.stats.bsdf_evals.add(h.bsdf.lobe());
                     // x_{t+1}'s factor: emission towards x′_t (BDPT s = 1
                     // uses the emitter's geometric cosine), or its BSDF in
                     // light-transport direction.
@@ -133,10 +134,13 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
                             self.tracer.scene.emitted(&next.sp, -dn),
                             next.sp.ng.dot(dn).abs(),
                         ),
-                        (Some(after), Some(sh)) => (
-                            scatter(sh, *after, h.sp.p, TransportMode::Importance),
-                            next.sp.ns.dot(dn).abs(),
-                        ),
+                        (Some(after), Some(sh)) => {
+                            self.tracer.stats.bsdf_evals.add(sh.bsdf.lobe());
+                            (
+                                scatter(sh, *after, h.sp.p, TransportMode::Importance),
+                                next.sp.ns.dot(dn).abs(),
+                            )
+                        }
                         (Some(_), None) => continue,
                     };
                     let g = h.sp.ns.dot(dn).abs() * cos_next / d2;

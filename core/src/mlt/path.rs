@@ -206,8 +206,12 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
     }
     let k = path.len() - 1;
     let p_lens = path[0].sp.p;
-    // A vertex without shading (a sampled light point) is never specular.
-    let spec = |i: usize| path[i].is_specular();
+    // A vertex without shading (a sampled light point) is never specular,
+    // and without specular chains in the scene none is: no vertex is
+    // inspected, the caustic branch is never reached and every path gets
+    // the lens perturbation (through no specular vertex).
+    let chains = tr.analysis.specular_chains;
+    let spec = |i: usize| chains && path[i].is_specular();
     let t = (1..=k).find(|&i| !spec(i)).unwrap_or(k);
     if spec(t) {
         // The camera chain ends on a specular emitter: not a path we make.
@@ -313,6 +317,7 @@ pub fn retrace<I: Intersector>(
             }
             // A specular link: same kind of vertex, same lobe.
             let wo_world = -ray.d;
+            tr.stats.bsdf_samples.add(h.bsdf.lobe());
             let next = h
                 .bsdf
                 .specular(h.frame.to_local(wo_world), chain.reflect[link], mode);

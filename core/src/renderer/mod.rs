@@ -57,7 +57,7 @@ use crate::math::Rgb;
 use crate::mlt::bootstrap::BootstrapScratch;
 use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker};
 use crate::sampler::mix64;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Analysis, Camera, Effect, Scene};
 
 /// The deepest path (segments) a renderer accepts, through `max_depth` or
 /// the depth cap: every worker's storage is sized for it at creation.
@@ -91,6 +91,11 @@ pub struct RendererConfig {
     pub workers: u32,
     /// Frame-to-frame coherence switches (all off by default).
     pub temporal: Temporal,
+    /// Simulate every effect whatever the scene calls for (the CLI's
+    /// `--all-effects`): `prepare` then skips the scene analysis and
+    /// renders with [`Analysis::all`]. Off by default: the analysis
+    /// specialises the estimators to the scene (see [`Renderer::analysis`]).
+    pub all_effects: bool,
 }
 
 /// Largest [`Temporal::b_window`].
@@ -132,6 +137,7 @@ impl Default for RendererConfig {
             seed: 0,
             workers: 1,
             temporal: Temporal::default(),
+            all_effects: false,
         }
     }
 }
@@ -148,6 +154,9 @@ pub enum RenderError {
     /// `render` before `prepare` (after creation, a camera change or a
     /// scene update).
     NotPrepared,
+    /// The camera needs an effect this build of the core left out (a
+    /// thin lens without the `depth-of-field` feature).
+    EffectNotBuilt(Effect),
 }
 
 impl core::fmt::Display for RenderError {
@@ -160,6 +169,12 @@ impl core::fmt::Display for RenderError {
             RenderError::Worker => f.write_str("the worker does not belong to this renderer"),
             RenderError::NotPrepared => f.write_str(
                 "prepare the renderer (after creating it, changing the camera or updating the scene) before rendering",
+            ),
+            RenderError::EffectNotBuilt(e) => write!(
+                f,
+                "the camera needs {}, which this build of cmlt leaves out (enable the `{}` feature)",
+                e.name(),
+                e.feature().unwrap_or("?")
             ),
         }
     }
@@ -210,6 +225,13 @@ pub struct Renderer {
     b_next: usize,
     /// The b the image is scaled with (the window's mean).
     b_used: f64,
+    /// What the scene calls for through the current camera, found by
+    /// `prepare` ([`Analysis::all`] before, or with
+    /// [`RendererConfig::all_effects`]).
+    analysis: Analysis,
+    /// `config.settings` specialised to `analysis`: what every estimator
+    /// runs with.
+    settings: Settings,
 }
 
 /// One worker's storage: film, subpaths, chains. Owned by the host, one per
@@ -246,6 +268,7 @@ impl Renderer {
         if config.workers == 0 {
             return Err(RenderError::Config("at least one worker is needed"));
         }
+        check_lens(&camera)?;
         if config.estimator == Estimator::Mlt {
             config.mlt.validate().map_err(RenderError::Config)?;
         }
@@ -278,12 +301,22 @@ impl Renderer {
             b_count: 0,
             b_next: 0,
             b_used: 0.0,
+            analysis: Analysis::all(),
+            settings: config.settings,
         })
     }
 
     /// The configuration (with the depth cap applied).
     pub fn config(&self) -> &RendererConfig {
         &self.config
+    }
+
+    /// What the scene calls for, as the last `prepare` found it: the
+    /// effects the estimators simulate, everything else skipped
+    /// ([`Analysis::all`] before the first `prepare` and with
+    /// [`RendererConfig::all_effects`]).
+    pub fn analysis(&self) -> &Analysis {
+        &self.analysis
     }
 
     /// The current camera.
@@ -323,6 +356,7 @@ impl Renderer {
         if camera.width() != self.camera.width() || camera.height() != self.camera.height() {
             return Err(RenderError::Resolution);
         }
+        check_lens(&camera)?;
         self.view_changed = camera != self.camera;
         self.camera = camera;
         self.next_frame();
@@ -352,12 +386,20 @@ impl Renderer {
         if self.prepared == Some(self.generation) {
             return;
         }
+        // The camera (its lens) may have changed with the frame; the
+        // scene's materials never do while it is borrowed.
+        self.analysis = if self.config.all_effects {
+            Analysis::all()
+        } else {
+            scene.analysis(&self.camera)
+        };
+        self.settings = self.config.settings.specialised(&self.analysis);
         if self.config.estimator == Estimator::Mlt {
             let seed = self.frame_seed();
-            let mut tracer = Tracer::new(scene, accel).with_camera(self.camera);
+            let mut tracer = self.tracer(scene, accel);
             let c = &self.config;
             self.bootstrap
-                .rerun(&mut tracer, &c.settings, &c.mlt, seed, &mut self.scratch);
+                .rerun(&mut tracer, &self.settings, &c.mlt, seed, &mut self.scratch);
             self.push_b(self.bootstrap.b());
         }
         self.prepared = Some(self.generation);
@@ -395,7 +437,8 @@ impl Renderer {
             return Err(RenderError::NotPrepared);
         }
         let c = &self.config;
-        let mut tracer = Tracer::new(scene, accel).with_camera(self.camera);
+        let settings = &self.settings;
+        let mut tracer = self.tracer(scene, accel);
         if worker.generation != Some(self.generation) {
             worker.film.clear();
             worker.passes = 0;
@@ -407,7 +450,7 @@ impl Renderer {
                 if !kept {
                     m.restart(
                         &mut tracer,
-                        &c.settings,
+                        settings,
                         &c.mlt,
                         &self.bootstrap,
                         seed,
@@ -417,7 +460,7 @@ impl Renderer {
                 } else if worker.camera != Some(self.camera)
                     || worker.scene_revision != self.scene_revision
                 {
-                    m.reevaluate(&mut tracer, &c.settings, &self.bootstrap, seed);
+                    m.reevaluate(&mut tracer, settings, &self.bootstrap, seed);
                 } else {
                     m.reset_stats();
                 }
@@ -439,7 +482,7 @@ impl Renderer {
                 } else {
                     budget.div_ceil(chains)
                 };
-                m.run(&mut tracer, &c.settings, &mut worker.film, rounds)
+                m.run(&mut tracer, settings, &mut worker.film, rounds)
             }
             (estimator, _) => {
                 let method = match estimator {
@@ -451,7 +494,7 @@ impl Renderer {
                     let pass = worker.index as u64 + c.workers as u64 * worker.passes;
                     integrator::render_pass(
                         &mut tracer,
-                        &c.settings,
+                        settings,
                         method,
                         &mut worker.bdpt,
                         self.frame_seed(),
@@ -612,6 +655,14 @@ impl Renderer {
         s
     }
 
+    /// A tracer for one call: the current camera, specialised to the
+    /// analysis.
+    fn tracer<'a, I: Intersector>(&self, scene: &'a Scene, accel: &'a I) -> Tracer<'a, I> {
+        Tracer::new(scene, accel)
+            .with_camera(self.camera)
+            .with_analysis(self.analysis)
+    }
+
     fn pixels(&self) -> u64 {
         self.camera.width() as u64 * self.camera.height() as u64
     }
@@ -630,6 +681,15 @@ impl Renderer {
             _ => 1.0 / t.passes as f64,
         }
     }
+}
+
+/// Refuses a thin-lens camera when the lens code is not built (a scene's
+/// own camera is already checked by `SceneBuilder::build`).
+fn check_lens(camera: &Camera) -> Result<(), RenderError> {
+    if camera.has_lens() && !Effect::DepthOfField.is_built() {
+        return Err(RenderError::EffectNotBuilt(Effect::DepthOfField));
+    }
+    Ok(())
 }
 
 /// Passes and Metropolis records of the current accumulation.

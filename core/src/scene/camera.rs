@@ -274,17 +274,28 @@ impl Camera {
 
     /// A primary ray through `raster` (continuous pixel coordinates), using
     /// `u_lens` for the lens position. The direction is unit length.
+    /// Without the `depth-of-field` feature the lens is not built and every
+    /// camera is a pinhole (a scene with a lens is rejected at build).
+    #[cfg_attr(not(feature = "depth-of-field"), allow(unused_variables))]
     pub fn generate_ray(&self, raster: Vec2, u_lens: Vec2) -> Ray {
-        let d = self.local_dir(raster);
+        #[cfg(feature = "depth-of-field")]
         if self.lens_radius > 0.0 {
+            let d = self.local_dir(raster);
             let lens = warp::square_to_uniform_disk_concentric(u_lens) * self.lens_radius;
             let focus = d * self.focus_distance;
             let o = Vec3::new(lens.x, lens.y, 0.0);
             let dir = (focus - o).normalize();
-            Ray::new(self.pos + self.rot * o, self.rot * dir)
-        } else {
-            Ray::new(self.pos, (self.rot * d).normalize())
+            return Ray::new(self.pos + self.rot * o, self.rot * dir);
         }
+        self.pinhole_ray(raster)
+    }
+
+    /// The ray of a pinhole through `raster`: [`Camera::generate_ray`]
+    /// without the lens (what a thin lens's centre sees). The direction is
+    /// unit length.
+    #[inline]
+    pub fn pinhole_ray(&self, raster: Vec2) -> Ray {
+        Ray::new(self.pos, (self.rot * self.local_dir(raster)).normalize())
     }
 
     /// Importance We of a ray leaving the lens in world direction `w` (unit),

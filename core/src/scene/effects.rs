@@ -57,6 +57,32 @@ impl Effect {
         }
     }
 
+    /// The cargo feature of the core that builds this effect's code
+    /// (`None` for diffuse reflection and area lights, always built).
+    pub fn feature(self) -> Option<&'static str> {
+        match self {
+            Effect::Glossy => Some("glossy"),
+            Effect::SpecularReflection => Some("specular"),
+            Effect::Refraction => Some("refraction"),
+            Effect::Textures => Some("textures"),
+            Effect::DepthOfField => Some("depth-of-field"),
+            Effect::Diffuse | Effect::AreaLights => None,
+        }
+    }
+
+    /// Whether this build of the core can simulate the effect (its
+    /// [`Effect::feature`] is on).
+    pub fn is_built(self) -> bool {
+        match self {
+            Effect::Glossy => cfg!(feature = "glossy"),
+            Effect::SpecularReflection => cfg!(feature = "specular"),
+            Effect::Refraction => cfg!(feature = "refraction"),
+            Effect::Textures => cfg!(feature = "textures"),
+            Effect::DepthOfField => cfg!(feature = "depth-of-field"),
+            Effect::Diffuse | Effect::AreaLights => true,
+        }
+    }
+
     /// Why a scene does not need this effect.
     fn absent_because(self) -> &'static str {
         match self {
@@ -94,6 +120,15 @@ impl EffectSet {
     /// The effects in the set, in bit order.
     pub fn iter(self) -> impl Iterator<Item = Effect> {
         Effect::ALL.into_iter().filter(move |&e| self.contains(e))
+    }
+
+    /// The effects this build of the core can simulate
+    /// ([`Effect::is_built`]).
+    pub fn built() -> EffectSet {
+        Effect::ALL
+            .into_iter()
+            .filter(|e| e.is_built())
+            .fold(EffectSet::NONE, EffectSet::with)
     }
 }
 
@@ -166,6 +201,12 @@ impl Analysis {
         }
     }
 
+    /// The first effect the scene needs that this build left out (see
+    /// [`Effect::feature`]): such a scene must be rejected, never rendered.
+    pub fn unbuilt(&self) -> Option<Effect> {
+        self.effects.iter().find(|e| !e.is_built())
+    }
+
     /// The analysis of a scene that needs everything (`--all-effects`).
     pub fn all() -> Self {
         Analysis {
@@ -179,6 +220,28 @@ impl Analysis {
     /// with its reason.
     pub fn report(&self) -> Report<'_> {
         Report(self)
+    }
+}
+
+/// [`SceneBuilder::build`](super::SceneBuilder::build)'s check that this
+/// build of the core has every effect the scene needs (an error naming the
+/// first one missing and its feature).
+#[cfg(feature = "alloc")]
+pub(super) fn check_built(
+    materials: &[Material],
+    meshes: &[super::Mesh],
+    camera: &super::Camera,
+) -> Result<(), super::SceneError> {
+    let used = |i: usize| {
+        meshes
+            .iter()
+            .any(|m| m.material.0 as usize == i && !m.indices.is_empty())
+    };
+    let emitters = meshes.iter().any(|m| m.emission.is_some());
+    let a = Analysis::of(materials, used, emitters, camera.aperture_radius());
+    match a.unbuilt() {
+        Some(effect) => Err(super::SceneError::EffectNotBuilt { effect }),
+        None => Ok(()),
     }
 }
 

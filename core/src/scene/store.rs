@@ -6,7 +6,7 @@ use core::fmt;
 use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
-use super::effects::Analysis;
+use super::effects::{self, Analysis, Effect};
 use super::light::LightSet;
 use super::material::{Material, MaterialId};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
@@ -138,6 +138,12 @@ pub enum SceneError {
     TooManyShapes,
     /// No camera was set.
     MissingCamera,
+    /// The scene needs an effect whose code this build of the core left
+    /// out (its cargo feature is off).
+    EffectNotBuilt {
+        /// The effect.
+        effect: Effect,
+    },
 }
 
 impl fmt::Display for SceneError {
@@ -183,6 +189,12 @@ impl fmt::Display for SceneError {
             }
             SceneError::TooManyShapes => write!(f, "scene has more than 2^31 - 1 host shapes"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
+            SceneError::EffectNotBuilt { effect } => write!(
+                f,
+                "the scene needs {}, which this build of cmlt leaves out (enable the `{}` feature)",
+                effect.name(),
+                effect.feature().unwrap_or("?")
+            ),
         }
     }
 }
@@ -288,6 +300,7 @@ impl SceneBuilder {
             return Err(SceneError::TooManyShapes);
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
+        effects::check_built(&self.materials, &self.meshes, &camera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
         let mut first_tri = Vec::with_capacity(self.meshes.len());
         for (mi, m) in self.meshes.iter().enumerate() {

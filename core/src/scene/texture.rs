@@ -111,15 +111,22 @@ pub enum Texture {
 }
 
 impl Texture {
-    /// The texture's value at surface coordinates `uv`.
+    /// The texture's value at surface coordinates `uv`. Without the
+    /// `textures` feature only constants are built and every other
+    /// texture is black (scenes using one are rejected at build).
     #[cfg(feature = "alloc")]
     #[inline]
+    #[cfg_attr(not(feature = "textures"), allow(unused_variables))]
     pub fn eval(&self, uv: Vec2, bitmaps: &[Bitmap]) -> Rgb {
         match *self {
             Texture::Constant(c) => c,
+            #[cfg(not(feature = "textures"))]
+            _ => Rgb::ZERO,
+            #[cfg(feature = "textures")]
             Texture::Bitmap { id, to_uv } => {
                 bitmaps[id.0 as usize].eval(to_uv.transform_point2(uv))
             }
+            #[cfg(feature = "textures")]
             Texture::Checkerboard {
                 color0,
                 color1,

@@ -88,6 +88,7 @@ pub fn config(method: Method, max_depth: Option<u32>) -> RendererConfig {
         seed: 3,
         workers: 1,
         temporal: Default::default(),
+        all_effects: false,
     }
 }
 

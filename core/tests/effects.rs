@@ -1,0 +1,197 @@
+//! Feature-stripped builds: a scene needing an effect whose cargo feature
+//! is off is rejected with an error naming the effect and the feature,
+//! never rendered; with the feature on it builds. The same test runs in
+//! every configuration, e.g. the minimal one in CI:
+//!
+//!     cargo test -p cmlt --no-default-features --features std --test effects
+//!
+//! and with all effects in `cargo test --workspace`.
+
+mod common;
+
+use cmlt::accel::bvh::Bvh;
+use cmlt::math::{Mat4, Rgb};
+use cmlt::mlt::MltSettings;
+use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
+use cmlt::scene::{
+    Camera, ConductorFresnel, Distribution, Effect, EffectSet, FovAxis, Material, MaterialKind,
+    Scene, SceneBuilder, SceneError, Texture,
+};
+
+fn camera(aperture: f32) -> Camera {
+    Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 4, 4, aperture, 1.0).unwrap()
+}
+
+/// A closed emitting box of `material` seen through a camera with
+/// `aperture`.
+fn build(material: Material, aperture: f32) -> Result<Scene, SceneError> {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(material);
+    b.add_mesh(common::inward_box(m, 1.0));
+    b.set_camera(camera(aperture));
+    b.build()
+}
+
+fn opaque(kind: MaterialKind) -> Material {
+    Material {
+        kind,
+        two_sided: true,
+    }
+}
+
+/// One scene per effect with a feature, each needing only that one beyond
+/// diffuse reflection and area lights.
+fn scenes() -> Vec<(Effect, Material, f32)> {
+    let tint = Texture::Constant(Rgb::splat(0.8));
+    vec![
+        (
+            Effect::Glossy,
+            opaque(MaterialKind::RoughConductor {
+                distribution: Distribution::Ggx,
+                alpha: 0.2,
+                fresnel: ConductorFresnel::Perfect,
+                specular_reflectance: tint,
+            }),
+            0.0,
+        ),
+        (
+            Effect::SpecularReflection,
+            opaque(MaterialKind::Conductor {
+                fresnel: ConductorFresnel::Perfect,
+                specular_reflectance: tint,
+            }),
+            0.0,
+        ),
+        (
+            Effect::Refraction,
+            Material {
+                kind: MaterialKind::Dielectric { eta: 1.5 },
+                two_sided: false,
+            },
+            0.0,
+        ),
+        (
+            Effect::Textures,
+            opaque(MaterialKind::Diffuse {
+                reflectance: Texture::Checkerboard {
+                    color0: Rgb::splat(0.2),
+                    color1: Rgb::splat(0.8),
+                    to_uv: glam::Affine2::IDENTITY,
+                },
+            }),
+            0.0,
+        ),
+        (
+            Effect::DepthOfField,
+            Material::diffuse(Rgb::splat(0.5)),
+            0.05,
+        ),
+    ]
+}
+
+#[test]
+fn a_scene_needing_an_unbuilt_effect_is_rejected_by_name() {
+    for (effect, material, aperture) in scenes() {
+        let feature = effect
+            .feature()
+            .expect("every stripped effect has a feature");
+        match build(material, aperture) {
+            Ok(scene) => {
+                assert!(
+                    effect.is_built(),
+                    "{} built without `{feature}`",
+                    effect.name()
+                );
+                let a = scene.analysis(&scene.camera);
+                assert!(a.effects.contains(effect));
+            }
+            Err(e) => {
+                assert!(!effect.is_built(), "{}: {e}", effect.name());
+                assert_eq!(e, SceneError::EffectNotBuilt { effect });
+                let text = e.to_string();
+                assert!(
+                    text.contains(effect.name()) && text.contains(&format!("`{feature}`")),
+                    "{text}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn diffuse_scenes_always_build_and_a_lens_camera_needs_its_feature() {
+    // Diffuse reflection and area lights are never stripped.
+    assert!(build(Material::diffuse(Rgb::splat(0.5)), 0.0).is_ok());
+    let built = EffectSet::built();
+    assert!(built.contains(Effect::Diffuse) && built.contains(Effect::AreaLights));
+    // A renderer refuses a thin-lens camera the build cannot simulate
+    // (the camera is not part of a scene there).
+    let r = Renderer::new(RendererConfig::default(), camera(0.05));
+    if Effect::DepthOfField.is_built() {
+        assert!(r.is_ok());
+    } else {
+        assert_eq!(
+            r.err(),
+            Some(RenderError::EffectNotBuilt(Effect::DepthOfField))
+        );
+    }
+}
+
+/// The image mean of `scene` rendered through the frame loop with the
+/// analysis on or off, and the renderer's analysis.
+fn renderer_mean(
+    scene: &Scene,
+    estimator: Estimator,
+    all_effects: bool,
+    budget: u64,
+) -> (f64, cmlt::scene::Analysis) {
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = RendererConfig {
+        estimator,
+        mlt: MltSettings {
+            n_bootstrap: 200,
+            n_chains: 32,
+            ..MltSettings::cmlt()
+        },
+        seed: 5,
+        all_effects,
+        ..RendererConfig::default()
+    };
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    r.prepare(scene, &bvh);
+    r.render(&mut w, scene, &bvh, budget).unwrap();
+    let mut sum = 0.0f64;
+    let mut n = 0;
+    r.resolve(&[&w], |_, c| {
+        sum += c.luminance() as f64;
+        n += 1;
+    })
+    .unwrap();
+    (sum / n as f64, *r.analysis())
+}
+
+#[test]
+fn surfaces_that_do_not_scatter_cap_paths_at_one_segment_with_the_same_image() {
+    // A black box that emits: every pixel sees emission directly and
+    // nothing more, which the analysis turns into depth 1.
+    let scene = build(Material::diffuse(Rgb::ZERO), 0.0).unwrap();
+    for estimator in [Estimator::Path, Estimator::Bdpt, Estimator::Mlt] {
+        let budget = 4 * 16;
+        let (on, a) = renderer_mean(&scene, estimator, false, budget);
+        let (off, all) = renderer_mean(&scene, estimator, true, budget);
+        assert!(a.emitters_only && !all.emitters_only, "{estimator:?}");
+        assert!(on > 0.0, "{estimator:?}");
+        // Emission seen directly is exact for PT and BDPT; MLT's b is
+        // estimated, so allow noise.
+        let tol = if estimator == Estimator::Mlt {
+            0.05
+        } else {
+            1e-5
+        };
+        assert!(
+            (on - off).abs() <= tol * off,
+            "{estimator:?}: {on} with the analysis, {off} with every effect"
+        );
+    }
+}
