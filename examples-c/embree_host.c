@@ -28,32 +28,14 @@ static void build_host_scene(host_scene *hs) {
 /* Builds the cmlt scene from the host arrays; with `isect` given, cmlt
  * traces through the callbacks instead of its own BVH. */
 static cmlt_scene *make_scene(host_scene *hs, const cmlt_intersector *isect) {
-    cmlt_scene *scene = NULL;
-    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0};
-    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0};
     uint32_t m_white, m_mirror, first;
     cmlt_mesh mesh;
-    check(cmlt_scene_new(&scene), "cmlt_scene_new");
-    check(cmlt_scene_add_material(scene, &white, &m_white), "add_material");
-    check(cmlt_scene_add_material(scene, &mirror, &m_mirror), "add_material");
     /* Three meshes over the one host vertex array: floor (2 triangles),
      * light (2), sphere (the rest). Triangle numbers are the host's. */
-    memset(&mesh, 0, sizeof mesh);
-    mesh.positions = &hs->verts[0][0];
-    mesh.vertex_count = hs->nverts;
-    mesh.position_stride = sizeof hs->verts[0];
-    mesh.index_stride = 0;
-    mesh.material = m_white;
-    mesh.indices = &hs->tris[0][0];
-    mesh.triangle_count = 2;
-    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh floor");
-    mesh.indices = &hs->tris[2][0];
-    mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 8.0f;
-    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh light");
+    cmlt_scene *scene = begin_scene(hs, &m_white, &m_mirror, &mesh);
     mesh.indices = &hs->tris[4][0];
     mesh.triangle_count = hs->ntris - 4;
     mesh.material = m_mirror;
-    mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 0.0f;
     check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh sphere");
     if (first != 4) {
         fprintf(stderr, "unexpected triangle numbering\n");

@@ -96,6 +96,32 @@ static uint32_t parse_estimator(const char *method) {
     return CMLT_ESTIMATOR_CMLT;
 }
 
+/* Starts a cmlt scene over the host arrays: a white and a mirror material
+ * (ids in *m_white, *m_mirror), then the floor and the light (triangles
+ * 0–3 of the host, the first two meshes). `mesh` is left describing the
+ * host vertex array, ready for further meshes over it. */
+static cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mirror, cmlt_mesh *mesh) {
+    cmlt_scene *scene = NULL;
+    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0};
+    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0};
+    check(cmlt_scene_new(&scene), "cmlt_scene_new");
+    check(cmlt_scene_add_material(scene, &white, m_white), "add_material");
+    check(cmlt_scene_add_material(scene, &mirror, m_mirror), "add_material");
+    memset(mesh, 0, sizeof *mesh);
+    mesh->positions = &hs->verts[0][0];
+    mesh->vertex_count = hs->nverts;
+    mesh->position_stride = sizeof hs->verts[0];
+    mesh->material = *m_white;
+    mesh->indices = &hs->tris[0][0];
+    mesh->triangle_count = 2;
+    check(cmlt_scene_add_mesh(scene, mesh, NULL), "add_mesh floor");
+    mesh->indices = &hs->tris[2][0];
+    mesh->emission[0] = mesh->emission[1] = mesh->emission[2] = 8.0f;
+    check(cmlt_scene_add_mesh(scene, mesh, NULL), "add_mesh light");
+    mesh->emission[0] = mesh->emission[1] = mesh->emission[2] = 0.0f;
+    return scene;
+}
+
 /* Renders a small frame of `scene` and returns its mean (all channels). */
 static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pixel, cmlt_stats *stats) {
     enum { W = 32, H = 24 };

@@ -200,25 +200,9 @@ static uint32_t cb_occluded_packet(void *user, uint32_t width, uint32_t active, 
  * spheres traced by `isect`, or (isect NULL) the same spheres finely
  * tessellated, traced by cmlt's BVH. */
 static cmlt_scene *make_host_scene(host_scene *hs, const cmlt_intersector *isect) {
-    cmlt_scene *scene = NULL;
-    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0};
-    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0};
     uint32_t m_white, m_mirror, first, k;
     cmlt_mesh mesh;
-    check(cmlt_scene_new(&scene), "cmlt_scene_new");
-    check(cmlt_scene_add_material(scene, &white, &m_white), "add_material");
-    check(cmlt_scene_add_material(scene, &mirror, &m_mirror), "add_material");
-    memset(&mesh, 0, sizeof mesh);
-    mesh.positions = &hs->verts[0][0];
-    mesh.vertex_count = hs->nverts;
-    mesh.position_stride = sizeof hs->verts[0];
-    mesh.material = m_white;
-    mesh.indices = &hs->tris[0][0];
-    mesh.triangle_count = 2;
-    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh floor");
-    mesh.indices = &hs->tris[2][0];
-    mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 8.0f;
-    check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh light");
+    cmlt_scene *scene = begin_scene(hs, &m_white, &m_mirror, &mesh);
     for (k = 0; k < 2; ++k) {
         uint32_t material = k == 0 ? m_mirror : m_white;
         if (isect) {
@@ -238,7 +222,6 @@ static cmlt_scene *make_host_scene(host_scene *hs, const cmlt_intersector *isect
             mesh.indices = &hs->tris[HOST_TRIANGLES + k * per_sphere][0];
             mesh.triangle_count = per_sphere;
             mesh.material = material;
-            mesh.emission[0] = mesh.emission[1] = mesh.emission[2] = 0.0f;
             check(cmlt_scene_add_mesh(scene, &mesh, &first), "add_mesh sphere");
         }
     }

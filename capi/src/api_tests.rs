@@ -142,6 +142,23 @@ fn renderer(s: *const cmlt_scene, c: &cmlt_renderer_config) -> *mut cmlt_rendere
     r
 }
 
+/// Prepares `r`, renders `budget` units into worker 0 and returns the
+/// statistics.
+fn prepare_render_stats(r: *mut cmlt_renderer, budget: u64) -> cmlt_stats {
+    let mut stats = cmlt_stats::default();
+    // SAFETY: a valid renderer; valid out pointers.
+    unsafe {
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 0, budget, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
+    }
+    stats
+}
+
 fn image(r: *const cmlt_renderer) -> Vec<f32> {
     let mut px = vec![0.0f32; 16 * 12 * 3];
     // SAFETY: the buffer holds what we say.
@@ -857,17 +874,7 @@ fn bad_host_hits_are_rejected() {
     };
     let s = scene(Some(&host));
     let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
-    let mut stats = cmlt_stats::default();
-    // SAFETY: valid pointers.
-    unsafe {
-        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
-        expect(
-            cmlt_renderer_render(r, 0, 16 * 12 * 2, null_mut()),
-            CMLT_OK,
-            "render",
-        );
-        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
-    }
+    let stats = prepare_render_stats(r, 16 * 12 * 2);
     assert!(stats.rejected_host_hits > 0);
     assert!(image(r).iter().all(|v| v.is_finite()));
     // SAFETY: handles from this test.
@@ -1216,17 +1223,7 @@ fn host_shapes_are_checked_and_rendered() {
     };
     let render = |s: *mut cmlt_scene| {
         let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
-        let mut stats = cmlt_stats::default();
-        // SAFETY: valid handles and pointers.
-        unsafe {
-            expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
-            expect(
-                cmlt_renderer_render(r, 0, 16 * 12 * 8, null_mut()),
-                CMLT_OK,
-                "render",
-            );
-            expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
-        }
+        let stats = prepare_render_stats(r, 16 * 12 * 8);
         let img = image(r);
         // SAFETY: handles from this test.
         unsafe {
