@@ -1287,37 +1287,51 @@ fn mesh_updates_between_frames() {
         let f = "cmlt_scene_update_mesh";
         let mut nan = raised;
         nan[13] = f32::NAN;
-        expect(
-            cmlt_scene_update_mesh(s, 1, null(), 8, 0, null(), 0),
-            CMLT_ERROR_NULL_POINTER,
-            f,
-        );
-        expect(
-            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 7, 0, null(), 0),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            f,
-        );
-        expect(
-            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 8, null(), 0),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            f,
-        );
-        expect(
-            cmlt_scene_update_mesh(s, 1, nan.as_ptr(), 8, 0, null(), 0),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            f,
-        );
-        expect(
-            cmlt_scene_update_mesh(s, 2, raised.as_ptr(), 8, 0, null(), 0),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            f,
-        );
         let zero = [0.0f32; 24];
-        expect(
-            cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 0, zero.as_ptr(), 0),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            f,
-        );
+        // (mesh, positions, count, stride, normals, expected status)
+        let bad = [
+            (1, null(), 8, 0, null(), CMLT_ERROR_NULL_POINTER),
+            (
+                1,
+                raised.as_ptr(),
+                7,
+                0,
+                null(),
+                CMLT_ERROR_INVALID_ARGUMENT,
+            ),
+            (
+                1,
+                raised.as_ptr(),
+                8,
+                8,
+                null(),
+                CMLT_ERROR_INVALID_ARGUMENT,
+            ),
+            (1, nan.as_ptr(), 8, 0, null(), CMLT_ERROR_INVALID_ARGUMENT),
+            (
+                2,
+                raised.as_ptr(),
+                8,
+                0,
+                null(),
+                CMLT_ERROR_INVALID_ARGUMENT,
+            ),
+            (
+                1,
+                raised.as_ptr(),
+                8,
+                0,
+                zero.as_ptr(),
+                CMLT_ERROR_INVALID_ARGUMENT,
+            ),
+        ];
+        for (mesh, p, n, stride, normals, want) in bad {
+            expect(
+                cmlt_scene_update_mesh(s, mesh, p, n, stride, normals, 0),
+                want,
+                f,
+            );
+        }
         let mut building = null_mut();
         expect(cmlt_scene_new(&mut building), CMLT_OK, "new");
         expect(
