@@ -15,7 +15,7 @@ use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Camera, ConductorFresnel, Distribution, Effect, EffectSet, FovAxis, Material, MaterialKind,
-    Scene, SceneBuilder, SceneError, Texture,
+    Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint, ShapeSurface, Texture,
 };
 
 fn camera(aperture: f32) -> Camera {
@@ -115,6 +115,48 @@ fn a_scene_needing_an_unbuilt_effect_is_rejected_by_name() {
                 );
             }
         }
+    }
+}
+
+/// A host shape's material counts like a mesh's: a glass sphere the host
+/// intersects itself needs `refraction` too.
+#[test]
+fn host_shapes_need_their_materials_built() {
+    struct Nowhere;
+    impl ShapeSurface for Nowhere {
+        fn surface(&self, _: u32, _: f32, _: f32) -> Option<ShapePoint> {
+            None
+        }
+    }
+    let mut b = SceneBuilder::new();
+    let walls = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let glass = b.add_material(Material {
+        kind: MaterialKind::Dielectric { eta: 1.5 },
+        two_sided: false,
+    });
+    b.add_mesh(common::inward_box(walls, 1.0));
+    b.add_shapes(ShapeGroup {
+        count: 1,
+        material: glass,
+        surface: std::sync::Arc::new(Nowhere),
+    });
+    b.set_camera(camera(0.0));
+    match b.build() {
+        Ok(scene) => {
+            assert!(Effect::Refraction.is_built());
+            assert!(
+                scene
+                    .analysis(&scene.camera)
+                    .effects
+                    .contains(Effect::Refraction)
+            );
+        }
+        Err(e) => assert_eq!(
+            e,
+            SceneError::EffectNotBuilt {
+                effect: Effect::Refraction
+            }
+        ),
     }
 }
 

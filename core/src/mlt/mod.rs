@@ -592,8 +592,8 @@ impl MltWorker {
 /// Unweighted, its share of the image is n_d/n of b instead of b_d/b: an
 /// error of up to one chain in e_d that more mutations never average out
 /// (a sphere lit only at depth 2 rendered 15% dark with 32 chains, still
-/// 8% at 4096 mutations per pixel). Where e_d ≥ 1, weighting its chains by e_d/n_d gives the depth
-/// exactly b_d. Where e_d < 1, n_d is 0 or 1 with probability e_d of 1, so
+/// 8% at 4096 mutations per pixel). Where e_d ≥ 1, weighting its chains
+/// by e_d/n_d gives the depth exactly b_d. Where e_d < 1, n_d is 0 or 1 with probability e_d of 1, so
 /// weight 1 is right in expectation, and no weight could restore a depth
 /// that got no chain. The weights sum to about n, so the image's scale
 /// ([`image_scale`]) is unchanged. Chains kept from another frame

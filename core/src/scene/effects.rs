@@ -223,28 +223,6 @@ impl Analysis {
     }
 }
 
-/// [`SceneBuilder::build`](super::SceneBuilder::build)'s check that this
-/// build of the core has every effect the scene needs (an error naming the
-/// first one missing and its feature).
-#[cfg(feature = "alloc")]
-pub(super) fn check_built(
-    materials: &[Material],
-    meshes: &[super::Mesh],
-    camera: &super::Camera,
-) -> Result<(), super::SceneError> {
-    let used = |i: usize| {
-        meshes
-            .iter()
-            .any(|m| m.material.0 as usize == i && !m.indices.is_empty())
-    };
-    let emitters = meshes.iter().any(|m| m.emission.is_some());
-    let a = Analysis::of(materials, used, emitters, camera.aperture_radius());
-    match a.unbuilt() {
-        Some(effect) => Err(super::SceneError::EffectNotBuilt { effect }),
-        None => Ok(()),
-    }
-}
-
 /// [`Analysis::report`]'s text.
 pub struct Report<'a>(&'a Analysis);
 

@@ -6,7 +6,7 @@ use core::fmt;
 use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
-use super::effects::{self, Analysis, Effect};
+use super::effects::{Analysis, Effect};
 use super::light::LightSet;
 use super::material::{Material, MaterialId};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
@@ -300,7 +300,6 @@ impl SceneBuilder {
             return Err(SceneError::TooManyShapes);
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
-        effects::check_built(&self.materials, &self.meshes, &camera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
         let mut first_tri = Vec::with_capacity(self.meshes.len());
         for (mi, m) in self.meshes.iter().enumerate() {
@@ -308,7 +307,7 @@ impl SceneBuilder {
             tri_mesh.extend(core::iter::repeat_n(mi as u32, m.indices.len()));
         }
         let lights = LightSet::new(&self.meshes);
-        Ok(Scene {
+        let scene = Scene {
             meshes: self.meshes,
             materials: self.materials,
             bitmaps: self.bitmaps,
@@ -319,7 +318,13 @@ impl SceneBuilder {
             first_shape,
             lights,
             revision: 0,
-        })
+        };
+        // A build without some effect's code must refuse a scene that needs
+        // it (meshes and host shapes alike), never render it wrong.
+        match scene.analysis(&scene.camera).unbuilt() {
+            Some(effect) => Err(SceneError::EffectNotBuilt { effect }),
+            None => Ok(scene),
+        }
     }
 }
 
