@@ -444,21 +444,10 @@ fn few_chains_per_depth_still_give_each_depth_its_share() {
     let scene = b.build().unwrap();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     let cam = scene.camera;
-    // Pixels whose four corners see the sphere (its triangles follow the
-    // box's 12).
-    let covered: Vec<usize> = (0..12u32)
-        .flat_map(|y| (0..16u32).map(move |x| (x, y)))
-        .filter(|&(x, y)| {
-            [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
-                .into_iter()
-                .all(|(dx, dy)| {
-                    let raster = cmlt::math::Vec2::new(x as f32 + dx, y as f32 + dy);
-                    let ray = cam.generate_ray(raster, cmlt::math::Vec2::splat(0.5));
-                    cmlt::accel::Intersector::intersect(&bvh, &ray).is_some_and(|h| h.prim >= 12)
-                })
-        })
-        .map(|(x, y)| (y * 16 + x) as usize)
-        .collect();
+    // The sphere's triangles follow the box's 12.
+    let covered = common::covered_pixels(&cam, |ray| {
+        cmlt::accel::Intersector::intersect(&bvh, ray).is_some_and(|h| h.prim >= 12)
+    });
     assert!(covered.len() >= 16, "{}", covered.len());
     let s = MltSettings {
         n_chains: 24,

@@ -213,22 +213,10 @@ fn convex_diffuse_sphere_reflects_albedo_times_radiance() {
         Material::diffuse(Rgb::splat(rho)),
     );
     let cam = scene.camera;
-    // Pixels entirely on the sphere: its corners' rays all hit it.
-    let on_sphere = |x: u32, y: u32| {
-        [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
-            .into_iter()
-            .all(|(dx, dy)| {
-                let film = Vec2::new(x as f32 + dx, y as f32 + dy);
-                let ray = cam.generate_ray(film, Vec2::splat(0.5));
-                host.intersect(&ray)
-                    .is_some_and(|h| h.prim & SHAPE_PRIM_BIT != 0)
-            })
-    };
-    let covered: Vec<usize> = (0..cam.height())
-        .flat_map(|y| (0..cam.width()).map(move |x| (x, y)))
-        .filter(|&(x, y)| on_sphere(x, y))
-        .map(|(x, y)| (y * cam.width() + x) as usize)
-        .collect();
+    let covered = common::covered_pixels(&cam, |ray| {
+        host.intersect(ray)
+            .is_some_and(|h| h.prim & SHAPE_PRIM_BIT != 0)
+    });
     assert!(
         covered.len() >= 6,
         "the sphere covers {} pixels",

@@ -2,7 +2,8 @@
 //! furnace box, UV spheres and the furnace camera.
 #![allow(dead_code)]
 
-use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::geometry::Ray;
+use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt::scene::{Camera, FovAxis, MaterialId, Mesh};
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards,
@@ -107,4 +108,22 @@ pub fn furnace_camera(origin: Vec3, aperture: f32) -> Camera {
         1.0,
     )
     .unwrap()
+}
+
+/// Indices of the pixels of `camera` lying entirely on what `on_object`
+/// accepts: the pinhole rays through all four of a pixel's corners do.
+/// Pixels straddling an edge mix two radiances and are left out.
+pub fn covered_pixels(camera: &Camera, on_object: impl Fn(&Ray) -> bool) -> Vec<usize> {
+    let (w, h) = (camera.width(), camera.height());
+    let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            corners.into_iter().all(|(dx, dy)| {
+                let raster = Vec2::new(x as f32 + dx, y as f32 + dy);
+                on_object(&camera.generate_ray(raster, Vec2::splat(0.5)))
+            })
+        })
+        .map(|(x, y)| (y * w + x) as usize)
+        .collect()
 }
