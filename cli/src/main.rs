@@ -235,6 +235,10 @@ enum BenchCommand {
         /// The b window of the b-window and all configurations.
         #[arg(long, default_value_t = 16)]
         b_window: u32,
+        /// BDPT passes per frame that estimate b (the frame's mean
+        /// luminance).
+        #[arg(long, default_value_t = MltSettings::default().b_passes)]
+        b_passes: u32,
         /// Also measure an orbit (every switch on) against BDPT references.
         #[arg(long)]
         moving: bool,
@@ -672,6 +676,7 @@ fn run(cli: Cli) -> Result<(), String> {
             mutations_per_pixel,
             threads,
             b_window,
+            b_passes,
             moving,
             orbit_degrees,
             orbit_frames,
@@ -687,6 +692,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 MethodArg::Mlt => MltSettings::default(),
                 _ => return Err("bench flicker measures --method mlt or cmlt".into()),
             };
+            let mlt = MltSettings { b_passes, ..mlt };
             let base = RendererConfig {
                 estimator: Estimator::Mlt,
                 settings: loaded.settings,

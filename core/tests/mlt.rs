@@ -463,3 +463,44 @@ fn few_chains_per_depth_still_give_each_depth_its_share() {
     let sphere = covered.iter().map(|&i| img[i].g).sum::<f32>() / covered.len() as f32;
     assert!((sphere - 0.3).abs() < 0.03 * 0.3, "sphere pixels {sphere}");
 }
+
+#[test]
+fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
+    // A small bright sphere seen directly inside a grey box: with one seed
+    // sample per depth, depth 1's seed almost surely misses the sphere,
+    // yet the passes give depth 1 most of b. Its chains must start on the
+    // sphere (they search further samples): each MLT record carries
+    // luminance 1, so the image's mean luminance is b unless chains sit on
+    // zero paths, recording nothing. Before the search, those chains
+    // waited for a large step to hit the sphere and the image came out
+    // dark.
+    let mut b = SceneBuilder::new();
+    let walls = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let lamp = b.add_material(Material::diffuse(Rgb::ZERO));
+    b.add_mesh(common::inward_box(walls, 0.0));
+    let mut sphere = common::sphere(Vec3::new(0.3, -0.1, 0.5), 0.08, lamp);
+    sphere.emission = Some(Rgb::splat(20.0));
+    b.add_mesh(sphere);
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    let scene = b.build().unwrap();
+    let s = MltSettings {
+        n_bootstrap: 1,
+        b_passes: 16,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    let (img, r) = render(&scene, &s, 3, 64);
+    let boot = &r.bootstrap;
+    assert!(
+        boot.depth_b()[0] > 0.3 * boot.b() && !boot.has_contributing_seed(1),
+        "depth 1 must hold much of b ({} of {}) and its one seed miss the light",
+        boot.depth_b()[0],
+        boot.b()
+    );
+    let y = mean(&img).luminance() as f64;
+    assert!(
+        (y / boot.b() - 1.0).abs() < 0.01,
+        "mean luminance {y} against b = {}",
+        boot.b()
+    );
+}

@@ -424,6 +424,24 @@ impl Bootstrap {
         Some(k as u64 * self.depths as u64 + d as u64)
     }
 
+    /// Whether some seed sample of `depth` contributes, so that
+    /// [`Bootstrap::pick`] starts a chain of that depth on the target's
+    /// support.
+    pub fn has_contributing_seed(&self, depth: u32) -> bool {
+        let n = self.per_depth as usize;
+        n > 0 && depth >= 1 && depth <= self.depths && self.cdf[depth as usize * n - 1] > 0.0
+    }
+
+    /// Index of the `j`-th sample of `depth` past the bootstrap's own:
+    /// [`Bootstrap::depth_of`] and [`Bootstrap::seed_of`] treat it as a seed
+    /// sample of that depth. Chains search these when none of their
+    /// depth's seed samples contributes. Distinct for distinct `j` below
+    /// 2⁴⁸ (indices wrap beyond).
+    pub fn extra_sample(&self, depth: u32, j: u64) -> u64 {
+        let d = self.depths.max(1) as u64;
+        (self.per_depth as u64).wrapping_add(j).wrapping_mul(d) + (depth.max(1) as u64 - 1) % d
+    }
+
     /// Path depth of seed sample `index`.
     pub fn depth_of(&self, index: u64) -> u32 {
         1 + (index % self.depths.max(1) as u64) as u32

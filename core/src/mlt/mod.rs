@@ -298,6 +298,55 @@ pub fn chain_seed(seed: u64, worker: u64, chain: u64) -> u64 {
     mix64(mix64(mix64(seed ^ 0x3C7A_1200_0000_0000) ^ worker) ^ chain)
 }
 
+/// Samples a chain searches for a start, per seed sample per depth
+/// (`MltSettings::n_bootstrap`), when none of its depth's seed samples
+/// contributes (see [`start_sample`]), and at least [`START_SEARCH_MIN`].
+const START_SEARCH: u64 = 4;
+
+/// Least number of samples a chain searches for a start.
+const START_SEARCH_MIN: u64 = 8192;
+
+/// The seed sample a chain of `depth` starts from, `u` uniform in [0, 1).
+///
+/// Normally one of the bootstrap's, drawn ∝ Y by [`Bootstrap::pick`]. When
+/// none of them contributes although b_d > 0 (a light that is rare among
+/// the depth's paths, or few seed samples), a chain started on a zero path
+/// would record nothing until a proposal finds light, and its depth's
+/// share of the image would be missing meanwhile: on the Cornell box with
+/// 100 seed samples per depth, whose directly seen light then often has no
+/// seed, the image came out 30% dark at 64 mutations per pixel. Such a
+/// chain instead takes the first contributing one of up to `tries`
+/// further samples of its depth ([`Bootstrap::extra_sample`]), in an order
+/// drawn from `rng` so that chains start apart. `contributes(index)`
+/// evaluates one. That start is uniform over the target's support rather
+/// than ∝ Y, a burn-in the chain's mutations remove rather than a lasting
+/// bias (and exact for a uniform emitter seen directly). If the search
+/// fails the chain starts on a zero path as before.
+fn start_sample(
+    bootstrap: &Bootstrap,
+    depth: u32,
+    u: f64,
+    tries: u64,
+    rng: &mut Pcg32,
+    mut contributes: impl FnMut(u64) -> bool,
+) -> Option<u64> {
+    let lit = depth
+        .checked_sub(1)
+        .and_then(|d| bootstrap.depth_b().get(d as usize))
+        .is_some_and(|&b| b > 0.0);
+    if lit && !bootstrap.has_contributing_seed(depth) {
+        // 40 bits, so that `first + j` stays far below 2⁴⁸.
+        let first = rng.next_u64() >> 24;
+        if let Some(index) = (0..tries)
+            .map(|j| bootstrap.extra_sample(depth, first + j))
+            .find(|&i| contributes(i))
+        {
+            return Some(index);
+        }
+    }
+    bootstrap.pick(depth, u)
+}
+
 /// A uniform f64 in [0, 1) from 53 random bits.
 fn uniform_f64(rng: &mut Pcg32) -> f64 {
     (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
@@ -320,6 +369,8 @@ pub struct MltWorker {
     weights: Vec<f32>,
     /// Size of the systematic sample the chains were drawn as.
     n_chains: u32,
+    /// Samples a chain searches for a start (see [`start_sample`]).
+    start_tries: u64,
     /// Samplers of dropped chains, whose buffers new chains reuse.
     spare: Vec<PrimarySampler>,
     /// Seed of each chain (its level-2 random streams derive from it).
@@ -376,6 +427,7 @@ impl MltWorker {
             chains: Vec::with_capacity(n),
             weights: Vec::with_capacity(n),
             n_chains: mlt.n_chains,
+            start_tries: (START_SEARCH * mlt.n_bootstrap as u64).max(START_SEARCH_MIN),
             spare: (0..n)
                 .map(|_| PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth))
                 .collect(),
@@ -412,6 +464,7 @@ impl MltWorker {
             stats,
             level2,
             paths,
+            start_tries,
             ..
         } = self;
         spare.extend(chains.drain(..).map(|(c, _)| c.into_sampler()));
@@ -429,14 +482,17 @@ impl MltWorker {
             };
             let cs = chain_seed(seed, worker, c);
             let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
-            // A depth the normalisation passes found light at but no seed
-            // sample did has nowhere to start: its chain is skipped (its
-            // light is missing from the image), the others still start.
-            let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) else {
-                continue;
-            };
             let Some(mut sampler) = spare.pop() else {
                 break;
+            };
+            let u = uniform_f64(&mut rng);
+            let start = start_sample(bootstrap, depth, u, *start_tries, &mut rng, |i| {
+                sampler.restart(bootstrap.seed_of(i));
+                bootstrap::evaluate_target(tracer, settings, ws, depth, &mut sampler).target() > 0.0
+            });
+            let Some(index) = start else {
+                spare.push(sampler);
+                continue;
             };
             sampler.restart(bootstrap.seed_of(index));
             let initial = bootstrap::evaluate_target(tracer, settings, ws, depth, &mut sampler);
@@ -457,9 +513,9 @@ impl MltWorker {
     /// [`MltWorker::restart`] (the chains keep their depths and random
     /// streams). A chain whose state no longer contributes restarts from a
     /// seed sample of its depth in `bootstrap` (the new frame's, seeded by
-    /// `seed`): left at zero it would record nothing until a proposal hits,
-    /// and those records would darken the image. Counters start again from
-    /// zero. Allocates nothing.
+    /// `seed`; see [`start_sample`]): left at zero it would record nothing
+    /// until a proposal hits, and those records would darken the image.
+    /// Counters start again from zero. Allocates nothing.
     pub fn reevaluate<I: Intersector>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
@@ -474,6 +530,7 @@ impl MltWorker {
             stats,
             level2,
             paths,
+            start_tries,
             ..
         } = self;
         *stats = MltStats {
@@ -486,10 +543,16 @@ impl MltWorker {
             if !(chain.current().target() > 0.0) {
                 let cs = mix64(seeds[ci] ^ seed);
                 let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
-                if let Some(index) = bootstrap.pick(depth, uniform_f64(&mut rng)) {
-                    chain.restart(bootstrap.seed_of(index), cs, |s| {
-                        bootstrap::evaluate_target(tracer, settings, ws, depth, s)
-                    });
+                let u = uniform_f64(&mut rng);
+                let mut evaluate = |s: &mut PrimarySampler| {
+                    bootstrap::evaluate_target(tracer, settings, ws, depth, s)
+                };
+                let start = start_sample(bootstrap, depth, u, *start_tries, &mut rng, |i| {
+                    chain.restart(bootstrap.seed_of(i), cs, &mut evaluate);
+                    chain.current().target() > 0.0
+                });
+                if let Some(index) = start {
+                    chain.restart(bootstrap.seed_of(index), cs, &mut evaluate);
                 }
             }
             if level2.is_some() {

@@ -98,6 +98,11 @@ pub struct RendererConfig {
     pub all_effects: bool,
 }
 
+/// Frames after the first whose chains are kept evaluate
+/// `n_bootstrap / KEPT_SEED_SHARE` seed samples per depth (see
+/// [`Renderer::prepare`]).
+pub const KEPT_SEED_SHARE: u32 = 16;
+
 /// Largest [`Temporal::b_window`].
 pub const MAX_B_WINDOW: u32 = 64;
 
@@ -111,7 +116,9 @@ pub struct Temporal {
     /// primary-sample point is evaluated again under the new camera
     /// ([`MltWorker::reevaluate`]) instead of restarting from the
     /// bootstrap's samples, so the chains stay (near) stationary and
-    /// their depths keep the first frame's split by b_d.
+    /// their depths keep the first frame's split by b_d. Frames after the
+    /// first then evaluate only a share ([`KEPT_SEED_SHARE`]) of the seed
+    /// samples, which restart the chains the new view leaves at zero.
     pub keep_chains: bool,
     /// MLT: the normalisation used for a frame is the mean of the last
     /// `b_window` frames' bootstrap estimates while the camera stays the
@@ -398,8 +405,21 @@ impl Renderer {
             let seed = self.frame_seed();
             let mut tracer = self.tracer(scene, accel);
             let c = &self.config;
+            // Kept chains need seed samples only to restart the few the
+            // new view leaves at zero (and those search further when none
+            // of theirs contributes: `MltWorker::reevaluate`), so a frame
+            // after the first draws a share of them. b comes from the
+            // normalisation passes then, not from the seed samples.
+            let mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
+                MltSettings {
+                    n_bootstrap: (c.mlt.n_bootstrap / KEPT_SEED_SHARE).max(1),
+                    ..c.mlt
+                }
+            } else {
+                c.mlt
+            };
             self.bootstrap
-                .rerun(&mut tracer, &self.settings, &c.mlt, seed, &mut self.scratch);
+                .rerun(&mut tracer, &self.settings, &mlt, seed, &mut self.scratch);
             self.push_b(self.bootstrap.b());
         }
         self.prepared = Some(self.generation);
