@@ -351,6 +351,7 @@ impl<const N: usize> WatertightLanes<N> {
     }
 
     /// Stores lane `i`.
+    #[cfg(test)]
     #[inline]
     pub fn set(&mut self, i: usize, r: &WatertightRay) {
         for j in 0..3 {
@@ -370,18 +371,77 @@ impl<const N: usize> WatertightLanes<N> {
         }
     }
 
+    /// Sets up, branch-free, every lane of `lanes` whose ray (origin `o`,
+    /// direction `d`, SoA) is valid for [`WatertightRay::new`], bit for bit
+    /// as that function would; returns those lanes. The other lanes are
+    /// left as they are (dummies when fresh from [`Self::new`]).
+    #[inline(always)]
+    pub fn set_lanes(&mut self, o: [&[f32; N]; 3], d: [&[f32; N]; 3], lanes: u32) -> u32 {
+        let mut ok = [false; N];
+        for i in 0..N {
+            let (ox, oy, oz) = (o[0][i], o[1][i], o[2][i]);
+            let (dx, dy, dz) = (d[0][i], d[1][i], d[2][i]);
+            let finite = ox.is_finite()
+                && oy.is_finite()
+                && oz.is_finite()
+                && dx.is_finite()
+                && dy.is_finite()
+                && dz.is_finite();
+            let (ax, ay, az) = (abs(dx), abs(dy), abs(dz));
+            // Dominant axis as in `WatertightRay::new` (first wins a tie),
+            // then kx, ky cyclically after it.
+            let z0 = ax >= ay && ax >= az;
+            let z1 = !z0 && ay >= az;
+            let (kx, ky, kz) = if z0 {
+                (1u32, 2u32, 0u32)
+            } else if z1 {
+                (2, 0, 1)
+            } else {
+                (0, 1, 2)
+            };
+            let pick = |k: u32, v: [f32; 3]| {
+                if k == 0 {
+                    v[0]
+                } else if k == 1 {
+                    v[1]
+                } else {
+                    v[2]
+                }
+            };
+            let (dv, ov) = ([dx, dy, dz], [ox, oy, oz]);
+            let dkz = pick(kz, dv);
+            // Swapped for a negative dominant component.
+            let swap = dkz < 0.0;
+            let (kx, ky) = if swap { (ky, kx) } else { (kx, ky) };
+            let (dkx, dky) = (pick(kx, dv), pick(ky, dv));
+            let valid = lanes >> i & 1 != 0 && finite && dkz != 0.0;
+            ok[i] = valid;
+            let k = [kx, ky, kz];
+            let org = [pick(kx, ov), pick(ky, ov), pick(kz, ov)];
+            let shear = [dkx / dkz, dky / dkz, 1.0 / dkz];
+            for j in 0..3 {
+                self.k[j][i] = if valid { k[j] } else { self.k[j][i] };
+                self.org[j][i] = if valid { org[j] } else { self.org[j][i] };
+                self.shear[j][i] = if valid { shear[j] } else { self.shear[j][i] };
+            }
+        }
+        lane_mask(&ok)
+    }
+
     /// Records whether the lanes in `live` share one permutation (call after
     /// the last [`Self::set`]). Dummy lanes may then be evaluated with the
     /// shared permutation; their results are masked anyway.
+    #[inline(always)]
     pub fn finish(&mut self, live: u32) {
         let first = live.trailing_zeros() as usize;
         self.uniform = None;
         if first < N {
             let k0 = [0, 1, 2].map(|j| self.k[j][first]);
-            if (0..N)
-                .filter(|&i| live >> i & 1 != 0)
-                .all(|i| (0..3).all(|j| self.k[j][i] == k0[j]))
-            {
+            let mut same = [true; N];
+            for (i, s) in same.iter_mut().enumerate() {
+                *s = self.k[0][i] == k0[0] && self.k[1][i] == k0[1] && self.k[2][i] == k0[2];
+            }
+            if lane_mask(&same) & live == live {
                 self.uniform = Some(k0.map(|k| k as usize & 3));
             }
         }
