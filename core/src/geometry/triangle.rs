@@ -566,12 +566,26 @@ pub(crate) fn intersect_lanes<const N: usize>(
     ok
 }
 
-/// Bit `i` set where `flags[i]`: one `movemask`/`kmov` once vectorised.
+/// Bit `i` set where `flags[i]` (`N ≤ 32`).
+///
+/// Eight flags at a time as the bytes of a `u64` (each 0 or 1): the
+/// multiplication moves byte `i`'s bit to bit `56 + i` with no carries
+/// (the other partial products land on distinct lower bits), so the top
+/// byte is the mask. LLVM turns the plain per-lane loop into a long
+/// shift-and-or reduction of a vector instead.
 #[inline(always)]
 pub(crate) fn lane_mask<const N: usize>(flags: &[bool; N]) -> u32 {
+    const MAGIC: u64 = 0x0102_0408_1020_4080;
     let mut m = 0u32;
-    for (i, &f) in flags.iter().enumerate() {
-        m |= (f as u32) << i;
+    let mut chunks = flags.chunks_exact(8);
+    for (k, c) in chunks.by_ref().enumerate() {
+        let bytes: [u8; 8] = core::array::from_fn(|j| c[j] as u8);
+        let b = u64::from_le_bytes(bytes);
+        m |= ((b.wrapping_mul(MAGIC) >> 56) as u32) << (8 * k);
+    }
+    let base = N - chunks.remainder().len();
+    for (j, &f) in chunks.remainder().iter().enumerate() {
+        m |= (f as u32) << (base + j);
     }
     m
 }
@@ -679,6 +693,26 @@ mod tests {
         // Moved to the inside of that edge, it hits.
         let inside = ray(Vec3::new(-0.01, 0.0, 0.0), -Vec3::Z);
         assert!(intersect_triangle(&inside, tri[0], tri[1], tri[2]).is_some());
+    }
+
+    #[test]
+    fn lane_mask_bits() {
+        let mut x = 0x9e37_79b9u32;
+        for _ in 0..200 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let f16: [bool; 16] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f16), x & 0xffff);
+            let f8: [bool; 8] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f8), x & 0xff);
+            let f4: [bool; 4] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f4), x & 0xf);
+            let f32_: [bool; 32] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f32_), x);
+            let f13: [bool; 13] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f13), x & 0x1fff);
+        }
     }
 
     #[test]

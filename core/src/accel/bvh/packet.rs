@@ -278,13 +278,13 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                     continue;
                 }
                 let idx = (first + j) as u32;
+                // Branch-free selects, so the update vectorises.
                 for i in 0..N {
-                    if m >> i & 1 != 0 {
-                        l.t_max[i] = tt[i];
-                        best[i] = idx;
-                        b1[i] = tb1[i];
-                        b2[i] = tb2[i];
-                    }
+                    let h = m >> i & 1 != 0;
+                    l.t_max[i] = if h { tt[i] } else { l.t_max[i] };
+                    best[i] = if h { idx } else { best[i] };
+                    b1[i] = if h { tb1[i] } else { b1[i] };
+                    b2[i] = if h { tb2[i] } else { b2[i] };
                 }
                 if ANY {
                     done |= m;
@@ -307,11 +307,11 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             }
             sp -= 1;
             let e = stack[sp];
-            let mut keep = 0u32;
-            for i in 0..N {
-                keep |= ((e.t <= l.t_max[i] * FAR_SCALE) as u32) << i;
+            let mut keep = [false; N];
+            for (k, &t) in keep.iter_mut().zip(&l.t_max) {
+                *k = e.t <= t * FAR_SCALE;
             }
-            let m = e.mask & alive & keep;
+            let m = e.mask & alive & lane_mask(&keep);
             if m != 0 {
                 cur = Entry { mask: m, ..e };
                 continue 'outer;
