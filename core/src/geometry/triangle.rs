@@ -351,6 +351,7 @@ impl<const N: usize> WatertightLanes<N> {
     }
 
     /// Stores lane `i`.
+    #[cfg(test)]
     #[inline]
     pub fn set(&mut self, i: usize, r: &WatertightRay) {
         for j in 0..3 {
@@ -370,18 +371,77 @@ impl<const N: usize> WatertightLanes<N> {
         }
     }
 
+    /// Sets up, branch-free, every lane of `lanes` whose ray (origin `o`,
+    /// direction `d`, SoA) is valid for [`WatertightRay::new`], bit for bit
+    /// as that function would; returns those lanes. The other lanes are
+    /// left as they are (dummies when fresh from [`Self::new`]).
+    #[inline(always)]
+    pub fn set_lanes(&mut self, o: [&[f32; N]; 3], d: [&[f32; N]; 3], lanes: u32) -> u32 {
+        let mut ok = [false; N];
+        for i in 0..N {
+            let (ox, oy, oz) = (o[0][i], o[1][i], o[2][i]);
+            let (dx, dy, dz) = (d[0][i], d[1][i], d[2][i]);
+            let finite = ox.is_finite()
+                && oy.is_finite()
+                && oz.is_finite()
+                && dx.is_finite()
+                && dy.is_finite()
+                && dz.is_finite();
+            let (ax, ay, az) = (abs(dx), abs(dy), abs(dz));
+            // Dominant axis as in `WatertightRay::new` (first wins a tie),
+            // then kx, ky cyclically after it.
+            let z0 = ax >= ay && ax >= az;
+            let z1 = !z0 && ay >= az;
+            let (kx, ky, kz) = if z0 {
+                (1u32, 2u32, 0u32)
+            } else if z1 {
+                (2, 0, 1)
+            } else {
+                (0, 1, 2)
+            };
+            let pick = |k: u32, v: [f32; 3]| {
+                if k == 0 {
+                    v[0]
+                } else if k == 1 {
+                    v[1]
+                } else {
+                    v[2]
+                }
+            };
+            let (dv, ov) = ([dx, dy, dz], [ox, oy, oz]);
+            let dkz = pick(kz, dv);
+            // Swapped for a negative dominant component.
+            let swap = dkz < 0.0;
+            let (kx, ky) = if swap { (ky, kx) } else { (kx, ky) };
+            let (dkx, dky) = (pick(kx, dv), pick(ky, dv));
+            let valid = lanes >> i & 1 != 0 && finite && dkz != 0.0;
+            ok[i] = valid;
+            let k = [kx, ky, kz];
+            let org = [pick(kx, ov), pick(ky, ov), pick(kz, ov)];
+            let shear = [dkx / dkz, dky / dkz, 1.0 / dkz];
+            for j in 0..3 {
+                self.k[j][i] = if valid { k[j] } else { self.k[j][i] };
+                self.org[j][i] = if valid { org[j] } else { self.org[j][i] };
+                self.shear[j][i] = if valid { shear[j] } else { self.shear[j][i] };
+            }
+        }
+        lane_mask(&ok)
+    }
+
     /// Records whether the lanes in `live` share one permutation (call after
     /// the last [`Self::set`]). Dummy lanes may then be evaluated with the
     /// shared permutation; their results are masked anyway.
+    #[inline(always)]
     pub fn finish(&mut self, live: u32) {
         let first = live.trailing_zeros() as usize;
         self.uniform = None;
         if first < N {
             let k0 = [0, 1, 2].map(|j| self.k[j][first]);
-            if (0..N)
-                .filter(|&i| live >> i & 1 != 0)
-                .all(|i| (0..3).all(|j| self.k[j][i] == k0[j]))
-            {
+            let mut same = [true; N];
+            for (i, s) in same.iter_mut().enumerate() {
+                *s = self.k[0][i] == k0[0] && self.k[1][i] == k0[1] && self.k[2][i] == k0[2];
+            }
+            if lane_mask(&same) & live == live {
                 self.uniform = Some(k0.map(|k| k as usize & 3));
             }
         }
@@ -506,12 +566,26 @@ pub(crate) fn intersect_lanes<const N: usize>(
     ok
 }
 
-/// Bit `i` set where `flags[i]`: one `movemask`/`kmov` once vectorised.
+/// Bit `i` set where `flags[i]` (`N ≤ 32`).
+///
+/// Eight flags at a time as the bytes of a `u64` (each 0 or 1): the
+/// multiplication moves byte `i`'s bit to bit `56 + i` with no carries
+/// (the other partial products land on distinct lower bits), so the top
+/// byte is the mask. LLVM turns the plain per-lane loop into a long
+/// shift-and-or reduction of a vector instead.
 #[inline(always)]
 pub(crate) fn lane_mask<const N: usize>(flags: &[bool; N]) -> u32 {
+    const MAGIC: u64 = 0x0102_0408_1020_4080;
     let mut m = 0u32;
-    for (i, &f) in flags.iter().enumerate() {
-        m |= (f as u32) << i;
+    let mut chunks = flags.chunks_exact(8);
+    for (k, c) in chunks.by_ref().enumerate() {
+        let bytes: [u8; 8] = core::array::from_fn(|j| c[j] as u8);
+        let b = u64::from_le_bytes(bytes);
+        m |= ((b.wrapping_mul(MAGIC) >> 56) as u32) << (8 * k);
+    }
+    let base = N - chunks.remainder().len();
+    for (j, &f) in chunks.remainder().iter().enumerate() {
+        m |= (f as u32) << (base + j);
     }
     m
 }
@@ -619,6 +693,26 @@ mod tests {
         // Moved to the inside of that edge, it hits.
         let inside = ray(Vec3::new(-0.01, 0.0, 0.0), -Vec3::Z);
         assert!(intersect_triangle(&inside, tri[0], tri[1], tri[2]).is_some());
+    }
+
+    #[test]
+    fn lane_mask_bits() {
+        let mut x = 0x9e37_79b9u32;
+        for _ in 0..200 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let f16: [bool; 16] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f16), x & 0xffff);
+            let f8: [bool; 8] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f8), x & 0xff);
+            let f4: [bool; 4] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f4), x & 0xf);
+            let f32_: [bool; 32] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f32_), x);
+            let f13: [bool; 13] = core::array::from_fn(|i| x >> i & 1 != 0);
+            assert_eq!(lane_mask(&f13), x & 0x1fff);
+        }
     }
 
     #[test]

@@ -7,9 +7,10 @@
 //! vectorise them; [`box4_lanes`] and `triangle::intersect_lanes` are the
 //! two kernels an explicit SSE/AVX version would replace.
 //!
-//! Lanes outside the active mask are never read from the input packet nor
-//! written to the output: the kernels work on an internal copy in which
-//! those lanes hold a dummy ray, and every result is masked.
+//! Lanes outside the active mask never influence anything: the kernels
+//! work on an internal copy in which those lanes hold a dummy ray (the
+//! copy's lane loops read every lane and select), and every result is
+//! masked, so they are never written to the output.
 
 use super::BvhView;
 use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
@@ -17,7 +18,7 @@ use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
 use super::simd::{Avx2Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox};
 use super::traverse::{self, Prepared, order4, traverse_from};
-use crate::geometry::triangle::{WatertightLanes, WatertightRay, intersect_lanes};
+use crate::geometry::triangle::{WatertightLanes, intersect_lanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
 /// SoA copy of the packet's live rays with their box and triangle
@@ -37,7 +38,24 @@ impl<const N: usize> Lanes<N> {
     /// Copies the valid active lanes of `rays`; returns them and their mask.
     /// Invalid lanes (non-finite, zero direction, `t_max` not positive)
     /// cannot hit anything and are left out, like in the single-ray path.
+    ///
+    /// Branch-free lane loops (inlined into the kernels' target-feature
+    /// functions, so they vectorise to the kernel's width): every lane is
+    /// computed and inactive or invalid ones are replaced by the dummy.
+    #[inline(always)]
     fn new(rays: &RayPacket<N>, active: LaneMask) -> (Self, u32) {
+        let active = active.0 & LaneMask::first(N).0;
+        let mut wt = WatertightLanes::new();
+        let mut t_ok = [false; N];
+        for (ok, &t) in t_ok.iter_mut().zip(&rays.t_max) {
+            *ok = t > 0.0;
+        }
+        let valid = wt.set_lanes(
+            [&rays.ox, &rays.oy, &rays.oz],
+            [&rays.dx, &rays.dy, &rays.dz],
+            active & lane_mask(&t_ok),
+        );
+        wt.finish(valid);
         // Dummy lanes: a finite ray with an empty interval.
         let mut l = Lanes {
             o: [[0.0; N]; 3],
@@ -45,37 +63,32 @@ impl<const N: usize> Lanes<N> {
             neg: [[false; N]; 3],
             uniform_neg: None,
             t_max: [-1.0; N],
-            wt: WatertightLanes::new(),
+            wt,
         };
-        let mut valid = 0u32;
-        for i in active.iter().filter(|&i| i < N) {
-            let r = rays.get(i);
-            if !(r.t_max > 0.0) {
-                continue;
+        let (o, d) = (
+            [&rays.ox, &rays.oy, &rays.oz],
+            [&rays.dx, &rays.dy, &rays.dz],
+        );
+        let mut neg_bits = [0u32; 3];
+        for a in 0..3 {
+            for i in 0..N {
+                let v = valid >> i & 1 != 0;
+                let inv = 1.0 / d[a][i];
+                l.o[a][i] = if v { o[a][i] } else { 0.0 };
+                l.inv[a][i] = if v { inv } else { 1.0 };
+                l.neg[a][i] = v && inv.is_sign_negative();
             }
-            let Some(wr) = WatertightRay::new(&r) else {
-                continue;
-            };
-            let (o, d) = (r.o.to_array(), r.d.to_array());
-            for a in 0..3 {
-                l.o[a][i] = o[a];
-                l.inv[a][i] = 1.0 / d[a];
-                l.neg[a][i] = l.inv[a][i].is_sign_negative();
-            }
-            l.t_max[i] = r.t_max;
-            l.wt.set(i, &wr);
-            valid |= 1 << i;
+            neg_bits[a] = lane_mask(&l.neg[a]);
         }
-        l.wt.finish(valid);
-        let first = valid.trailing_zeros() as usize;
-        if first < N {
-            let neg0 = [l.neg[0][first], l.neg[1][first], l.neg[2][first]];
-            if (0..N)
-                .filter(|&i| valid >> i & 1 != 0)
-                .all(|i| (0..3).all(|a| l.neg[a][i] == neg0[a]))
-            {
-                l.uniform_neg = Some(neg0);
-            }
+        for i in 0..N {
+            l.t_max[i] = if valid >> i & 1 != 0 {
+                rays.t_max[i]
+            } else {
+                -1.0
+            };
+        }
+        if valid != 0 && neg_bits.iter().all(|&m| m == 0 || m == valid) {
+            l.uniform_neg = Some(neg_bits.map(|m| m != 0));
         }
         (l, valid)
     }
@@ -265,13 +278,13 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                     continue;
                 }
                 let idx = (first + j) as u32;
+                // Branch-free selects, so the update vectorises.
                 for i in 0..N {
-                    if m >> i & 1 != 0 {
-                        l.t_max[i] = tt[i];
-                        best[i] = idx;
-                        b1[i] = tb1[i];
-                        b2[i] = tb2[i];
-                    }
+                    let h = m >> i & 1 != 0;
+                    l.t_max[i] = if h { tt[i] } else { l.t_max[i] };
+                    best[i] = if h { idx } else { best[i] };
+                    b1[i] = if h { tb1[i] } else { b1[i] };
+                    b2[i] = if h { tb2[i] } else { b2[i] };
                 }
                 if ANY {
                     done |= m;
@@ -294,11 +307,11 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             }
             sp -= 1;
             let e = stack[sp];
-            let mut keep = 0u32;
-            for i in 0..N {
-                keep |= ((e.t <= l.t_max[i] * FAR_SCALE) as u32) << i;
+            let mut keep = [false; N];
+            for (k, &t) in keep.iter_mut().zip(&l.t_max) {
+                *k = e.t <= t * FAR_SCALE;
             }
-            let m = e.mask & alive & keep;
+            let m = e.mask & alive & lane_mask(&keep);
             if m != 0 {
                 cur = Entry { mask: m, ..e };
                 continue 'outer;
