@@ -6,7 +6,7 @@ mod intersect;
 
 use cmlt::accel::bvh::{Bvh, BvhView, Kernel, LayoutError, MAX_DEPTH, Node4};
 use cmlt::accel::{BruteForce, Intersector};
-use cmlt::geometry::offset::{barycentric_error, offset_ray_origin};
+use cmlt::geometry::offset::{TrianglePoint, offset_ray_origin, triangle_point};
 use cmlt::geometry::triangle::intersect_triangle;
 use cmlt::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use glam::Vec3;
@@ -377,9 +377,7 @@ fn spawned_rays_never_self_intersect() {
                 if b1 + b2 > 1.0 {
                     (b1, b2) = (1.0 - b1, 1.0 - b2);
                 }
-                let b0 = 1.0 - b1 - b2;
-                let p = tri[0] * b0 + tri[1] * b1 + tri[2] * b2;
-                let err = barycentric_error(tri[0], tri[1], tri[2], b0, b1, b2);
+                let TrianglePoint { p, p_error, .. } = triangle_point(tri, b1, b2);
                 let mut w = rng.unit();
                 if rng.chance(0.3) {
                     // Grazing.
@@ -388,7 +386,7 @@ fn spawned_rays_never_self_intersect() {
                 if w.dot(ng) == 0.0 {
                     continue;
                 }
-                let o = offset_ray_origin(p, err, ng, w);
+                let o = offset_ray_origin(p, p_error, ng, w);
                 let ray = Ray::new(o, w);
                 assert!(
                     intersect_triangle(&ray, tri[0], tri[1], tri[2]).is_none(),
@@ -424,12 +422,10 @@ fn bounces_never_hit_their_own_triangle() {
             for _ in 0..4 {
                 let Some(h) = bvh.intersect(&ray) else { break };
                 let t = tris[h.prim as usize];
-                let b0 = 1.0 - h.b1 - h.b2;
-                let p = t[0] * b0 + t[1] * h.b1 + t[2] * h.b2;
-                let err = barycentric_error(t[0], t[1], t[2], b0, h.b1, h.b2);
+                let TrianglePoint { p, p_error, .. } = triangle_point(t, h.b1, h.b2);
                 let ng = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
                 let w = rng.unit();
-                ray = Ray::new(offset_ray_origin(p, err, ng, w), w);
+                ray = Ray::new(offset_ray_origin(p, p_error, ng, w), w);
                 if let Some(next) = bvh.intersect(&ray) {
                     assert_ne!(
                         next.prim, h.prim,

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use cmlt::accel::Intersector;
 use cmlt::accel::bvh::{Bvh, Kernel};
-use cmlt::geometry::offset::{barycentric_error, spawn_ray, spawn_rays_between};
+use cmlt::geometry::offset::{TrianglePoint, spawn_ray, spawn_rays_between, triangle_point};
 use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
 use cmlt::math::{Frame, Mat4, Vec2, Vec3};
 use cmlt::sampler::SampleStream;
@@ -224,9 +224,9 @@ fn ray_sets(s: &BenchScene, bvh: &Bvh, count: usize) -> RaySets {
             continue;
         };
         let t = s.tris[hit.prim as usize];
-        let b0 = 1.0 - hit.b1 - hit.b2;
-        let p = t[0] * b0 + t[1] * hit.b1 + t[2] * hit.b2;
-        let err = barycentric_error(t[0], t[1], t[2], b0, hit.b1, hit.b2);
+        let TrianglePoint {
+            p, p_error: err, ..
+        } = triangle_point(t, hit.b1, hit.b2);
         let mut ng = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
         if ng.dot(r.d) > 0.0 {
             ng = -ng;

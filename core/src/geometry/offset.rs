@@ -60,6 +60,114 @@ pub fn barycentric_error(p0: Vec3, p1: Vec3, p2: Vec3, b0: f32, b1: f32, b2: f32
     ((p0 * b0).abs() + (p1 * b1).abs() + (p2 * b2).abs()) * gamma(7)
 }
 
+/// A point on a triangle with its error bound, as [`triangle_point`]
+/// computes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrianglePoint {
+    /// Position.
+    pub p: Vec3,
+    /// Conservative per-axis absolute error bound of `p` with respect to
+    /// the point of weights `b` on the triangle.
+    pub p_error: Vec3,
+    /// Barycentric weights of the three vertices (non-negative, summing to
+    /// one), the ones `p` interpolates: attributes (normals, uvs) should be
+    /// interpolated with them too.
+    pub b: [f32; 3],
+}
+
+/// The point of barycentrics `(b1, b2)` (weights of vertices 1 and 2, as a
+/// hit reports them) on triangle `tri`, moved into the triangle where
+/// needed so that a ray spawned from it cannot leave through a
+/// neighbouring face.
+///
+/// Invariant (issue 7's edge leak): `p` lies in the triangle at an
+/// in-plane distance of at least `m = 2·|γ(7)·maxᵢ|pᵢ||` from each of its
+/// edges — more than its own error bound plus the rounding of the spawn
+/// offset — so it is strictly on the inner side of the plane of a face
+/// meeting the triangle at an edge at a right or obtuse dihedral angle
+/// (boxes, tessellated smooth surfaces), and a ray spawned from it crosses
+/// that face rather than starting on it. Without it, a hit next to an edge
+/// of a closed cube was computed on, or one ulp beyond, the plane of the
+/// adjacent face; the offset along the own normal leaves that coordinate
+/// alone, and the next ray left the mesh (through a plane it starts on: a
+/// crossing at t = 0, which no intersector reports).
+///
+/// How: a point closer than `m` to an edge moves away from it,
+/// perpendicularly, to distance `m`; next to a vertex, to the corner of the
+/// triangle inset by `m`. Where that is a move of more than `4m` (next to a
+/// vertex sharper than 29°) or the triangle is too small for the margin,
+/// the weights are only clamped to the triangle and the point keeps no
+/// margin. The largest
+/// weight is then computed as the remainder `1 − bᵢ − bₖ`: being at least
+/// ⅓, its rounding error is relative (γ(4)), which with γ(3) for the sum
+/// of products gives pbrt-v4's γ(7) bound ([`barycentric_error`]) with
+/// respect to a point exactly on the triangle. (`1 − b1 − b2` as the weight
+/// of vertex 0 has no relative bound when it is near 0, where the cube's
+/// leak was.)
+pub fn triangle_point(tri: [Vec3; 3], b1: f32, b2: f32) -> TrianglePoint {
+    let b = margin_weights(tri, [1.0 - b1 - b2, b1, b2]);
+    let p = tri[0] * b[0] + tri[1] * b[1] + tri[2] * b[2];
+    TrianglePoint {
+        p,
+        p_error: barycentric_error(tri[0], tri[1], tri[2], b[0], b[1], b[2]),
+        b,
+    }
+}
+
+/// The weights of [`triangle_point`]: `given` moved off the edges by the
+/// margin where that is a short move within the triangle, else only
+/// clamped to it; the largest recomputed as the remainder of the others.
+fn margin_weights(tri: [Vec3; 3], given: [f32; 3]) -> [f32; 3] {
+    // f32::max maps a NaN weight to 0.
+    let clamped = given.map(|b| b.max(0.0));
+    let area2 = (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
+    let max_abs = tri[0].abs().max(tri[1].abs()).max(tri[2].abs());
+    let m = 2.0 * (max_abs * gamma(7)).length();
+    // The distance to edge i (opposite vertex i) is bᵢ·hᵢ with height
+    // hᵢ = area2 / |edge|: it is m at weight lᵢ (infinite or NaN on a
+    // degenerate triangle, which then keeps no margin).
+    let edge = |i: usize| tri[(i + 2) % 3] - tri[(i + 1) % 3];
+    let l = [0, 1, 2].map(|i| m * edge(i).length() / area2);
+    // Away from each edge that is too close, along the altitude from the
+    // opposite vertex i, whose foot has weights (1 − s, s) for (j, k).
+    let mut b = clamped;
+    for i in 0..3 {
+        let raise = l[i] - clamped[i];
+        if raise > 0.0 {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            let s = (tri[i] - tri[j]).dot(edge(i)) / edge(i).length_squared();
+            b[i] += raise;
+            b[j] -= raise * (1.0 - s);
+            b[k] -= raise * s;
+        }
+    }
+    // At a vertex that is not a right angle the two moves do not reach
+    // both margins: the corner of the inset triangle does.
+    let b = with_remainder([0, 1, 2].map(|i| b[i].max(l[i])));
+    let shift = (0..3)
+        .map(|i| tri[i] * (b[i] - clamped[i]))
+        .sum::<Vec3>()
+        .length();
+    if (0..3).all(|i| b[i] >= l[i]) && shift <= 4.0 * m {
+        b
+    } else {
+        with_remainder(clamped)
+    }
+}
+
+/// `b` with its largest weight replaced by one minus the other two.
+fn with_remainder(mut b: [f32; 3]) -> [f32; 3] {
+    let j = if b[0] >= b[1] && b[0] >= b[2] {
+        0
+    } else if b[1] >= b[2] {
+        1
+    } else {
+        2
+    };
+    b[j] = 1.0 - b[(j + 1) % 3] - b[(j + 2) % 3];
+    b
+}
+
 /// Moves `p` (with per-axis error bound `p_error`) off the surface with
 /// geometric normal `ng` to the side that `w` points into.
 #[inline]
@@ -199,6 +307,71 @@ mod tests {
             let up = offset_ray_origin(p, err, ng, Vec3::Z);
             let down = offset_ray_origin(p, err, ng, -Vec3::Z);
             assert!(up.z > 0.0 && down.z < 0.0);
+        }
+    }
+
+    /// Points on a face of the cube [-1, 1]³ next to its edges x = 1,
+    /// y = −1 (whose neighbouring faces meet it at right angles) and its
+    /// diagonal, weights rounded so that `1 − b1 − b2` is not the exact
+    /// remainder: the point stays inside the face by the margin, its error
+    /// bound covers its distance to the face's plane, and a point away
+    /// from the edges is interpolated as given.
+    #[test]
+    fn triangle_points_keep_off_the_edges() {
+        let tri = [
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(1.0, 1.0, 1.0),
+        ];
+        let m = 2.0 * (Vec3::ONE * gamma(7)).length();
+        let below = |x: f32| next_float_down(x);
+        for (b1, b2) in [
+            (0.6, 0.4),
+            (0.6, below(0.4)),
+            (below(0.7), 0.3),
+            (1.0, 0.0),
+            (0.0, 0.0),
+            (0.0, 1.0),
+            (0.3, 0.0),
+            (1e-8, 0.5),
+            (below(1.0), 1e-7),
+        ] {
+            let tp = triangle_point(tri, b1, b2);
+            let at = format!("b = ({b1}, {b2}): {tp:?}");
+            assert!(tp.p.x <= 1.0 - m * 0.9 && tp.p.y >= -1.0 + m * 0.9, "{at}");
+            let diagonal = (tp.p.x - tp.p.y) / 2f32.sqrt();
+            assert!(diagonal >= m * 0.9, "off the diagonal: {at}");
+            assert!((tp.p.z - 1.0).abs() <= tp.p_error.z, "{at}");
+            assert!(tp.b.iter().all(|&b| b >= 0.0), "{at}");
+            assert_eq!(tp.b.iter().sum::<f32>(), 1.0, "{at}");
+        }
+        let inner = triangle_point(tri, 0.5, 0.25);
+        assert_eq!(inner.b, [0.25, 0.5, 0.25]);
+        assert_eq!(inner.p, Vec3::new(0.5, -0.5, 1.0));
+    }
+
+    /// Where the margin does not fit (a sliver narrower than it, the sharp
+    /// end of a thin triangle) or the triangle is degenerate, the weights
+    /// are only clamped to the triangle.
+    #[test]
+    fn triangle_points_without_room_for_the_margin_are_clamped() {
+        let sliver = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 1e-7, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        ];
+        let degenerate = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        for tri in [sliver, degenerate] {
+            for ((b1, b2), b) in [
+                ((0.5, 0.0), [0.5, 0.5, 0.0]),
+                ((0.2, 0.3), [1.0 - 0.2 - 0.3, 0.2, 0.3]),
+                ((0.0, 1.0), [0.0, 0.0, 1.0]),
+                ((0.7, 0.4), [0.0, 0.6, 0.4]),
+            ] {
+                let tp = triangle_point(tri, b1, b2);
+                assert_eq!(tp.b, b, "{tri:?}");
+                assert!(tp.p.is_finite());
+            }
         }
     }
 

@@ -127,9 +127,14 @@ impl WatertightRay {
             return None;
         }
         let (t, b1, b2, dt) = solve(a, b, c, u, v, w, det);
-        let positive = t > dt
-            || (t > 0.0 && t < t_max && positive_t_f64([p0, p1, p2], self.k, self.org, self.shear));
-        (positive && t < t_max).then_some((t, b1, b2))
+        let t = if t > dt {
+            t
+        } else if t > -dt {
+            decide_t_f64(t, [p0, p1, p2], self.k, self.org, self.shear)?
+        } else {
+            return None;
+        };
+        (t < t_max).then_some((t, b1, b2))
     }
 }
 
@@ -259,23 +264,51 @@ fn solve(
     (t, b1, b2, delta_t)
 }
 
-/// Whether the hit of a ray with a triangle whose edge functions say
-/// "inside" lies provably in front of the origin, decided in f64 from the
-/// unrounded inputs: the ray's permuted origin `org` and sheared direction
-/// `(shear₀, shear₁, 1)·d_z` (permutation `k`) and the world-space vertices.
+/// The hit distance of a ray with a triangle whose edge functions say
+/// "inside", when its f32 value `t` is within the bound `δt` of [`solve`]
+/// of zero (either sign): `t` itself when it is positive, the f64 distance
+/// when only that is, `None` when the hit is not provably in front of the
+/// origin. Both kernels call this, so they stay bit-identical.
 ///
-/// Reached only when the f32 `t` is positive but not above the bound `δt`
-/// of [`solve`]. That bound grows with the triangle's extent, so a triangle
-/// much larger than its distance to the origin (a 10⁶-wide ceiling one unit
-/// above the camera: issue 7's huge-light case) was missed altogether. In
-/// f64, `t = ((p₀ − o)·n) / (d·n)` with `n = (p₁ − p₀) × (p₂ − p₀)` has a
-/// relative error near 2⁻⁵⁰ instead; the sign is accepted only when both
-/// numerator and denominator exceed their error bounds (conservatively
-/// counting the f32 rounding of the shear), so a ray spawned off its own
-/// triangle is still never re-hit.
+/// A ray that starts next to a surface and crosses it at once has a `t`
+/// below `δt`, and its f32 value may come out ≤ 0: the walk from a hit
+/// next to a mesh edge, spawned a few ulps inside the adjacent face,
+/// missed that face and left the closed mesh (issue 7's edge leak).
+#[inline(always)]
+fn decide_t_f64(
+    t: f32,
+    tri: [Vec3; 3],
+    k: [usize; 3],
+    org: [f32; 3],
+    shear: [f32; 3],
+) -> Option<f32> {
+    let t64 = positive_t_f64(tri, k, org, shear)?;
+    // The f64 distance is positive; its f32 rounding must stay so.
+    Some(if t > 0.0 {
+        t
+    } else {
+        (t64 as f32).max(f32::from_bits(1))
+    })
+}
+
+/// The hit distance (in units of `|d|`) of a ray with a triangle whose
+/// edge functions say "inside", if it lies provably in front of the
+/// origin, decided in f64 from the unrounded inputs: the ray's permuted
+/// origin `org` and sheared direction `(shear₀, shear₁, 1)·d_z`
+/// (permutation `k`) and the world-space vertices.
+///
+/// Reached only when the f32 `t` is not provably of either sign (within
+/// the bound `δt` of [`solve`]). That bound grows with the triangle's
+/// extent, so a triangle much larger than its distance to the origin (a
+/// 10⁶-wide ceiling one unit above the camera: issue 7's huge-light case)
+/// was missed altogether. In f64, `t = ((p₀ − o)·n) / (d·n)` with
+/// `n = (p₁ − p₀) × (p₂ − p₀)` has a relative error near 2⁻⁵⁰ instead; the
+/// sign is accepted only when both numerator and denominator exceed their
+/// error bounds (conservatively counting the f32 rounding of the shear),
+/// so a ray spawned off its own triangle is still never re-hit.
 #[cold]
 #[inline(never)]
-fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3]) -> bool {
+fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3]) -> Option<f64> {
     let perm = |p: Vec3| {
         let a = p.to_array();
         [a[k[0] % 3], a[k[1] % 3], a[k[2] % 3]].map(f64::from)
@@ -306,11 +339,11 @@ fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3])
         (g + 1.0 / 4_194_304.0/* 2⁻²² */) * dot(abs3(d), n_abs),
     );
     if !(num.abs() > num_err && den.abs() > den_err) {
-        return false;
+        return None;
     }
-    // t in units of |d| has the sign of num / den times that of d_z
-    // (shear₂ = 1 / d_z).
-    (num / den) * f64::from(shear[2]) > 0.0
+    // t in units of |d| is num / den times 1 / d_z = shear₂.
+    let t = (num / den) * f64::from(shear[2]);
+    (t > 0.0).then_some(t)
 }
 
 #[inline(always)]
@@ -450,7 +483,8 @@ impl<const N: usize> WatertightLanes<N> {
 
 /// Hits of one triangle for all `N` lanes of a packet: bit `i` of the
 /// returned mask is set when lane `i` (restricted to `lanes`) hits with `t`
-/// in `(δt, t_max[i])`; `t`, `b1`, `b2` are valid for those lanes only.
+/// provably positive and below `t_max[i]`; `t`, `b1`, `b2` are valid for
+/// those lanes only.
 ///
 /// The lane loops are branch-free (selects) so LLVM can vectorise them; the
 /// rare f64 re-evaluation of zero edge functions runs per affected lane, and
@@ -536,6 +570,7 @@ pub(crate) fn intersect_lanes<const N: usize>(
     }
 
     let mut ok = [false; N];
+    let mut unsure = [false; N];
     for i in 0..N {
         let (ui, vi, wi) = (u[i], vv[i], w[i]);
         let det = ui + vi + wi;
@@ -544,23 +579,23 @@ pub(crate) fn intersect_lanes<const N: usize>(
         b1[i] = b1i;
         b2[i] = b2i;
         ok[i] = det != 0.0 && ti > dt && ti < t_max[i];
+        unsure[i] = det != 0.0 && ti <= dt && ti > -dt;
     }
     let mut ok = lane_mask(&ok) & inside;
-    // Hits whose f32 t is positive but not provably so: decide in f64 as
+    // Hits whose f32 t is not provably of either sign: decide in f64 as
     // the single-ray test does (rare; per lane, same result).
-    let mut unsure = [false; N];
-    for i in 0..N {
-        unsure[i] = u[i] + vv[i] + w[i] != 0.0 && t[i] > 0.0 && t[i] < t_max[i];
-    }
-    let mut unsure = lane_mask(&unsure) & inside & !ok;
+    let mut unsure = lane_mask(&unsure) & inside;
     while unsure != 0 {
         let i = unsure.trailing_zeros() as usize;
         unsure &= unsure - 1;
         let k = [0, 1, 2].map(|j| r.k[j][i] as usize);
         let org = [0, 1, 2].map(|j| r.org[j][i]);
         let shear = [0, 1, 2].map(|j| r.shear[j][i]);
-        if positive_t_f64(*tri, k, org, shear) {
-            ok |= 1 << i;
+        if let Some(ti) = decide_t_f64(t[i], *tri, k, org, shear) {
+            t[i] = ti;
+            if ti < t_max[i] {
+                ok |= 1 << i;
+            }
         }
     }
     ok
@@ -693,6 +728,57 @@ mod tests {
         // Moved to the inside of that edge, it hits.
         let inside = ray(Vec3::new(-0.01, 0.0, 0.0), -Vec3::Z);
         assert!(intersect_triangle(&inside, tri[0], tri[1], tri[2]).is_some());
+    }
+
+    /// A ray starting 1 ulp off the plane of a large triangle and crossing
+    /// it at once (t ≈ 10⁻⁷, under δt): its f32 `t` comes out negative,
+    /// and only the f64 decision finds the hit — in both kernels. The ray
+    /// is a walk step from next to an edge of the closed cube that left it
+    /// this way (issue 7).
+    #[test]
+    fn a_surface_crossed_at_the_origin_is_hit() {
+        let tri = [
+            Vec3::new(-1.0, -1.0, -1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+        ];
+        let r = ray(
+            Vec3::new(0.9999995, -0.99999994, -0.37992558),
+            Vec3::new(-0.44689378, -0.5778847, -0.68288743),
+        );
+        let wr = WatertightRay::new(&r).unwrap();
+        let (a, b, c) = (
+            wr.ray_space(tri[0]),
+            wr.ray_space(tri[1]),
+            wr.ray_space(tri[2]),
+        );
+        let (u, v, w) = edge_functions(a, b, c);
+        assert!(solve(a, b, c, u, v, w, u + v + w).0 <= 0.0, "f32 t");
+        let (t, ..) = intersect_triangle(&r, tri[0], tri[1], tri[2]).expect("hit");
+        assert!(t > 0.0 && t < 1e-6, "t = {t}");
+        let mut lanes = WatertightLanes::<4>::new();
+        lanes.set(0, &wr);
+        lanes.finish(0b1);
+        let (mut tl, mut b1, mut b2) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        let m = intersect_lanes(
+            &lanes,
+            &tri,
+            &[f32::INFINITY; 4],
+            0b1,
+            &mut tl,
+            &mut b1,
+            &mut b2,
+        );
+        assert_eq!(m, 0b1);
+        assert_eq!(
+            (tl[0], b1[0], b2[0]),
+            intersect_triangle(&r, tri[0], tri[1], tri[2]).unwrap()
+        );
+        // Going the other way it is behind the origin.
+        assert_eq!(
+            intersect_triangle(&ray(r.o, -r.d), tri[0], tri[1], tri[2]),
+            None
+        );
     }
 
     #[test]

@@ -11,7 +11,8 @@ use super::light::LightSet;
 use super::material::{Material, MaterialId};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
 use super::texture::{Bitmap, BitmapId, Texture};
-use crate::geometry::{Hit, offset::barycentric_error};
+use crate::geometry::Hit;
+use crate::geometry::offset::{TrianglePoint, triangle_point};
 use crate::math::Rgb;
 
 /// A triangle mesh in world space.
@@ -434,17 +435,24 @@ impl Scene {
         })
     }
 
-    /// The surface point of barycentrics `(b1, b2)` on global triangle `prim`.
-    /// Returns `None` for a degenerate (zero-area) triangle, which has no
-    /// normal and scatters nothing.
+    /// The surface point of barycentrics `(b1, b2)` on global triangle `prim`,
+    /// kept a few ulps off the triangle's edges
+    /// ([`crate::geometry::offset::triangle_point`]). Returns `None` for a
+    /// degenerate (zero-area) triangle, which has no normal and scatters
+    /// nothing.
     pub fn surface_point(&self, prim: u32, b1: f32, b2: f32) -> Option<SurfacePoint> {
         let (mi, ti) = self.locate(prim);
         let m = &self.meshes[mi];
         let idx = m.indices[ti].map(|i| i as usize);
         let [p0, p1, p2] = idx.map(|i| m.positions[i]);
-        let b0 = 1.0 - b1 - b2;
-        let p = p0 * b0 + p1 * b1 + p2 * b2;
-        let p_error = barycentric_error(p0, p1, p2, b0, b1, b2);
+        // Kept off the triangle's edges, so that a walk from a hit next to
+        // an edge of a closed mesh stays inside it; the normal and uv are
+        // interpolated at the weights of that point.
+        let TrianglePoint {
+            p,
+            p_error,
+            b: [b0, b1, b2],
+        } = triangle_point([p0, p1, p2], b1, b2);
         let ng = (p1 - p0).cross(p2 - p0);
         let len = ng.length();
         if !(len > 0.0 && len.is_finite()) {
