@@ -77,8 +77,9 @@ const CAMERA: cmlt_camera = cmlt_camera {
     focus_distance: 1.0,
 };
 
-/// A committed floor-and-light scene (our BVH unless `host` is given).
-fn scene(host: Option<&cmlt_intersector>) -> *mut cmlt_scene {
+/// A new, uncommitted scene holding the floor and the light (material 0,
+/// white).
+fn floor_and_light() -> *mut cmlt_scene {
     let mut s = null_mut();
     let mut id = 0;
     // SAFETY: valid pointers throughout.
@@ -99,6 +100,15 @@ fn scene(host: Option<&cmlt_intersector>) -> *mut cmlt_scene {
             CMLT_OK,
             "add_mesh",
         );
+    }
+    s
+}
+
+/// A committed floor-and-light scene (our BVH unless `host` is given).
+fn scene(host: Option<&cmlt_intersector>) -> *mut cmlt_scene {
+    let s = floor_and_light();
+    // SAFETY: `s` is a valid, uncommitted scene.
+    unsafe {
         if let Some(h) = host {
             expect(cmlt_scene_set_intersector(s, h), CMLT_OK, "set_intersector");
         }
@@ -1147,8 +1157,7 @@ unsafe extern "C" fn shape_host_surface(
 fn host_shapes_are_checked_and_rendered() {
     use crate::host::cmlt_shapes;
     let make = |host: &ShapeHost, with_sphere: bool| -> *mut cmlt_scene {
-        let mut s = null_mut();
-        let mut id = 0;
+        let s = floor_and_light();
         let shapes = cmlt_shapes {
             count: 1,
             material: 0,
@@ -1164,18 +1173,6 @@ fn host_shapes_are_checked_and_rendered() {
         };
         // SAFETY: valid or deliberately invalid pointers.
         unsafe {
-            expect(cmlt_scene_new(&mut s), CMLT_OK, "new");
-            expect(cmlt_scene_add_material(s, &WHITE, &mut id), CMLT_OK, "mat");
-            expect(
-                cmlt_scene_add_mesh(s, &mesh(&FLOOR, id, 0.0), null_mut()),
-                CMLT_OK,
-                "add_mesh",
-            );
-            expect(
-                cmlt_scene_add_mesh(s, &mesh(&LIGHT, id, 5.0), null_mut()),
-                CMLT_OK,
-                "add_mesh",
-            );
             if with_sphere {
                 let f = "cmlt_scene_add_shapes";
                 let mut first = 99;
