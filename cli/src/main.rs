@@ -59,6 +59,15 @@ enum CandidatesArg {
     Stratified,
 }
 
+/// `--splatting`: what a CMLT multiple-try step records.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum SplattingArg {
+    /// Every candidate, weighted by its one-proposal acceptance over k.
+    Recycled,
+    /// The selected candidate with a, the current state with 1 − a.
+    Expected,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (the built-in Cornell box when no file is given).
@@ -112,6 +121,9 @@ enum Command {
         /// CMLT: how the k candidates of a step are drawn.
         #[arg(long, value_enum, default_value = "stratified")]
         candidates: CandidatesArg,
+        /// CMLT: what a multiple-try step records.
+        #[arg(long, value_enum, default_value = "recycled")]
+        splatting: SplattingArg,
         /// Render for this many seconds instead of a fixed sample count.
         #[arg(long)]
         time: Option<f64>,
@@ -518,8 +530,8 @@ fn run_mlt(
         mlt.b_passes,
         if mlt.m > 0 {
             format!(
-                ", k {} m {} lens sigma {} px, caustic scale {}, {:?} candidates",
-                mlt.k, mlt.m, mlt.lens_sigma, mlt.caustic_scale, mlt.candidates
+                ", k {} m {} lens sigma {} px, caustic scale {}, {:?} candidates, {:?} splatting",
+                mlt.k, mlt.m, mlt.lens_sigma, mlt.caustic_scale, mlt.candidates, mlt.splatting
             )
         } else {
             String::new()
@@ -986,6 +998,7 @@ fn run(cli: Cli) -> Result<(), String> {
             lens_sigma,
             caustic_scale,
             candidates,
+            splatting,
             time,
             threads,
             accel,
@@ -1047,6 +1060,10 @@ fn run(cli: Cli) -> Result<(), String> {
                 candidates: match candidates {
                     CandidatesArg::Independent => cmlt::mlt::Candidates::Independent,
                     CandidatesArg::Stratified => cmlt::mlt::Candidates::Stratified,
+                },
+                splatting: match splatting {
+                    SplattingArg::Recycled => cmlt::mlt::Splatting::Recycled,
+                    SplattingArg::Expected => cmlt::mlt::Splatting::ExpectedValue,
                 },
                 ..base
             };

@@ -15,7 +15,7 @@ use glam::Vec2;
 
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
 use super::lens::{LensProposal, LensState, LensTarget};
-use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Splatting, Target};
+use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Target};
 use super::path::{Applicable, classify};
 use super::{MltSettings, MltStats, PathSample};
 use crate::accel::Intersector;
@@ -61,9 +61,9 @@ impl Level2 {
             CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
         Some(Level2 {
             m: mlt.m,
-            lens: MultipleTry::new(k, Splatting::ExpectedValue)
+            lens: MultipleTry::new(k, mlt.splatting)
                 .with_candidates(mlt.candidates, LensProposal::DIM),
-            caustic: MultipleTry::new(k, Splatting::ExpectedValue)
+            caustic: MultipleTry::new(k, mlt.splatting)
                 .with_candidates(mlt.candidates, CausticProposal::DIM),
             lens_proposal,
             caustic_proposal,

@@ -45,7 +45,7 @@ pub mod primary;
 pub use bootstrap::Bootstrap;
 pub use chain::{Chain, PathSample, Splat, Step};
 pub use level2::Level2;
-pub use multiple_try::Candidates;
+pub use multiple_try::{Candidates, Splatting};
 pub use primary::PrimarySampler;
 
 use alloc::vec::Vec;
@@ -95,6 +95,10 @@ pub struct MltSettings {
     pub caustic_scale: f32,
     /// Level 2: how the k candidates are drawn.
     pub candidates: Candidates,
+    /// Level 2: what a multiple-try step records ([`Splatting::Recycled`]
+    /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], seed
+    /// eq. 36, is biased and refused by [`MltSettings::validate`]).
+    pub splatting: Splatting,
 }
 
 impl Default for MltSettings {
@@ -113,6 +117,7 @@ impl Default for MltSettings {
             lens_sigma: 2.0,
             caustic_scale: 1.0,
             candidates: Candidates::Stratified,
+            splatting: Splatting::Recycled,
         }
     }
 }
@@ -164,6 +169,9 @@ impl MltSettings {
         }
         if !(self.caustic_scale > 0.0 && self.caustic_scale.is_finite()) {
             return Err("caustic scale must be positive and finite");
+        }
+        if self.splatting == Splatting::AllCandidates {
+            return Err("eq. 36 splatting is biased; use recycled or expected-value splatting");
         }
         Ok(())
     }

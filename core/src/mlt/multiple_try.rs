@@ -65,6 +65,22 @@
 //!   (Veach 1997, §11.3.4). This is the conditional expectation of the next
 //!   state's indicator given everything but the accept/reject uniform, so a
 //!   chain in equilibrium records p exactly in expectation.
+//! - [`Splatting::Recycled`]: every candidate y_l with a₁(x, y_l)/k and x
+//!   with 1 − Σ_l a₁(x, y_l)/k, where a₁(x, y) = min(1, p(y)T(y→x) /
+//!   (p(x)T(x→y))) is the acceptance of an ordinary one-proposal
+//!   Metropolis–Hastings step. This is seed eq. 36's aim (use the samples a
+//!   step has traced anyway) with a weighting that is provably right: let
+//!   P_l be the Metropolis–Hastings kernel that proposes y_l ~ T(x→·) and
+//!   accepts with a₁. Its expected-value record, a₁δ_{y_l} + (1 − a₁)δ_x,
+//!   has mean πP_l = π when x ~ π (P_l is in detailed balance with π). The
+//!   recycled record is the average of the k such records, so its mean is
+//!   π too, by linearity. The argument asks only that x ~ π, which the
+//!   multiple-try chain guarantees, and that each y_l is marginally
+//!   T(x→·)-distributed, which stratified candidates are; it does not
+//!   involve x*, the reference set or the accept decision, so the chain
+//!   may move by any π-invariant rule. For k = 1 it is expected-value
+//!   splatting of a plain Metropolis–Hastings step. The test
+//!   `recycled_splatting_matches_target` checks it against the toy targets.
 //! - [`Splatting::AllCandidates`] (seed eq. 36): every y_l with
 //!   a · p(y_l) / F_y and every z_l with (1 − a) · p(z_l) / F_z, where
 //!   F_y = Σ_{l=1}^{k} p(y_l), F_z = Σ_{l=1}^{k} p(z_l) (z_k = x included),
@@ -74,8 +90,8 @@
 //!   T(x→·), so weighing them by p alone records ∝ p·T rather than p, and
 //!   the z are drawn around x*, not x; the test `eq36_splatting_is_biased`
 //!   measures 3–24 % errors in a region's share on the toy target, far
-//!   beyond noise (DESIGN.md asked for the check). Do not use it for images
-//!   until a corrected rule is proven.
+//!   beyond noise (DESIGN.md asked for the check). Do not use it for
+//!   images; [`Splatting::Recycled`] is the corrected rule.
 //!
 //! ## Allocation, batches and random numbers
 //!
@@ -258,6 +274,14 @@ pub enum Splatting {
     /// x* with weight a, x with 1 − a: unbiased; the default.
     #[default]
     ExpectedValue,
+    /// Every candidate y_l with a₁(x, y_l)/k, x with 1 − Σ_l a₁(x, y_l)/k,
+    /// where a₁ is the one-proposal Metropolis–Hastings acceptance
+    /// min(1, p(y)T(y→x) / (p(x)T(x→y))): the average of the k
+    /// expected-value records of k ordinary Metropolis–Hastings steps from
+    /// x, one per candidate. Unbiased (see the module docs) and records k
+    /// samples per step instead of one; the reference set is traced only to
+    /// move the chain.
+    Recycled,
     /// Seed eq. 36: all k candidates and all k reference points, weighted
     /// by a·p(y_l)/F_y and (1 − a)·p(z_l)/F_z. Biased for k > 1 (kept for
     /// the measurement in the tests and for comparison).
@@ -282,6 +306,9 @@ pub(crate) enum Variant {
     /// Algorithm 4, step e-ii as printed: on rejection the side chain
     /// returns to the level-1 state x_i instead of keeping x_i^(j).
     RejectToStart,
+    /// [`Splatting::Recycled`] with T(y→x) taken equal to T(x→y), as if
+    /// every perturbation were symmetric.
+    RecycledWithoutReverse,
 }
 
 /// A chain state with its target value p (luminance, ≥ 0, finite).
@@ -337,6 +364,24 @@ fn reference_weight(p_to: f32, t_from_to: f32) -> Option<f64> {
     } else {
         Some(weight(p_to, t_from_to))
     }
+}
+
+/// The Metropolis–Hastings acceptance of one proposal y drawn from x,
+/// min(1, p(y)·T(y→x) / (p(x)·T(x→y))), in f64 (the products may leave
+/// f32's range). 0 when p(y) = 0 or T(y→x) = 0 (the move cannot be
+/// reversed), or when T(x→y) is zero or non-finite (y could not have been
+/// drawn: [`weight`]'s convention); 1 when p(x) = 0 < p(y) (a chain started
+/// on a black state moves on, as the level-1 chain does).
+#[inline]
+fn mh_acceptance(p_x: f32, p_y: f32, t_xy: f32, t_yx: f32) -> f32 {
+    if !(p_y > 0.0 && t_yx > 0.0 && t_yx.is_finite() && t_xy > 0.0 && t_xy.is_finite()) {
+        return 0.0;
+    }
+    if !(p_x > 0.0) {
+        return 1.0;
+    }
+    let r = (p_y as f64 * t_yx as f64) / (p_x as f64 * t_xy as f64);
+    r.min(1.0) as f32
 }
 
 fn gcd(mut a: u64, mut b: u64) -> u64 {
@@ -617,6 +662,29 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
                 }
                 if a < 1.0 && state.p > 0.0 {
                     splat(&state.x, 1.0 - a);
+                }
+            }
+            Splatting::Recycled => {
+                // The k one-proposal records, averaged; they do not depend
+                // on x*, a or the reference set.
+                let mut rest = 1.0f32;
+                for l in 0..k {
+                    if let Some(c) = &y[l] {
+                        let t_xy = proposal.density(x, c);
+                        let t_yx = match variant {
+                            Variant::RecycledWithoutReverse => t_xy,
+                            _ => proposal.density(c, x),
+                        };
+                        let a1 = mh_acceptance(state.p, py[l], t_xy, t_yx);
+                        if a1 > 0.0 {
+                            let w = a1 / k as f32;
+                            splat(c, w);
+                            rest -= w;
+                        }
+                    }
+                }
+                if rest > 0.0 && state.p > 0.0 {
+                    splat(&state.x, rest);
                 }
             }
             Splatting::AllCandidates => {

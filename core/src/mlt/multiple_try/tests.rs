@@ -230,7 +230,34 @@ fn splat_deviation<P: Proposal<Vec2>>(
     m: u32,
     seed: u64,
 ) -> (f64, f64, f64) {
-    let mut mtm = MultipleTry::<Vec2, 16>::new(k, splatting);
+    splat_deviation_with(
+        proposal,
+        k,
+        splatting,
+        Candidates::Independent,
+        Variant::Correct,
+        chains,
+        m,
+        seed,
+    )
+}
+
+/// [`splat_deviation`] with candidates drawn as `candidates` says, by the
+/// step `variant`.
+#[allow(clippy::too_many_arguments)]
+fn splat_deviation_with<P: Proposal<Vec2>>(
+    proposal: &P,
+    k: usize,
+    splatting: Splatting,
+    candidates: Candidates,
+    variant: Variant,
+    chains: u32,
+    m: u32,
+    seed: u64,
+) -> (f64, f64, f64) {
+    let mut mtm = MultipleTry::<Vec2, 16>::new(k, splatting)
+        .with_candidates(candidates, P::DIM)
+        .with_variant(variant);
     let mut sum = [0f64; N * N];
     let mut sum2 = [0f64; N * N];
     let mut local = [0f64; N * N];
@@ -576,6 +603,78 @@ fn expected_value_splatting_matches_target() {
     check("walk", &walk(), 21);
     check("state-σ", &StateSigma, 22);
     check("independence", &Independence, 23);
+}
+
+/// The corrected all-candidates rule: recycled records reproduce p for
+/// k ∈ {1, 4, 16}, with independent and with stratified candidates, on
+/// all three proposals (including the state-dependent σ, where T is not
+/// symmetric and a₁ needs the reverse density). Negative control: the same
+/// records with T(y→x) taken equal to T(x→y) (as if T were symmetric)
+/// are biased for the state-dependent σ and the independence proposal.
+#[test]
+fn recycled_splatting_matches_target() {
+    fn check<P: Proposal<Vec2>>(name: &str, proposal: &P, seed: u64) {
+        for candidates in [Candidates::Independent, Candidates::Stratified] {
+            for k in [1, 4, 16] {
+                let (z, rel, block) = splat_deviation_with(
+                    proposal,
+                    k,
+                    Splatting::Recycled,
+                    candidates,
+                    Variant::Correct,
+                    CHAINS,
+                    M,
+                    seed,
+                );
+                eprintln!(
+                    "recycled splats, {name}, {candidates:?}, k = {k}: max |z| = {z:.2}, \
+                     max rel {rel:.3}, block {block:.4} (exact 0.4934)"
+                );
+                assert!(
+                    z < Z_MAX,
+                    "{name}, {candidates:?}, k = {k}: max |z| = {z:.2}"
+                );
+            }
+        }
+    }
+    check("walk", &walk(), 41);
+    check("state-σ", &StateSigma, 42);
+    check("independence", &Independence, 43);
+
+    // The same code with the reverse density taken equal to the forward
+    // one (T treated as symmetric): biased wherever T is not symmetric.
+    for (name, seed) in [("state-σ", 44), ("independence", 45)] {
+        let z = if name == "state-σ" {
+            splat_deviation_with(
+                &StateSigma,
+                16,
+                Splatting::Recycled,
+                Candidates::Independent,
+                Variant::RecycledWithoutReverse,
+                CHAINS,
+                M,
+                seed,
+            )
+            .0
+        } else {
+            splat_deviation_with(
+                &Independence,
+                16,
+                Splatting::Recycled,
+                Candidates::Independent,
+                Variant::RecycledWithoutReverse,
+                CHAINS,
+                M,
+                seed,
+            )
+            .0
+        };
+        eprintln!("recycled splats without T(y→x), {name}: max |z| = {z:.1}");
+        assert!(
+            z > Z_MAX,
+            "{name}: dropping T(y→x) looked unbiased, |z| = {z:.2}"
+        );
+    }
 }
 
 /// Documented finding: seed eq. 36 (all 2k samples, weights a·p(y)/F_y and
