@@ -137,7 +137,7 @@ static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pi
     config.max_depth = 6;
     config.chains = 64;
     config.bootstrap_samples = 200;
-    config.k = 4;
+    config.k = 8; /* bundles of 8: from 5 live rays on they go as packets */
     config.m = 2;
     config.lens_sigma = 2.0f;
     check(cmlt_renderer_new(scene, &config, &cam, &r), "cmlt_renderer_new");

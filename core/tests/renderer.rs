@@ -163,7 +163,7 @@ fn one_worker_equals_the_estimators_own_entry_points() {
         (Estimator::Path, mlt_settings(1, 0)),
         (Estimator::Bdpt, mlt_settings(1, 0)),
         (Estimator::Mlt, mlt_settings(1, 0)),
-        (Estimator::Mlt, mlt_settings(4, 2)),
+        (Estimator::Mlt, mlt_settings(8, 2)),
     ] {
         let mut r = Renderer::new(config(estimator, mlt, 1), scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
