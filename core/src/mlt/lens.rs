@@ -11,7 +11,7 @@
 //! specular bounce, then all connection rays to the shared vertex x_{t+1}
 //! as one occlusion packet.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 use super::multiple_try::{Proposal, Target};
 use super::path::{LensAnchor, LensEnd, MAX_LANES, Retraced, retrace};
@@ -19,9 +19,11 @@ use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::scatter;
+use crate::integrator::bdpt::{PathVertex, scatter};
+use crate::integrator::context::Shading;
 use crate::math::Rgb;
 use crate::math::warp::ClampedGaussian2;
+use crate::scene::SurfacePoint;
 
 /// A lens-perturbed path: where it crosses the image and what it carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -89,6 +91,103 @@ impl<I: Intersector> Target<LensState> for LensTarget<'_, '_, I> {
 }
 
 impl<I: Intersector> LensTarget<'_, '_, I> {
+    /// The value of a path whose camera part ends at x′_t (position and
+    /// shading `sp`, `sh`; `None` for a light point without a BSDF), reached
+    /// from `prev` with specular throughput `beta`, completed by the
+    /// anchor's fixed end; with [`LensEnd::Connect`] also the segment to
+    /// x_{t+1} whose visibility the value assumes (`None` when the
+    /// connection cannot be made; the value is then zero). Zero when the
+    /// path carries nothing.
+    fn end_value(
+        &mut self,
+        sp: &SurfacePoint,
+        sh: Option<&Shading>,
+        prev: Vec3,
+        beta: Rgb,
+    ) -> (Rgb, Option<offset::SegmentRays>) {
+        match &self.anchor.end {
+            LensEnd::Emitter => {
+                let wo = (prev - sp.p).normalize();
+                (beta * self.tracer.scene.emitted(sp, wo), None)
+            }
+            LensEnd::Connect { next, after, tail } => {
+                let Some(h) = sh else {
+                    return (Rgb::ZERO, None);
+                };
+                let d = next.sp.p - sp.p;
+                let d2 = d.length_squared();
+                if !(d2 > 0.0) {
+                    return (Rgb::ZERO, None);
+                }
+                let dn = d / libm::sqrtf(d2);
+                let f_t = scatter(h, prev, next.sp.p, TransportMode::Radiance);
+                self.tracer.stats.bsdf_evals.add(h.bsdf.lobe());
+                // x_{t+1}'s factor: emission towards x′_t (BDPT s = 1
+                // uses the emitter's geometric cosine), or its BSDF in
+                // light-transport direction.
+                let (f_next, cos_next) = match (after, &next.shading) {
+                    (None, _) => (
+                        self.tracer.scene.emitted(&next.sp, -dn),
+                        next.sp.ng.dot(dn).abs(),
+                    ),
+                    (Some(after), Some(nsh)) => {
+                        self.tracer.stats.bsdf_evals.add(nsh.bsdf.lobe());
+                        (
+                            scatter(nsh, *after, sp.p, TransportMode::Importance),
+                            next.sp.ns.dot(dn).abs(),
+                        )
+                    }
+                    (Some(_), None) => return (Rgb::ZERO, None),
+                };
+                let g = sp.ns.dot(dn).abs() * cos_next / d2;
+                let v = beta * f_t * f_next * *tail * g;
+                if v.is_black() || !v.is_finite() {
+                    return (Rgb::ZERO, None);
+                }
+                match offset::spawn_rays_between(
+                    sp.p,
+                    sp.p_error,
+                    sp.ng,
+                    next.sp.p,
+                    next.sp.p_error,
+                    next.sp.ng,
+                ) {
+                    Some(seg) => (v, Some(seg)),
+                    None => (Rgb::ZERO, None),
+                }
+            }
+        }
+    }
+
+    /// The target at the level-1 path itself (`path`, whose camera ray
+    /// crosses the image at `raster`), evaluated from its stored vertices
+    /// instead of retraced: every segment of a level-1 path was traced or
+    /// tested for visibility when level 1 made it, so no ray is needed. The
+    /// value is [`Target::evaluate`]'s (the same [`Self::end_value`] and
+    /// specular lobes), up to the rounding of retracing the camera ray.
+    /// `None` when the path does not fit the anchor (it always does for
+    /// the anchor [`super::path::classify`] made of it).
+    pub fn evaluate_path(&mut self, path: &[PathVertex], raster: Vec2) -> Option<LensState> {
+        let t = self.anchor.chain.len() + 1;
+        let x_t = path.get(t)?;
+        let mut beta = Rgb::ONE;
+        for (link, i) in (1..t).enumerate() {
+            let sh = path[i].shading.as_ref()?;
+            let wo = (path[i - 1].sp.p - path[i].sp.p).normalize();
+            let (_, w) = sh.bsdf.specular(
+                sh.frame.to_local(wo),
+                self.anchor.chain.reflects(link),
+                TransportMode::Radiance,
+            )?;
+            beta *= w;
+        }
+        let (v, _) = self.end_value(&x_t.sp, x_t.shading.as_ref(), path[t - 1].sp.p, beta);
+        Some(LensState {
+            raster,
+            value: if v.is_finite() { v } else { Rgb::ZERO },
+        })
+    }
+
     fn evaluate_chunk(&mut self, states: &mut [Option<LensState>], p: &mut [f32]) {
         let n = states.len();
         let camera = self.tracer.camera;
@@ -111,56 +210,11 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
         let mut tails: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
         for i in 0..n {
             let Some(e) = &ends[i] else { continue };
-            let h = &e.hit;
-            match &a.end {
-                LensEnd::Emitter => {
-                    let wo = (e.prev - h.sp.p).normalize();
-                    value[i] = e.beta * self.tracer.scene.emitted(&h.sp, wo);
-                }
-                LensEnd::Connect { next, after, tail } => {
-                    let d = next.sp.p - h.sp.p;
-                    let d2 = d.length_squared();
-                    if !(d2 > 0.0) {
-                        continue;
-                    }
-                    let dn = d / libm::sqrtf(d2);
-                    let f_t = scatter(h, e.prev, next.sp.p, TransportMode::Radiance);
-                    self.tracer.stats.bsdf_evals.add(h.bsdf.lobe());
-                    // x_{t+1}'s factor: emission towards x′_t (BDPT s = 1
-                    // uses the emitter's geometric cosine), or its BSDF in
-                    // light-transport direction.
-                    let (f_next, cos_next) = match (after, &next.shading) {
-                        (None, _) => (
-                            self.tracer.scene.emitted(&next.sp, -dn),
-                            next.sp.ng.dot(dn).abs(),
-                        ),
-                        (Some(after), Some(sh)) => {
-                            self.tracer.stats.bsdf_evals.add(sh.bsdf.lobe());
-                            (
-                                scatter(sh, *after, h.sp.p, TransportMode::Importance),
-                                next.sp.ns.dot(dn).abs(),
-                            )
-                        }
-                        (Some(_), None) => continue,
-                    };
-                    let g = h.sp.ns.dot(dn).abs() * cos_next / d2;
-                    let v = e.beta * f_t * f_next * *tail * g;
-                    if v.is_black() || !v.is_finite() {
-                        continue;
-                    }
-                    value[i] = v;
-                    if let Some(seg) = offset::spawn_rays_between(
-                        h.sp.p,
-                        h.sp.p_error,
-                        h.sp.ng,
-                        next.sp.p,
-                        next.sp.p_error,
-                        next.sp.ng,
-                    ) {
-                        shadow[i] = Some(seg.main);
-                        tails[i] = seg.tail;
-                    }
-                }
+            let (v, seg) = self.end_value(&e.hit.sp, Some(&e.hit), e.prev, e.beta);
+            value[i] = v;
+            if let Some(seg) = seg {
+                shadow[i] = Some(seg.main);
+                tails[i] = seg.tail;
             }
         }
         if matches!(a.end, LensEnd::Connect { .. }) {

@@ -7,9 +7,11 @@
 //! splatting, [`super::multiple_try`]), like a level-1 mutation, so a
 //! level-1 mutation followed by its side chain adds 1 + m records and the
 //! image scale counts them all ([`super::MltStats::records`]). A path no
-//! perturbation applies to (or whose retrace fails numerically at the
-//! start) is recorded m times where it is: the identity kernel, which keeps
-//! every path's share of the records right.
+//! perturbation applies to (or, for the caustic perturbation, whose
+//! retrace fails numerically at the start) is recorded m times where it
+//! is: the identity kernel, which keeps every path's share of the records
+//! right. The lens perturbation's start is valued from the level-1 path's
+//! vertices ([`LensTarget::evaluate_path`]), not retraced.
 
 use glam::Vec2;
 
@@ -114,11 +116,16 @@ impl Level2 {
                     tracer,
                     anchor: &anchor,
                 };
-                let start = LensState {
-                    raster,
-                    value: Rgb::ZERO,
+                // The start is the level-1 path itself: its value comes
+                // from its vertices, without retracing (one path
+                // evaluation fewer per side chain).
+                let Some(start) = target
+                    .evaluate_path(path, raster)
+                    .and_then(|s| positive_state(s.value.luminance(), s))
+                else {
+                    return identity(stats, splat);
                 };
-                let Some(out) = side_chain(
+                let out = side_chain(
                     &mut self.lens,
                     &self.lens_proposal,
                     &mut target,
@@ -126,9 +133,7 @@ impl Level2 {
                     m,
                     rng,
                     &mut |s: &LensState, w| splat(s.raster, s.value * (w / s.value.luminance())),
-                ) else {
-                    return identity(stats, splat);
-                };
+                );
                 stats.lens_steps += m as u64;
                 stats.lens_accepted += out.accepted;
                 stats.l2_candidates += out.candidates;
@@ -144,7 +149,10 @@ impl Level2 {
                     dir,
                     ..CausticState::default()
                 };
-                let Some(out) = side_chain(
+                let Some(start) = evaluate_start(&mut target, start) else {
+                    return identity(stats, splat);
+                };
+                let out = side_chain(
                     &mut self.caustic,
                     &self.caustic_proposal,
                     &mut target,
@@ -152,9 +160,7 @@ impl Level2 {
                     m,
                     rng,
                     &mut |s: &CausticState, w| splat(s.raster, s.value * (w / s.value.luminance())),
-                ) else {
-                    return identity(stats, splat);
-                };
+                );
                 stats.caustic_steps += m as u64;
                 stats.caustic_accepted += out.accepted;
                 stats.l2_candidates += out.candidates;
@@ -171,7 +177,13 @@ fn evaluate_start<S: Clone, T: Target<S>>(target: &mut T, s: S) -> Option<ChainS
     let mut one = [Some(s)];
     let mut p = [0.0f32];
     target.evaluate(&mut one, &mut p);
-    let st = ChainState::new(one[0].take()?, p[0]);
+    positive_state(p[0], one[0].take()?)
+}
+
+/// `s` with target value `p` as a chain state, if p is positive (after
+/// [`super::multiple_try::sanitize_target`]).
+fn positive_state<S>(p: f32, s: S) -> Option<ChainState<S>> {
+    let st = ChainState::new(s, p);
     (st.p > 0.0).then_some(st)
 }
 
@@ -182,20 +194,17 @@ struct SideChainCounts {
     zero: u64,
 }
 
-/// Evaluates the side chain's start with `target` ([`evaluate_start`]) and
-/// runs m multiple-try steps from it; `None` when the start has no
-/// contribution, where the caller records the identity kernel instead.
+/// Runs m multiple-try steps from the evaluated start `state`.
 fn side_chain<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
     mtm: &mut MultipleTry<S, MAX_K>,
     proposal: &P,
     target: &mut T,
-    start: S,
+    mut state: ChainState<S>,
     m: u32,
     rng: &mut R,
     splat: &mut impl FnMut(&S, f32),
-) -> Option<SideChainCounts> {
+) -> SideChainCounts {
     let k = mtm.k() as u64;
-    let mut state = evaluate_start(target, start)?;
     let mut c = SideChainCounts {
         accepted: 0,
         candidates: 0,
@@ -207,7 +216,7 @@ fn side_chain<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
         c.candidates += k;
         c.zero += k - st.nonzero as u64;
     }
-    Some(c)
+    c
 }
 
 /// The candidates mode level 2 uses by default.

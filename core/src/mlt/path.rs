@@ -80,6 +80,12 @@ impl SpecularChain {
         self.len == 0
     }
 
+    /// Whether the path reflects (rather than refracts) at specular vertex
+    /// `link` of the chain (0-based, in tracing order).
+    pub fn reflects(&self, link: usize) -> bool {
+        self.reflect[link]
+    }
+
     /// Lobes of `path[range]` in the order given by `order` (indices into
     /// `path`); `None` when longer than [`MAX_CHAIN`].
     fn of(path: &[PathVertex], order: impl Iterator<Item = usize>) -> Option<Self> {
