@@ -121,13 +121,11 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         } else {
             let first = cur.child as usize;
             let tris = &view.tris[first..first + cur.count as usize];
-            for (j, tri) in tris.iter().enumerate() {
-                if let Some((t, b1, b2)) = r.wr.intersect(tri[0], tri[1], tri[2], *t_max) {
-                    *t_max = t;
-                    best = Some((first + j, b1, b2));
-                    if ANY {
-                        break 'outer;
-                    }
+            if let Some((j, t, b1, b2)) = B::leaf::<ANY>(&r.wr, tris, *t_max) {
+                *t_max = t;
+                best = Some((first + j, b1, b2));
+                if ANY {
+                    break 'outer;
                 }
             }
         }
