@@ -13,11 +13,11 @@
 //! masked, so they are never written to the output.
 
 use super::BvhView;
-use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
+use super::node::{BoxRay, FAR_SCALE, Node4, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox};
-use super::traverse::{self, Prepared, order4, traverse_from};
+use super::traverse::{self, Prepared, Stack, order4, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
@@ -200,10 +200,9 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     let mut alive = live;
     let (mut tt, mut tb1, mut tb2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
     // Bounded by the layout's depth check; see `node::MAX_DEPTH`.
-    let mut stack = [Entry::default(); STACK_SIZE];
-    // Only initialised if a subtree is finished ray by ray.
-    let mut single_stack: Option<traverse::Stack> = None;
-    let mut sp = 0usize;
+    let mut stack = Stack::new();
+    // Only set up if a subtree is finished ray by ray.
+    let mut single_stack: Option<Stack<traverse::Entry>> = None;
     let mut cur = Entry {
         child: 0,
         count: 0,
@@ -227,7 +226,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                     &l.prepared(i),
                     start,
                     &mut l.t_max[i],
-                    single_stack.get_or_insert_with(|| [traverse::Entry::default(); STACK_SIZE]),
+                    single_stack.get_or_insert_with(Stack::new),
                 ) {
                     best[i] = j as u32;
                     b1[i] = hb1;
@@ -251,13 +250,12 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             if any != 0 {
                 let (order, n) = order4(any, &t_min);
                 for &c in order[1..n].iter().rev() {
-                    stack[sp] = Entry {
+                    stack.push(Entry {
                         child: node.child[c],
                         count: node.count[c],
                         mask: masks[c],
                         t: t_min[c],
-                    };
-                    sp += 1;
+                    });
                 }
                 let c = order[0];
                 cur = Entry {
@@ -302,11 +300,9 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
         // Pop the next child that some live lane may still hit in front of
         // its closest hit.
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 break 'outer;
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             let mut keep = [false; N];
             for (k, &t) in keep.iter_mut().zip(&l.t_max) {
                 *k = e.t <= t * FAR_SCALE;
