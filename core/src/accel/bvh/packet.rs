@@ -13,7 +13,7 @@
 //! masked, so they are never written to the output.
 
 use super::BvhView;
-use super::node::{BoxRay, FAR_SCALE, Node4, max_keep, min_keep};
+use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox};
@@ -230,7 +230,11 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     let mut alive = live;
     let (mut tt, mut tb1, mut tb2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
     // Bounded by the layout's depth check; see `node::MAX_DEPTH`.
-    let mut stack = Stack::new();
+    // Bounded by the layout's depth check; see `node::MAX_DEPTH`. Zeroed:
+    // the uninitialised `Stack` measured 2–3% slower here (unlike in the
+    // single-ray kernel).
+    let mut stack = [Entry::default(); STACK_SIZE];
+    let mut sp = 0usize;
     // Only set up if a subtree is finished ray by ray.
     let mut single_stack: Option<Stack<traverse::Entry>> = None;
     let mut cur = Entry {
@@ -280,12 +284,13 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             if any != 0 {
                 let (order, n) = order4(any, &t_min);
                 for &c in order[1..n].iter().rev() {
-                    stack.push(Entry {
+                    stack[sp] = Entry {
                         child: node.child[c],
                         count: node.count[c],
                         mask: masks[c],
                         t: t_min[c],
-                    });
+                    };
+                    sp += 1;
                 }
                 let c = order[0];
                 cur = Entry {
@@ -330,9 +335,11 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
         // Pop the next child that some live lane may still hit in front of
         // its closest hit.
         loop {
-            let Some(e) = stack.pop() else {
+            if sp == 0 {
                 break 'outer;
-            };
+            }
+            sp -= 1;
+            let e = stack[sp];
             let mut keep = [false; N];
             for (k, &t) in keep.iter_mut().zip(&l.t_max) {
                 *k = e.t <= t * FAR_SCALE;

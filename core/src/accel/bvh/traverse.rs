@@ -22,9 +22,11 @@ pub(super) struct Entry {
 /// A traversal stack of [`STACK_SIZE`] entries; see `node::MAX_DEPTH` for
 /// why it cannot overflow on a validated layout (a push beyond it panics).
 ///
-/// The storage is left uninitialised: zeroing 1.1–1.5 KB per ray or packet
-/// (as `[Entry::default(); STACK_SIZE]` did) was a measurable share of a
-/// short traversal, and only the entries below `len` are ever read.
+/// The storage is left uninitialised: zeroing 1.1 KB per ray (as
+/// `[Entry::default(); STACK_SIZE]` did) was a measurable share of a short
+/// traversal, and only the entries below `len` are ever read. (The packet
+/// kernel's own stack stays a zeroed array: this type measured slower
+/// there.)
 pub(super) struct Stack<T: Copy> {
     items: [MaybeUninit<T>; STACK_SIZE],
     len: usize,
