@@ -29,6 +29,15 @@ struct Cli {
     command: Command,
 }
 
+/// `cmlt bench rays --clock`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ClockArg {
+    /// Elapsed real time.
+    Wall,
+    /// CPU time of the tracing threads.
+    Cpu,
+}
+
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum MethodArg {
     /// Path tracing with next-event estimation and MIS.
@@ -224,6 +233,10 @@ enum BenchCommand {
         /// default all).
         #[arg(long, value_delimiter = ',')]
         sets: Vec<String>,
+        /// Time rays by wall clock, or by the tracing threads' CPU time
+        /// (steadier on a shared machine; Linux).
+        #[arg(long, value_enum, default_value = "wall")]
+        clock: ClockArg,
     },
     /// Flicker of frame-by-frame MLT/CMLT with and without each temporal
     /// switch (static camera), and each orbit frame's mean against a BDPT
@@ -808,8 +821,13 @@ fn run(cli: Cli) -> Result<(), String> {
             csv,
             kernels,
             sets,
+            clock,
         }) => {
             let opts = cmlt_cli::bench::rays::Options {
+                clock: match clock {
+                    ClockArg::Wall => cmlt_cli::bench::rays::Clock::Wall,
+                    ClockArg::Cpu => cmlt_cli::bench::rays::Clock::Cpu,
+                },
                 scenes,
                 time,
                 threads,

@@ -52,6 +52,59 @@ pub struct Options {
     pub kernels: Vec<String>,
     /// Only these ray sets; empty = all.
     pub sets: Vec<String>,
+    /// What the rays are timed against.
+    pub clock: Clock,
+}
+
+/// The clock a measurement divides by.
+///
+/// Wall-clock throughput swings with whatever else the machine runs; the
+/// CPU time of the tracing threads does much less (preemption does not
+/// count), which makes A/B comparisons on a shared machine dependable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Clock {
+    /// Elapsed real time of the whole measurement (all threads).
+    #[default]
+    Wall,
+    /// Per-thread CPU time, summed over the threads (so with `n` threads
+    /// it is the throughput per busy core times `n`, ignoring contention
+    /// for cores). Linux only: read from `/proc/thread-self/schedstat`.
+    Cpu,
+}
+
+/// Nanoseconds this thread has spent on a CPU (Linux schedstat: the first
+/// field), or `None` where that file does not exist.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+/// Per-thread elapsed time on `clock`, started by [`Stopwatch::start`].
+struct Stopwatch {
+    wall: Instant,
+    cpu_ns: Option<u64>,
+}
+
+impl Stopwatch {
+    fn start(clock: Clock) -> Self {
+        Stopwatch {
+            wall: Instant::now(),
+            cpu_ns: if clock == Clock::Cpu {
+                thread_cpu_ns()
+            } else {
+                None
+            },
+        }
+    }
+
+    /// Time since the start: CPU time of this thread if it was started on
+    /// the CPU clock (and schedstat is readable), else wall time.
+    fn elapsed(&self) -> Duration {
+        match (self.cpu_ns, self.cpu_ns.and(thread_cpu_ns())) {
+            (Some(a), Some(b)) => Duration::from_nanos(b.saturating_sub(a)),
+            _ => self.wall.elapsed(),
+        }
+    }
 }
 
 impl Options {
@@ -353,11 +406,13 @@ fn measure<I: Intersector + Sync>(
     packets: &Packets,
     threads: usize,
     time: Duration,
+    clock: Clock,
 ) -> f64 {
     let n = packets.rays.len();
     let blocks = n.div_ceil(16);
     let start = Instant::now();
-    let traced: u64 = std::thread::scope(|s| {
+    // Per thread: rays traced and the thread's time on `clock`.
+    let per_thread: Vec<(u64, Duration)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
             .map(|t| {
                 let range = (
@@ -366,12 +421,13 @@ fn measure<I: Intersector + Sync>(
                 );
                 s.spawn(move || {
                     let mut rays = 0u64;
-                    let begin = Instant::now();
+                    let begin = Stopwatch::start(clock);
                     loop {
                         std::hint::black_box(trace(acc, mode, packets, range));
                         rays += (range.1 - range.0) as u64;
-                        if begin.elapsed() >= time {
-                            break rays;
+                        let spent = begin.elapsed();
+                        if spent >= time {
+                            break (rays, spent);
                         }
                     }
                 })
@@ -380,9 +436,19 @@ fn measure<I: Intersector + Sync>(
         handles
             .into_iter()
             .map(|h| h.join().expect("bench thread"))
-            .sum()
+            .collect()
     });
-    traced as f64 / start.elapsed().as_secs_f64()
+    match clock {
+        Clock::Wall => {
+            let traced: u64 = per_thread.iter().map(|&(r, _)| r).sum();
+            traced as f64 / start.elapsed().as_secs_f64()
+        }
+        // Each thread's rate on its own CPU time, summed.
+        Clock::Cpu => per_thread
+            .iter()
+            .map(|&(r, t)| r as f64 / t.as_secs_f64().max(1e-9))
+            .sum(),
+    }
 }
 
 /// Runs the benchmark, printing a table to `out`; returns the measurements.
@@ -442,7 +508,8 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                         continue;
                     };
                     if opts.wants_kernel(&name) {
-                        let m = measure(&view, Mode::Single, &packets, threads, time) * 1e-6;
+                        let m = measure(&view, Mode::Single, &packets, threads, time, opts.clock)
+                            * 1e-6;
                         record(name, m, &mut line);
                     }
                 }
@@ -450,7 +517,9 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                 for n in [4, 8, 16] {
                     let name = format!("ours-packet{n}");
                     if opts.wants_kernel(&name) {
-                        let m = measure(&view, Mode::Packet(n), &packets, threads, time) * 1e-6;
+                        let m =
+                            measure(&view, Mode::Packet(n), &packets, threads, time, opts.clock)
+                                * 1e-6;
                         record(name, m, &mut line);
                     }
                 }
@@ -463,7 +532,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                         } else {
                             Mode::Packet(n)
                         };
-                        let m = measure(&embree, mode, &packets, threads, time) * 1e-6;
+                        let m = measure(&embree, mode, &packets, threads, time, opts.clock) * 1e-6;
                         record(name, m, &mut line);
                     }
                 }

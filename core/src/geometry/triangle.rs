@@ -138,6 +138,246 @@ impl WatertightRay {
     }
 }
 
+impl WatertightRay {
+    /// The closest hit among `tris` (any length): `(index, t, b1, b2)` with
+    /// `t` in `(0, t_max)`, the first of equally close hits. Tests them one
+    /// by one with [`WatertightRay::intersect`], shrinking `t_max` at each
+    /// hit; with `ANY`, stops at the first hit.
+    #[inline(always)]
+    pub(crate) fn intersect_many<const ANY: bool>(
+        &self,
+        tris: &[[Vec3; 3]],
+        mut t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let mut best = None;
+        for (j, tri) in tris.iter().enumerate() {
+            if let Some((t, b1, b2)) = self.intersect(tri[0], tri[1], tri[2], t_max) {
+                t_max = t;
+                best = Some((j, t, b1, b2));
+                if ANY {
+                    break;
+                }
+            }
+        }
+        best
+    }
+
+    /// [`Self::intersect_many`] with SSE: four triangles per step, one per
+    /// lane (the permutation is the ray's, shared by all lanes).
+    ///
+    /// Same answer bit for bit: every lane evaluates the IEEE operations of
+    /// the scalar helpers in the same order (`transform`, `edge_functions`,
+    /// `solve`; `maxps(a, b)` is `if a > b { a } else { b }` like `max3`,
+    /// no FMA), zero edge functions and unsure distances go through the
+    /// same scalar f64 helpers, and a triangle hits only below the `t_max`
+    /// of its group of four, so the closest of a group (first on a tie) is
+    /// the one the sequential loop keeps. It replaces a chain of
+    /// data-dependent branches per triangle, which mispredict often, with
+    /// one mask test per group.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn intersect_many_sse<const ANY: bool>(
+        &self,
+        tris: &[[Vec3; 3]],
+        mut t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        // One or two triangles: the lanes cost more than the (often well
+        // predicted) scalar branches, measured on coherent rays.
+        if tris.len() <= 2 {
+            return self.intersect_many::<ANY>(tris, t_max);
+        }
+        let mut best = None;
+        for (g, group) in tris.chunks(4).enumerate() {
+            if let Some((j, t, b1, b2)) = self.intersect4_sse(group, t_max) {
+                t_max = t;
+                best = Some((4 * g + j, t, b1, b2));
+                if ANY {
+                    break;
+                }
+            }
+        }
+        best
+    }
+
+    /// One group of 1–4 triangles for [`Self::intersect_many_sse`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn intersect4_sse(&self, tris: &[[Vec3; 3]], t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        use core::arch::x86_64::*;
+
+        /// Vertex `vi` of the (up to) four triangles in ray space, as
+        /// `transform`: `[ax − Sx·az, ay − Sy·az, Sz·az, az]`, one lane per
+        /// triangle; lanes past the group repeat its last triangle.
+        #[inline(always)]
+        fn ray_space(
+            tris: &[[Vec3; 3]],
+            vi: usize,
+            k: [usize; 3],
+            org: [__m128; 3],
+            shear: [__m128; 3],
+        ) -> [__m128; 4] {
+            let last = tris.len() - 1;
+            let p = [0, 1, 2, 3].map(|j| tris[j.min(last)][vi].to_array());
+            // SAFETY: SSE2 is part of the x86_64 baseline; no memory access.
+            unsafe {
+                let pick = |a: usize| _mm_setr_ps(p[0][a], p[1][a], p[2][a], p[3][a]);
+                let ax = _mm_sub_ps(pick(k[0]), org[0]);
+                let ay = _mm_sub_ps(pick(k[1]), org[1]);
+                let az = _mm_sub_ps(pick(k[2]), org[2]);
+                [
+                    _mm_sub_ps(ax, _mm_mul_ps(shear[0], az)),
+                    _mm_sub_ps(ay, _mm_mul_ps(shear[1], az)),
+                    _mm_mul_ps(shear[2], az),
+                    az,
+                ]
+            }
+        }
+
+        /// `abs` of every lane.
+        #[inline(always)]
+        fn abs(x: __m128) -> __m128 {
+            // SAFETY: SSE2 is part of the x86_64 baseline.
+            unsafe { _mm_andnot_ps(_mm_set1_ps(-0.0), x) }
+        }
+
+        /// `max3` per lane: `maxps(p, q)` is `if p > q { p } else { q }`.
+        #[inline(always)]
+        fn max3(p: __m128, q: __m128, r: __m128) -> __m128 {
+            // SAFETY: SSE2 is part of the x86_64 baseline.
+            unsafe { _mm_max_ps(_mm_max_ps(p, q), r) }
+        }
+
+        let n = tris.len();
+        let tri = |j: usize| &tris[j.min(n - 1)];
+        let live = (1u32 << n) - 1;
+        let k = self.k.map(|k| k % 3);
+        let mut t = [0.0f32; 4];
+        let mut b1 = [0.0f32; 4];
+        let mut b2 = [0.0f32; 4];
+        // SAFETY: SSE2 is part of the x86_64 baseline; the only memory
+        // accesses are stores of whole registers into the `[f32; 4]` arrays
+        // above (unaligned stores).
+        let (mut ok, mut unsure, zero) = unsafe {
+            let org = self.org.map(|x| _mm_set1_ps(x));
+            let shear = self.shear.map(|x| _mm_set1_ps(x));
+            let ray_space = |vi: usize| ray_space(tris, vi, k, org, shear);
+            let (a, b, c) = (ray_space(0), ray_space(1), ray_space(2));
+            // `edge_functions`.
+            let u = _mm_sub_ps(_mm_mul_ps(c[0], b[1]), _mm_mul_ps(c[1], b[0]));
+            let v = _mm_sub_ps(_mm_mul_ps(a[0], c[1]), _mm_mul_ps(a[1], c[0]));
+            let w = _mm_sub_ps(_mm_mul_ps(b[0], a[1]), _mm_mul_ps(b[1], a[0]));
+            let z = _mm_setzero_ps();
+            let zero = _mm_or_ps(
+                _mm_or_ps(_mm_cmpeq_ps(u, z), _mm_cmpeq_ps(v, z)),
+                _mm_cmpeq_ps(w, z),
+            );
+            let zero = _mm_movemask_ps(zero) as u32 & live;
+            if zero != 0 {
+                // Rare: some lane needs the f64 edge functions; the scalar
+                // test does the rest of those lanes.
+                (0, 0, zero)
+            } else {
+                let neg = _mm_or_ps(
+                    _mm_or_ps(_mm_cmplt_ps(u, z), _mm_cmplt_ps(v, z)),
+                    _mm_cmplt_ps(w, z),
+                );
+                let pos = _mm_or_ps(
+                    _mm_or_ps(_mm_cmpgt_ps(u, z), _mm_cmpgt_ps(v, z)),
+                    _mm_cmpgt_ps(w, z),
+                );
+                let inside = !(_mm_movemask_ps(_mm_and_ps(neg, pos)) as u32) & live;
+                if inside == 0 {
+                    return None;
+                }
+                // `solve`.
+                let det = _mm_add_ps(_mm_add_ps(u, v), w);
+                let t_scaled = _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(u, a[2]), _mm_mul_ps(v, b[2])),
+                    _mm_mul_ps(w, c[2]),
+                );
+                let inv_det = _mm_div_ps(_mm_set1_ps(1.0), det);
+                let tt = _mm_mul_ps(t_scaled, inv_det);
+                _mm_storeu_ps(t.as_mut_ptr(), tt);
+                _mm_storeu_ps(b1.as_mut_ptr(), _mm_mul_ps(v, inv_det));
+                _mm_storeu_ps(b2.as_mut_ptr(), _mm_mul_ps(w, inv_det));
+                let sign = _mm_set1_ps(-0.0);
+                let max_x = max3(abs(a[0]), abs(b[0]), abs(c[0]));
+                let max_y = max3(abs(a[1]), abs(b[1]), abs(c[1]));
+                let max_z = max3(abs(a[2]), abs(b[2]), abs(c[2]));
+                let max_zw = max3(abs(a[3]), abs(b[3]), abs(c[3]));
+                let g = |k: i32| _mm_set1_ps(gamma(k));
+                let delta_z = _mm_mul_ps(g(3), max_z);
+                let delta_x = _mm_mul_ps(g(5), _mm_add_ps(max_x, max_zw));
+                let delta_y = _mm_mul_ps(g(5), _mm_add_ps(max_y, max_zw));
+                let delta_e = _mm_mul_ps(
+                    _mm_set1_ps(2.0),
+                    _mm_add_ps(
+                        _mm_add_ps(
+                            _mm_mul_ps(_mm_mul_ps(g(2), max_x), max_y),
+                            _mm_mul_ps(delta_y, max_x),
+                        ),
+                        _mm_mul_ps(delta_x, max_y),
+                    ),
+                );
+                let max_e = max3(abs(u), abs(v), abs(w));
+                let sum = _mm_add_ps(
+                    _mm_add_ps(
+                        _mm_mul_ps(_mm_mul_ps(g(3), max_e), max_z),
+                        _mm_mul_ps(delta_e, max_z),
+                    ),
+                    _mm_mul_ps(delta_z, max_e),
+                );
+                let dt = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(3.0), sum), abs(inv_det));
+                let det_ok = _mm_cmpneq_ps(det, z);
+                let ok = _mm_and_ps(
+                    det_ok,
+                    _mm_and_ps(_mm_cmpgt_ps(tt, dt), _mm_cmplt_ps(tt, _mm_set1_ps(t_max))),
+                );
+                let unsure = _mm_and_ps(
+                    det_ok,
+                    _mm_and_ps(_mm_cmple_ps(tt, dt), _mm_cmpgt_ps(tt, _mm_xor_ps(dt, sign))),
+                );
+                (
+                    _mm_movemask_ps(ok) as u32 & inside,
+                    _mm_movemask_ps(unsure) as u32 & inside,
+                    0,
+                )
+            }
+        };
+        if zero != 0 {
+            // The scalar test, lane by lane, from the first lane (the
+            // lanes before the zero ones were fine but are redone too:
+            // the order of hits must stay the sequential one).
+            return self.intersect_many::<false>(tris, t_max);
+        }
+        while unsure != 0 {
+            let j = unsure.trailing_zeros() as usize;
+            unsure &= unsure - 1;
+            if let Some(tj) = decide_t_f64(t[j], *tri(j), self.k, self.org, self.shear) {
+                t[j] = tj;
+                if tj < t_max {
+                    ok |= 1 << j;
+                }
+            }
+        }
+        if ok == 0 {
+            return None;
+        }
+        // The closest hit, the first on a tie (strict `<`, like the
+        // sequential loop's `t < t_max`).
+        let mut j = ok.trailing_zeros() as usize;
+        let mut rest = ok & (ok - 1);
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if t[i] < t[j] {
+                j = i;
+            }
+        }
+        Some((j, t[j], b1[j], b2[j]))
+    }
+}
+
 /// Intersects `ray` with triangle (p0, p1, p2): `(t, b1, b2)` for `t` in
 /// `(0, ray.t_max)`, hit point `(1 − b1 − b2)·p0 + b1·p1 + b2·p2`.
 ///

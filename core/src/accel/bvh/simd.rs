@@ -24,6 +24,8 @@
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
+use crate::geometry::triangle::WatertightRay;
+use glam::Vec3;
 
 /// A traversal kernel (instruction set of the box tests and lane loops).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -86,8 +88,21 @@ impl Kernel {
 
 /// One robust slab test of a ray against a node's four children: the hit
 /// mask and entry distances, as `node::box4`.
+///
+/// Also the single-ray leaf test: the closest hit among a leaf's triangles
+/// (the first hit for `ANY`), as `WatertightRay::intersect_many`.
 pub(super) trait BoxTest {
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]);
+
+    /// Sequential scalar tests unless a kernel has a wider one.
+    #[inline(always)]
+    fn leaf<const ANY: bool>(
+        r: &WatertightRay,
+        tris: &[[Vec3; 3]],
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        r.intersect_many::<ANY>(tris, t_max)
+    }
 }
 
 /// The portable box test.
@@ -106,6 +121,16 @@ pub(super) struct Sse2Box;
 
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Sse2Box {
+    /// Four triangles per SSE step.
+    #[inline(always)]
+    fn leaf<const ANY: bool>(
+        r: &WatertightRay,
+        tris: &[[Vec3; 3]],
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        r.intersect_many_sse::<ANY>(tris, t_max)
+    }
+
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
         use core::arch::x86_64::*;
@@ -144,6 +169,16 @@ pub(super) struct Avx2Box;
 
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Avx2Box {
+    /// Four triangles per SSE step.
+    #[inline(always)]
+    fn leaf<const ANY: bool>(
+        r: &WatertightRay,
+        tris: &[[Vec3; 3]],
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        r.intersect_many_sse::<ANY>(tris, t_max)
+    }
+
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
         use core::arch::x86_64::*;

@@ -1,5 +1,7 @@
 //! Single-ray traversal: closest hit (front to back) and any hit.
 
+use core::mem::MaybeUninit;
+
 use super::BvhView;
 use super::node::{BoxRay, FAR_SCALE, STACK_SIZE};
 #[cfg(target_arch = "x86_64")]
@@ -17,9 +19,55 @@ pub(super) struct Entry {
     pub t: f32,
 }
 
-/// A traversal stack; see `node::MAX_DEPTH` for why it cannot overflow on a
-/// validated layout.
-pub(super) type Stack = [Entry; STACK_SIZE];
+/// A traversal stack of [`STACK_SIZE`] entries; see `node::MAX_DEPTH` for
+/// why it cannot overflow on a validated layout (a push beyond it panics).
+///
+/// The storage is left uninitialised: zeroing 1.1 KB per ray (as
+/// `[Entry::default(); STACK_SIZE]` did) was a measurable share of a short
+/// traversal, and only the entries below `len` are ever read. (The packet
+/// kernel's own stack stays a zeroed array: this type measured slower
+/// there.)
+pub(super) struct Stack<T: Copy> {
+    items: [MaybeUninit<T>; STACK_SIZE],
+    len: usize,
+}
+
+impl<T: Copy> Stack<T> {
+    /// An empty stack.
+    #[inline(always)]
+    pub fn new() -> Self {
+        Stack {
+            items: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            len: 0,
+        }
+    }
+
+    /// Drops every entry.
+    #[inline(always)]
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Pushes `e`; panics when full (impossible on a validated layout).
+    #[inline(always)]
+    pub fn push(&mut self, e: T) {
+        self.items[self.len].write(e);
+        self.len += 1;
+    }
+
+    /// Pops the top entry, if any.
+    #[inline(always)]
+    pub fn pop(&mut self) -> Option<T> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: `push` is the only way `len` grows and it writes
+        // `items[len]` before incrementing, so every item below the old
+        // `len` (here `items[self.len]`) is initialised.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
 
 /// The hit children of a node, sorted by key (nearest first); returns the
 /// slots and how many there are. At most four, so an insertion sort (it
@@ -78,10 +126,10 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
     r: &Prepared,
     start: Entry,
     t_max: &mut f32,
-    stack: &mut Stack,
+    stack: &mut Stack<Entry>,
 ) -> Option<(usize, f32, f32)> {
     let mut best: Option<(usize, f32, f32)> = None;
-    let mut sp = 0usize;
+    stack.clear();
     let mut cur = start;
     'outer: loop {
         if cur.count == 0 {
@@ -103,12 +151,11 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                 // Push the farther children far-to-near so the next pop is
                 // the next nearest; descend into the nearest right away.
                 for &c in order[1..n].iter().rev() {
-                    stack[sp] = Entry {
+                    stack.push(Entry {
                         child: node.child[c],
                         count: node.count[c],
                         t: near[c],
-                    };
-                    sp += 1;
+                    });
                 }
                 let c = order[0];
                 cur = Entry {
@@ -121,24 +168,20 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         } else {
             let first = cur.child as usize;
             let tris = &view.tris[first..first + cur.count as usize];
-            for (j, tri) in tris.iter().enumerate() {
-                if let Some((t, b1, b2)) = r.wr.intersect(tri[0], tri[1], tri[2], *t_max) {
-                    *t_max = t;
-                    best = Some((first + j, b1, b2));
-                    if ANY {
-                        break 'outer;
-                    }
+            if let Some((j, t, b1, b2)) = B::leaf::<ANY>(&r.wr, tris, *t_max) {
+                *t_max = t;
+                best = Some((first + j, b1, b2));
+                if ANY {
+                    break 'outer;
                 }
             }
         }
         // Pop the next child still in front of the closest hit (same
         // conservative widening as the box test).
         loop {
-            if sp == 0 {
+            let Some(e) = stack.pop() else {
                 break 'outer;
-            }
-            sp -= 1;
-            let e = stack[sp];
+            };
             if e.t <= *t_max * FAR_SCALE {
                 cur = e;
                 continue 'outer;
@@ -160,7 +203,7 @@ const ROOT: Entry = Entry {
 pub(super) fn intersect_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
     let r = prepare(view, ray)?;
     let mut t = ray.t_max;
-    let mut stack = [Entry::default(); STACK_SIZE];
+    let mut stack = Stack::new();
     traverse_from::<B, false>(view, &r, ROOT, &mut t, &mut stack).map(|(j, b1, b2)| Hit {
         t,
         prim: view.prim_ids[j],
@@ -176,7 +219,7 @@ pub(super) fn occluded_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> bool {
         return false;
     };
     let mut t = ray.t_max;
-    let mut stack = [Entry::default(); STACK_SIZE];
+    let mut stack = Stack::new();
     traverse_from::<B, true>(view, &r, ROOT, &mut t, &mut stack).is_some()
 }
 
