@@ -124,12 +124,13 @@ impl Default for MltSettings {
 
 impl MltSettings {
     /// The CMLT defaults: these settings with level 2 on. k, m and σ come
-    /// from the equal-time study `MODE=study bench/cmlt_study.sh` on
-    /// veach-bidir (σ ∈ {2, 8} px × k ∈ {1, 4, 8, 16} × m ∈ {1, 4}, 8 s on
-    /// 2 threads): relMSE rose monotonically with k (k = 1: 0.037–0.067,
-    /// k = 16: 0.27–0.83) because a step costs 2k − 1 path evaluations and
-    /// our packet kernel does not yet trace a bundle faster than its rays
-    /// one by one; the best setting was k = 1, m = 1, σ = 8 px.
+    /// from equal-time studies (`cmlt bench params`, σ ∈ {2, 8} px × k ∈
+    /// {1, 4, 8, 16} × m ∈ {1, 4}, 8 s on 2 threads; `docs/accuracy.md`):
+    /// relMSE rises with k on veach-bidir and veach-ajar because a step
+    /// costs 2k − 1 path evaluations while k candidates around one image
+    /// point lower the error little more than one does (equal-mutation
+    /// measurements in `docs/accuracy.md`). k = 1, m = 1 was best; σ = 2
+    /// and 8 px were within one render's noise of each other.
     pub fn cmlt() -> Self {
         MltSettings {
             m: 1,
