@@ -448,6 +448,9 @@ pub struct MultipleTry<S, const K: usize> {
     variant: Variant,
     y: [Option<S>; K],
     py: [f32; K],
+    /// T(x→y) of each candidate (0 for a failed one), for the weights and
+    /// for recycled splatting's acceptances.
+    ty: [f32; K],
     wy: [f64; K],
     /// Reference points z₁…z_{k−1} (z_k = x is not stored).
     z: [Option<S>; K],
@@ -467,6 +470,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             variant: Variant::Correct,
             y: core::array::from_fn(|_| None),
             py: [0.0; K],
+            ty: [0.0; K],
             wy: [0.0; K],
             z: core::array::from_fn(|_| None),
             pz: [0.0; K],
@@ -529,7 +533,13 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             Candidates::Independent => None,
         };
         let Self {
-            y, py, wy, z, pz, ..
+            y,
+            py,
+            ty,
+            wy,
+            z,
+            pz,
+            ..
         } = self;
         let x = &state.x;
 
@@ -556,14 +566,13 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         let mut wy_sum = 0.0f64;
         let mut nonzero = 0;
         for l in 0..k {
-            let (p, w) = match &y[l] {
-                Some(c) => {
-                    let p = sanitize_target(py[l]);
-                    (p, weight(p, proposal.density(x, c)))
-                }
+            let (p, t) = match &y[l] {
+                Some(c) => (sanitize_target(py[l]), proposal.density(x, c)),
                 None => (0.0, 0.0),
             };
+            let w = weight(p, t);
             py[l] = p;
+            ty[l] = t;
             wy[l] = w;
             wy_sum += w;
             nonzero += (w > 0.0) as u32;
@@ -670,7 +679,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
                 let mut rest = 1.0f32;
                 for l in 0..k {
                     if let Some(c) = &y[l] {
-                        let t_xy = proposal.density(x, c);
+                        let t_xy = ty[l];
                         let t_yx = match variant {
                             Variant::RecycledWithoutReverse => t_xy,
                             _ => proposal.density(c, x),
