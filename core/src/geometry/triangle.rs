@@ -818,8 +818,10 @@ pub(crate) fn intersect_lanes<const N: usize>(
         t[i] = ti;
         b1[i] = b1i;
         b2[i] = b2i;
-        ok[i] = det != 0.0 && ti > dt && ti < t_max[i];
-        unsure[i] = det != 0.0 && ti <= dt && ti > -dt;
+        // `&`, not `&&`: short-circuits became branches and kept LLVM
+        // from vectorising this loop (it ran lane by lane in scalar code).
+        ok[i] = (det != 0.0) & (ti > dt) & (ti < t_max[i]);
+        unsure[i] = (det != 0.0) & (ti <= dt) & (ti > -dt);
     }
     let mut ok = lane_mask(&ok) & inside;
     // Hits whose f32 t is not provably of either sign: decide in f64 as
