@@ -741,18 +741,17 @@ pub(crate) fn intersect_lanes<const N: usize>(
     b1: &mut [f32; N],
     b2: &mut [f32; N],
 ) -> u32 {
-    // Ray-space vertices, v[vertex][component][lane]; plain per-lane loops
-    // over arrays throughout, which LLVM vectorises.
-    let mut v = [[[0.0f32; N]; 4]; 3];
+    // The vertices' permuted components, sel[vertex][axis][lane]: splats
+    // when the lanes share a permutation.
+    let mut sel = [[[0.0f32; N]; 3]; 3];
     for (vi, p) in tri.iter().enumerate() {
         let pv = [p.x, p.y, p.z, p.z];
-        let mut sel = [[0.0f32; N]; 3];
         if let Some(k) = r.uniform {
-            for (j, s) in sel.iter_mut().enumerate() {
+            for (j, s) in sel[vi].iter_mut().enumerate() {
                 *s = [pv[k[j]]; N];
             }
         } else {
-            for (j, s) in sel.iter_mut().enumerate() {
+            for (j, s) in sel[vi].iter_mut().enumerate() {
                 for (si, &k) in s.iter_mut().zip(&r.k[j]) {
                     *si = if k == 0 {
                         pv[0]
@@ -764,80 +763,77 @@ pub(crate) fn intersect_lanes<const N: usize>(
                 }
             }
         }
+    }
+    // Vertex `vi` of lane `i` in ray space. Recomputed where needed rather
+    // than stored: writing all twelve ray-space arrays per triangle and
+    // reading them back was a fifth of the packet kernel's time, and most
+    // triangles are missed by every lane before `solve` is reached.
+    let vertex = |vi: usize, i: usize| {
+        transform(
+            sel[vi][0][i],
+            sel[vi][1][i],
+            sel[vi][2][i],
+            [r.org[0][i], r.org[1][i], r.org[2][i]],
+            [r.shear[0][i], r.shear[1][i], r.shear[2][i]],
+        )
+    };
+
+    // Edge functions and the inside test, in one loop whose values stay in
+    // registers. Lanes with an exact zero edge function (rare) are redone
+    // below by the single-ray test, which re-evaluates them in f64.
+    let mut zero_lane = [false; N];
+    let mut inside_lane = [false; N];
+    for i in 0..N {
+        let (ui, vi, wi) = edge_functions(vertex(0, i), vertex(1, i), vertex(2, i));
+        zero_lane[i] = (ui == 0.0) | (vi == 0.0) | (wi == 0.0);
+        let mixed = ((ui < 0.0) | (vi < 0.0) | (wi < 0.0)) & ((ui > 0.0) | (vi > 0.0) | (wi > 0.0));
+        inside_lane[i] = !mixed;
+    }
+    let zero = lane_mask(&zero_lane) & lanes;
+    let inside = lane_mask(&inside_lane) & lanes & !zero;
+    let mut ok = 0;
+    if inside != 0 {
+        let mut ok_lane = [false; N];
+        let mut unsure_lane = [false; N];
         for i in 0..N {
-            let q = transform(
-                sel[0][i],
-                sel[1][i],
-                sel[2][i],
-                [r.org[0][i], r.org[1][i], r.org[2][i]],
-                [r.shear[0][i], r.shear[1][i], r.shear[2][i]],
-            );
-            for c in 0..4 {
-                v[vi][c][i] = q[c];
+            let (a, b, c) = (vertex(0, i), vertex(1, i), vertex(2, i));
+            let (ui, vi, wi) = edge_functions(a, b, c);
+            let det = ui + vi + wi;
+            let (ti, b1i, b2i, dt) = solve(a, b, c, ui, vi, wi, det);
+            t[i] = ti;
+            b1[i] = b1i;
+            b2[i] = b2i;
+            // `&`, not `&&`: short-circuits became branches and kept LLVM
+            // from vectorising this loop (it ran lane by lane in scalar
+            // code).
+            ok_lane[i] = (det != 0.0) & (ti > dt) & (ti < t_max[i]);
+            unsure_lane[i] = (det != 0.0) & (ti <= dt) & (ti > -dt);
+        }
+        ok = lane_mask(&ok_lane) & inside;
+        // Hits whose f32 t is not provably of either sign: decide in f64
+        // as the single-ray test does (rare; per lane, same result).
+        let mut unsure = lane_mask(&unsure_lane) & inside;
+        while unsure != 0 {
+            let i = unsure.trailing_zeros() as usize;
+            unsure &= unsure - 1;
+            let k = [0, 1, 2].map(|j| r.k[j][i] as usize);
+            let org = [0, 1, 2].map(|j| r.org[j][i]);
+            let shear = [0, 1, 2].map(|j| r.shear[j][i]);
+            if let Some(ti) = decide_t_f64(t[i], *tri, k, org, shear) {
+                t[i] = ti;
+                if ti < t_max[i] {
+                    ok |= 1 << i;
+                }
             }
         }
     }
-    let lane = |vi: usize, i: usize| [v[vi][0][i], v[vi][1][i], v[vi][2][i], v[vi][3][i]];
-
-    let mut u = [0.0f32; N];
-    let mut vv = [0.0f32; N];
-    let mut w = [0.0f32; N];
-    // The zero test in the same loop, on values still in registers: a
-    // separate loop over the stored arrays made LLVM peel one lane and
-    // reload the rest misaligned, a store-forwarding stall that cost a
-    // fifth of the packet kernel's time.
-    let mut zero_lane = [false; N];
-    for i in 0..N {
-        let (ui, vi, wi) = edge_functions(lane(0, i), lane(1, i), lane(2, i));
-        (u[i], vv[i], w[i]) = (ui, vi, wi);
-        zero_lane[i] = ui == 0.0 || vi == 0.0 || wi == 0.0;
-    }
-    let mut zero = lane_mask(&zero_lane) & lanes;
+    let mut zero = zero;
     while zero != 0 {
         let i = zero.trailing_zeros() as usize;
         zero &= zero - 1;
-        (u[i], vv[i], w[i]) = edge_functions_f64(lane(0, i), lane(1, i), lane(2, i));
-    }
-    let mut inside_lane = [false; N];
-    for i in 0..N {
-        let (ui, vi, wi) = (u[i], vv[i], w[i]);
-        let mixed = (ui < 0.0 || vi < 0.0 || wi < 0.0) && (ui > 0.0 || vi > 0.0 || wi > 0.0);
-        inside_lane[i] = !mixed;
-    }
-    let inside = lane_mask(&inside_lane) & lanes;
-    if inside == 0 {
-        return 0;
-    }
-
-    let mut ok = [false; N];
-    let mut unsure = [false; N];
-    for i in 0..N {
-        let (ui, vi, wi) = (u[i], vv[i], w[i]);
-        let det = ui + vi + wi;
-        let (ti, b1i, b2i, dt) = solve(lane(0, i), lane(1, i), lane(2, i), ui, vi, wi, det);
-        t[i] = ti;
-        b1[i] = b1i;
-        b2[i] = b2i;
-        // `&`, not `&&`: short-circuits became branches and kept LLVM
-        // from vectorising this loop (it ran lane by lane in scalar code).
-        ok[i] = (det != 0.0) & (ti > dt) & (ti < t_max[i]);
-        unsure[i] = (det != 0.0) & (ti <= dt) & (ti > -dt);
-    }
-    let mut ok = lane_mask(&ok) & inside;
-    // Hits whose f32 t is not provably of either sign: decide in f64 as
-    // the single-ray test does (rare; per lane, same result).
-    let mut unsure = lane_mask(&unsure) & inside;
-    while unsure != 0 {
-        let i = unsure.trailing_zeros() as usize;
-        unsure &= unsure - 1;
-        let k = [0, 1, 2].map(|j| r.k[j][i] as usize);
-        let org = [0, 1, 2].map(|j| r.org[j][i]);
-        let shear = [0, 1, 2].map(|j| r.shear[j][i]);
-        if let Some(ti) = decide_t_f64(t[i], *tri, k, org, shear) {
-            t[i] = ti;
-            if ti < t_max[i] {
-                ok |= 1 << i;
-            }
+        if let Some((ti, b1i, b2i)) = r.get(i).intersect(tri[0], tri[1], tri[2], t_max[i]) {
+            (t[i], b1[i], b2[i]) = (ti, b1i, b2i);
+            ok |= 1 << i;
         }
     }
     ok
