@@ -1072,4 +1072,46 @@ mod tests {
             assert_eq!(got, singles[i], "lane {i}");
         }
     }
+    /// Lanes through a vertex or an edge (exact zero edge functions, redone
+    /// by the single-ray test), lanes starting on the triangle (distance
+    /// within δt of zero, decided in f64) and ordinary lanes, in one packet
+    /// with one lane left out: every lane in the mask equals its single-ray
+    /// test, and the left-out lane reports nothing.
+    #[test]
+    fn lanes_match_single_on_edges_and_origins() {
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let down = Vec3::new(0.0, 0.0, -1.0);
+        let rays = [
+            ray(Vec3::new(0.0, 0.0, 1.0), down),                     // vertex
+            ray(Vec3::new(0.5, 0.0, 1.0), down),                     // edge y = 0
+            ray(Vec3::new(0.5, 0.5, 1.0), down),                     // hypotenuse
+            ray(Vec3::new(0.25, 0.25, 1.0), down),                   // inside
+            ray(Vec3::new(2.0, 2.0, 1.0), down),                     // outside
+            ray(Vec3::new(0.2, 0.2, 0.0), Vec3::new(0.1, 0.2, 1.0)), // leaves it
+            ray(Vec3::new(0.2, 0.2, 0.0), Vec3::new(0.1, 0.2, -1.0)), // leaves it
+            ray(Vec3::new(0.0, 0.25, 1.0), down),                    // edge x = 0
+            ray(Vec3::new(0.3, 0.3, 1.0), down),                     // left out
+        ];
+        let mut lanes = WatertightLanes::<16>::new();
+        let mut singles = [None; 16];
+        for (i, r) in rays.iter().enumerate() {
+            let wr = WatertightRay::new(r).unwrap();
+            lanes.set(i, &wr);
+            singles[i] = wr.intersect(tri[0], tri[1], tri[2], f32::INFINITY);
+        }
+        let mask = (1u32 << (rays.len() - 1)) - 1;
+        lanes.finish(mask);
+        // The edge cases are hits, so the lanes' fallbacks are exercised.
+        for i in [0, 1, 2, 3, 7] {
+            assert!(singles[i].is_some(), "lane {i} should hit");
+        }
+        let t_max = [f32::INFINITY; 16];
+        let (mut t, mut b1, mut b2) = ([0.0; 16], [0.0; 16], [0.0; 16]);
+        let m = intersect_lanes(&lanes, &tri, &t_max, mask, &mut t, &mut b1, &mut b2);
+        assert_eq!(m & !mask, 0, "a lane outside the mask reported a hit");
+        for i in 0..rays.len() - 1 {
+            let got = (m >> i & 1 == 1).then_some((t[i], b1[i], b2[i]));
+            assert_eq!(got, singles[i], "lane {i}");
+        }
+    }
 }
