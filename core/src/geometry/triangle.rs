@@ -726,9 +726,10 @@ impl<const N: usize> WatertightLanes<N> {
 /// provably positive and below `t_max[i]`; `t`, `b1`, `b2` are valid for
 /// those lanes only.
 ///
-/// The lane loops are branch-free (selects) so LLVM can vectorise them; the
-/// rare f64 re-evaluation of zero edge functions runs per affected lane, and
-/// the distance/barycentric part is skipped when no lane is inside the
+/// The lane loops are branch-free (selects, `&` rather than `&&`) so LLVM
+/// vectorises them; the rare lanes with an exactly zero edge function are
+/// redone by [`WatertightRay::intersect`] (which re-evaluates them in f64),
+/// and the distance/barycentric part is skipped when no lane is inside the
 /// edges. Per lane, every value is bit-identical to
 /// [`WatertightRay::intersect`].
 #[inline(always)]
