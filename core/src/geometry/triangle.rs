@@ -1073,6 +1073,7 @@ mod tests {
             assert_eq!(got, singles[i], "lane {i}");
         }
     }
+
     /// Lanes through a vertex or an edge (exact zero edge functions, redone
     /// by the single-ray test), lanes starting on the triangle (distance
     /// within δt of zero, decided in f64) and ordinary lanes, in one packet
