@@ -92,15 +92,25 @@ impl Kernel {
 /// Also the single-ray leaf test: the closest hit among a leaf's triangles
 /// (the first hit for `ANY`), as `WatertightRay::intersect_many`.
 pub(super) trait BoxTest {
+    /// Whether leaves are tested four triangles per SSE step
+    /// (`WatertightRay::intersect_many_sse`, x86_64 only) rather than one by
+    /// one; both give the same answer bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    const SSE_LEAF: bool = false;
+
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]);
 
-    /// Sequential scalar tests unless a kernel has a wider one.
+    /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice).
     #[inline(always)]
     fn leaf<const ANY: bool>(
         r: &WatertightRay,
         tris: &[[Vec3; 3]],
         t_max: f32,
     ) -> Option<(usize, f32, f32, f32)> {
+        #[cfg(target_arch = "x86_64")]
+        if Self::SSE_LEAF {
+            return r.intersect_many_sse::<ANY>(tris, t_max);
+        }
         r.intersect_many::<ANY>(tris, t_max)
     }
 }
@@ -122,14 +132,7 @@ pub(super) struct Sse2Box;
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Sse2Box {
     /// Four triangles per SSE step.
-    #[inline(always)]
-    fn leaf<const ANY: bool>(
-        r: &WatertightRay,
-        tris: &[[Vec3; 3]],
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
-        r.intersect_many_sse::<ANY>(tris, t_max)
-    }
+    const SSE_LEAF: bool = true;
 
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
@@ -170,14 +173,7 @@ pub(super) struct Avx2Box;
 #[cfg(target_arch = "x86_64")]
 impl BoxTest for Avx2Box {
     /// Four triangles per SSE step.
-    #[inline(always)]
-    fn leaf<const ANY: bool>(
-        r: &WatertightRay,
-        tris: &[[Vec3; 3]],
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
-        r.intersect_many_sse::<ANY>(tris, t_max)
-    }
+    const SSE_LEAF: bool = true;
 
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
