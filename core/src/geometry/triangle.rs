@@ -217,7 +217,10 @@ impl WatertightRay {
             shear: [__m128; 3],
         ) -> [__m128; 4] {
             let last = tris.len() - 1;
-            let p = [0, 1, 2, 3].map(|j| tris[j.min(last)][vi].to_array());
+            // Spelled out: `[0, 1, 2, 3].map(..)` compiled to an outlined
+            // `try_map` call, 10% of an incoherent single-ray trace (perf).
+            let v = |j: usize| tris[j.min(last)][vi].to_array();
+            let p = [v(0), v(1), v(2), v(3)];
             // SAFETY: SSE2 is part of the x86_64 baseline; no memory access.
             unsafe {
                 let pick = |a: usize| _mm_setr_ps(p[0][a], p[1][a], p[2][a], p[3][a]);
@@ -522,18 +525,20 @@ fn decide_t_f64(
     org: [f32; 3],
     shear: [f32; 3],
 ) -> Option<f32> {
-    let t64 = positive_t_f64(tri, k, org, shear)?;
-    // The f64 distance is positive; its f32 rounding must stay so.
+    let (num, den) = positive_t_f64(tri, k, org, shear)?;
+    // The f64 distance is positive; its f32 rounding must stay so. The
+    // division is left to the rare case that needs the value.
     Some(if t > 0.0 {
         t
     } else {
-        (t64 as f32).max(f32::from_bits(1))
+        (((num / den) * f64::from(shear[2])) as f32).max(f32::from_bits(1))
     })
 }
 
-/// The hit distance (in units of `|d|`) of a ray with a triangle whose
-/// edge functions say "inside", if it lies provably in front of the
-/// origin, decided in f64 from the unrounded inputs: the ray's permuted
+/// Whether the hit of a ray with a triangle whose edge functions say
+/// "inside" lies provably in front of the origin: then `Some((num, den))`,
+/// the hit distance in units of `|d|` being `num / den · shear₂`. Decided
+/// in f64 from the unrounded inputs: the ray's permuted
 /// origin `org` and sheared direction `(shear₀, shear₁, 1)·d_z`
 /// (permutation `k`) and the world-space vertices.
 ///
@@ -548,12 +553,20 @@ fn decide_t_f64(
 /// so a ray spawned off its own triangle is still never re-hit.
 #[cold]
 #[inline(never)]
-fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3]) -> Option<f64> {
+fn positive_t_f64(
+    tri: [Vec3; 3],
+    k: [usize; 3],
+    org: [f32; 3],
+    shear: [f32; 3],
+) -> Option<(f64, f64)> {
+    // No `array::map` here: it compiled to outlined `try_map` calls, a
+    // measurable share of this function's cost on shadow rays.
+    let (kx, ky, kz) = (k[0] % 3, k[1] % 3, k[2] % 3);
     let perm = |p: Vec3| {
         let a = p.to_array();
-        [a[k[0] % 3], a[k[1] % 3], a[k[2] % 3]].map(f64::from)
+        [f64::from(a[kx]), f64::from(a[ky]), f64::from(a[kz])]
     };
-    let [p0, p1, p2] = tri.map(perm);
+    let (p0, p1, p2) = (perm(tri[0]), perm(tri[1]), perm(tri[2]));
     let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     let (e1, e2) = (sub(p1, p0), sub(p2, p0));
     let n = [
@@ -566,10 +579,13 @@ fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3])
         (e1[2] * e2[0]).abs() + (e1[0] * e2[2]).abs(),
         (e1[0] * e2[1]).abs() + (e1[1] * e2[0]).abs(),
     ];
-    let q = sub(p0, org.map(f64::from));
+    let q = sub(
+        p0,
+        [f64::from(org[0]), f64::from(org[1]), f64::from(org[2])],
+    );
     let d = [f64::from(shear[0]), f64::from(shear[1]), 1.0];
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let abs3 = |a: [f64; 3]| a.map(f64::abs);
+    let abs3 = |a: [f64; 3]| [a[0].abs(), a[1].abs(), a[2].abs()];
     // γ(12) in f64 for the differences, the cross product and the dot
     // product; 2⁻²² more for the denominator's f32 shear.
     let g = 12.0 * f64::EPSILON;
@@ -581,9 +597,10 @@ fn positive_t_f64(tri: [Vec3; 3], k: [usize; 3], org: [f32; 3], shear: [f32; 3])
     if !(num.abs() > num_err && den.abs() > den_err) {
         return None;
     }
-    // t in units of |d| is num / den times 1 / d_z = shear₂.
-    let t = (num / den) * f64::from(shear[2]);
-    (t > 0.0).then_some(t)
+    // t in units of |d| is num / den times 1 / d_z = shear₂; its sign is
+    // the product of the three signs (all three are non-zero here).
+    let negatives = (num < 0.0) as u32 + (den < 0.0) as u32 + (shear[2] < 0.0) as u32;
+    (negatives % 2 == 0).then_some((num, den))
 }
 
 #[inline(always)]
@@ -638,9 +655,14 @@ impl<const N: usize> WatertightLanes<N> {
     #[inline]
     pub fn get(&self, i: usize) -> WatertightRay {
         WatertightRay {
-            k: [0, 1, 2].map(|j| self.k[j][i] as usize),
-            org: [0, 1, 2].map(|j| self.org[j][i]),
-            shear: [0, 1, 2].map(|j| self.shear[j][i]),
+            // Spelled out: `array::map` compiled to outlined calls here.
+            k: [
+                self.k[0][i] as usize,
+                self.k[1][i] as usize,
+                self.k[2][i] as usize,
+            ],
+            org: [self.org[0][i], self.org[1][i], self.org[2][i]],
+            shear: [self.shear[0][i], self.shear[1][i], self.shear[2][i]],
         }
     }
 
@@ -817,10 +839,8 @@ pub(crate) fn intersect_lanes<const N: usize>(
         while unsure != 0 {
             let i = unsure.trailing_zeros() as usize;
             unsure &= unsure - 1;
-            let k = [0, 1, 2].map(|j| r.k[j][i] as usize);
-            let org = [0, 1, 2].map(|j| r.org[j][i]);
-            let shear = [0, 1, 2].map(|j| r.shear[j][i]);
-            if let Some(ti) = decide_t_f64(t[i], *tri, k, org, shear) {
+            let lane = r.get(i);
+            if let Some(ti) = decide_t_f64(t[i], *tri, lane.k, lane.org, lane.shear) {
                 t[i] = ti;
                 if ti < t_max[i] {
                     ok |= 1 << i;
