@@ -618,37 +618,29 @@ fn t_sign_f64(p: [[f64; 3]; 3], org: [f32; 3], shear: [f32; 3]) -> (bool, f64, f
     (certain & (negatives % 2 == 0), num, den)
 }
 
-/// [`positive_t_f64`] for every lane of a packet at once: bit `i` of the
-/// mask says lane `i`'s hit is provably in front of its origin, with its
-/// `num`, `den`. Lanes are computed branch-free (vertex components picked
-/// per lane by select), so LLVM vectorises the f64 arithmetic; one call
-/// costs about as much as two scalar ones, and a shadow packet leaving a
-/// surface has some ten of 16 lanes to decide per triangle (measured).
+/// [`positive_t_f64`] for every lane of a packet at once, from the
+/// permuted vertices `sel[vertex][axis][lane]` that [`intersect_lanes`]
+/// already selected: bit `i` of the mask says lane `i`'s hit is provably
+/// in front of its origin, with its `num`, `den`. The lane loop is
+/// branch-free, so LLVM vectorises the f64 arithmetic; one call costs
+/// about as much as two scalar ones, and a shadow packet leaving a surface
+/// has some ten of 16 lanes to decide per triangle (measured).
 #[inline(always)]
 fn positive_t_f64_lanes<const N: usize>(
-    tri: &[Vec3; 3],
+    sel: &[[[f32; N]; 3]; 3],
     r: &WatertightLanes<N>,
 ) -> (u32, [f64; N], [f64; N]) {
-    let v = [tri[0].to_array(), tri[1].to_array(), tri[2].to_array()];
     let mut positive = [false; N];
     let mut num = [0.0f64; N];
     let mut den = [0.0f64; N];
     for i in 0..N {
-        // `k % 3` as in the scalar form, by selects.
-        let pick = |a: [f32; 3], k: u32| {
-            f64::from(if k % 3 == 0 {
-                a[0]
-            } else if k % 3 == 1 {
-                a[1]
-            } else {
-                a[2]
-            })
+        let p = |vi: usize| {
+            let [x, y, z] = &sel[vi];
+            [f64::from(x[i]), f64::from(y[i]), f64::from(z[i])]
         };
-        let perm = |a: [f32; 3]| [pick(a, r.k[0][i]), pick(a, r.k[1][i]), pick(a, r.k[2][i])];
         let org = [r.org[0][i], r.org[1][i], r.org[2][i]];
         let shear = [r.shear[0][i], r.shear[1][i], r.shear[2][i]];
-        (positive[i], num[i], den[i]) =
-            t_sign_f64([perm(v[0]), perm(v[1]), perm(v[2])], org, shear);
+        (positive[i], num[i], den[i]) = t_sign_f64([p(0), p(1), p(2)], org, shear);
     }
     (lane_mask(&positive), num, den)
 }
@@ -888,7 +880,7 @@ pub(crate) fn intersect_lanes<const N: usize>(
         // once: a packet leaving the surface its rays start on has many.
         let mut unsure = lane_mask(&unsure_lane) & inside;
         if unsure != 0 {
-            let (positive, num, den) = positive_t_f64_lanes(tri, r);
+            let (positive, num, den) = positive_t_f64_lanes(&sel, r);
             unsure &= positive;
             while unsure != 0 {
                 let i = unsure.trailing_zeros() as usize;
@@ -1223,7 +1215,14 @@ mod tests {
                 singles[i] = wr.intersect(tri[0], tri[1], tri[2], f32::INFINITY);
             }
             lanes.finish(u32::MAX >> 16);
-            let (positive, num, den) = positive_t_f64_lanes(&tri, &lanes);
+            // The permuted vertices `intersect_lanes` passes, built here
+            // from each lane's own permutation.
+            let sel: [[[f32; 16]; 3]; 3] = core::array::from_fn(|vi| {
+                core::array::from_fn(|j| {
+                    core::array::from_fn(|i| tri[vi].to_array()[lanes.get(i).k[j]])
+                })
+            });
+            let (positive, num, den) = positive_t_f64_lanes(&sel, &lanes);
             for i in 0..16 {
                 let l = lanes.get(i);
                 let scalar = positive_t_f64(tri, l.k, l.org, l.shear);
