@@ -582,7 +582,8 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
                 "buffer_size {buffer_size} < {needed} bytes needed"
             )));
         }
-        if format == CMLT_FORMAT_RGB32F && (pixels as usize % 4 != 0 || stride % 4 != 0) {
+        if format == CMLT_FORMAT_RGB32F && (!(pixels as usize).is_multiple_of(4) || stride % 4 != 0)
+        {
             return Err(Error::invalid(
                 "float pixels need a 4-byte aligned buffer and row_stride",
             ));

@@ -438,7 +438,7 @@ unsafe fn gather<T: Copy + Default, const N: usize>(
             "{what}: stride {stride} must be a multiple of 4 and at least {size}"
         )));
     }
-    if (ptr as usize) % std::mem::align_of::<T>() != 0 {
+    if !(ptr as usize).is_multiple_of(std::mem::align_of::<T>()) {
         return Err(Error::invalid(format!(
             "{what}: pointer is not 4-byte aligned"
         )));
@@ -782,14 +782,14 @@ pub unsafe extern "C" fn cmlt_scene_update_mesh(
         scene
             .update_mesh(index, &p, n.as_deref())
             .map_err(|e| Error::invalid(e.to_string()))?;
-        if let Accel::Built(built) = accel {
-            if let Err(e) = built.update(scene) {
-                // Put the mesh back so scene and accel agree again.
-                if let Some((op, on)) = old {
-                    let _ = scene.update_mesh(index, &op, Some(&on));
-                }
-                return Err(Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e));
+        if let Accel::Built(built) = accel
+            && let Err(e) = built.update(scene)
+        {
+            // Put the mesh back so scene and accel agree again.
+            if let Some((op, on)) = old {
+                let _ = scene.update_mesh(index, &op, Some(&on));
             }
+            return Err(Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e));
         }
         Ok(())
     })

@@ -227,13 +227,13 @@ impl<'a> Loader<'a> {
                 let int_ior = self.ior(&props, "int_ior", 1.5046)?;
                 let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
                 for name in ["specular_reflectance", "specular_transmittance"] {
-                    if let Some((c, n)) = props.color(x, name)? {
-                        if c != [1.0; 3] {
-                            return Err(x.err(
-                                n,
-                                format!("dielectric '{name}' other than 1 is not supported"),
-                            ));
-                        }
+                    if let Some((c, n)) = props.color(x, name)?
+                        && c != [1.0; 3]
+                    {
+                        return Err(x.err(
+                            n,
+                            format!("dielectric '{name}' other than 1 is not supported"),
+                        ));
                     }
                 }
                 // Mitsuba's eta is interior over exterior.
@@ -300,19 +300,19 @@ impl<'a> Loader<'a> {
         let x = &self.xml;
         let material = props.string(x, "material")?;
         let has_eta = props.has("eta");
-        if let Some((name, n)) = &material {
-            if name != "none" {
-                if has_eta {
-                    return Err(x.err(*n, "specify either eta/k or material, not both"));
-                }
-                return Err(x.err(
+        if let Some((name, n)) = &material
+            && name != "none"
+        {
+            if has_eta {
+                return Err(x.err(*n, "specify either eta/k or material, not both"));
+            }
+            return Err(x.err(
                     *n,
                     format!(
                         "conductor material preset '{name}' is not supported (Mitsuba derives it from spectral data); \
                          give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
                     ),
                 ));
-            }
         }
         let eta = props.color(x, "eta")?;
         let k = props.color(x, "k")?;
@@ -368,10 +368,10 @@ impl<'a> Loader<'a> {
         let Some(e) = props.get(name) else {
             return Ok(Texture::Constant(default));
         };
-        if let Item::Object(n) = e.item {
-            if n.tag_name().name() == "texture" {
-                return self.texture(n);
-            }
+        if let Item::Object(n) = e.item
+            && n.tag_name().name() == "texture"
+        {
+            return self.texture(n);
         }
         let (c, node) = props.color(&self.xml, name)?.expect("entry exists");
         if c.iter().any(|v| *v < 0.0) {

@@ -528,13 +528,13 @@ impl<'a> Loader<'a> {
                 ),
             ));
         }
-        if let Some(e) = props.get("radiance") {
-            if let Item::Object(_) = e.item {
-                return Err(x.err(
-                    e.node,
-                    "textured radiance is not supported (give an <rgb> value)",
-                ));
-            }
+        if let Some(e) = props.get("radiance")
+            && let Item::Object(_) = e.item
+        {
+            return Err(x.err(
+                e.node,
+                "textured radiance is not supported (give an <rgb> value)",
+            ));
         }
         let (c, n) = props
             .color(x, "radiance")?

@@ -377,17 +377,16 @@ impl<'a> Props<'a> {
                 }
                 other => return Err(xml.err(child, format!("unknown XML element <{other}>"))),
             };
-            if let Some(n) = &name {
-                if let Some(prev) = entries
+            if let Some(n) = &name
+                && let Some(prev) = entries
                     .iter()
                     .find(|e| e.name.as_deref() == Some(n.as_str()))
-                {
-                    let (l, c) = xml.pos(prev.node);
-                    return Err(xml.err(
-                        child,
-                        format!("property '{n}' is given twice (first at line {l}, column {c})"),
-                    ));
-                }
+            {
+                let (l, c) = xml.pos(prev.node);
+                return Err(xml.err(
+                    child,
+                    format!("property '{n}' is given twice (first at line {l}, column {c})"),
+                ));
             }
             entries.push(Entry {
                 name,
@@ -548,10 +547,10 @@ impl<'a> Props<'a> {
             if e.used.get() {
                 continue;
             }
-            if let Some(n) = &e.name {
-                if ignored.contains(&n.as_str()) {
-                    continue;
-                }
+            if let Some(n) = &e.name
+                && ignored.contains(&n.as_str())
+            {
+                continue;
             }
             let owner = xml.describe(self.owner);
             return Err(match (&e.item, &e.name) {

@@ -615,7 +615,7 @@ fn t_sign_f64(p: [[f64; 3]; 3], org: [f32; 3], shear: [f32; 3]) -> (bool, f64, f
     // t in units of |d| is num / den times 1 / d_z = shear₂; its sign is
     // the product of the three signs (all three are non-zero when certain).
     let negatives = (num < 0.0) as u32 + (den < 0.0) as u32 + (shear[2] < 0.0) as u32;
-    (certain & (negatives % 2 == 0), num, den)
+    (certain & negatives.is_multiple_of(2), num, den)
 }
 
 /// [`positive_t_f64`] for every lane of a packet at once, from the

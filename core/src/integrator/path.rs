@@ -65,22 +65,22 @@ pub fn radiance<I: Intersector>(
         // BSDF's density of the same direction.
         let u_sel = rng.next_f32();
         let u_light = rng.next_2d();
-        if !hit.bsdf.is_delta() {
-            if let Some((lp, pdf_area)) = t.scene.sample_light(u_sel, u_light) {
-                let to = lp.p - sp.p;
-                let d2 = to.length_squared();
-                if d2 > 0.0 && pdf_area > 0.0 {
-                    let dir = to / libm::sqrtf(d2);
-                    let le = t.scene.emitted(&lp, -dir);
-                    let cos_l = lp.ng.dot(dir).abs();
-                    if !le.is_black() && cos_l > 0.0 {
-                        let wi = hit.frame.to_local(dir);
-                        let f = t.eval_bsdf(&hit.bsdf, wo, wi, TransportMode::Radiance);
-                        if !f.is_black() && !t.occluded_between(&sp, &lp) {
-                            let pdf_light = pdf_area * d2 / cos_l;
-                            let w = power_heuristic(pdf_light, hit.bsdf.pdf(wo, wi));
-                            l += beta * f * le * (wi.z.abs() * w / pdf_light);
-                        }
+        if !hit.bsdf.is_delta()
+            && let Some((lp, pdf_area)) = t.scene.sample_light(u_sel, u_light)
+        {
+            let to = lp.p - sp.p;
+            let d2 = to.length_squared();
+            if d2 > 0.0 && pdf_area > 0.0 {
+                let dir = to / libm::sqrtf(d2);
+                let le = t.scene.emitted(&lp, -dir);
+                let cos_l = lp.ng.dot(dir).abs();
+                if !le.is_black() && cos_l > 0.0 {
+                    let wi = hit.frame.to_local(dir);
+                    let f = t.eval_bsdf(&hit.bsdf, wo, wi, TransportMode::Radiance);
+                    if !f.is_black() && !t.occluded_between(&sp, &lp) {
+                        let pdf_light = pdf_area * d2 / cos_l;
+                        let w = power_heuristic(pdf_light, hit.bsdf.pdf(wo, wi));
+                        l += beta * f * le * (wi.z.abs() * w / pdf_light);
                     }
                 }
             }

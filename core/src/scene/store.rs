@@ -70,10 +70,10 @@ impl Mesh {
         if m.material.0 as usize >= materials {
             return Err(SceneError::UnknownMaterial { mesh: mi });
         }
-        if let Some(e) = m.emission {
-            if !(e.is_finite() && e.r >= 0.0 && e.g >= 0.0 && e.b >= 0.0) {
-                return Err(SceneError::InvalidEmission { mesh: mi });
-            }
+        if let Some(e) = m.emission
+            && !(e.is_finite() && e.r >= 0.0 && e.g >= 0.0 && e.b >= 0.0)
+        {
+            return Err(SceneError::InvalidEmission { mesh: mi });
         }
         Ok(())
     }
@@ -272,10 +272,10 @@ impl SceneBuilder {
                 super::MaterialKind::Dielectric { .. } => [None, None],
             };
             for t in tex_refs.into_iter().flatten() {
-                if let Texture::Bitmap { id, .. } = t {
-                    if id.0 as usize >= self.bitmaps.len() {
-                        return Err(SceneError::UnknownBitmap { material: i });
-                    }
+                if let Texture::Bitmap { id, .. } = t
+                    && id.0 as usize >= self.bitmaps.len()
+                {
+                    return Err(SceneError::UnknownBitmap { material: i });
                 }
             }
         }
