@@ -36,6 +36,8 @@
 //! assert!(bvh.view().occluded(&Ray { t_max: 0.6, ..Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z * 2.0) }));
 //! ```
 
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 mod node;
 mod packet;
 mod simd;

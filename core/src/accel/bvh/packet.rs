@@ -15,7 +15,7 @@
 use super::BvhView;
 use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
-use super::simd::{Avx2Box, Kernel, Sse2Box};
+use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox};
 use super::traverse::{self, Prepared, Stack, order4, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes, lane_mask};
@@ -27,6 +27,8 @@ struct Lanes<const N: usize> {
     o: [[f32; N]; 3],
     inv: [[f32; N]; 3],
     neg: [[bool; N]; 3],
+    /// `neg` as lane masks, one per axis.
+    neg_bits: [u32; 3],
     /// The direction signs shared by all live lanes, if any.
     uniform_neg: Option<[bool; 3]>,
     /// Whether the live lanes' directions span at most two octants: only
@@ -64,6 +66,7 @@ impl<const N: usize> Lanes<N> {
             o: [[0.0; N]; 3],
             inv: [[1.0; N]; 3],
             neg: [[false; N]; 3],
+            neg_bits: [0; 3],
             uniform_neg: None,
             coherent: false,
             t_max: [-1.0; N],
@@ -95,6 +98,7 @@ impl<const N: usize> Lanes<N> {
             l.uniform_neg = Some(neg_bits.map(|m| m != 0));
         }
         l.coherent = coherent(neg_bits, valid);
+        l.neg_bits = neg_bits;
         (l, valid)
     }
 
@@ -145,14 +149,48 @@ const fn single_ray_lanes(n: usize) -> u32 {
 
 /// Robust slab test (see `node::box4`) of all lanes against a node's four
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
-/// the smallest entry distance among them.
+/// the smallest entry distance among them; in the kernel's instruction set
+/// ([`BoxTest::box4_lanes`]).
+#[inline(always)]
+fn box4_lanes<B: BoxTest, const N: usize>(
+    node: &Node4,
+    l: &Lanes<N>,
+    lanes: u32,
+) -> ([u32; 4], [f32; 4]) {
+    B::box4_lanes(
+        node,
+        &l.o,
+        &l.inv,
+        &l.t_max,
+        l.neg_bits,
+        l.uniform_neg,
+        lanes,
+    )
+}
+
+/// The portable form of [`box4_lanes`], for any `N`: the arrays as
+/// [`super::lanes::box4_lanes_simd`] takes them, plus `neg` per lane.
 ///
 /// When all live lanes share their direction signs (coherent bundles), the
 /// near/far planes are picked once per node instead of per lane.
 #[inline(always)]
-fn box4_lanes<const N: usize>(node: &Node4, l: &Lanes<N>, lanes: u32) -> ([u32; 4], [f32; 4]) {
+pub(super) fn box4_lanes_portable<const N: usize>(
+    node: &Node4,
+    o: &[[f32; N]; 3],
+    inv: &[[f32; N]; 3],
+    t_max: &[f32; N],
+    neg_bits: [u32; 3],
+    uniform_neg: Option<[bool; 3]>,
+    lanes: u32,
+) -> ([u32; 4], [f32; 4]) {
+    let l = PortableLanes {
+        o,
+        inv,
+        neg_bits,
+        uniform_neg,
+    };
     let mut near = [[0.0f32; N]; 4];
-    let mut far = [l.t_max; 4];
+    let mut far = [*t_max; 4];
     if let Some(neg) = l.uniform_neg {
         for (a, &neg) in neg.iter().enumerate() {
             let (nb, fb) = if neg {
@@ -172,7 +210,11 @@ fn box4_lanes<const N: usize>(node: &Node4, l: &Lanes<N>, lanes: u32) -> ([u32; 
             for c in 0..4 {
                 let (lo, hi) = (node.min[a][c], node.max[a][c]);
                 for i in 0..N {
-                    let (nb, fb) = if l.neg[a][i] { (hi, lo) } else { (lo, hi) };
+                    let (nb, fb) = if l.neg_bits[a] >> i & 1 != 0 {
+                        (hi, lo)
+                    } else {
+                        (lo, hi)
+                    };
                     near[c][i] = max_keep(near[c][i], (nb - l.o[a][i]) * l.inv[a][i]);
                     far[c][i] = min_keep(far[c][i], (fb - l.o[a][i]) * l.inv[a][i]);
                 }
@@ -182,24 +224,48 @@ fn box4_lanes<const N: usize>(node: &Node4, l: &Lanes<N>, lanes: u32) -> ([u32; 
     let mut masks = [0u32; 4];
     let mut t_min = [f32::INFINITY; 4];
     for c in 0..4 {
-        let mut m = 0u32;
-        let mut tm = f32::INFINITY;
+        let mut hit = [false; N];
+        let mut key = [f32::INFINITY; N];
         for i in 0..N {
-            let hit = near[c][i] <= far[c][i] * FAR_SCALE;
-            m |= (hit as u32) << i;
-            tm = min_keep(
-                tm,
-                if hit && lanes >> i & 1 != 0 {
-                    near[c][i]
-                } else {
-                    f32::INFINITY
-                },
-            );
+            let h = near[c][i] <= far[c][i] * FAR_SCALE;
+            hit[i] = h;
+            key[i] = if h & (lanes >> i & 1 != 0) {
+                near[c][i]
+            } else {
+                f32::INFINITY
+            };
         }
-        masks[c] = m & lanes;
-        t_min[c] = tm;
+        masks[c] = lane_mask(&hit) & lanes;
+        t_min[c] = min_lanes(key);
     }
     (masks, t_min)
+}
+
+/// The smallest of `v` (none NaN), reduced pairwise so the halves are
+/// vectors: a left-to-right `min_keep` chain is one dependent compare per
+/// lane, which LLVM may not reorder (it was a fifth of the packet kernel's
+/// time on MTM bundles). Entry distances are never NaN and never `−0`
+/// (they start at `+0` and `max_keep` only takes strictly larger values),
+/// so every order of the comparisons gives the same bits.
+#[inline(always)]
+fn min_lanes<const N: usize>(mut v: [f32; N]) -> f32 {
+    let mut w = N;
+    while w > 1 {
+        let h = w.div_ceil(2);
+        for i in 0..w - h {
+            v[i] = min_keep(v[i], v[i + h]);
+        }
+        w = h;
+    }
+    if N == 0 { f32::INFINITY } else { v[0] }
+}
+
+/// The inputs of [`box4_lanes_portable`] under the names the lane loops use.
+struct PortableLanes<'a, const N: usize> {
+    o: &'a [[f32; N]; 3],
+    inv: &'a [[f32; N]; 3],
+    neg_bits: [u32; 3],
+    uniform_neg: Option<[bool; 3]>,
 }
 
 /// A deferred child with the lanes that hit it and their smallest entry
@@ -276,7 +342,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             }
         } else if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
-            let (masks, t_min) = box4_lanes(node, l, cur.mask);
+            let (masks, t_min) = box4_lanes::<B, N>(node, l, cur.mask);
             let mut any = 0u32;
             for (c, m) in masks.iter().enumerate() {
                 any |= ((*m != 0) as u32) << c;
@@ -470,7 +536,7 @@ mod x86 {
         active: LaneMask,
         hits: &mut HitPacket<N>,
     ) {
-        intersect_packet_with::<Avx2Box, N>(view, rays, active, hits)
+        intersect_packet_with::<Avx512Box, N>(view, rays, active, hits)
     }
 
     /// # Safety
@@ -481,7 +547,7 @@ mod x86 {
         rays: &RayPacket<N>,
         active: LaneMask,
     ) -> LaneMask {
-        occluded_packet_with::<Avx2Box, N>(view, rays, active)
+        occluded_packet_with::<Avx512Box, N>(view, rays, active)
     }
 }
 

@@ -22,8 +22,11 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
+use super::lanes::box4_lanes_simd;
+#[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
+use super::packet::box4_lanes_portable;
 use crate::geometry::triangle::WatertightRay;
 use glam::Vec3;
 
@@ -100,6 +103,22 @@ pub(super) trait BoxTest {
 
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]);
 
+    /// The packet box test (`packet::box4_lanes`): `N` lanes against a
+    /// node's four children. Portable lane loops unless a kernel has
+    /// registers that fit `N`.
+    #[inline(always)]
+    fn box4_lanes<const N: usize>(
+        node: &Node4,
+        o: &[[f32; N]; 3],
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        neg: [u32; 3],
+        uniform: Option<[bool; 3]>,
+        lanes: u32,
+    ) -> ([u32; 4], [f32; 4]) {
+        box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
+    }
+
     /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice).
     #[inline(always)]
     fn leaf<const ANY: bool>(
@@ -133,6 +152,25 @@ pub(super) struct Sse2Box;
 impl BoxTest for Sse2Box {
     /// Four triangles per SSE step.
     const SSE_LEAF: bool = true;
+
+    /// Four lanes per SSE register.
+    #[inline(always)]
+    fn box4_lanes<const N: usize>(
+        node: &Node4,
+        o: &[[f32; N]; 3],
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        neg: [u32; 3],
+        uniform: Option<[bool; 3]>,
+        lanes: u32,
+    ) -> ([u32; 4], [f32; 4]) {
+        use core::arch::x86_64::__m128;
+        if N.is_multiple_of(4) {
+            box4_lanes_simd::<__m128, N>(node, o, inv, t_max, neg, uniform, lanes)
+        } else {
+            box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
+        }
+    }
 
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
@@ -175,6 +213,25 @@ impl BoxTest for Avx2Box {
     /// Four triangles per SSE step.
     const SSE_LEAF: bool = true;
 
+    /// Eight lanes per AVX register (four for packets of 4).
+    #[inline(always)]
+    fn box4_lanes<const N: usize>(
+        node: &Node4,
+        o: &[[f32; N]; 3],
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        neg: [u32; 3],
+        uniform: Option<[bool; 3]>,
+        lanes: u32,
+    ) -> ([u32; 4], [f32; 4]) {
+        use core::arch::x86_64::__m256;
+        if N.is_multiple_of(8) {
+            box4_lanes_simd::<__m256, N>(node, o, inv, t_max, neg, uniform, lanes)
+        } else {
+            Sse2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+        }
+    }
+
     #[inline(always)]
     fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
         use core::arch::x86_64::*;
@@ -204,5 +261,41 @@ impl BoxTest for Avx2Box {
             _mm_movemask_ps(hit) as u32
         };
         (mask, out)
+    }
+}
+
+/// AVX-512F: the single-ray tests of [`Avx2Box`], and packets of 16 lanes
+/// in one 512-bit register. Only called from functions compiled with
+/// AVX-512F enabled.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx512Box;
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Avx512Box {
+    /// Four triangles per SSE step.
+    const SSE_LEAF: bool = true;
+
+    #[inline(always)]
+    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+        Avx2Box::box4(node, r, t_max)
+    }
+
+    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
+    #[inline(always)]
+    fn box4_lanes<const N: usize>(
+        node: &Node4,
+        o: &[[f32; N]; 3],
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        neg: [u32; 3],
+        uniform: Option<[bool; 3]>,
+        lanes: u32,
+    ) -> ([u32; 4], [f32; 4]) {
+        use core::arch::x86_64::__m512;
+        if N.is_multiple_of(16) {
+            box4_lanes_simd::<__m512, N>(node, o, inv, t_max, neg, uniform, lanes)
+        } else {
+            Avx2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+        }
     }
 }
