@@ -25,6 +25,8 @@ use glam::Vec3;
 
 use super::Ray;
 use super::offset::gamma;
+#[cfg(target_arch = "x86_64")]
+use crate::math::lanes::LaneVec;
 
 /// Per-ray precomputation of the watertight test (paper §3.2): the axis
 /// permutation and the shear constants.
@@ -669,6 +671,9 @@ pub(crate) struct WatertightLanes<const N: usize> {
     /// of coherent bundles): vertex components are then picked once per
     /// triangle instead of once per lane.
     pub uniform: Option<[usize; 3]>,
+    /// Lane masks of `k[j][i] == 0` and `k[j][i] == 1` per axis `j` (set
+    /// by [`Self::finish`]), for picking vertex components by mask.
+    pub k_is: [[u32; 2]; 3],
 }
 
 impl<const N: usize> WatertightLanes<N> {
@@ -679,6 +684,7 @@ impl<const N: usize> WatertightLanes<N> {
             org: [[0.0; N]; 3],
             shear: [[0.0; N], [0.0; N], [1.0; N]],
             uniform: None,
+            k_is: [[0; 2]; 3],
         }
     }
 
@@ -765,11 +771,21 @@ impl<const N: usize> WatertightLanes<N> {
         lane_mask(&ok)
     }
 
-    /// Records whether the lanes in `live` share one permutation (call after
-    /// the last [`Self::set`]). Dummy lanes may then be evaluated with the
-    /// shared permutation; their results are masked anyway.
+    /// Records whether the lanes in `live` share one permutation, and the
+    /// permutation masks (call after the last [`Self::set`]). Dummy lanes
+    /// may then be evaluated with the shared permutation; their results are
+    /// masked anyway.
     #[inline(always)]
     pub fn finish(&mut self, live: u32) {
+        for j in 0..3 {
+            for (v, m) in self.k_is[j].iter_mut().enumerate() {
+                let mut is = [false; N];
+                for (f, &k) in is.iter_mut().zip(&self.k[j]) {
+                    *f = k == v as u32;
+                }
+                *m = lane_mask(&is);
+            }
+        }
         let first = live.trailing_zeros() as usize;
         self.uniform = None;
         if first < N {
@@ -856,7 +872,7 @@ pub(crate) fn intersect_lanes<const N: usize>(
     }
     let zero = lane_mask(&zero_lane) & lanes;
     let inside = lane_mask(&inside_lane) & lanes & !zero;
-    let mut ok = 0;
+    let (mut ok, mut unsure) = (0, 0);
     if inside != 0 {
         let mut ok_lane = [false; N];
         let mut unsure_lane = [false; N];
@@ -875,22 +891,43 @@ pub(crate) fn intersect_lanes<const N: usize>(
             unsure_lane[i] = (det != 0.0) & (ti <= dt) & (ti > -dt);
         }
         ok = lane_mask(&ok_lane) & inside;
-        // Hits whose f32 t is not provably of either sign: decide in f64
-        // as the single-ray test does (same result per lane), all lanes at
-        // once: a packet leaving the surface its rays start on has many.
-        let mut unsure = lane_mask(&unsure_lane) & inside;
-        if unsure != 0 {
-            let (positive, num, den) = positive_t_f64_lanes(&sel, r);
-            unsure &= positive;
-            while unsure != 0 {
-                let i = unsure.trailing_zeros() as usize;
-                unsure &= unsure - 1;
-                t[i] = certified_t(t[i], num[i], den[i], r.shear[2][i]);
-                ok |= ((t[i] < t_max[i]) as u32) << i;
-            }
+        unsure = lane_mask(&unsure_lane) & inside;
+    }
+    finish_lanes(r, tri, t_max, ok, unsure, zero, &sel, t, b1, b2)
+}
+
+/// The part of [`intersect_lanes`] after the f32 test, shared by its
+/// portable and register forms: lanes `ok` hit already; lanes `unsure`
+/// (inside, with an f32 `t` not provably of either sign) are decided in
+/// f64 from `sel` (the permuted vertices, as [`intersect_lanes`] selects
+/// them; only the `unsure` lanes are read), all at once, as the
+/// single-ray test decides them — a packet leaving the surface its rays
+/// start on has many; lanes `zero` (an exactly zero edge function) are
+/// redone by the single-ray test. Returns the lanes that hit.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn finish_lanes<const N: usize>(
+    r: &WatertightLanes<N>,
+    tri: &[Vec3; 3],
+    t_max: &[f32; N],
+    mut ok: u32,
+    mut unsure: u32,
+    mut zero: u32,
+    sel: &[[[f32; N]; 3]; 3],
+    t: &mut [f32; N],
+    b1: &mut [f32; N],
+    b2: &mut [f32; N],
+) -> u32 {
+    if unsure != 0 {
+        let (positive, num, den) = positive_t_f64_lanes(sel, r);
+        unsure &= positive;
+        while unsure != 0 {
+            let i = unsure.trailing_zeros() as usize;
+            unsure &= unsure - 1;
+            t[i] = certified_t(t[i], num[i], den[i], r.shear[2][i]);
+            ok |= ((t[i] < t_max[i]) as u32) << i;
         }
     }
-    let mut zero = zero;
     while zero != 0 {
         let i = zero.trailing_zeros() as usize;
         zero &= zero - 1;
@@ -900,6 +937,162 @@ pub(crate) fn intersect_lanes<const N: usize>(
         }
     }
     ok
+}
+
+/// [`intersect_lanes`] one register of lanes at a time ([`LaneVec`]): the
+/// same IEEE operations in the same order per lane (those of the
+/// single-ray SSE leaf test), so the same bits; vertex components are
+/// picked by the permutation masks `k_is` instead of lane by lane. `N`
+/// must be a multiple of `V::W`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
+    r: &WatertightLanes<N>,
+    tri: &[Vec3; 3],
+    t_max: &[f32; N],
+    lanes: u32,
+    t: &mut [f32; N],
+    b1: &mut [f32; N],
+    b2: &mut [f32; N],
+) -> u32 {
+    debug_assert!(N.is_multiple_of(V::W));
+    let (mut ok, mut unsure, mut zero) = (0u32, 0u32, 0u32);
+    // Written only for chunks with unsure lanes, the only ones read.
+    let mut sel = [[[0.0f32; N]; 3]; 3];
+    let z = V::splat(0.0);
+    let chunk_bits = if V::W >= 32 {
+        u32::MAX
+    } else {
+        (1u32 << V::W) - 1
+    };
+    for chunk in 0..N / V::W {
+        let at = chunk * V::W;
+        let shift = at as u32;
+        let live = lanes >> shift & chunk_bits;
+        if live == 0 {
+            continue;
+        }
+        // No closures in this function: a closure is compiled without the
+        // caller's target features, so the AVX intrinsics inside it would
+        // become calls.
+        let org = [
+            V::load(&r.org[0][at..]),
+            V::load(&r.org[1][at..]),
+            V::load(&r.org[2][at..]),
+        ];
+        let shear = [
+            V::load(&r.shear[0][at..]),
+            V::load(&r.shear[1][at..]),
+            V::load(&r.shear[2][at..]),
+        ];
+        let sv = [
+            permuted::<V, N>(r, tri[0], shift),
+            permuted::<V, N>(r, tri[1], shift),
+            permuted::<V, N>(r, tri[2], shift),
+        ];
+        let a = lanes_ray_space(sv[0], org, shear);
+        let b = lanes_ray_space(sv[1], org, shear);
+        let c = lanes_ray_space(sv[2], org, shear);
+        // `edge_functions` and the inside test.
+        let u = c[0].mul(b[1]).sub(c[1].mul(b[0]));
+        let v = a[0].mul(c[1]).sub(a[1].mul(c[0]));
+        let w = b[0].mul(a[1]).sub(b[1].mul(a[0]));
+        let zc = (u.eq(z) | v.eq(z) | w.eq(z)) & live;
+        let neg = u.lt(z) | v.lt(z) | w.lt(z);
+        let pos = u.gt(z) | v.gt(z) | w.gt(z);
+        let inside = !(neg & pos) & live & !zc;
+        zero |= zc << shift;
+        if inside == 0 {
+            continue;
+        }
+        // `solve`.
+        let det = u.add(v).add(w);
+        let t_scaled = u.mul(a[2]).add(v.mul(b[2])).add(w.mul(c[2]));
+        let inv_det = V::splat(1.0).div(det);
+        let tt = t_scaled.mul(inv_det);
+        tt.store(&mut t[at..]);
+        v.mul(inv_det).store(&mut b1[at..]);
+        w.mul(inv_det).store(&mut b2[at..]);
+        let max_x = lanes_max3(a[0].abs(), b[0].abs(), c[0].abs());
+        let max_y = lanes_max3(a[1].abs(), b[1].abs(), c[1].abs());
+        let max_z = lanes_max3(a[2].abs(), b[2].abs(), c[2].abs());
+        let max_zw = lanes_max3(a[3].abs(), b[3].abs(), c[3].abs());
+        let (g2, g3, g5) = (V::splat(gamma(2)), V::splat(gamma(3)), V::splat(gamma(5)));
+        let delta_z = g3.mul(max_z);
+        let delta_x = g5.mul(max_x.add(max_zw));
+        let delta_y = g5.mul(max_y.add(max_zw));
+        let delta_e = V::splat(2.0).mul(
+            g2.mul(max_x)
+                .mul(max_y)
+                .add(delta_y.mul(max_x))
+                .add(delta_x.mul(max_y)),
+        );
+        let max_e = lanes_max3(u.abs(), v.abs(), w.abs());
+        let sum = g3
+            .mul(max_e)
+            .mul(max_z)
+            .add(delta_e.mul(max_z))
+            .add(delta_z.mul(max_e));
+        let dt = V::splat(3.0).mul(sum).mul(inv_det.abs());
+        let det_ok = det.ne(z);
+        let tm = V::load(&t_max[at..]);
+        let ok_c = det_ok & tt.gt(dt) & tt.lt(tm) & inside;
+        let unsure_c = det_ok & tt.le(dt) & tt.gt(dt.neg()) & inside;
+        ok |= ok_c << shift;
+        unsure |= unsure_c << shift;
+        if unsure_c != 0 {
+            for (vi, p) in sv.iter().enumerate() {
+                for (j, x) in p.iter().enumerate() {
+                    x.store(&mut sel[vi][j][at..]);
+                }
+            }
+        }
+    }
+    finish_lanes(r, tri, t_max, ok, unsure, zero, &sel, t, b1, b2)
+}
+
+/// Vertex `p`'s components permuted per lane, for the register of lanes
+/// from `shift`: splats for a shared permutation, else picked by the masks
+/// `k_is` (`k` is 0, 1 or 2 per lane).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn permuted<V: LaneVec, const N: usize>(r: &WatertightLanes<N>, p: Vec3, shift: u32) -> [V; 3] {
+    let pv = [p.x, p.y, p.z, p.z];
+    match r.uniform {
+        Some(k) => [V::splat(pv[k[0]]), V::splat(pv[k[1]]), V::splat(pv[k[2]])],
+        None => {
+            let (x, y, z) = (V::splat(p.x), V::splat(p.y), V::splat(p.z));
+            let [[a0, a1], [b0, b1], [c0, c1]] = r.k_is;
+            [
+                V::select(a0 >> shift, x, V::select(a1 >> shift, y, z)),
+                V::select(b0 >> shift, x, V::select(b1 >> shift, y, z)),
+                V::select(c0 >> shift, x, V::select(c1 >> shift, y, z)),
+            ]
+        }
+    }
+}
+
+/// [`transform`] of one register of lanes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn lanes_ray_space<V: LaneVec>(p: [V; 3], org: [V; 3], shear: [V; 3]) -> [V; 4] {
+    let ax = p[0].sub(org[0]);
+    let ay = p[1].sub(org[1]);
+    let az = p[2].sub(org[2]);
+    [
+        ax.sub(shear[0].mul(az)),
+        ay.sub(shear[1].mul(az)),
+        shear[2].mul(az),
+        az,
+    ]
+}
+
+/// `max3` of one register of lanes (`maxps(p, q)` is `if p > q { p } else
+/// { q }`, as in `max3`).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn lanes_max3<V: LaneVec>(p: V, q: V, r: V) -> V {
+    p.max(q).max(r)
 }
 
 /// Bit `i` set where `flags[i]` (`N ≤ 32`).
@@ -929,6 +1122,91 @@ pub(crate) fn lane_mask<const N: usize>(flags: &[bool; N]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`intersect_lanes`] in every form this CPU runs — portable, and in
+    /// SSE2, AVX2 and AVX-512F registers where `N` fits — which must agree
+    /// exactly (the hit mask and the bits of each hit's `t`, `b1`, `b2`);
+    /// returns the portable answer for the test to check.
+    fn every_lanes_form<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        t: &mut [f32; N],
+        b1: &mut [f32; N],
+        b2: &mut [f32; N],
+    ) -> u32 {
+        let m = intersect_lanes(r, tri, t_max, lanes, t, b1, b2);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use core::arch::x86_64::{__m128, __m256, __m512};
+            type Form<const N: usize> = fn(
+                &WatertightLanes<N>,
+                &[Vec3; 3],
+                &[f32; N],
+                u32,
+                &mut [f32; N],
+                &mut [f32; N],
+                &mut [f32; N],
+            ) -> u32;
+            #[target_feature(enable = "avx2")]
+            fn avx2<const N: usize>(
+                r: &WatertightLanes<N>,
+                tri: &[Vec3; 3],
+                t_max: &[f32; N],
+                lanes: u32,
+                t: &mut [f32; N],
+                b1: &mut [f32; N],
+                b2: &mut [f32; N],
+            ) -> u32 {
+                intersect_lanes_simd::<__m256, N>(r, tri, t_max, lanes, t, b1, b2)
+            }
+            #[target_feature(enable = "avx2,avx512f")]
+            fn avx512<const N: usize>(
+                r: &WatertightLanes<N>,
+                tri: &[Vec3; 3],
+                t_max: &[f32; N],
+                lanes: u32,
+                t: &mut [f32; N],
+                b1: &mut [f32; N],
+                b2: &mut [f32; N],
+            ) -> u32 {
+                intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, t, b1, b2)
+            }
+            let mut forms: Vec<(&str, Form<N>)> = Vec::new();
+            if N.is_multiple_of(4) {
+                forms.push(("sse2", intersect_lanes_simd::<__m128, N>));
+            }
+            if N.is_multiple_of(8) && std::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 was just detected.
+                forms.push(("avx2", |r, tri, tm, l, t, b1, b2| unsafe {
+                    avx2(r, tri, tm, l, t, b1, b2)
+                }));
+            }
+            if N.is_multiple_of(16)
+                && std::is_x86_feature_detected!("avx2")
+                && std::is_x86_feature_detected!("avx512f")
+            {
+                // SAFETY: AVX2 and AVX-512F were just detected.
+                forms.push(("avx512", |r, tri, tm, l, t, b1, b2| unsafe {
+                    avx512(r, tri, tm, l, t, b1, b2)
+                }));
+            }
+            for (name, form) in forms {
+                let (mut ft, mut fb1, mut fb2) = ([0.0; N], [0.0; N], [0.0; N]);
+                let fm = form(r, tri, t_max, lanes, &mut ft, &mut fb1, &mut fb2);
+                assert_eq!(fm, m, "{name}: hit lanes");
+                for i in (0..N).filter(|&i| m >> i & 1 == 1) {
+                    assert_eq!(
+                        [ft[i], fb1[i], fb2[i]].map(f32::to_bits),
+                        [t[i], b1[i], b2[i]].map(f32::to_bits),
+                        "{name}: lane {i}"
+                    );
+                }
+            }
+        }
+        m
+    }
 
     fn ray(o: Vec3, d: Vec3) -> Ray {
         Ray::new(o, d)
@@ -1015,7 +1293,7 @@ mod tests {
         lanes.finish(0b1111);
         let (mut t, mut b1, mut b2) = ([0.0; 4], [0.0; 4], [0.0; 4]);
         assert_eq!(
-            intersect_lanes(
+            every_lanes_form(
                 &lanes,
                 &tri,
                 &[f32::INFINITY; 4],
@@ -1061,7 +1339,7 @@ mod tests {
         lanes.set(0, &wr);
         lanes.finish(0b1);
         let (mut tl, mut b1, mut b2) = ([0.0; 4], [0.0; 4], [0.0; 4]);
-        let m = intersect_lanes(
+        let m = every_lanes_form(
             &lanes,
             &tri,
             &[f32::INFINITY; 4],
@@ -1129,7 +1407,7 @@ mod tests {
         }
         lanes.finish(0b111111);
         let (mut t, mut b1, mut b2) = ([0.0; 8], [0.0; 8], [0.0; 8]);
-        let m = intersect_lanes(&lanes, &tri, &t_max, 0b111111, &mut t, &mut b1, &mut b2);
+        let m = every_lanes_form(&lanes, &tri, &t_max, 0b111111, &mut t, &mut b1, &mut b2);
         for i in 0..dirs.len() {
             let got = (m >> i & 1 == 1).then_some((t[i], b1[i], b2[i]));
             assert_eq!(got, singles[i], "lane {i}");
@@ -1171,7 +1449,7 @@ mod tests {
         }
         let t_max = [f32::INFINITY; 16];
         let (mut t, mut b1, mut b2) = ([0.0; 16], [0.0; 16], [0.0; 16]);
-        let m = intersect_lanes(&lanes, &tri, &t_max, mask, &mut t, &mut b1, &mut b2);
+        let m = every_lanes_form(&lanes, &tri, &t_max, mask, &mut t, &mut b1, &mut b2);
         assert_eq!(m & !mask, 0, "a lane outside the mask reported a hit");
         for i in 0..rays.len() - 1 {
             let got = (m >> i & 1 == 1).then_some((t[i], b1[i], b2[i]));
@@ -1236,7 +1514,7 @@ mod tests {
             }
             let t_max = [f32::INFINITY; 16];
             let (mut t, mut b1, mut b2) = ([0.0; 16], [0.0; 16], [0.0; 16]);
-            let m = intersect_lanes(
+            let m = every_lanes_form(
                 &lanes,
                 &tri,
                 &t_max,

@@ -3,6 +3,8 @@
 //! Vectors are glam's `Vec3` (f32, with `libm` so the crate stays `no_std`).
 
 pub mod frame;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod lanes;
 pub mod spectrum;
 pub mod warp;
 

@@ -1,47 +1,15 @@
-//! Explicit SIMD lane vectors for the packet box test.
+//! The packet box test in explicit registers ([`LaneVec`]).
 //!
-//! The packet kernel's box test (`packet::box4_lanes`) is written over
-//! `[f32; N]` arrays for any `N`; LLVM vectorised it across the four
-//! children instead of across the lanes and then transposed every result
-//! into lane order, which cost more than the arithmetic. [`LaneVec`] spells
-//! the lane-parallel form out for one register width — SSE2 (4 lanes),
-//! AVX2 (8) and AVX-512F (16) — and [`box4_lanes_simd`] runs it over a
-//! packet in register-sized chunks.
-//!
-//! Every operation is the IEEE operation the scalar form performs, in the
-//! same order (`sub`, then `mul`, no FMA); `max`/`min` keep the
-//! accumulator when the new value is NaN, exactly like `node::max_keep` /
-//! `node::min_keep` (x86 `maxps(x, acc)` returns its second operand when
-//! either is NaN or both are zero), so the masks and entry distances are
-//! bit-identical to the portable form. (x86_64 only; other targets use the
-//! portable form.)
-
-use core::arch::x86_64::*;
+//! `packet::box4_lanes_portable` is the portable form over `[f32; N]`;
+//! LLVM vectorised it across a node's four children instead of across the
+//! lanes and then transposed every result into lane order, which cost more
+//! than the arithmetic. [`box4_lanes_simd`] is the same test one register
+//! of lanes at a time, bit for bit (`max_keep(acc, x)` is x86's
+//! `maxps(x, acc)`, which returns `acc` for a NaN `x`, and `min_keep`
+//! likewise). x86_64 only; other targets use the portable form.
 
 use super::node::{FAR_SCALE, Node4};
-
-/// One register of lanes. Implementations are only used inside functions
-/// compiled for their instruction set (see each impl's safety note).
-pub(super) trait LaneVec: Copy {
-    /// Lanes per register.
-    const W: usize;
-    /// Loads `W` lanes from `p[..W]`.
-    fn load(p: &[f32]) -> Self;
-    /// Every lane `x`.
-    fn splat(x: f32) -> Self;
-    /// `(b − o) · inv` per lane, rounded after each operation.
-    fn slab(b: Self, o: Self, inv: Self) -> Self;
-    /// `max_keep(acc, x)` per lane.
-    fn max_keep(acc: Self, x: Self) -> Self;
-    /// `min_keep(acc, x)` per lane.
-    fn min_keep(acc: Self, x: Self) -> Self;
-    /// Per lane, `a` where bit `i` of `bits` is set, else `b`.
-    fn select(bits: u32, a: Self, b: Self) -> Self;
-    /// Bit `i` set where `near[i] <= far[i] · FAR_SCALE` (NaN: clear).
-    fn hits(near: Self, far: Self) -> u32;
-    /// The smallest lane (no lane may be NaN).
-    fn min_lane(self) -> f32;
-}
+use crate::math::lanes::LaneVec;
 
 /// Robust slab test of `N` lanes against a node's four children, as
 /// `packet::box4_lanes`: per child, the lanes of `lanes` that hit it and
@@ -66,6 +34,7 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
     let mut masks = [0u32; 4];
     let mut t_min = [f32::INFINITY; 4];
     let inf = V::splat(f32::INFINITY);
+    let scale = V::splat(FAR_SCALE);
     for chunk in 0..N / V::W {
         let at = chunk * V::W;
         let shift = at as u32;
@@ -85,13 +54,14 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
                         (V::select(n, hi, lo), V::select(n, lo, hi))
                     }
                 };
-                near[c] = V::max_keep(near[c], V::slab(nb, oa, ia));
-                far[c] = V::min_keep(far[c], V::slab(fb, oa, ia));
+                // max_keep(acc, x) is maxps(x, acc); min_keep likewise.
+                near[c] = nb.sub(oa).mul(ia).max(near[c]);
+                far[c] = fb.sub(oa).mul(ia).min(far[c]);
             }
         }
         let live = lanes >> shift;
         for c in 0..4 {
-            let hit = V::hits(near[c], far[c]) & live & lane_bits(V::W);
+            let hit = near[c].le(far[c].mul(scale)) & live & lane_bits(V::W);
             masks[c] |= hit << shift;
             // Entry distances are never NaN (they start at +0 and
             // `max_keep` drops NaN), so the reduction order is free.
@@ -108,190 +78,11 @@ const fn lane_bits(w: usize) -> u32 {
     if w >= 32 { u32::MAX } else { (1 << w) - 1 }
 }
 
-/// SSE2: 4 lanes (the x86_64 baseline).
-impl LaneVec for __m128 {
-    const W: usize = 4;
-
-    #[inline(always)]
-    fn load(p: &[f32]) -> Self {
-        let p = &p[..4];
-        // SAFETY: SSE2 is part of the x86_64 baseline; `p` holds 4 floats.
-        unsafe { _mm_loadu_ps(p.as_ptr()) }
-    }
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        // SAFETY: SSE2 baseline; no memory access.
-        unsafe { _mm_set1_ps(x) }
-    }
-    #[inline(always)]
-    fn slab(b: Self, o: Self, inv: Self) -> Self {
-        // SAFETY: SSE2 baseline; no memory access.
-        unsafe { _mm_mul_ps(_mm_sub_ps(b, o), inv) }
-    }
-    #[inline(always)]
-    fn max_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: SSE2 baseline. maxps(x, acc) returns acc for a NaN x.
-        unsafe { _mm_max_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn min_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: SSE2 baseline. minps(x, acc) returns acc for a NaN x.
-        unsafe { _mm_min_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn select(bits: u32, a: Self, b: Self) -> Self {
-        // SAFETY: SSE2 baseline; no memory access.
-        unsafe {
-            let bit = _mm_setr_epi32(1, 2, 4, 8);
-            let m = _mm_castsi128_ps(_mm_cmpeq_epi32(
-                _mm_and_si128(_mm_set1_epi32(bits as i32), bit),
-                bit,
-            ));
-            _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
-        }
-    }
-    #[inline(always)]
-    fn hits(near: Self, far: Self) -> u32 {
-        // SAFETY: SSE2 baseline; no memory access.
-        unsafe {
-            _mm_movemask_ps(_mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)))) as u32
-        }
-    }
-    #[inline(always)]
-    fn min_lane(self) -> f32 {
-        // SAFETY: SSE2 baseline; no memory access.
-        unsafe {
-            let m = _mm_min_ps(self, _mm_movehl_ps(self, self));
-            let m = _mm_min_ss(m, _mm_shuffle_ps::<0b01>(m, m));
-            _mm_cvtss_f32(m)
-        }
-    }
-}
-
-/// AVX2: 8 lanes. Only instantiated inside functions compiled with AVX2
-/// enabled, which run after `Kernel::is_available` confirmed it.
-impl LaneVec for __m256 {
-    const W: usize = 8;
-
-    #[inline(always)]
-    fn load(p: &[f32]) -> Self {
-        let p = &p[..8];
-        // SAFETY: AVX2 is enabled where this is used (type docs); `p`
-        // holds 8 floats.
-        unsafe { _mm256_loadu_ps(p.as_ptr()) }
-    }
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        // SAFETY: AVX2 enabled (type docs); no memory access.
-        unsafe { _mm256_set1_ps(x) }
-    }
-    #[inline(always)]
-    fn slab(b: Self, o: Self, inv: Self) -> Self {
-        // SAFETY: AVX2 enabled (type docs); no memory access.
-        unsafe { _mm256_mul_ps(_mm256_sub_ps(b, o), inv) }
-    }
-    #[inline(always)]
-    fn max_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: AVX2 enabled. vmaxps(x, acc) returns acc for a NaN x.
-        unsafe { _mm256_max_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn min_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: AVX2 enabled. vminps(x, acc) returns acc for a NaN x.
-        unsafe { _mm256_min_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn select(bits: u32, a: Self, b: Self) -> Self {
-        // SAFETY: AVX2 enabled (type docs); no memory access.
-        unsafe {
-            let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-            let m = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits as i32), bit), bit);
-            _mm256_blendv_ps(b, a, _mm256_castsi256_ps(m))
-        }
-    }
-    #[inline(always)]
-    fn hits(near: Self, far: Self) -> u32 {
-        // SAFETY: AVX2 enabled (type docs); no memory access.
-        unsafe {
-            let far = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
-        }
-    }
-    #[inline(always)]
-    fn min_lane(self) -> f32 {
-        // SAFETY: AVX2 enabled (type docs); no memory access.
-        unsafe {
-            let m = _mm_min_ps(
-                _mm256_castps256_ps128(self),
-                _mm256_extractf128_ps::<1>(self),
-            );
-            m.min_lane()
-        }
-    }
-}
-
-/// AVX-512F: 16 lanes. Only instantiated inside functions compiled with
-/// AVX-512F enabled, which run after `Kernel::is_available` confirmed it.
-impl LaneVec for __m512 {
-    const W: usize = 16;
-
-    #[inline(always)]
-    fn load(p: &[f32]) -> Self {
-        let p = &p[..16];
-        // SAFETY: AVX-512F is enabled where this is used (type docs); `p`
-        // holds 16 floats.
-        unsafe { _mm512_loadu_ps(p.as_ptr()) }
-    }
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        // SAFETY: AVX-512F enabled (type docs); no memory access.
-        unsafe { _mm512_set1_ps(x) }
-    }
-    #[inline(always)]
-    fn slab(b: Self, o: Self, inv: Self) -> Self {
-        // SAFETY: AVX-512F enabled (type docs); no memory access.
-        unsafe { _mm512_mul_ps(_mm512_sub_ps(b, o), inv) }
-    }
-    #[inline(always)]
-    fn max_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: AVX-512F enabled. vmaxps(x, acc) returns acc for a NaN x.
-        unsafe { _mm512_max_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn min_keep(acc: Self, x: Self) -> Self {
-        // SAFETY: AVX-512F enabled. vminps(x, acc) returns acc for a NaN x.
-        unsafe { _mm512_min_ps(x, acc) }
-    }
-    #[inline(always)]
-    fn select(bits: u32, a: Self, b: Self) -> Self {
-        // SAFETY: AVX-512F enabled (type docs); no memory access.
-        unsafe { _mm512_mask_blend_ps(bits as u16, b, a) }
-    }
-    #[inline(always)]
-    fn hits(near: Self, far: Self) -> u32 {
-        // SAFETY: AVX-512F enabled (type docs); no memory access.
-        unsafe {
-            let far = _mm512_mul_ps(far, _mm512_set1_ps(FAR_SCALE));
-            _mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far) as u32
-        }
-    }
-    #[inline(always)]
-    fn min_lane(self) -> f32 {
-        // SAFETY: AVX-512F enabled (type docs); no memory access.
-        unsafe {
-            let m = _mm256_min_ps(
-                _mm512_castps512_ps256(self),
-                _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(self))),
-            );
-            m.min_lane()
-        }
-    }
-}
-
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
     use crate::accel::bvh::packet::box4_lanes_portable;
+    use core::arch::x86_64::{__m128, __m256, __m512};
 
     /// A small xorshift generator: the test needs no statistics, only
     /// varied inputs.

@@ -16,9 +16,9 @@ use super::BvhView;
 use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
-use super::simd::{BoxTest, ScalarBox};
+use super::simd::{BoxTest, ScalarBox, TriLanesOut};
 use super::traverse::{self, Prepared, Stack, order4, traverse_from};
-use crate::geometry::triangle::{WatertightLanes, intersect_lanes, lane_mask};
+use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
 /// SoA copy of the packet's live rays with their box and triangle
@@ -372,7 +372,12 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             let tris = &view.tris[first..first + cur.count as usize];
             let mut lanes = cur.mask;
             for (j, tri) in tris.iter().enumerate() {
-                let m = intersect_lanes(&l.wt, tri, &l.t_max, lanes, &mut tt, &mut tb1, &mut tb2);
+                let out = TriLanesOut {
+                    t: &mut tt,
+                    b1: &mut tb1,
+                    b2: &mut tb2,
+                };
+                let m = B::tri_lanes(&l.wt, tri, &l.t_max, lanes, out);
                 if m == 0 {
                     continue;
                 }

@@ -28,6 +28,16 @@ use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
 use super::packet::box4_lanes_portable;
 use crate::geometry::triangle::WatertightRay;
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::triangle::intersect_lanes_simd;
+use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
+
+/// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`.
+pub(super) struct TriLanesOut<'a, const N: usize> {
+    pub t: &'a mut [f32; N],
+    pub b1: &'a mut [f32; N],
+    pub b2: &'a mut [f32; N],
+}
 use glam::Vec3;
 
 /// A traversal kernel (instruction set of the box tests and lane loops).
@@ -119,6 +129,20 @@ pub(super) trait BoxTest {
         box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
     }
 
+    /// The packet triangle test (`triangle::intersect_lanes`): one
+    /// triangle against `N` lanes. Portable lane loops unless a kernel has
+    /// registers that fit `N`.
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+    }
+
     /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice).
     #[inline(always)]
     fn leaf<const ANY: bool>(
@@ -169,6 +193,23 @@ impl BoxTest for Sse2Box {
             box4_lanes_simd::<__m128, N>(node, o, inv, t_max, neg, uniform, lanes)
         } else {
             box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
+        }
+    }
+
+    /// Four lanes per SSE register.
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        use core::arch::x86_64::__m128;
+        if N.is_multiple_of(4) {
+            intersect_lanes_simd::<__m128, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+        } else {
+            intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
         }
     }
 
@@ -229,6 +270,23 @@ impl BoxTest for Avx2Box {
             box4_lanes_simd::<__m256, N>(node, o, inv, t_max, neg, uniform, lanes)
         } else {
             Sse2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+        }
+    }
+
+    /// Eight lanes per AVX register (four for packets of 4).
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        use core::arch::x86_64::__m256;
+        if N.is_multiple_of(8) {
+            intersect_lanes_simd::<__m256, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+        } else {
+            Sse2Box::tri_lanes(r, tri, t_max, lanes, out)
         }
     }
 
@@ -296,6 +354,23 @@ impl BoxTest for Avx512Box {
             box4_lanes_simd::<__m512, N>(node, o, inv, t_max, neg, uniform, lanes)
         } else {
             Avx2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+        }
+    }
+
+    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        use core::arch::x86_64::__m512;
+        if N.is_multiple_of(16) {
+            intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+        } else {
+            Avx2Box::tri_lanes(r, tri, t_max, lanes, out)
         }
     }
 }

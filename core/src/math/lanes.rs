@@ -1,0 +1,351 @@
+//! Explicit SIMD lane vectors (x86_64): one register of packet lanes.
+//!
+//! The packet kernels (the BVH's box test, the watertight triangle test)
+//! have portable forms over `[f32; N]` arrays, which LLVM vectorises, but
+//! not always across the lanes: it vectorised the box test across a node's
+//! four children and then transposed every result into lane order. The
+//! kernels are therefore also written once over [`LaneVec`], which SSE2
+//! (4 lanes), AVX2 (8) and AVX-512F (16) implement, and run over a packet
+//! in register-sized chunks.
+//!
+//! Every operation is one IEEE operation, rounded as its scalar
+//! counterpart (no FMA), and the comparisons and `max`/`min` have the
+//! scalar semantics spelled out on each method, NaN included — so a kernel
+//! written over `LaneVec` gives the portable form's bits exactly.
+
+use core::arch::x86_64::*;
+
+/// One register of `W` lanes. The SSE2 implementation runs anywhere on
+/// x86_64; the AVX2 and AVX-512F ones must only be used inside functions
+/// compiled with those features (`#[target_feature]`), which are only
+/// called after `Kernel::is_available` confirmed them — that is the
+/// invariant behind their `unsafe` blocks.
+pub(crate) trait LaneVec: Copy {
+    /// Lanes per register.
+    const W: usize;
+    /// Loads lanes `p[..W]`.
+    fn load(p: &[f32]) -> Self;
+    /// Stores the lanes to `p[..W]`.
+    fn store(self, p: &mut [f32]);
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// `self + b` per lane.
+    fn add(self, b: Self) -> Self;
+    /// `self − b` per lane.
+    fn sub(self, b: Self) -> Self;
+    /// `self · b` per lane.
+    fn mul(self, b: Self) -> Self;
+    /// `self / b` per lane.
+    fn div(self, b: Self) -> Self;
+    /// `|self|` per lane (clears the sign bit).
+    fn abs(self) -> Self;
+    /// `−self` per lane (flips the sign bit).
+    fn neg(self) -> Self;
+    /// `if self > b { self } else { b }` per lane (x86 `maxps`: `b` for a
+    /// NaN or for two zeros).
+    fn max(self, b: Self) -> Self;
+    /// `if self < b { self } else { b }` per lane (x86 `minps`).
+    fn min(self, b: Self) -> Self;
+    /// Per lane, `a` where bit `i` of `bits` is set, else `b`.
+    fn select(bits: u32, a: Self, b: Self) -> Self;
+    /// Bits of `self == b` (false for NaN).
+    fn eq(self, b: Self) -> u32;
+    /// Bits of `self != b` (true for NaN, like Rust's `!=`).
+    fn ne(self, b: Self) -> u32;
+    /// Bits of `self < b` (false for NaN).
+    fn lt(self, b: Self) -> u32;
+    /// Bits of `self > b` (false for NaN).
+    fn gt(self, b: Self) -> u32;
+    /// Bits of `self <= b` (false for NaN).
+    fn le(self, b: Self) -> u32;
+    /// The smallest lane; no lane may be NaN (the reduction order is
+    /// unspecified).
+    fn min_lane(self) -> f32;
+}
+
+/// SSE2: 4 lanes (the x86_64 baseline, always available).
+impl LaneVec for __m128 {
+    const W: usize = 4;
+
+    #[inline(always)]
+    fn load(p: &[f32]) -> Self {
+        let p = &p[..4];
+        // SAFETY: SSE2 is x86_64 baseline; `p` holds 4 floats.
+        unsafe { _mm_loadu_ps(p.as_ptr()) }
+    }
+    #[inline(always)]
+    fn store(self, p: &mut [f32]) {
+        let p = &mut p[..4];
+        // SAFETY: SSE2 baseline; `p` holds 4 floats.
+        unsafe { _mm_storeu_ps(p.as_mut_ptr(), self) }
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY (this and the following register-only methods): SSE2 is
+        // x86_64 baseline and nothing touches memory.
+        unsafe { _mm_set1_ps(x) }
+    }
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        unsafe { _mm_add_ps(self, b) }
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        unsafe { _mm_sub_ps(self, b) }
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        unsafe { _mm_mul_ps(self, b) }
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        unsafe { _mm_div_ps(self, b) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        unsafe { _mm_andnot_ps(_mm_set1_ps(-0.0), self) }
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        unsafe { _mm_xor_ps(_mm_set1_ps(-0.0), self) }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        unsafe { _mm_max_ps(self, b) }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        unsafe { _mm_min_ps(self, b) }
+    }
+    #[inline(always)]
+    fn select(bits: u32, a: Self, b: Self) -> Self {
+        unsafe {
+            let bit = _mm_setr_epi32(1, 2, 4, 8);
+            let m = _mm_castsi128_ps(_mm_cmpeq_epi32(
+                _mm_and_si128(_mm_set1_epi32(bits as i32), bit),
+                bit,
+            ));
+            _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b))
+        }
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u32 {
+        unsafe { _mm_movemask_ps(_mm_cmpeq_ps(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn ne(self, b: Self) -> u32 {
+        unsafe { _mm_movemask_ps(_mm_cmpneq_ps(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u32 {
+        unsafe { _mm_movemask_ps(_mm_cmplt_ps(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> u32 {
+        unsafe { _mm_movemask_ps(_mm_cmpgt_ps(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u32 {
+        unsafe { _mm_movemask_ps(_mm_cmple_ps(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn min_lane(self) -> f32 {
+        unsafe {
+            let m = _mm_min_ps(self, _mm_movehl_ps(self, self));
+            let m = _mm_min_ss(m, _mm_shuffle_ps::<0b01>(m, m));
+            _mm_cvtss_f32(m)
+        }
+    }
+}
+
+/// AVX2: 8 lanes; only inside functions compiled with AVX2 (trait docs).
+impl LaneVec for __m256 {
+    const W: usize = 8;
+
+    #[inline(always)]
+    fn load(p: &[f32]) -> Self {
+        let p = &p[..8];
+        // SAFETY: AVX2 is enabled where this is used (trait docs); `p`
+        // holds 8 floats.
+        unsafe { _mm256_loadu_ps(p.as_ptr()) }
+    }
+    #[inline(always)]
+    fn store(self, p: &mut [f32]) {
+        let p = &mut p[..8];
+        // SAFETY: as `load`.
+        unsafe { _mm256_storeu_ps(p.as_mut_ptr(), self) }
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY (this and the following register-only methods): AVX2 is
+        // enabled where this is used (trait docs); no memory access.
+        unsafe { _mm256_set1_ps(x) }
+    }
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        unsafe { _mm256_add_ps(self, b) }
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        unsafe { _mm256_sub_ps(self, b) }
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        unsafe { _mm256_mul_ps(self, b) }
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        unsafe { _mm256_div_ps(self, b) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self) }
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        unsafe { _mm256_xor_ps(_mm256_set1_ps(-0.0), self) }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        unsafe { _mm256_max_ps(self, b) }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        unsafe { _mm256_min_ps(self, b) }
+    }
+    #[inline(always)]
+    fn select(bits: u32, a: Self, b: Self) -> Self {
+        unsafe {
+            let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            let m = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(bits as i32), bit), bit);
+            _mm256_blendv_ps(b, a, _mm256_castsi256_ps(m))
+        }
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn ne(self, b: Self) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NEQ_UQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u32 {
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn min_lane(self) -> f32 {
+        unsafe {
+            _mm_min_ps(
+                _mm256_castps256_ps128(self),
+                _mm256_extractf128_ps::<1>(self),
+            )
+            .min_lane()
+        }
+    }
+}
+
+/// AVX-512F: 16 lanes; only inside functions compiled with AVX-512F
+/// (trait docs).
+impl LaneVec for __m512 {
+    const W: usize = 16;
+
+    #[inline(always)]
+    fn load(p: &[f32]) -> Self {
+        let p = &p[..16];
+        // SAFETY: AVX-512F is enabled where this is used (trait docs); `p`
+        // holds 16 floats.
+        unsafe { _mm512_loadu_ps(p.as_ptr()) }
+    }
+    #[inline(always)]
+    fn store(self, p: &mut [f32]) {
+        let p = &mut p[..16];
+        // SAFETY: as `load`.
+        unsafe { _mm512_storeu_ps(p.as_mut_ptr(), self) }
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        // SAFETY (this and the following register-only methods): AVX-512F
+        // is enabled where this is used (trait docs); no memory access.
+        unsafe { _mm512_set1_ps(x) }
+    }
+    #[inline(always)]
+    fn add(self, b: Self) -> Self {
+        unsafe { _mm512_add_ps(self, b) }
+    }
+    #[inline(always)]
+    fn sub(self, b: Self) -> Self {
+        unsafe { _mm512_sub_ps(self, b) }
+    }
+    #[inline(always)]
+    fn mul(self, b: Self) -> Self {
+        unsafe { _mm512_mul_ps(self, b) }
+    }
+    #[inline(always)]
+    fn div(self, b: Self) -> Self {
+        unsafe { _mm512_div_ps(self, b) }
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        unsafe { _mm512_abs_ps(self) }
+    }
+    #[inline(always)]
+    fn neg(self) -> Self {
+        unsafe {
+            _mm512_castsi512_ps(_mm512_xor_si512(
+                _mm512_castps_si512(self),
+                _mm512_set1_epi32(i32::MIN),
+            ))
+        }
+    }
+    #[inline(always)]
+    fn max(self, b: Self) -> Self {
+        unsafe { _mm512_max_ps(self, b) }
+    }
+    #[inline(always)]
+    fn min(self, b: Self) -> Self {
+        unsafe { _mm512_min_ps(self, b) }
+    }
+    #[inline(always)]
+    fn select(bits: u32, a: Self, b: Self) -> Self {
+        unsafe { _mm512_mask_blend_ps(bits as u16, b, a) }
+    }
+    #[inline(always)]
+    fn eq(self, b: Self) -> u32 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn ne(self, b: Self) -> u32 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn lt(self, b: Self) -> u32 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_LT_OQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn gt(self, b: Self) -> u32 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_GT_OQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn le(self, b: Self) -> u32 {
+        unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn min_lane(self) -> f32 {
+        unsafe {
+            _mm256_min_ps(
+                _mm512_castps512_ps256(self),
+                _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(self))),
+            )
+            .min_lane()
+        }
+    }
+}
