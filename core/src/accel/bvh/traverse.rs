@@ -223,7 +223,8 @@ pub(super) fn occluded_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> bool {
     traverse_from::<B, true>(view, &r, ROOT, &mut t, &mut stack).is_some()
 }
 
-/// The traversal compiled for AVX2 and for AVX-512F.
+/// The traversal compiled for AVX2 (also what the AVX-512 kernel runs for
+/// single rays; see `simd`).
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::*;
@@ -241,20 +242,6 @@ mod x86 {
     pub unsafe fn occluded_avx2(view: &BvhView<'_>, ray: &Ray) -> bool {
         occluded_with::<Avx2Box>(view, ray)
     }
-
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512F.
-    #[target_feature(enable = "avx2,avx512f")]
-    pub unsafe fn intersect_avx512(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
-        intersect_with::<Avx2Box>(view, ray)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and AVX-512F.
-    #[target_feature(enable = "avx2,avx512f")]
-    pub unsafe fn occluded_avx512(view: &BvhView<'_>, ray: &Ray) -> bool {
-        occluded_with::<Avx2Box>(view, ray)
-    }
 }
 
 /// Closest hit of `ray` with the view's kernel.
@@ -265,9 +252,9 @@ pub(super) fn intersect(view: &BvhView<'_>, ray: &Ray) -> Option<Hit> {
         // SAFETY: a view only holds an available kernel (`with_kernel`).
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx2 => unsafe { x86::intersect_avx2(view, ray) },
-        // SAFETY: as above.
+        // SAFETY: as above (AVX-512 implies the AVX2 this runs).
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { x86::intersect_avx512(view, ray) },
+        Kernel::Avx512 => unsafe { x86::intersect_avx2(view, ray) },
         _ => intersect_with::<ScalarBox>(view, ray),
     }
 }
@@ -280,9 +267,9 @@ pub(super) fn occluded(view: &BvhView<'_>, ray: &Ray) -> bool {
         // SAFETY: a view only holds an available kernel (`with_kernel`).
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx2 => unsafe { x86::occluded_avx2(view, ray) },
-        // SAFETY: as above.
+        // SAFETY: as above (AVX-512 implies the AVX2 this runs).
         #[cfg(target_arch = "x86_64")]
-        Kernel::Avx512 => unsafe { x86::occluded_avx512(view, ray) },
+        Kernel::Avx512 => unsafe { x86::occluded_avx2(view, ray) },
         _ => occluded_with::<ScalarBox>(view, ray),
     }
 }
