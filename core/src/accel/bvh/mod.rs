@@ -13,7 +13,7 @@
 //! Both implement [`Intersector`]: closest hit visits children front to
 //! back; occlusion stops at the first hit; packets of 4/8/16 rays share one
 //! traversal stack (a node is visited when any live lane hits its box), and
-//! a subtree reached by only a few lanes (≤ N/4) is finished ray by ray with
+//! a subtree reached by a single lane is finished ray by ray with
 //! the same arithmetic, so packet and single-ray answers are bit-identical.
 //! Traversal kernels ([`Kernel`]: scalar, SSE2, AVX2, AVX-512) differ only
 //! in instruction set and return bit-identical answers; a view uses
