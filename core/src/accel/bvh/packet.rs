@@ -117,16 +117,19 @@ impl<const N: usize> Lanes<N> {
 
 /// Whether the `live` lanes, whose direction signs per axis are the bits of
 /// `neg`, are coherent enough to traverse as a packet: their directions
-/// span at most two octants.
+/// span at most four octants.
 ///
 /// An incoherent packet (diffuse bounces) drags every lane through every
-/// node any lane visits and ran at a third to two thirds of single-ray
-/// speed; finishing it ray by ray (same arithmetic, same answers) measured
-/// 1.5–3× faster on those sets. Camera tiles straddling an axis and two
-/// k = 8 bundles in one 16-lane packet stay packets. Measured worse: one
-/// octant only (k = 8 bundles in 16 lanes lost 15–20%), at least half the
-/// lanes in one octant (shadow sets lost), and splitting a packet by
-/// octant into smaller packets (slower than either).
+/// node any lane visits; with auto-vectorised lane loops it ran at a third
+/// to two thirds of single-ray speed, and finishing it ray by ray (same
+/// arithmetic, same answers) measured 1.5–3× faster on those sets. Camera
+/// tiles straddling an axis and two k = 8 bundles in one 16-lane packet
+/// stay packets. Measured worse then: one octant only (k = 8 bundles in 16
+/// lanes lost 15–20%), at least half the lanes in one octant (shadow sets
+/// lost), and splitting a packet by octant into smaller packets (slower
+/// than either). With the register kernels, four octants instead of two
+/// traced shadow packets of 16 lanes 1.05–1.4× faster (no octant limit at
+/// all lost 8% on the diffuse bounces of the 260k-triangle mesh).
 #[inline(always)]
 fn coherent(neg: [u32; 3], live: u32) -> bool {
     let mut occupied = 0;
@@ -137,7 +140,7 @@ fn coherent(neg: [u32; 3], live: u32) -> bool {
         }
         occupied += (m != 0) as u32;
     }
-    occupied <= 2
+    occupied <= 4
 }
 
 /// A subtree reached by this many live lanes or fewer is finished ray by
