@@ -155,6 +155,14 @@ const SINGLE_RAY_LANES: u32 = 1;
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
 /// the smallest entry distance among them; in the kernel's instruction set
 /// ([`BoxTest::box4_lanes`]).
+///
+/// Measured and left out: a conservative interval ("frustum") test of the
+/// whole packet first, testing the lanes only against the children it
+/// cannot rule out (Wald-style coherent traversal). With 16 lanes in one
+/// register the per-lane test costs about what the interval test does, and
+/// the packet's bounds cost more to set up than the culling saved: 16-lane
+/// packets ran 0.75–0.8× as fast on every scene (cornell-box primary 49 ->
+/// 38 Mrays/s, mesh MTM16 14.5 -> 11.4).
 #[inline(always)]
 fn box4_lanes<B: BoxTest, const N: usize>(
     node: &Node4,
