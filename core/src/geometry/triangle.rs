@@ -959,7 +959,6 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
     let (mut ok, mut unsure, mut zero) = (0u32, 0u32, 0u32);
     // Written only for chunks with unsure lanes, the only ones read.
     let mut sel = [[[0.0f32; N]; 3]; 3];
-    let z = V::splat(0.0);
     let chunk_bits = if V::W >= 32 {
         u32::MAX
     } else {
@@ -990,54 +989,15 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
             permuted::<V, N>(r, tri[1], shift),
             permuted::<V, N>(r, tri[2], shift),
         ];
-        let a = lanes_ray_space(sv[0], org, shear);
-        let b = lanes_ray_space(sv[1], org, shear);
-        let c = lanes_ray_space(sv[2], org, shear);
-        // `edge_functions` and the inside test.
-        let u = c[0].mul(b[1]).sub(c[1].mul(b[0]));
-        let v = a[0].mul(c[1]).sub(a[1].mul(c[0]));
-        let w = b[0].mul(a[1]).sub(b[1].mul(a[0]));
-        let zc = (u.eq(z) | v.eq(z) | w.eq(z)) & live;
-        let neg = u.lt(z) | v.lt(z) | w.lt(z);
-        let pos = u.gt(z) | v.gt(z) | w.gt(z);
-        let inside = !(neg & pos) & live & !zc;
-        zero |= zc << shift;
-        if inside == 0 {
-            continue;
-        }
-        // `solve`.
-        let det = u.add(v).add(w);
-        let t_scaled = u.mul(a[2]).add(v.mul(b[2])).add(w.mul(c[2]));
-        let inv_det = V::splat(1.0).div(det);
-        let tt = t_scaled.mul(inv_det);
-        tt.store(&mut t[at..]);
-        v.mul(inv_det).store(&mut b1[at..]);
-        w.mul(inv_det).store(&mut b2[at..]);
-        let max_x = lanes_max3(a[0].abs(), b[0].abs(), c[0].abs());
-        let max_y = lanes_max3(a[1].abs(), b[1].abs(), c[1].abs());
-        let max_z = lanes_max3(a[2].abs(), b[2].abs(), c[2].abs());
-        let max_zw = lanes_max3(a[3].abs(), b[3].abs(), c[3].abs());
-        let (g2, g3, g5) = (V::splat(gamma(2)), V::splat(gamma(3)), V::splat(gamma(5)));
-        let delta_z = g3.mul(max_z);
-        let delta_x = g5.mul(max_x.add(max_zw));
-        let delta_y = g5.mul(max_y.add(max_zw));
-        let delta_e = V::splat(2.0).mul(
-            g2.mul(max_x)
-                .mul(max_y)
-                .add(delta_y.mul(max_x))
-                .add(delta_x.mul(max_y)),
-        );
-        let max_e = lanes_max3(u.abs(), v.abs(), w.abs());
-        let sum = g3
-            .mul(max_e)
-            .mul(max_z)
-            .add(delta_e.mul(max_z))
-            .add(delta_z.mul(max_e));
-        let dt = V::splat(3.0).mul(sum).mul(inv_det.abs());
-        let det_ok = det.ne(z);
         let tm = V::load(&t_max[at..]);
-        let ok_c = det_ok & tt.gt(dt) & tt.lt(tm) & inside;
-        let unsure_c = det_ok & tt.le(dt) & tt.gt(dt.neg()) & inside;
+        let Some(f) = lanes_f32(sv, org, shear, tm, live) else {
+            continue;
+        };
+        zero |= f.zero << shift;
+        let (ok_c, unsure_c) = (f.ok, f.unsure);
+        f.t.store(&mut t[at..]);
+        f.b1.store(&mut b1[at..]);
+        f.b2.store(&mut b2[at..]);
         ok |= ok_c << shift;
         unsure |= unsure_c << shift;
         if unsure_c != 0 {
@@ -1049,6 +1009,192 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
         }
     }
     finish_lanes(r, tri, t_max, ok, unsure, zero, &sel, t, b1, b2)
+}
+
+/// [`intersect_lanes`] of two triangles for a packet of 8 lanes in 512-bit
+/// registers: the rays repeated in both halves, triangle `tris[0]` in lanes
+/// 0–7 and `tris[1]` in lanes 8–15, each tested against the same `t_max`;
+/// returns each triangle's hit lanes, with their `t`, `b1`, `b2` in
+/// `out[0]` and `out[1]`. Per triangle the same bits as
+/// [`intersect_lanes`]; the caller applies the second triangle's hits
+/// after the first's (where both hit, the second only if closer), which is
+/// what testing them one after the other gives. Only for functions
+/// compiled with AVX-512F (see `LaneVec`); `N` must be 8.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn intersect_lanes_8x2<const N: usize>(
+    r: &WatertightLanes<N>,
+    tris: [&[Vec3; 3]; 2],
+    t_max: &[f32; N],
+    lanes: u32,
+    out: [[&mut [f32; N]; 3]; 2],
+) -> [u32; 2] {
+    use crate::math::lanes::{both_halves, halves, split_halves};
+    use core::arch::x86_64::__m512;
+    debug_assert_eq!(N, 8);
+    let lanes = lanes & 0xff;
+    let live = lanes | lanes << 8;
+    let org = [
+        both_halves(&r.org[0]),
+        both_halves(&r.org[1]),
+        both_halves(&r.org[2]),
+    ];
+    let shear = [
+        both_halves(&r.shear[0]),
+        both_halves(&r.shear[1]),
+        both_halves(&r.shear[2]),
+    ];
+    let tm = both_halves(t_max);
+    // Permuted vertex components: the first triangle's in the low half,
+    // the second's in the high half (no closures: see
+    // `intersect_lanes_simd`).
+    let mut sv = [[__m512::splat(0.0); 3]; 3];
+    for (vi, s) in sv.iter_mut().enumerate() {
+        let (p, q) = (tris[0][vi], tris[1][vi]);
+        match r.uniform {
+            Some(k) => {
+                let (pv, qv) = ([p.x, p.y, p.z, p.z], [q.x, q.y, q.z, q.z]);
+                for (sj, &kj) in s.iter_mut().zip(&k) {
+                    *sj = halves(pv[kj], qv[kj]);
+                }
+            }
+            None => {
+                let (x, y, z) = (halves(p.x, q.x), halves(p.y, q.y), halves(p.z, q.z));
+                for (sj, &[is0, is1]) in s.iter_mut().zip(&r.k_is) {
+                    // The 8 lanes' masks, repeated for the high half.
+                    let (is0, is1) = (is0 & 0xff, is1 & 0xff);
+                    let (is0, is1) = (is0 | is0 << 8, is1 | is1 << 8);
+                    *sj = __m512::select(is0, x, __m512::select(is1, y, z));
+                }
+            }
+        }
+    }
+    let mut hits = [0u32; 2];
+    let Some(f) = lanes_f32(sv, org, shear, tm, live) else {
+        return hits;
+    };
+    let [out0, out1] = out;
+    let mut sel = [[[[0.0f32; N]; 3]; 3]; 2];
+    if f.unsure != 0 {
+        for (vi, p) in sv.iter().enumerate() {
+            for (j, x) in p.iter().enumerate() {
+                let (lo, hi) = split_halves(*x);
+                lo.store(&mut sel[0][vi][j]);
+                hi.store(&mut sel[1][vi][j]);
+            }
+        }
+    }
+    let (t, b1, b2) = (split_halves(f.t), split_halves(f.b1), split_halves(f.b2));
+    for (h, [ot, ob1, ob2]) in [out0, out1].into_iter().enumerate() {
+        let pick = |v: (core::arch::x86_64::__m256, core::arch::x86_64::__m256)| {
+            if h == 0 { v.0 } else { v.1 }
+        };
+        pick(t).store(ot.as_mut_slice());
+        pick(b1).store(ob1.as_mut_slice());
+        pick(b2).store(ob2.as_mut_slice());
+        let bits = |m: u32| (m >> (8 * h)) & 0xff;
+        hits[h] = finish_lanes(
+            r,
+            tris[h],
+            t_max,
+            bits(f.ok),
+            bits(f.unsure),
+            bits(f.zero),
+            &sel[h],
+            ot,
+            ob1,
+            ob2,
+        );
+    }
+    hits
+}
+
+/// What [`lanes_f32`] finds for one register of lanes.
+#[cfg(target_arch = "x86_64")]
+struct LanesF32<V> {
+    /// Lanes with an exactly zero edge function (redone in f64).
+    zero: u32,
+    /// Lanes that hit with `t` provably positive and below `t_max`.
+    ok: u32,
+    /// Lanes inside the edges whose `t` is not provably of either sign.
+    unsure: u32,
+    t: V,
+    b1: V,
+    b2: V,
+}
+
+/// The f32 part of the watertight test for one register of lanes: the
+/// permuted vertices `sv[vertex][axis]`, each lane's permuted origin and
+/// shear, `t_max`, and the `live` lanes. Returns only the zero-edge lanes
+/// (`ok = unsure = 0`) when no live lane is inside the edges.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn lanes_f32<V: LaneVec>(
+    sv: [[V; 3]; 3],
+    org: [V; 3],
+    shear: [V; 3],
+    tm: V,
+    live: u32,
+) -> Option<LanesF32<V>> {
+    let z = V::splat(0.0);
+    let a = lanes_ray_space(sv[0], org, shear);
+    let b = lanes_ray_space(sv[1], org, shear);
+    let c = lanes_ray_space(sv[2], org, shear);
+    // `edge_functions` and the inside test.
+    let u = c[0].mul(b[1]).sub(c[1].mul(b[0]));
+    let v = a[0].mul(c[1]).sub(a[1].mul(c[0]));
+    let w = b[0].mul(a[1]).sub(b[1].mul(a[0]));
+    let zc = (u.eq(z) | v.eq(z) | w.eq(z)) & live;
+    let neg = u.lt(z) | v.lt(z) | w.lt(z);
+    let pos = u.gt(z) | v.gt(z) | w.gt(z);
+    let inside = !(neg & pos) & live & !zc;
+    if inside == 0 {
+        return (zc != 0).then_some(LanesF32 {
+            zero: zc,
+            ok: 0,
+            unsure: 0,
+            t: z,
+            b1: z,
+            b2: z,
+        });
+    }
+    // `solve`.
+    let det = u.add(v).add(w);
+    let t_scaled = u.mul(a[2]).add(v.mul(b[2])).add(w.mul(c[2]));
+    let inv_det = V::splat(1.0).div(det);
+    let tt = t_scaled.mul(inv_det);
+    let max_x = lanes_max3(a[0].abs(), b[0].abs(), c[0].abs());
+    let max_y = lanes_max3(a[1].abs(), b[1].abs(), c[1].abs());
+    let max_z = lanes_max3(a[2].abs(), b[2].abs(), c[2].abs());
+    let max_zw = lanes_max3(a[3].abs(), b[3].abs(), c[3].abs());
+    let (g2, g3, g5) = (V::splat(gamma(2)), V::splat(gamma(3)), V::splat(gamma(5)));
+    let delta_z = g3.mul(max_z);
+    let delta_x = g5.mul(max_x.add(max_zw));
+    let delta_y = g5.mul(max_y.add(max_zw));
+    let delta_e = V::splat(2.0).mul(
+        g2.mul(max_x)
+            .mul(max_y)
+            .add(delta_y.mul(max_x))
+            .add(delta_x.mul(max_y)),
+    );
+    let max_e = lanes_max3(u.abs(), v.abs(), w.abs());
+    let sum = g3
+        .mul(max_e)
+        .mul(max_z)
+        .add(delta_e.mul(max_z))
+        .add(delta_z.mul(max_e));
+    let dt = V::splat(3.0).mul(sum).mul(inv_det.abs());
+    let det_ok = det.ne(z);
+    let ok_c = det_ok & tt.gt(dt) & tt.lt(tm) & inside;
+    let unsure_c = det_ok & tt.le(dt) & tt.gt(dt.neg()) & inside;
+    Some(LanesF32 {
+        zero: zc,
+        ok: ok_c,
+        unsure: unsure_c,
+        t: tt,
+        b1: v.mul(inv_det),
+        b2: w.mul(inv_det),
+    })
 }
 
 /// Vertex `p`'s components permuted per lane, for the register of lanes
@@ -1173,6 +1319,47 @@ mod tests {
             ) -> u32 {
                 intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, t, b1, b2)
             }
+            /// The two-triangle form with this triangle in one half and a
+            /// decoy (the triangle moved) in the other, both ways round:
+            /// the triangle's half must give the one-triangle answer.
+            #[target_feature(enable = "avx2,avx512f")]
+            fn avx512_pair<const N: usize>(
+                r: &WatertightLanes<N>,
+                tri: &[Vec3; 3],
+                t_max: &[f32; N],
+                lanes: u32,
+                t: &mut [f32; N],
+                b1: &mut [f32; N],
+                b2: &mut [f32; N],
+            ) -> u32 {
+                let shift = Vec3::new(0.37, -0.21, 0.13);
+                let decoy = [tri[0] + shift, tri[1] + shift, tri[2] + shift];
+                let (mut t2, mut b12, mut b22) = ([0.0; N], [0.0; N], [0.0; N]);
+                let (mut dt, mut db1, mut db2) = ([0.0; N], [0.0; N], [0.0; N]);
+                let [m, _] = intersect_lanes_8x2(
+                    r,
+                    [tri, &decoy],
+                    t_max,
+                    lanes,
+                    [[t, b1, b2], [&mut dt, &mut db1, &mut db2]],
+                );
+                let [_, m2] = intersect_lanes_8x2(
+                    r,
+                    [&decoy, tri],
+                    t_max,
+                    lanes,
+                    [[&mut dt, &mut db1, &mut db2], [&mut t2, &mut b12, &mut b22]],
+                );
+                assert_eq!(m, m2, "pairs: the halves disagree");
+                for i in (0..N).filter(|&i| m >> i & 1 == 1) {
+                    assert_eq!(
+                        [t[i], b1[i], b2[i]].map(f32::to_bits),
+                        [t2[i], b12[i], b22[i]].map(f32::to_bits),
+                        "pairs: lane {i}"
+                    );
+                }
+                m
+            }
             let mut forms: Vec<(&str, Form<N>)> = Vec::new();
             if N.is_multiple_of(4) {
                 forms.push(("sse2", intersect_lanes_simd::<__m128, N>));
@@ -1190,6 +1377,15 @@ mod tests {
                 // SAFETY: AVX2 and AVX-512F were just detected.
                 forms.push(("avx512", |r, tri, tm, l, t, b1, b2| unsafe {
                     avx512(r, tri, tm, l, t, b1, b2)
+                }));
+            }
+            if N == 8
+                && std::is_x86_feature_detected!("avx2")
+                && std::is_x86_feature_detected!("avx512f")
+            {
+                // SAFETY: AVX2 and AVX-512F were just detected.
+                forms.push(("avx512 pairs", |r, tri, tm, l, t, b1, b2| unsafe {
+                    avx512_pair(r, tri, tm, l, t, b1, b2)
                 }));
             }
             for (name, form) in forms {
@@ -1455,6 +1651,28 @@ mod tests {
             let got = (m >> i & 1 == 1).then_some((t[i], b1[i], b2[i]));
             assert_eq!(got, singles[i], "lane {i}");
         }
+        // The first 8 lanes as a packet of 8 (the two-triangle form).
+        assert_eq!(first_eight(&lanes, &tri, mask), m & 0xff);
+    }
+
+    /// Lanes 0–7 of `lanes` as a packet of 8, tested against `tri` in
+    /// every form (restricted to `mask`); returns the hit mask.
+    fn first_eight(lanes: &WatertightLanes<16>, tri: &[Vec3; 3], mask: u32) -> u32 {
+        let mut l8 = WatertightLanes::<8>::new();
+        for i in 0..8 {
+            l8.set(i, &lanes.get(i));
+        }
+        l8.finish(mask & 0xff);
+        let (mut t, mut b1, mut b2) = ([0.0; 8], [0.0; 8], [0.0; 8]);
+        every_lanes_form(
+            &l8,
+            tri,
+            &[f32::INFINITY; 8],
+            mask & 0xff,
+            &mut t,
+            &mut b1,
+            &mut b2,
+        )
     }
 
     /// Rays starting on, just in front of and just behind a tilted
@@ -1529,6 +1747,7 @@ mod tests {
                 hits += got.is_some() as u32;
                 misses += got.is_none() as u32;
             }
+            assert_eq!(first_eight(&lanes, &tri, u32::MAX >> 16), m & 0xff);
         }
         // Both outcomes occur, and the f64 test certifies some hits.
         assert!(

@@ -349,3 +349,35 @@ impl LaneVec for __m512 {
         }
     }
 }
+
+/// The first 8 floats of `p` in both halves of a 512-bit register. Only
+/// inside functions compiled with AVX-512F (see [`LaneVec`]).
+#[inline(always)]
+pub(crate) fn both_halves(p: &[f32]) -> __m512 {
+    let p = &p[..8];
+    // SAFETY: AVX-512F is enabled where this is used; the load reads the
+    // 8 floats of `p`.
+    unsafe {
+        let y = _mm512_castps256_ps512(_mm256_loadu_ps(p.as_ptr()));
+        _mm512_shuffle_f32x4::<0b01_00_01_00>(y, y)
+    }
+}
+
+/// `a` in lanes 0–7 and `b` in lanes 8–15 (AVX-512F, as [`both_halves`]).
+#[inline(always)]
+pub(crate) fn halves(a: f32, b: f32) -> __m512 {
+    __m512::select(0xff00, __m512::splat(b), __m512::splat(a))
+}
+
+/// Lanes 0–7 and 8–15 of `v` as two 256-bit registers (AVX-512F, as
+/// [`both_halves`]).
+#[inline(always)]
+pub(crate) fn split_halves(v: __m512) -> (__m256, __m256) {
+    // SAFETY: AVX-512F is enabled where this is used; no memory access.
+    unsafe {
+        (
+            _mm512_castps512_ps256(v),
+            _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(v))),
+        )
+    }
+}

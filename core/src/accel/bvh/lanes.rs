@@ -9,7 +9,7 @@
 //! likewise). x86_64 only; other targets use the portable form.
 
 use super::node::{FAR_SCALE, Node4};
-use crate::math::lanes::LaneVec;
+use crate::math::lanes::{LaneVec, both_halves, halves, split_halves};
 
 /// Robust slab test of `N` lanes against a node's four children, as
 /// `packet::box4_lanes`: per child, the lanes of `lanes` that hit it and
@@ -68,6 +68,70 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
             let key = V::select(hit, near[c], inf).min_lane();
             t_min[c] = if key < t_min[c] { key } else { t_min[c] };
         }
+    }
+    (masks, t_min)
+}
+
+/// [`box4_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
+/// rays are repeated in both halves of a register and tested against two
+/// children at once (child `c` in lanes 0–7, child `c + 1` in lanes 8–15),
+/// so a node costs two register steps instead of four. The same operations
+/// per lane and child, so the same bits.
+///
+/// Only for functions compiled with AVX-512F, run after
+/// `Kernel::is_available` confirmed it (see `LaneVec`).
+#[inline(always)]
+pub(super) fn box4_lanes_8x2(
+    node: &Node4,
+    o: [&[f32; 8]; 3],
+    inv: [&[f32; 8]; 3],
+    t_max: &[f32; 8],
+    neg: [u32; 3],
+    uniform: Option<[bool; 3]>,
+    lanes: u32,
+) -> ([u32; 4], [f32; 4]) {
+    use core::arch::x86_64::__m512;
+    // No closures here: a closure is compiled without the caller's target
+    // features, so intrinsics inside it would become calls.
+    let lanes = lanes & 0xff;
+    let live = lanes | lanes << 8;
+    let mut masks = [0u32; 4];
+    let mut t_min = [f32::INFINITY; 4];
+    let inf = __m512::splat(f32::INFINITY);
+    let scale = __m512::splat(FAR_SCALE);
+    let tm = both_halves(t_max);
+    let o = [both_halves(o[0]), both_halves(o[1]), both_halves(o[2])];
+    let inv = [
+        both_halves(inv[0]),
+        both_halves(inv[1]),
+        both_halves(inv[2]),
+    ];
+    for c in [0, 2] {
+        let mut near = __m512::splat(0.0);
+        let mut far = tm;
+        for a in 0..3 {
+            // Child `c` in the low half, `c + 1` in the high half.
+            let lo = halves(node.min[a][c], node.min[a][c + 1]);
+            let hi = halves(node.max[a][c], node.max[a][c + 1]);
+            let (nb, fb) = match uniform {
+                Some(u) if u[a] => (hi, lo),
+                Some(_) => (lo, hi),
+                None => {
+                    let n = neg[a] & 0xff;
+                    let n = n | n << 8;
+                    (__m512::select(n, hi, lo), __m512::select(n, lo, hi))
+                }
+            };
+            near = nb.sub(o[a]).mul(inv[a]).max(near);
+            far = fb.sub(o[a]).mul(inv[a]).min(far);
+        }
+        let hit = near.le(far.mul(scale)) & live;
+        masks[c] = hit & 0xff;
+        masks[c + 1] = hit >> 8;
+        let key = __m512::select(hit, near, inf);
+        let (lo, hi) = split_halves(key);
+        t_min[c] = lo.min_lane();
+        t_min[c + 1] = hi.min_lane();
     }
     (masks, t_min)
 }

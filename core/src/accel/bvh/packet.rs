@@ -307,6 +307,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     let mut done = 0u32;
     let mut alive = live;
     let (mut tt, mut tb1, mut tb2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    let (mut ut, mut ub1, mut ub2) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
     // Bounded by the layout's depth check; see `node::MAX_DEPTH`.
     // Bounded by the layout's depth check; see `node::MAX_DEPTH`. Zeroed:
     // the uninitialised `Stack` measured 2–3% slower here (unlike in the
@@ -383,26 +384,69 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             let first = cur.child as usize;
             let tris = &view.tris[first..first + cur.count as usize];
             let mut lanes = cur.mask;
-            for (j, tri) in tris.iter().enumerate() {
-                let out = TriLanesOut {
-                    t: &mut tt,
-                    b1: &mut tb1,
-                    b2: &mut tb2,
+            let mut j = 0;
+            while j < tris.len() {
+                // Two triangles per step where the kernel can; the second
+                // one's hits count only where closer than the first's,
+                // which is what one after the other gives.
+                let pair = if j + 1 < tris.len() {
+                    B::tri2_lanes(
+                        &l.wt,
+                        [&tris[j], &tris[j + 1]],
+                        &l.t_max,
+                        lanes,
+                        [[&mut tt, &mut tb1, &mut tb2], [&mut ut, &mut ub1, &mut ub2]],
+                    )
+                } else {
+                    None
                 };
-                let m = B::tri_lanes(&l.wt, tri, &l.t_max, lanes, out);
-                if m == 0 {
-                    continue;
-                }
-                let idx = (first + j) as u32;
-                // Branch-free selects, so the update vectorises.
-                for i in 0..N {
-                    let h = m >> i & 1 != 0;
-                    l.t_max[i] = if h { tt[i] } else { l.t_max[i] };
-                    best[i] = if h { idx } else { best[i] };
-                    b1[i] = if h { tb1[i] } else { b1[i] };
-                    b2[i] = if h { tb2[i] } else { b2[i] };
-                }
-                if ANY {
+                let m = if let Some([ma, mb]) = pair {
+                    let idx = (first + j) as u32;
+                    apply_hits(
+                        ma,
+                        idx,
+                        (&tt, &tb1, &tb2),
+                        &mut l.t_max,
+                        &mut best,
+                        &mut b1,
+                        &mut b2,
+                    );
+                    let mut closer = [false; N];
+                    for (c, (&t, &tm)) in closer.iter_mut().zip(ut.iter().zip(&l.t_max)) {
+                        *c = t < tm;
+                    }
+                    let mb = if ANY { mb } else { mb & lane_mask(&closer) };
+                    apply_hits(
+                        mb,
+                        idx + 1,
+                        (&ut, &ub1, &ub2),
+                        &mut l.t_max,
+                        &mut best,
+                        &mut b1,
+                        &mut b2,
+                    );
+                    j += 2;
+                    ma | mb
+                } else {
+                    let out = TriLanesOut {
+                        t: &mut tt,
+                        b1: &mut tb1,
+                        b2: &mut tb2,
+                    };
+                    let m = B::tri_lanes(&l.wt, &tris[j], &l.t_max, lanes, out);
+                    apply_hits(
+                        m,
+                        (first + j) as u32,
+                        (&tt, &tb1, &tb2),
+                        &mut l.t_max,
+                        &mut best,
+                        &mut b1,
+                        &mut b2,
+                    );
+                    j += 1;
+                    m
+                };
+                if ANY && m != 0 {
                     done |= m;
                     alive &= !m;
                     lanes &= !m;
@@ -435,6 +479,31 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
         }
     }
     (done, best, b1, b2)
+}
+
+/// Records the hits `m` on triangle `idx` (leaf order) with their `t`,
+/// `b1`, `b2`: the closest hit so far of those lanes.
+#[inline(always)]
+fn apply_hits<const N: usize>(
+    m: u32,
+    idx: u32,
+    (t, tb1, tb2): (&[f32; N], &[f32; N], &[f32; N]),
+    t_max: &mut [f32; N],
+    best: &mut [u32; N],
+    b1: &mut [f32; N],
+    b2: &mut [f32; N],
+) {
+    if m == 0 {
+        return;
+    }
+    // Branch-free selects, so the update vectorises.
+    for i in 0..N {
+        let h = m >> i & 1 != 0;
+        t_max[i] = if h { t[i] } else { t_max[i] };
+        best[i] = if h { idx } else { best[i] };
+        b1[i] = if h { tb1[i] } else { b1[i] };
+        b2[i] = if h { tb2[i] } else { b2[i] };
+    }
 }
 
 /// Closest hits of the active lanes; inactive lanes of `hits` untouched.

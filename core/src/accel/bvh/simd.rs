@@ -26,15 +26,15 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::box4_lanes_simd;
+use super::lanes::{box4_lanes_8x2, box4_lanes_simd};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
 use super::packet::box4_lanes_portable;
 use crate::geometry::triangle::WatertightRay;
-#[cfg(target_arch = "x86_64")]
-use crate::geometry::triangle::intersect_lanes_simd;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::triangle::{intersect_lanes_8x2, intersect_lanes_simd};
 
 /// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`.
 pub(super) struct TriLanesOut<'a, const N: usize> {
@@ -146,6 +146,21 @@ pub(super) trait BoxTest {
         out: TriLanesOut<'_, N>,
     ) -> u32 {
         intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+    }
+
+    /// Two triangles against `N` lanes at once, where a kernel can
+    /// (`triangle::intersect_lanes_8x2`): each triangle's hit lanes, both
+    /// tested against the same `t_max`. `None` where the kernel tests one
+    /// triangle at a time.
+    #[inline(always)]
+    fn tri2_lanes<const N: usize>(
+        _r: &WatertightLanes<N>,
+        _tris: [&[Vec3; 3]; 2],
+        _t_max: &[f32; N],
+        _lanes: u32,
+        _out: [[&mut [f32; N]; 3]; 2],
+    ) -> Option<[u32; 2]> {
+        None
     }
 
     /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice).
@@ -334,9 +349,38 @@ impl BoxTest for Avx512Box {
     ) -> ([u32; 4], [f32; 4]) {
         use core::arch::x86_64::__m512;
         if N.is_multiple_of(16) {
-            box4_lanes_simd::<__m512, N>(node, o, inv, t_max, neg, uniform, lanes)
+            return box4_lanes_simd::<__m512, N>(node, o, inv, t_max, neg, uniform, lanes);
+        }
+        // Packets of 8: two children per 512-bit register.
+        if let (Some(o0), Some(o1), Some(o2), Some(i0), Some(i1), Some(i2), Some(tm)) = (
+            as_eight(&o[0]),
+            as_eight(&o[1]),
+            as_eight(&o[2]),
+            as_eight(&inv[0]),
+            as_eight(&inv[1]),
+            as_eight(&inv[2]),
+            as_eight(t_max),
+        ) {
+            return box4_lanes_8x2(node, [o0, o1, o2], [i0, i1, i2], tm, neg, uniform, lanes);
+        }
+        Avx2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+    }
+
+    /// Packets of 8: two triangles per 512-bit register.
+    #[inline(always)]
+    fn tri2_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tris: [&[Vec3; 3]; 2],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: [[&mut [f32; N]; 3]; 2],
+    ) -> Option<[u32; 2]> {
+        // Not `bool::then(|| ..)`: a closure is compiled without this
+        // function's target features.
+        if N == 8 {
+            Some(intersect_lanes_8x2(r, tris, t_max, lanes, out))
         } else {
-            Avx2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+            None
         }
     }
 
@@ -356,4 +400,11 @@ impl BoxTest for Avx512Box {
             Avx2Box::tri_lanes(r, tri, t_max, lanes, out)
         }
     }
+}
+
+/// `v` as an array of 8 when `N == 8`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn as_eight<T, const N: usize>(v: &[T; N]) -> Option<&[T; 8]> {
+    v.as_slice().try_into().ok()
 }
