@@ -31,9 +31,9 @@ struct Lanes<const N: usize> {
     neg_bits: [u32; 3],
     /// The direction signs shared by all live lanes, if any.
     uniform_neg: Option<[bool; 3]>,
-    /// Whether the live lanes' directions span at most two octants: only
-    /// then is the packet traversed as one (see [`coherent`]).
-    coherent: bool,
+    /// Subtrees reached by this many live lanes or fewer are finished ray
+    /// by ray ([`single_ray_lanes`]).
+    single_lanes: u32,
     /// Current upper bound per lane (shrinks with closest hits).
     t_max: [f32; N],
     wt: WatertightLanes<N>,
@@ -68,7 +68,7 @@ impl<const N: usize> Lanes<N> {
             neg: [[false; N]; 3],
             neg_bits: [0; 3],
             uniform_neg: None,
-            coherent: false,
+            single_lanes: 1,
             t_max: [-1.0; N],
             wt,
         };
@@ -97,7 +97,7 @@ impl<const N: usize> Lanes<N> {
         if valid != 0 && neg_bits.iter().all(|&m| m == 0 || m == valid) {
             l.uniform_neg = Some(neg_bits.map(|m| m != 0));
         }
-        l.coherent = coherent(neg_bits, valid);
+        l.single_lanes = single_ray_lanes::<N>(neg_bits, valid);
         l.neg_bits = neg_bits;
         (l, valid)
     }
@@ -115,23 +115,10 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
-/// Whether the `live` lanes, whose direction signs per axis are the bits of
-/// `neg`, are coherent enough to traverse as a packet: their directions
-/// span at most four octants.
-///
-/// An incoherent packet (diffuse bounces) drags every lane through every
-/// node any lane visits; with auto-vectorised lane loops it ran at a third
-/// to two thirds of single-ray speed, and finishing it ray by ray (same
-/// arithmetic, same answers) measured 1.5–3× faster on those sets. Camera
-/// tiles straddling an axis and two k = 8 bundles in one 16-lane packet
-/// stay packets. Measured worse then: one octant only (k = 8 bundles in 16
-/// lanes lost 15–20%), at least half the lanes in one octant (shadow sets
-/// lost), and splitting a packet by octant into smaller packets (slower
-/// than either). With the register kernels, four octants instead of two
-/// traced shadow packets of 16 lanes 1.05–1.4× faster (no octant limit at
-/// all lost 8% on the diffuse bounces of the 260k-triangle mesh).
+/// How many octants the `live` lanes' directions span (their signs per
+/// axis are the bits of `neg`).
 #[inline(always)]
-fn coherent(neg: [u32; 3], live: u32) -> bool {
+fn octants(neg: [u32; 3], live: u32) -> u32 {
     let mut occupied = 0;
     for octant in 0..8 {
         let mut m = live;
@@ -140,16 +127,38 @@ fn coherent(neg: [u32; 3], live: u32) -> bool {
         }
         occupied += (m != 0) as u32;
     }
-    occupied <= 4
+    occupied
 }
 
 /// A subtree reached by this many live lanes or fewer is finished ray by
-/// ray. With the box and triangle tests in registers of the kernel's width
-/// a packet step costs little more than a single-ray one, so only lone
-/// lanes leave the packet: on MTM bundles of the 260k-triangle mesh this
-/// traced 10% more rays per second than leaving at a quarter of the lanes
-/// (the best threshold while the lane loops were auto-vectorised).
-const SINGLE_RAY_LANES: u32 = 1;
+/// ray (same arithmetic, same answers): one lane for packets whose
+/// directions span at most four octants, a quarter of the lanes for more
+/// divergent ones.
+///
+/// With the box and triangle tests in registers of the kernel's width, a
+/// packet step costs little more than a single-ray one, so coherent
+/// packets leave only lone lanes: on MTM bundles of the 260k-triangle mesh
+/// that traced 10% more rays per second than leaving at a quarter of the
+/// lanes (the best threshold while the lane loops were auto-vectorised),
+/// and four octants rather than two traced shadow packets of 16 lanes
+/// 1.05–1.4× faster. Incoherent packets (diffuse bounces) drag every lane
+/// through every node any lane visits; they used to be finished ray by
+/// ray from the root (1.5–3× faster than auto-vectorised packets), but in
+/// registers, traversed as packets down to a quarter of their lanes, they
+/// trace the room scenes' bounces 1.25–1.35× faster than ray by ray, and
+/// the open 260k-triangle mesh's as fast as before (16 lanes: 2.04 -> 2.07
+/// Mrays/s; leaving at one lane lost 6% there). Measured worse with the earlier kernels: one octant only for
+/// coherence (k = 8 bundles in 16 lanes lost 15–20%), at least half the
+/// lanes in one octant (shadow sets lost), and splitting a packet by
+/// octant into smaller packets.
+#[inline(always)]
+fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
+    if octants(neg, live) <= 4 {
+        1
+    } else {
+        (N as u32 / 4).max(1)
+    }
+}
 
 /// Robust slab test (see `node::box4`) of all lanes against a node's four
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
@@ -323,7 +332,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
         t: 0.0,
     };
     'outer: loop {
-        if !l.coherent || cur.mask.count_ones() <= SINGLE_RAY_LANES {
+        if cur.mask.count_ones() <= l.single_lanes {
             // Same arithmetic as the packet kernels, so the same answers.
             let mut bits = cur.mask;
             while bits != 0 {
