@@ -35,14 +35,18 @@ use crate::geometry::triangle::WatertightRay;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::triangle::{intersect_lanes_8x2, intersect_lanes_simd};
+use glam::Vec3;
 
-/// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`.
+/// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
+/// (other lanes' entries are left unspecified).
 pub(super) struct TriLanesOut<'a, const N: usize> {
+    /// Hit distance per lane.
     pub t: &'a mut [f32; N],
+    /// Barycentric of vertex 1 per lane.
     pub b1: &'a mut [f32; N],
+    /// Barycentric of vertex 2 per lane.
     pub b2: &'a mut [f32; N],
 }
-use glam::Vec3;
 
 /// A traversal kernel (instruction set of the box tests and lane loops).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
