@@ -772,7 +772,7 @@ impl<const N: usize> WatertightLanes<N> {
     }
 
     /// Records whether the lanes in `live` share one permutation, and the
-    /// permutation masks (call after the last [`Self::set`]). Dummy lanes
+    /// permutation masks (call after the last [`Self::set_lanes`]). Dummy lanes
     /// may then be evaluated with the shared permutation; their results are
     /// masked anyway.
     #[inline(always)]

@@ -142,8 +142,9 @@ pub(crate) fn min_keep(acc: f32, x: f32) -> f32 {
 /// `[0, t_max]`. Returns the hit mask (bit `c` = child `c`) and the entry
 /// distances.
 ///
-/// This is the per-node kernel an SSE/AVX version would replace: four
-/// boxes, one ray, straight-line code over `[f32; 4]`.
+/// The portable per-node kernel (the scalar kernel's; `simd::Sse2Box`
+/// is the same in one SSE register per plane): four boxes, one ray,
+/// straight-line code over `[f32; 4]`.
 #[inline(always)]
 pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
     let mut near = [0.0f32; 4];

@@ -2,10 +2,12 @@
 //!
 //! A node is visited when any live lane's ray hits its box; per-lane
 //! `t_max` shrinks as hits are found, and a deferred child is dropped for
-//! the lanes whose closest hit is already in front of it. Lane loops are
-//! written over plain `[f32; N]` arrays (branch-free selects) so LLVM can
-//! vectorise them; [`box4_lanes`] and `triangle::intersect_lanes` are the
-//! two kernels an explicit SSE/AVX version would replace.
+//! the lanes whose closest hit is already in front of it. The two kernels,
+//! [`box4_lanes`] and the triangle test, come from the view's [`Kernel`]
+//! through [`BoxTest`]: in registers of its width (`super::lanes`,
+//! `triangle::intersect_lanes_simd`; two children or triangles per
+//! register for packets of 8 on AVX-512), or as the portable lane loops
+//! over `[f32; N]` arrays for the scalar kernel and odd widths.
 //!
 //! Lanes outside the active mask never influence anything: the kernels
 //! work on an internal copy in which those lanes hold a dummy ray (the
