@@ -9,25 +9,17 @@
 //! likewise). x86_64 only; other targets use the portable form.
 
 use super::node::{FAR_SCALE, Node4};
+use super::packet::BoxLanes;
 use crate::math::lanes::{LaneVec, both_halves, halves, split_halves};
 
 /// Robust slab test of `N` lanes against a node's four children, as
 /// `packet::box4_lanes`: per child, the lanes of `lanes` that hit it and
-/// their smallest entry distance (`+∞` for none).
-///
-/// `o`, `inv` and `t_max` are the packet's lanes (SoA); `neg[a]` has bit
-/// `i` set when lane `i`'s direction is negative on axis `a` (its near
-/// plane is then the box's max), and `uniform` says all live lanes agree,
-/// so the planes are picked once per node. `N` must be a multiple of
-/// `V::W`.
+/// their smallest entry distance (`+∞` for none). `N` must be a multiple
+/// of `V::W`.
 #[inline(always)]
 pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
     node: &Node4,
-    o: &[[f32; N]; 3],
-    inv: &[[f32; N]; 3],
-    t_max: &[f32; N],
-    neg: [u32; 3],
-    uniform: Option<[bool; 3]>,
+    l: &BoxLanes<'_, N>,
     lanes: u32,
 ) -> ([u32; 4], [f32; 4]) {
     debug_assert!(N.is_multiple_of(V::W));
@@ -38,25 +30,16 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
     for chunk in 0..N / V::W {
         let at = chunk * V::W;
         let shift = at as u32;
-        let tm = V::load(&t_max[at..]);
+        let tm = V::load(&l.t_max[at..]);
         let mut near = [V::splat(0.0); 4];
         let mut far = [tm; 4];
         for a in 0..3 {
-            let oa = V::load(&o[a][at..]);
-            let ia = V::load(&inv[a][at..]);
+            let oa = V::load(&l.o[a][at..]);
+            let ia = V::load(&l.inv[a][at..]);
+            let neg = l.neg_bits[a] >> shift;
             for c in 0..4 {
                 let (lo, hi) = (V::splat(node.min[a][c]), V::splat(node.max[a][c]));
-                let (nb, fb) = match uniform {
-                    Some(u) if u[a] => (hi, lo),
-                    Some(_) => (lo, hi),
-                    None => {
-                        let n = neg[a] >> shift;
-                        (V::select(n, hi, lo), V::select(n, lo, hi))
-                    }
-                };
-                // max_keep(acc, x) is maxps(x, acc); min_keep likewise.
-                near[c] = nb.sub(oa).mul(ia).max(near[c]);
-                far[c] = fb.sub(oa).mul(ia).min(far[c]);
+                (near[c], far[c]) = slab(near[c], far[c], (lo, hi), oa, ia, l.uniform_neg, a, neg);
             }
         }
         let live = lanes >> shift;
@@ -83,11 +66,7 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
 #[inline(always)]
 pub(super) fn box4_lanes_8x2(
     node: &Node4,
-    o: [&[f32; 8]; 3],
-    inv: [&[f32; 8]; 3],
-    t_max: &[f32; 8],
-    neg: [u32; 3],
-    uniform: Option<[bool; 3]>,
+    l: &BoxLanes<'_, 8>,
     lanes: u32,
 ) -> ([u32; 4], [f32; 4]) {
     use core::arch::x86_64::__m512;
@@ -99,12 +78,16 @@ pub(super) fn box4_lanes_8x2(
     let mut t_min = [f32::INFINITY; 4];
     let inf = __m512::splat(f32::INFINITY);
     let scale = __m512::splat(FAR_SCALE);
-    let tm = both_halves(t_max);
-    let o = [both_halves(o[0]), both_halves(o[1]), both_halves(o[2])];
+    let tm = both_halves(l.t_max);
+    let o = [
+        both_halves(&l.o[0]),
+        both_halves(&l.o[1]),
+        both_halves(&l.o[2]),
+    ];
     let inv = [
-        both_halves(inv[0]),
-        both_halves(inv[1]),
-        both_halves(inv[2]),
+        both_halves(&l.inv[0]),
+        both_halves(&l.inv[1]),
+        both_halves(&l.inv[2]),
     ];
     for c in [0, 2] {
         let mut near = __m512::splat(0.0);
@@ -113,17 +96,17 @@ pub(super) fn box4_lanes_8x2(
             // Child `c` in the low half, `c + 1` in the high half.
             let lo = halves(node.min[a][c], node.min[a][c + 1]);
             let hi = halves(node.max[a][c], node.max[a][c + 1]);
-            let (nb, fb) = match uniform {
-                Some(u) if u[a] => (hi, lo),
-                Some(_) => (lo, hi),
-                None => {
-                    let n = neg[a] & 0xff;
-                    let n = n | n << 8;
-                    (__m512::select(n, hi, lo), __m512::select(n, lo, hi))
-                }
-            };
-            near = nb.sub(o[a]).mul(inv[a]).max(near);
-            far = fb.sub(o[a]).mul(inv[a]).min(far);
+            let neg = l.neg_bits[a] & 0xff;
+            (near, far) = slab(
+                near,
+                far,
+                (lo, hi),
+                o[a],
+                inv[a],
+                l.uniform_neg,
+                a,
+                neg | neg << 8,
+            );
         }
         let hit = near.le(far.mul(scale)) & live;
         masks[c] = hit & 0xff;
@@ -134,6 +117,33 @@ pub(super) fn box4_lanes_8x2(
         t_min[c + 1] = hi.min_lane();
     }
     (masks, t_min)
+}
+
+/// One axis of the robust slab test for a register of lanes: the entry
+/// and exit distances `near`, `far` narrowed by the box planes `lo`, `hi`
+/// (per lane) with origin `o` and reciprocal direction `inv`. The near
+/// plane is `hi` where the direction is negative: for all lanes at once
+/// when the signs agree (`uniform[a]`), else per lane from the bits `neg`.
+/// `max_keep(acc, x)` is `maxps(x, acc)` (NaN `x` dropped), `min_keep`
+/// likewise.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn slab<V: LaneVec>(
+    near: V,
+    far: V,
+    (lo, hi): (V, V),
+    o: V,
+    inv: V,
+    uniform: Option<[bool; 3]>,
+    a: usize,
+    neg: u32,
+) -> (V, V) {
+    let (nb, fb) = match uniform {
+        Some(u) if u[a] => (hi, lo),
+        Some(_) => (lo, hi),
+        None => (V::select(neg, hi, lo), V::select(neg, lo, hi)),
+    };
+    (nb.sub(o).mul(inv).max(near), fb.sub(o).mul(inv).min(far))
 }
 
 /// The low `w` bits.
@@ -229,14 +239,21 @@ mod tests {
             // otherwise the per-lane selection.
             let uniform = (neg.iter().all(|&m| m & lanes == 0 || m & lanes == lanes) && lanes != 0)
                 .then(|| neg.map(|m| m & lanes != 0));
-            for uniform in [None, uniform] {
-                let want = box4_lanes_portable(&node, &o, &inv, &t_max, neg, uniform, lanes);
-                let got = box4_lanes_simd::<V, 16>(&node, &o, &inv, &t_max, neg, uniform, lanes);
-                assert_eq!(got.0, want.0, "masks, uniform {uniform:?}");
+            for uniform_neg in [None, uniform] {
+                let b = BoxLanes {
+                    o: &o,
+                    inv: &inv,
+                    t_max: &t_max,
+                    neg_bits: neg,
+                    uniform_neg,
+                };
+                let want = box4_lanes_portable(&node, &b, lanes);
+                let got = box4_lanes_simd::<V, 16>(&node, &b, lanes);
+                assert_eq!(got.0, want.0, "masks, uniform {uniform_neg:?}");
                 assert_eq!(
                     got.1.map(f32::to_bits),
                     want.1.map(f32::to_bits),
-                    "entry distances, uniform {uniform:?}"
+                    "entry distances, uniform {uniform_neg:?}"
                 );
             }
         }
@@ -250,10 +267,46 @@ mod tests {
     #[target_feature(enable = "avx2,avx512f")]
     fn check_avx512(rng: &mut Rng) {
         check::<__m512>(rng);
+        check_8x2(rng);
     }
 
-    /// Every register width agrees with the portable lane loops bit for
-    /// bit, NaN slabs, flat and empty boxes, dummy lanes and partial
+    /// The two-children-per-register form for packets of 8 against the
+    /// portable form on the first 8 lanes, bit for bit. Only called with
+    /// AVX-512F enabled.
+    #[inline(always)]
+    fn check_8x2(rng: &mut Rng) {
+        for _ in 0..4000 {
+            let (node, o16, inv16, t16, neg16) = inputs(rng);
+            let first = |v: &[f32; 16]| -> [f32; 8] { core::array::from_fn(|i| v[i]) };
+            let o = [first(&o16[0]), first(&o16[1]), first(&o16[2])];
+            let inv = [first(&inv16[0]), first(&inv16[1]), first(&inv16[2])];
+            let t_max = first(&t16);
+            let neg = neg16.map(|m| m & 0xff);
+            let lanes = rng.next() & 0xff;
+            let uniform = (neg.iter().all(|&m| m & lanes == 0 || m & lanes == lanes) && lanes != 0)
+                .then(|| neg.map(|m| m & lanes != 0));
+            for uniform_neg in [None, uniform] {
+                let b = BoxLanes {
+                    o: &o,
+                    inv: &inv,
+                    t_max: &t_max,
+                    neg_bits: neg,
+                    uniform_neg,
+                };
+                let want = box4_lanes_portable(&node, &b, lanes);
+                let got = box4_lanes_8x2(&node, &b, lanes);
+                assert_eq!(got.0, want.0, "8x2 masks, uniform {uniform_neg:?}");
+                assert_eq!(
+                    got.1.map(f32::to_bits),
+                    want.1.map(f32::to_bits),
+                    "8x2 entry distances, uniform {uniform_neg:?}"
+                );
+            }
+        }
+    }
+
+    /// Every register width (and the two-children form for packets of 8)
+    /// agrees with the portable lane loops bit for bit, NaN slabs, flat and empty boxes, dummy lanes and partial
     /// masks included (the packet tests compare final hits only; this
     /// compares the box test itself).
     #[test]

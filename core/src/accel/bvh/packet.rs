@@ -180,40 +180,42 @@ fn box4_lanes<B: BoxTest, const N: usize>(
     l: &Lanes<N>,
     lanes: u32,
 ) -> ([u32; 4], [f32; 4]) {
-    B::box4_lanes(
-        node,
-        &l.o,
-        &l.inv,
-        &l.t_max,
-        l.neg_bits,
-        l.uniform_neg,
-        lanes,
-    )
+    let b = BoxLanes {
+        o: &l.o,
+        inv: &l.inv,
+        t_max: &l.t_max,
+        neg_bits: l.neg_bits,
+        uniform_neg: l.uniform_neg,
+    };
+    B::box4_lanes(node, &b, lanes)
 }
 
-/// The portable form of [`box4_lanes`], for any `N`: the arrays as
-/// [`super::lanes::box4_lanes_simd`] takes them, plus `neg` per lane.
-///
-/// When all live lanes share their direction signs (coherent bundles), the
-/// near/far planes are picked once per node instead of per lane.
+/// A packet's lanes as every form of the box test reads them (SoA).
+#[derive(Clone, Copy)]
+pub(super) struct BoxLanes<'a, const N: usize> {
+    /// Origins.
+    pub o: &'a [[f32; N]; 3],
+    /// `1/d` per lane (`±∞` for a zero component).
+    pub inv: &'a [[f32; N]; 3],
+    /// Current upper bound per lane.
+    pub t_max: &'a [f32; N],
+    /// Per axis, the lanes whose direction is negative (near plane = box
+    /// max).
+    pub neg_bits: [u32; 3],
+    /// The signs shared by all live lanes, if they agree: the planes are
+    /// then picked once per node instead of per lane.
+    pub uniform_neg: Option<[bool; 3]>,
+}
+
+/// The portable form of [`box4_lanes`], for any `N`.
 #[inline(always)]
 pub(super) fn box4_lanes_portable<const N: usize>(
     node: &Node4,
-    o: &[[f32; N]; 3],
-    inv: &[[f32; N]; 3],
-    t_max: &[f32; N],
-    neg_bits: [u32; 3],
-    uniform_neg: Option<[bool; 3]>,
+    l: &BoxLanes<'_, N>,
     lanes: u32,
 ) -> ([u32; 4], [f32; 4]) {
-    let l = PortableLanes {
-        o,
-        inv,
-        neg_bits,
-        uniform_neg,
-    };
     let mut near = [[0.0f32; N]; 4];
-    let mut far = [*t_max; 4];
+    let mut far = [*l.t_max; 4];
     if let Some(neg) = l.uniform_neg {
         for (a, &neg) in neg.iter().enumerate() {
             let (nb, fb) = if neg {
@@ -281,14 +283,6 @@ fn min_lanes<const N: usize>(mut v: [f32; N]) -> f32 {
         w = h;
     }
     if N == 0 { f32::INFINITY } else { v[0] }
-}
-
-/// The inputs of [`box4_lanes_portable`] under the names the lane loops use.
-struct PortableLanes<'a, const N: usize> {
-    o: &'a [[f32; N]; 3],
-    inv: &'a [[f32; N]; 3],
-    neg_bits: [u32; 3],
-    uniform_neg: Option<[bool; 3]>,
 }
 
 /// A deferred child with the lanes that hit it and their smallest entry

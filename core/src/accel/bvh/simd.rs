@@ -30,7 +30,7 @@ use super::lanes::{box4_lanes_8x2, box4_lanes_simd};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
-use super::packet::box4_lanes_portable;
+use super::packet::{BoxLanes, box4_lanes_portable};
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
@@ -128,14 +128,10 @@ pub(super) trait BoxTest {
     #[inline(always)]
     fn box4_lanes<const N: usize>(
         node: &Node4,
-        o: &[[f32; N]; 3],
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        neg: [u32; 3],
-        uniform: Option<[bool; 3]>,
+        l: &BoxLanes<'_, N>,
         lanes: u32,
     ) -> ([u32; 4], [f32; 4]) {
-        box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
+        box4_lanes_portable(node, l, lanes)
     }
 
     /// The packet triangle test (`triangle::intersect_lanes`): one
@@ -205,18 +201,14 @@ impl BoxTest for Sse2Box {
     #[inline(always)]
     fn box4_lanes<const N: usize>(
         node: &Node4,
-        o: &[[f32; N]; 3],
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        neg: [u32; 3],
-        uniform: Option<[bool; 3]>,
+        l: &BoxLanes<'_, N>,
         lanes: u32,
     ) -> ([u32; 4], [f32; 4]) {
         use core::arch::x86_64::__m128;
         if N.is_multiple_of(4) {
-            box4_lanes_simd::<__m128, N>(node, o, inv, t_max, neg, uniform, lanes)
+            box4_lanes_simd::<__m128, N>(node, l, lanes)
         } else {
-            box4_lanes_portable(node, o, inv, t_max, neg, uniform, lanes)
+            box4_lanes_portable(node, l, lanes)
         }
     }
 
@@ -282,18 +274,14 @@ impl BoxTest for Avx2Box {
     #[inline(always)]
     fn box4_lanes<const N: usize>(
         node: &Node4,
-        o: &[[f32; N]; 3],
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        neg: [u32; 3],
-        uniform: Option<[bool; 3]>,
+        l: &BoxLanes<'_, N>,
         lanes: u32,
     ) -> ([u32; 4], [f32; 4]) {
         use core::arch::x86_64::__m256;
         if N.is_multiple_of(8) {
-            box4_lanes_simd::<__m256, N>(node, o, inv, t_max, neg, uniform, lanes)
+            box4_lanes_simd::<__m256, N>(node, l, lanes)
         } else {
-            Sse2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+            Sse2Box::box4_lanes(node, l, lanes)
         }
     }
 
@@ -344,30 +332,27 @@ impl BoxTest for Avx512Box {
     #[inline(always)]
     fn box4_lanes<const N: usize>(
         node: &Node4,
-        o: &[[f32; N]; 3],
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        neg: [u32; 3],
-        uniform: Option<[bool; 3]>,
+        l: &BoxLanes<'_, N>,
         lanes: u32,
     ) -> ([u32; 4], [f32; 4]) {
         use core::arch::x86_64::__m512;
         if N.is_multiple_of(16) {
-            return box4_lanes_simd::<__m512, N>(node, o, inv, t_max, neg, uniform, lanes);
+            return box4_lanes_simd::<__m512, N>(node, l, lanes);
         }
         // Packets of 8: two children per 512-bit register.
-        if let (Some(o0), Some(o1), Some(o2), Some(i0), Some(i1), Some(i2), Some(tm)) = (
-            as_eight(&o[0]),
-            as_eight(&o[1]),
-            as_eight(&o[2]),
-            as_eight(&inv[0]),
-            as_eight(&inv[1]),
-            as_eight(&inv[2]),
-            as_eight(t_max),
-        ) {
-            return box4_lanes_8x2(node, [o0, o1, o2], [i0, i1, i2], tm, neg, uniform, lanes);
+        if let (Some(o), Some(inv), Some(t_max)) =
+            (as_eight3(l.o), as_eight3(l.inv), as_eight(l.t_max))
+        {
+            let l8 = BoxLanes {
+                o,
+                inv,
+                t_max,
+                neg_bits: l.neg_bits,
+                uniform_neg: l.uniform_neg,
+            };
+            return box4_lanes_8x2(node, &l8, lanes);
         }
-        Avx2Box::box4_lanes(node, o, inv, t_max, neg, uniform, lanes)
+        Avx2Box::box4_lanes(node, l, lanes)
     }
 
     /// Packets of 8: two triangles per 512-bit register.
@@ -411,4 +396,14 @@ impl BoxTest for Avx512Box {
 #[inline(always)]
 fn as_eight<T, const N: usize>(v: &[T; N]) -> Option<&[T; 8]> {
     v.as_slice().try_into().ok()
+}
+
+/// `v` as three arrays of 8 when `N == 8`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn as_eight3<T, const N: usize>(v: &[[T; N]; 3]) -> Option<&[[T; 8]; 3]> {
+    if N != 8 {
+        return None;
+    }
+    v.as_flattened().as_chunks::<8>().0.try_into().ok()
 }
