@@ -671,8 +671,9 @@ pub(crate) struct WatertightLanes<const N: usize> {
     /// of coherent bundles): vertex components are then picked once per
     /// triangle instead of once per lane.
     pub uniform: Option<[usize; 3]>,
-    /// Lane masks of `k[j][i] == 0` and `k[j][i] == 1` per axis `j` (set
-    /// by [`Self::finish`]), for picking vertex components by mask.
+    /// Lane masks of `k[j][i] == 0` and `k[j][i] == 1` per axis `j`, for
+    /// picking vertex components by mask; set by [`Self::finish`] when
+    /// `uniform` is `None` (the only case that reads them).
     pub k_is: [[u32; 2]; 3],
 }
 
@@ -777,15 +778,6 @@ impl<const N: usize> WatertightLanes<N> {
     /// masked anyway.
     #[inline(always)]
     pub fn finish(&mut self, live: u32) {
-        for j in 0..3 {
-            for (v, m) in self.k_is[j].iter_mut().enumerate() {
-                let mut is = [false; N];
-                for (f, &k) in is.iter_mut().zip(&self.k[j]) {
-                    *f = k == v as u32;
-                }
-                *m = lane_mask(&is);
-            }
-        }
         let first = live.trailing_zeros() as usize;
         self.uniform = None;
         if first < N {
@@ -796,6 +788,18 @@ impl<const N: usize> WatertightLanes<N> {
             }
             if lane_mask(&same) & live == live {
                 self.uniform = Some(k0.map(|k| k as usize & 3));
+            }
+        }
+        // The masks are read only when there is no shared permutation.
+        if self.uniform.is_none() {
+            for j in 0..3 {
+                for (v, m) in self.k_is[j].iter_mut().enumerate() {
+                    let mut is = [false; N];
+                    for (f, &k) in is.iter_mut().zip(&self.k[j]) {
+                        *f = k == v as u32;
+                    }
+                    *m = lane_mask(&is);
+                }
             }
         }
     }
