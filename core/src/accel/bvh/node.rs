@@ -88,6 +88,21 @@ impl Node4 {
         self.count[c] == 0 && self.child[c] != EMPTY_CHILD
     }
 
+    /// The node's 128 bytes as eight rows of four floats: rows 0–2 are
+    /// `min[axis]`, rows 3–5 `max[axis]`; rows 6 and 7 alias `child` and
+    /// `count` and are never read as planes. Indexing a row with `& 7`
+    /// needs no bounds check, which is what the single-ray box tests use
+    /// with [`BoxRay`]'s precomputed plane rows.
+    #[inline(always)]
+    pub(crate) fn rows(&self) -> &[[f32; 4]; 8] {
+        // SAFETY: `Node4` is `repr(C)`, 128 bytes (asserted above) with no
+        // padding (six `[f32; 4]` then two `[u32; 4]`), so all 128 bytes
+        // are initialised; every bit pattern is a valid `f32`, the target
+        // type's alignment (4) divides the node's (64), and the shared
+        // borrow keeps the node immutable for the reference's lifetime.
+        unsafe { &*(self as *const Node4).cast::<[[f32; 4]; 8]>() }
+    }
+
     /// Sets the bounds of slot `c`.
     #[inline]
     pub fn set_bounds(&mut self, c: usize, min: [f32; 3], max: [f32; 3]) {
@@ -104,20 +119,33 @@ pub(crate) struct BoxRay {
     /// Origin.
     pub o: [f32; 3],
     /// `1/d` per axis; `±∞` for a zero component (the sign of the zero
-    /// picks the sign of the infinity, consistently with `neg`).
+    /// picks the sign of the infinity, consistently with the planes).
     pub inv: [f32; 3],
-    /// Whether `inv` is negative (sign bit), i.e. the near plane is `max`.
-    pub neg: [bool; 3],
+    /// Per axis, the row of [`Node4::rows`] holding the near plane: `min`
+    /// (row `a`) when `inv[a]` is positive, `max` (row `3 + a`) when its
+    /// sign bit is set. Picked once per ray, so the box test does no
+    /// per-node selection.
+    pub near: [usize; 3],
+    /// Per axis, the row of the far plane (the other one of the pair).
+    pub far: [usize; 3],
 }
 
 impl BoxRay {
+    /// Set-up of a ray with origin `o` and direction `d`.
     #[inline]
     pub fn new(o: [f32; 3], d: [f32; 3]) -> Self {
-        let inv = [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]];
+        Self::with_inv(o, [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]])
+    }
+
+    /// Set-up from the origin and the reciprocal direction.
+    #[inline]
+    pub fn with_inv(o: [f32; 3], inv: [f32; 3]) -> Self {
+        let neg = inv.map(|x| x.is_sign_negative() as usize);
         BoxRay {
             o,
             inv,
-            neg: inv.map(|x| x.is_sign_negative()),
+            near: [3 * neg[0], 1 + 3 * neg[1], 2 + 3 * neg[2]],
+            far: [3 - 3 * neg[0], 4 - 3 * neg[1], 5 - 3 * neg[2]],
         }
     }
 }
@@ -147,14 +175,11 @@ pub(crate) fn min_keep(acc: f32, x: f32) -> f32 {
 /// straight-line code over `[f32; 4]`.
 #[inline(always)]
 pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+    let rows = node.rows();
     let mut near = [0.0f32; 4];
     let mut far = [t_max; 4];
     for a in 0..3 {
-        let (nb, fb) = if r.neg[a] {
-            (&node.max[a], &node.min[a])
-        } else {
-            (&node.min[a], &node.max[a])
-        };
+        let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
         for c in 0..4 {
             near[c] = max_keep(near[c], (nb[c] - r.o[a]) * r.inv[a]);
             far[c] = min_keep(far[c], (fb[c] - r.o[a]) * r.inv[a]);

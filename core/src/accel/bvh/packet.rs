@@ -109,10 +109,11 @@ impl<const N: usize> Lanes<N> {
     fn prepared(&self, i: usize) -> Prepared {
         let o = [self.o[0][i], self.o[1][i], self.o[2][i]];
         let inv = [self.inv[0][i], self.inv[1][i], self.inv[2][i]];
-        let neg = [self.neg[0][i], self.neg[1][i], self.neg[2][i]];
         Prepared {
             wr: self.wt.get(i),
-            br: BoxRay { o, inv, neg },
+            // A live lane's `neg` is the sign of its `inv`, so this is the
+            // lane's own set-up.
+            br: BoxRay::with_inv(o, inv),
         }
     }
 }

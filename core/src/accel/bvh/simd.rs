@@ -236,14 +236,11 @@ impl BoxTest for Sse2Box {
         // SAFETY: SSE2 is part of the x86_64 baseline; every load and store
         // touches exactly one `[f32; 4]` (unaligned accesses).
         let mask = unsafe {
+            let rows = node.rows();
             let mut near = _mm_setzero_ps();
             let mut far = _mm_set1_ps(t_max);
             for a in 0..3 {
-                let (nb, fb) = if r.neg[a] {
-                    (&node.max[a], &node.min[a])
-                } else {
-                    (&node.min[a], &node.max[a])
-                };
+                let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
                 let o = _mm_set1_ps(r.o[a]);
                 let inv = _mm_set1_ps(r.inv[a]);
                 let tn = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(nb.as_ptr()), o), inv);

@@ -19,16 +19,23 @@ pub(super) struct Entry {
     pub t: f32,
 }
 
-/// A traversal stack of [`STACK_SIZE`] entries; see `node::MAX_DEPTH` for
-/// why it cannot overflow on a validated layout (a push beyond it panics).
+/// Entries of a single-ray traversal stack: [`STACK_SIZE`] rounded up to
+/// a power of two, so an index masked with `STACK_CAP - 1` is in bounds
+/// without a check.
+const STACK_CAP: usize = STACK_SIZE.next_power_of_two();
+
+/// A traversal stack; see `node::MAX_DEPTH` for why a validated layout
+/// never holds more than [`STACK_SIZE`] entries in it.
 ///
 /// The storage is left uninitialised: zeroing 1.1 KB per ray (as
 /// `[Entry::default(); STACK_SIZE]` did) was a measurable share of a short
-/// traversal, and only the entries below `len` are ever read. (The packet
-/// kernel's own stack stays a zeroed array: this type measured slower
-/// there.)
+/// traversal, and only the entries below `len` are ever read. Indices are
+/// masked to the capacity instead of bounds-checked: an overflow (which a
+/// validated layout cannot produce) would overwrite older entries, never
+/// memory outside the stack. (The packet kernel's own stack stays a zeroed
+/// array: this type measured slower there.)
 pub(super) struct Stack<T: Copy> {
-    items: [MaybeUninit<T>; STACK_SIZE],
+    items: [MaybeUninit<T>; STACK_CAP],
     len: usize,
 }
 
@@ -37,7 +44,7 @@ impl<T: Copy> Stack<T> {
     #[inline(always)]
     pub fn new() -> Self {
         Stack {
-            items: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            items: [const { MaybeUninit::uninit() }; STACK_CAP],
             len: 0,
         }
     }
@@ -48,10 +55,10 @@ impl<T: Copy> Stack<T> {
         self.len = 0;
     }
 
-    /// Pushes `e`; panics when full (impossible on a validated layout).
+    /// Pushes `e`.
     #[inline(always)]
     pub fn push(&mut self, e: T) {
-        self.items[self.len].write(e);
+        self.items[self.len & (STACK_CAP - 1)].write(e);
         self.len += 1;
     }
 
@@ -63,9 +70,10 @@ impl<T: Copy> Stack<T> {
         }
         self.len -= 1;
         // SAFETY: `push` is the only way `len` grows and it writes
-        // `items[len]` before incrementing, so every item below the old
-        // `len` (here `items[self.len]`) is initialised.
-        Some(unsafe { self.items[self.len].assume_init() })
+        // `items[len & mask]` before incrementing, so the slot of every
+        // position below `len` (here the old `len - 1`) was written, and
+        // `MaybeUninit` slots are never de-initialised.
+        Some(unsafe { self.items[self.len & (STACK_CAP - 1)].assume_init() })
     }
 }
 
@@ -113,6 +121,35 @@ fn prepare(view: &BvhView<'_>, ray: &Ray) -> Option<Prepared> {
     })
 }
 
+/// The order key of a hit child: its entry distance above, its slot
+/// below. Entry distances are never NaN or `−0` (they start at `+0` and
+/// `max_keep` only takes strictly larger values), so the keys compare like
+/// (distance, slot): nearest first, lower slot first on a tie — the order
+/// of [`order4`]'s stable sort.
+#[inline(always)]
+fn key(near: f32, slot: usize) -> u64 {
+    (near.to_bits() as u64) << 32 | slot as u64
+}
+
+/// Sorts four keys ascending (a five-comparator network of branch-free
+/// min/max): no data-dependent branches for nodes where three or four
+/// children are hit.
+#[inline(always)]
+fn sort4(mut k: [u64; 4]) -> [u64; 4] {
+    #[inline(always)]
+    fn cas(k: &mut [u64; 4], i: usize, j: usize) {
+        let (a, b) = (k[i], k[j]);
+        k[i] = a.min(b);
+        k[j] = a.max(b);
+    }
+    cas(&mut k, 0, 1);
+    cas(&mut k, 2, 3);
+    cas(&mut k, 0, 2);
+    cas(&mut k, 1, 3);
+    cas(&mut k, 1, 2);
+    k
+}
+
 /// Traverses the subtree `start` (a node or a leaf, as in [`Entry`]) for
 /// one ray whose closest hit so far is at `*t_max`. Children are visited
 /// nearest first (for occlusion too: it finds blockers sooner, measured) and
@@ -135,35 +172,53 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
             let (mask, near) = B::box4(node, &r.br, *t_max);
-            // One child hit (the common case below the top levels):
-            // descend without sorting or touching the stack.
-            if mask != 0 && mask & (mask - 1) == 0 {
-                let c = mask.trailing_zeros() as usize;
-                cur = Entry {
-                    child: node.child[c],
-                    count: node.count[c],
-                    t: near[c],
-                };
-                continue;
-            }
-            if mask != 0 {
-                let (order, n) = order4(mask, &near);
-                // Push the farther children far-to-near so the next pop is
-                // the next nearest; descend into the nearest right away.
-                for &c in order[1..n].iter().rev() {
-                    stack.push(Entry {
-                        child: node.child[c],
-                        count: node.count[c],
-                        t: near[c],
-                    });
+            let entry = |c: usize| Entry {
+                child: node.child[c],
+                count: node.count[c],
+                t: near[c],
+            };
+            match mask.count_ones() {
+                0 => {}
+                // One child hit (the common case below the top levels):
+                // descend without sorting or touching the stack.
+                1 => {
+                    cur = entry(mask.trailing_zeros() as usize);
+                    continue;
                 }
-                let c = order[0];
-                cur = Entry {
-                    child: node.child[c],
-                    count: node.count[c],
-                    t: near[c],
-                };
-                continue;
+                // Two (a fifth of the visits on incoherent rays, measured):
+                // one comparison, push the farther, descend into the nearer.
+                2 => {
+                    let c0 = mask.trailing_zeros() as usize;
+                    let c1 = (mask & (mask - 1)).trailing_zeros() as usize & 3;
+                    let (n, f) = if near[c1] < near[c0] {
+                        (c1, c0)
+                    } else {
+                        (c0, c1)
+                    };
+                    stack.push(entry(f));
+                    cur = entry(n);
+                    continue;
+                }
+                n => {
+                    let k = |c: usize| {
+                        if mask >> c & 1 != 0 {
+                            key(near[c], c)
+                        } else {
+                            u64::MAX
+                        }
+                    };
+                    let sorted = sort4([k(0), k(1), k(2), k(3)]);
+                    let slot = |i: usize| (sorted[i] & 3) as usize;
+                    // Farther children far-to-near, so the next pop is the
+                    // next nearest; descend into the nearest right away.
+                    if n == 4 {
+                        stack.push(entry(slot(3)));
+                    }
+                    stack.push(entry(slot(2)));
+                    stack.push(entry(slot(1)));
+                    cur = entry(slot(0));
+                    continue;
+                }
             }
         } else {
             let first = cur.child as usize;
