@@ -237,6 +237,10 @@ enum BenchCommand {
         /// (steadier on a shared machine; Linux).
         #[arg(long, value_enum, default_value = "wall")]
         clock: ClockArg,
+        /// Measure each cell's kernels this many times, taking turns, and
+        /// report each kernel's best (steadier ratios on a shared machine).
+        #[arg(long, default_value_t = 1)]
+        rounds: usize,
     },
     /// Flicker of frame-by-frame MLT/CMLT with and without each temporal
     /// switch (static camera), and each orbit frame's mean against a BDPT
@@ -822,8 +826,10 @@ fn run(cli: Cli) -> Result<(), String> {
             kernels,
             sets,
             clock,
+            rounds,
         }) => {
             let opts = cmlt_cli::bench::rays::Options {
+                rounds,
                 clock: match clock {
                     ClockArg::Wall => cmlt_cli::bench::rays::Clock::Wall,
                     ClockArg::Cpu => cmlt_cli::bench::rays::Clock::Cpu,

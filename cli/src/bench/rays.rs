@@ -17,7 +17,9 @@
 //! `ours-packet{4,8,16}` trace packets with the best kernel; `embree-1`
 //! and `embree-{4,8,16}` (feature `embree`) do the same through Embree.
 //! Each measurement traces its ray set repeatedly for about `--time`
-//! seconds, on 1 and 2 threads (each thread a share of the set).
+//! seconds, on 1 and 2 threads (each thread a share of the set); with
+//! `--rounds R`, every kernel of a cell is measured R times, the kernels
+//! taking turns, and the best of its R figures is reported.
 
 use std::io::Write;
 use std::path::Path;
@@ -54,6 +56,11 @@ pub struct Options {
     pub sets: Vec<String>,
     /// What the rays are timed against.
     pub clock: Clock,
+    /// Measurements per kernel and cell, taken in rounds that visit every
+    /// kernel of the cell in turn; the best of a kernel's rounds is
+    /// reported. On a shared machine whose speed drifts over seconds, this
+    /// puts every kernel of a ratio under the same drift.
+    pub rounds: usize,
 }
 
 /// The clock a measurement divides by.
@@ -491,36 +498,35 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                 occlusion,
             };
             for &threads in &opts.threads {
-                let mut line = Vec::new();
-                let mut record = |kernel: String, mrays: f64, line: &mut Vec<(String, f64)>| {
-                    line.push((kernel.clone(), mrays));
-                    rows.push(Measurement {
-                        scene: scene.name.clone(),
-                        ray_set: set.to_string(),
-                        kernel,
-                        threads,
-                        mrays_per_s: mrays,
-                    });
-                };
+                // Every kernel of the cell, as (name, one measurement).
+                type Job<'a> = (String, Box<dyn Fn() -> f64 + 'a>);
+                let mut jobs: Vec<Job<'_>> = Vec::new();
+                let packets = &packets;
+                let clock = opts.clock;
                 for k in Kernel::ALL {
                     let name = format!("ours-{}", k.name());
                     let Some(view) = bvh.view().with_kernel(k) else {
                         continue;
                     };
                     if opts.wants_kernel(&name) {
-                        let m = measure(&view, Mode::Single, &packets, threads, time, opts.clock)
-                            * 1e-6;
-                        record(name, m, &mut line);
+                        jobs.push((
+                            name,
+                            Box::new(move || {
+                                measure(&view, Mode::Single, packets, threads, time, clock)
+                            }),
+                        ));
                     }
                 }
                 let view = bvh.view();
                 for n in [4, 8, 16] {
                     let name = format!("ours-packet{n}");
                     if opts.wants_kernel(&name) {
-                        let m =
-                            measure(&view, Mode::Packet(n), &packets, threads, time, opts.clock)
-                                * 1e-6;
-                        record(name, m, &mut line);
+                        jobs.push((
+                            name,
+                            Box::new(move || {
+                                measure(&view, Mode::Packet(n), packets, threads, time, clock)
+                            }),
+                        ));
                     }
                 }
                 #[cfg(feature = "embree")]
@@ -532,9 +538,30 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                         } else {
                             Mode::Packet(n)
                         };
-                        let m = measure(&embree, mode, &packets, threads, time, opts.clock) * 1e-6;
-                        record(name, m, &mut line);
+                        let embree = &embree;
+                        jobs.push((
+                            name,
+                            Box::new(move || measure(embree, mode, packets, threads, time, clock)),
+                        ));
                     }
+                }
+                let mut best = vec![0.0f64; jobs.len()];
+                for _ in 0..opts.rounds.max(1) {
+                    for (b, (_, job)) in best.iter_mut().zip(&jobs) {
+                        *b = b.max(job());
+                    }
+                }
+                let mut line = Vec::new();
+                for ((kernel, _), mrays) in jobs.iter().zip(best) {
+                    let mrays = mrays * 1e-6;
+                    line.push((kernel.clone(), mrays));
+                    rows.push(Measurement {
+                        scene: scene.name.clone(),
+                        ray_set: set.to_string(),
+                        kernel: kernel.clone(),
+                        threads,
+                        mrays_per_s: mrays,
+                    });
                 }
                 print_line(out, &scene.name, set, threads, &line).map_err(io)?;
             }
