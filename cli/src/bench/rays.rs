@@ -345,6 +345,9 @@ enum Mode {
 
 /// Traces `rays` once (closest hits, or occlusion for shadow rays); returns
 /// a checksum so the work cannot be optimised away.
+// Never inlined: `bench/rays_instructions.sh` counts this function's
+// instructions by name.
+#[inline(never)]
 fn trace<I: Intersector>(acc: &I, mode: Mode, packets: &Packets, range: (usize, usize)) -> u64 {
     let mut sum = 0u64;
     match mode {
