@@ -51,9 +51,7 @@ impl WatertightRay {
     /// `None` when the origin or direction has a non-finite component or the
     /// direction is zero: such a ray hits nothing. (`ray.t_max` is not looked
     /// at; it is passed to [`WatertightRay::intersect`].)
-    // Always inlined: a call returns the `Option<Self>` through memory,
-    // which cost more than the set-up itself in the traversal kernels.
-    #[inline(always)]
+    #[inline]
     pub fn new(ray: &Ray) -> Option<Self> {
         let o = ray.o.to_array();
         let d = ray.d.to_array();
@@ -62,23 +60,21 @@ impl WatertightRay {
         }
         let a = [abs(d[0]), abs(d[1]), abs(d[2])];
         // Dominant axis; the first one wins a tie, deterministically.
-        // Computed without branches (`&`, not `&&`): for incoherent rays
-        // the dominant axis is random, and the branches of an if-chain
-        // were a tenth of the mispredictions of a diffuse bounce's trace
-        // (callgrind's branch simulation).
-        let z0 = (a[0] >= a[1]) & (a[0] >= a[2]);
-        let z1 = !z0 & (a[1] >= a[2]);
-        let kz = (!z0) as usize * (1 + (!z1) as usize);
+        let kz = if a[0] >= a[1] && a[0] >= a[2] {
+            0
+        } else if a[1] >= a[2] {
+            1
+        } else {
+            2
+        };
         if d[kz] == 0.0 {
             return None;
         }
-        // kx, ky follow kz cyclically, swapped for a negative d[kz].
-        let neg = d[kz] < 0.0;
-        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
-        let (kx, ky) = (
-            if neg { after } else { next },
-            if neg { next } else { after },
-        );
+        let mut kx = if kz == 2 { 0 } else { kz + 1 };
+        let mut ky = if kx == 2 { 0 } else { kx + 1 };
+        if d[kz] < 0.0 {
+            core::mem::swap(&mut kx, &mut ky);
+        }
         let sz = 1.0 / d[kz];
         Some(WatertightRay {
             k: [kx, ky, kz],
