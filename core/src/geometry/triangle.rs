@@ -214,8 +214,8 @@ impl WatertightRay {
         /// Each triangle is read as three overlapping 16-byte rows of its
         /// nine floats (`v0.xyz v1.x`, `v1.xyz v2.x`, `v1.z v2.xyz`), then
         /// the rows of the four triangles are transposed: 12 loads and 21
-        /// shuffles, where gathering the 36 floats one by one into
-        /// registers took about three times as many instructions.
+        /// shuffles, where the 36 floats were gathered one by one (this cut
+        /// a single-ray trace's instructions by 2–10%, callgrind).
         #[inline(always)]
         fn soa(tris: &[[Vec3; 3]]) -> [[__m128; 3]; 3] {
             let last = tris.len() - 1;
