@@ -943,14 +943,15 @@ pub(crate) fn intersect_lanes<const N: usize>(
         ok = lane_mask(&ok_lane) & inside;
         unsure = lane_mask(&unsure_lane) & inside;
     }
-    finish_lanes(r, tri, t_max, ok, unsure, zero, &sel, t, b1, b2)
+    finish_lanes(r, tri, t_max, ok, unsure, zero, Some(&sel), t, b1, b2)
 }
 
 /// The part of [`intersect_lanes`] after the f32 test, shared by its
 /// portable and register forms: lanes `ok` hit already; lanes `unsure`
 /// (inside, with an f32 `t` not provably of either sign) are decided in
 /// f64 from `sel` (the permuted vertices, as [`intersect_lanes`] selects
-/// them; only the `unsure` lanes are read), all at once, as the
+/// them; only the `unsure` lanes are read, and it may be `None` when there
+/// are none), all at once, as the
 /// single-ray test decides them — a packet leaving the surface its rays
 /// start on has many; lanes `zero` (an exactly zero edge function) are
 /// redone by the single-ray test. Returns the lanes that hit.
@@ -963,12 +964,13 @@ pub(crate) fn finish_lanes<const N: usize>(
     mut ok: u32,
     mut unsure: u32,
     mut zero: u32,
-    sel: &[[[f32; N]; 3]; 3],
+    sel: Option<&[[[f32; N]; 3]; 3]>,
     t: &mut [f32; N],
     b1: &mut [f32; N],
     b2: &mut [f32; N],
 ) -> u32 {
-    if unsure != 0 {
+    debug_assert!(unsure == 0 || sel.is_some());
+    if let (true, Some(sel)) = (unsure != 0, sel) {
         let (positive, num, den) = positive_t_f64_lanes(sel, r);
         unsure &= positive;
         while unsure != 0 {
@@ -1007,8 +1009,10 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
 ) -> u32 {
     debug_assert!(N.is_multiple_of(V::W));
     let (mut ok, mut unsure, mut zero) = (0u32, 0u32, 0u32);
-    // Written only for chunks with unsure lanes, the only ones read.
-    let mut sel = [[[0.0f32; N]; 3]; 3];
+    // Only made for a triangle with unsure lanes (rare), and written only
+    // for their chunks, the only ones read: zeroing 9·N floats for every
+    // triangle was a `memset` call per test.
+    let mut sel: Option<[[[f32; N]; 3]; 3]> = None;
     let chunk_bits = if V::W >= 32 {
         u32::MAX
     } else {
@@ -1051,6 +1055,7 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
         ok |= ok_c << shift;
         unsure |= unsure_c << shift;
         if unsure_c != 0 {
+            let sel = sel.get_or_insert([[[0.0f32; N]; 3]; 3]);
             for (vi, p) in sv.iter().enumerate() {
                 for (j, x) in p.iter().enumerate() {
                     x.store(&mut sel[vi][j][at..]);
@@ -1058,7 +1063,7 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
             }
         }
     }
-    finish_lanes(r, tri, t_max, ok, unsure, zero, &sel, t, b1, b2)
+    finish_lanes(r, tri, t_max, ok, unsure, zero, sel.as_ref(), t, b1, b2)
 }
 
 /// [`intersect_lanes`] of two triangles for a packet of 8 lanes in 512-bit
@@ -1124,8 +1129,10 @@ pub(crate) fn intersect_lanes_8x2<const N: usize>(
         return hits;
     };
     let [out0, out1] = out;
-    let mut sel = [[[[0.0f32; N]; 3]; 3]; 2];
+    // Only for unsure lanes (see `intersect_lanes_simd`).
+    let mut sel: Option<[[[[f32; N]; 3]; 3]; 2]> = None;
     if f.unsure != 0 {
+        let sel = sel.insert([[[[0.0f32; N]; 3]; 3]; 2]);
         for (vi, p) in sv.iter().enumerate() {
             for (j, x) in p.iter().enumerate() {
                 let (lo, hi) = split_halves(*x);
@@ -1150,7 +1157,7 @@ pub(crate) fn intersect_lanes_8x2<const N: usize>(
             bits(f.ok),
             bits(f.unsure),
             bits(f.zero),
-            &sel[h],
+            sel.as_ref().map(|s| &s[h]),
             ot,
             ob1,
             ob2,
