@@ -726,8 +726,8 @@ fn packet_matches_single<const N: usize>(
 
 /// Bundles shaped like the multiple-try step's (one origin, directions a
 /// small perturbation apart, all with the same signs), wider bundles with
-/// mixed signs, and incoherent rays; N = 4, 8, 16; every kernel this CPU
-/// runs.
+/// mixed signs, rays leaving a triangle they start on, and incoherent
+/// rays; N = 4, 8, 16; every kernel this CPU runs.
 fn packets_match_single_rays<const N: usize>(tris: &[[Vec3; 3]], name: &str) {
     let bvh = Bvh::build(tris);
     let mut rng = Rng(31 + N as u64);
@@ -736,15 +736,31 @@ fn packets_match_single_rays<const N: usize>(tris: &[[Vec3; 3]], name: &str) {
     for (b, chunk) in rays.chunks_exact(N).enumerate() {
         let base = chunk[0];
         let mut lanes = [base; N];
-        match b % 3 {
+        match b % 4 {
             // Incoherent.
             0 => lanes.copy_from_slice(chunk),
+            // Rays leaving a surface: origins on one triangle, unoffset, so
+            // lanes meet it again at a distance of either sign within
+            // rounding (the f64 decision of "unsure" lanes, in registers
+            // of every width, and two triangles at once for packets of 8
+            // on AVX-512).
+            3 => {
+                let [p0, p1, p2] = tris[rng.below(tris.len())];
+                let n = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z);
+                for r in lanes.iter_mut() {
+                    let (u, v) = (rng.range(0.05, 0.45), rng.range(0.05, 0.45));
+                    r.o = p0 + (p1 - p0) * u + (p2 - p0) * v;
+                    let side = if rng.chance(0.5) { 1.0 } else { -1.0 };
+                    r.d = n * side + rng.unit() * 0.9;
+                    r.t_max = f32::INFINITY;
+                }
+            }
             // A bundle: one origin, spread 10⁻⁵ … 10⁻¹ around one direction.
-            _ => {
+            k => {
                 let spread = 10f32.powf(rng.range(-5.0, -1.0));
                 let d = base.d.normalize_or(Vec3::X);
                 for r in lanes.iter_mut() {
-                    r.d = d + rng.unit() * spread * if b % 3 == 1 { 0.1 } else { 10.0 };
+                    r.d = d + rng.unit() * spread * if k == 1 { 0.1 } else { 10.0 };
                     if rng.chance(0.2) {
                         r.t_max = rng.range(0.0, 4.0);
                     }
