@@ -57,8 +57,8 @@ impl<const N: usize> Lanes<N> {
         }
     }
 
-    /// Copies the valid active lanes of `rays` into [`Self::dummies`];
-    /// returns their mask. Invalid lanes (non-finite, zero direction,
+    /// Copies the valid active lanes of `rays` into lanes fresh from
+    /// [`Self::dummies`] (the others stay dummies); returns their mask. Invalid lanes (non-finite, zero direction,
     /// `t_max` not positive) cannot hit anything and are left out, like in
     /// the single-ray path.
     ///
@@ -66,7 +66,7 @@ impl<const N: usize> Lanes<N> {
     /// functions, so they vectorise to the kernel's width): every lane is
     /// computed and inactive or invalid ones are replaced by the dummy.
     /// Filled in place: built apart and moved, the set-up (1.5 KB for 16
-    /// lanes) was copied by `memcpy` calls, three per packet.
+    /// lanes) was copied by `memcpy` calls on every packet.
     #[inline(always)]
     fn set(&mut self, rays: &RayPacket<N>, active: LaneMask) -> u32 {
         let active = active.0 & LaneMask::first(N).0;
