@@ -951,10 +951,10 @@ pub(crate) fn intersect_lanes<const N: usize>(
 /// (inside, with an f32 `t` not provably of either sign) are decided in
 /// f64 from `sel` (the permuted vertices, as [`intersect_lanes`] selects
 /// them; only the `unsure` lanes are read, and it may be `None` when there
-/// are none), all at once, as the
-/// single-ray test decides them — a packet leaving the surface its rays
-/// start on has many; lanes `zero` (an exactly zero edge function) are
-/// redone by the single-ray test. Returns the lanes that hit.
+/// are none), all at once, as the single-ray test decides them — a packet
+/// leaving the surface its rays start on has many; lanes `zero` (an exactly
+/// zero edge function) are redone by the single-ray test. Returns the lanes
+/// that hit.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn finish_lanes<const N: usize>(

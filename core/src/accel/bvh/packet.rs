@@ -58,9 +58,9 @@ impl<const N: usize> Lanes<N> {
     }
 
     /// Copies the valid active lanes of `rays` into lanes fresh from
-    /// [`Self::dummies`] (the others stay dummies); returns their mask. Invalid lanes (non-finite, zero direction,
-    /// `t_max` not positive) cannot hit anything and are left out, like in
-    /// the single-ray path.
+    /// [`Self::dummies`] (the others stay dummies); returns their mask.
+    /// Invalid lanes (non-finite, zero direction, `t_max` not positive)
+    /// cannot hit anything and are left out, like in the single-ray path.
     ///
     /// Branch-free lane loops (inlined into the kernels' target-feature
     /// functions, so they vectorise to the kernel's width): every lane is
