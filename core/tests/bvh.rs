@@ -136,6 +136,41 @@ fn bvh_matches_brute_force_identical_triangles() {
     compare_scene("identical", &tris, &rays);
 }
 
+#[test]
+fn bvh_matches_brute_force_exponential_spacing() {
+    // Triangles at x = 1.5^k, each as large as its distance from the
+    // origin: the binned SAH split peels off the few largest at every
+    // level, so the binary tree is far deeper than `MAX_DEPTH` 4-wide
+    // levels and the collapse has to flatten its bottom into leaves.
+    let mut rng = Rng(7);
+    let tris: Vec<[Vec3; 3]> = (0..160)
+        .map(|k| {
+            let s = 1.5f32.powi(k);
+            let c = Vec3::new(s, 0.0, 0.0);
+            [
+                c + Vec3::new(0.0, -0.3, -0.3) * s,
+                c + Vec3::new(0.1, 0.3, -0.2) * s,
+                c + Vec3::new(-0.1, 0.0, 0.3) * s,
+            ]
+        })
+        .collect();
+    // Rays from around triangle k's scale towards (or past) triangle k:
+    // random rays in the whole box would only see the largest few.
+    let rays: Vec<Ray> = (0..20_000)
+        .map(|_| {
+            let k = rng.below(tris.len());
+            let s = 1.5f32.powi(k as i32);
+            let o = rng.in_box(Vec3::new(0.0, -s, -s), Vec3::new(2.0 * s, s, s));
+            let t = tris[k];
+            let aim = (t[0] + t[1] + t[2]) / 3.0
+                + rng.in_box(Vec3::splat(-0.4 * s), Vec3::splat(0.4 * s));
+            Ray::new(o, aim - o)
+        })
+        .collect();
+    compare_scene("1.5^k", &tris, &rays);
+    assert_eq!(Bvh::build(&tris).view().depth() as usize, MAX_DEPTH);
+}
+
 // ---------------------------------------------------------------------------
 // Watertightness.
 

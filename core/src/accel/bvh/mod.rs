@@ -7,8 +7,9 @@
 //!   order, and `prim_ids` mapping them back to scene-global indices. A
 //!   `no_std` host can build or map that memory itself and hand it over.
 //! - [`Bvh`] (feature `alloc`): the owned form; [`Bvh::build`] (feature
-//!   `std`) builds a binary BVH with obvhs (PLOC + reinsertion) and
-//!   collapses it into the 4-wide layout.
+//!   `std`) builds two binary BVHs (obvhs' PLOC with reinsertion, and our
+//!   binned SAH builder), collapses each into the 4-wide layout with the
+//!   SAH-optimal collapse, and keeps the cheaper.
 //!
 //! Both implement [`Intersector`]: closest hit visits children front to
 //! back; occlusion stops at the first hit; packets of 4/8/16 rays share one
@@ -287,10 +288,13 @@ impl Bvh {
     /// Builds a BVH over `tris`, given in scene-global order (`tris[i]` is
     /// reported as `prim == i`).
     ///
-    /// obvhs builds a binary BVH (PLOC with a wide search window, then
-    /// reinsertion optimisation, leaves of up to 4 triangles); it is then
-    /// collapsed into 4-wide nodes by repeatedly opening the child with the
-    /// largest surface area. Degenerate triangles
+    /// Two binary BVHs are built down to single triangles: obvhs' PLOC
+    /// (wide search window, then reinsertion optimisation) and a top-down
+    /// binned SAH build. Each is collapsed into 4-wide nodes by dynamic
+    /// programming that chooses leaves (up to 4 triangles) and node
+    /// contents of least SAH cost, and the layout of lower SAH cost is
+    /// kept: neither builder gives the better tree on every scene.
+    /// Degenerate triangles
     /// ([`crate::geometry::triangle::is_degenerate`]) are left out: they can
     /// never be hit. An empty or fully degenerate input gives an empty BVH.
     ///

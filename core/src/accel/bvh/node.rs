@@ -193,8 +193,8 @@ pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
 }
 
 /// Recomputes every child box exactly from the stored triangles, bottom up
-/// (children come after parents). obvhs' boxes would do, but this way the
-/// conservativeness of the boxes never depends on the builder.
+/// (children come after parents). The builders' boxes would do, but this
+/// way the conservativeness of the boxes never depends on a builder.
 #[cfg(feature = "alloc")]
 pub(super) fn refit(nodes: &mut [Node4], tris: &[[Vec3; 3]]) {
     for i in (0..nodes.len()).rev() {
