@@ -4,9 +4,11 @@
 //! collapse, and the tree of lower SAH cost is kept.
 //!
 //! Neither builder wins everywhere (callgrind instructions of our kernels,
-//! `docs/rays.md`): PLOC's tree needs 14–18% fewer on veach-mis, the binned
-//! SAH tree 4–5% fewer on the 260k-triangle benchmark mesh. The SAH cost
-//! picks the better of the two on both.
+//! `docs/rays.md`): PLOC's tree needs 13% fewer on veach-mis's diffuse
+//! bounces and 19% fewer on its primary packets, the binned SAH tree 3–5%
+//! fewer on the benchmark mesh's diffuse and primary rays. The SAH cost
+//! picks the better of the two there; on veach-ajar it picks PLOC's, whose
+//! count is 2–4% above the other's.
 
 mod binary;
 mod binned_sah;
@@ -26,12 +28,12 @@ use crate::geometry::triangle::is_degenerate;
 use binary::BinaryTree;
 use collapse::{Costs, Wide};
 
-/// Relative costs of node and leaf visits in the single-ray kernels:
-/// a node's four box tests and the push/pop around them cost about as much
-/// as a leaf's set-up and 4-wide triangle test (callgrind, AVX2 form, on
-/// the shared scenes and the benchmark mesh; the instruction counts of
-/// our kernels moved by under 1% for leaf costs of 0.5–2 and triangle
-/// costs of 0.1–0.3).
+/// Relative costs of node and leaf visits for the collapse. A leaf visit
+/// costs our single-ray kernels about three node visits (callgrind, AVX2
+/// form, mesh), but the SAH's uniform rays are not our rays: with leaf
+/// costs of 0.5, 1 and 2 and triangle costs of 0.1 and 0.3, our kernels'
+/// instructions moved by under 1% on the mesh, and for leaf costs of 1–3
+/// the choice between the two trees was the same on every benchmark scene.
 const COSTS: Costs = Costs {
     node: 1.0,
     leaf: 1.0,
