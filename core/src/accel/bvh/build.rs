@@ -88,8 +88,10 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> Bvh {
     let kept: Vec<[Vec3; 3]> = ids.iter().map(|&i| tris[i as usize]).collect();
     let collapse = |tree: BinaryTree| collapse::collapse(&tree, &kept, &ids, COSTS);
     // One after the other: a library call should not start threads its
-    // host did not ask for.
-    let (a, b) = (collapse(binned_sah::build(&kept)), collapse(ploc(&kept)));
+    // host did not ask for. PLOC first: obvhs' working set is the larger,
+    // and it is better not to hold the other layout during it.
+    let b = collapse(ploc(&kept));
+    let a = collapse(binned_sah::build(&kept));
     let Wide {
         mut nodes,
         tris: leaf_tris,

@@ -2,20 +2,22 @@
 
 use std::vec::Vec;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
-/// An axis-aligned box in `f64`, so that the SAH arithmetic on finite
-/// `f32` input never overflows; the empty box is inverted.
+/// An axis-aligned box; the empty box is inverted. Stored in `f32` (the
+/// input's precision, half the memory of a large build); areas are
+/// computed in `f64`, where the extents of finite `f32` boxes and their
+/// products cannot overflow.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Aabb {
-    pub min: DVec3,
-    pub max: DVec3,
+    pub min: Vec3,
+    pub max: Vec3,
 }
 
 impl Aabb {
     pub const EMPTY: Aabb = Aabb {
-        min: DVec3::INFINITY,
-        max: DVec3::NEG_INFINITY,
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
     };
 
     /// Grows the box to contain `b`.
@@ -27,7 +29,7 @@ impl Aabb {
     /// Half the surface area (the SAH only compares ratios); 0 for the
     /// empty box.
     pub fn half_area(&self) -> f64 {
-        let d = (self.max - self.min).max(DVec3::ZERO);
+        let d = (self.max.as_dvec3() - self.min.as_dvec3()).max(DVec3::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     }
 }
@@ -76,8 +78,8 @@ pub(super) fn from_obvhs(bvh2: &obvhs::bvh2::Bvh2) -> BinaryTree {
     while let Some((s, n)) = work.pop() {
         let sn = &src[s];
         nodes[n].bounds = Aabb {
-            min: sn.aabb().min.as_dvec3(),
-            max: sn.aabb().max.as_dvec3(),
+            min: sn.aabb().min.into(),
+            max: sn.aabb().max.into(),
         };
         if sn.is_leaf() {
             nodes[n].first = order.len() as u32;

@@ -12,7 +12,7 @@
 
 use std::vec::Vec;
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use super::binary::{Aabb, BinNode, BinaryTree};
 
@@ -23,15 +23,13 @@ const BINS: usize = 32;
 pub(super) fn build(tris: &[[Vec3; 3]]) -> BinaryTree {
     let boxes: Vec<Aabb> = tris
         .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| v.as_dvec3());
-            Aabb {
-                min: a.min(b).min(c),
-                max: a.max(b).max(c),
-            }
+        .map(|&[a, b, c]| Aabb {
+            min: a.min(b).min(c),
+            max: a.max(b).max(c),
         })
         .collect();
-    let centroids: Vec<DVec3> = boxes.iter().map(|b| 0.5 * (b.min + b.max)).collect();
+    // Halves first: `min + max` could overflow to infinity.
+    let centroids: Vec<Vec3> = boxes.iter().map(|b| 0.5 * b.min + 0.5 * b.max).collect();
     let mut order: Vec<u32> = (0..tris.len() as u32).collect();
     let mut nodes = Vec::with_capacity(2 * tris.len());
     nodes.push(BinNode::UNSET);
@@ -65,17 +63,19 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> BinaryTree {
 /// Partitions `prims` (at least two) at the binned split of least SAH
 /// cost; returns the size of the left part, in `1..prims.len()`, or `None`
 /// when every centroid falls into one bin on every axis.
-fn split(prims: &mut [u32], boxes: &[Aabb], centroids: &[DVec3]) -> Option<usize> {
-    let (mut cmin, mut cmax) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+fn split(prims: &mut [u32], boxes: &[Aabb], centroids: &[Vec3]) -> Option<usize> {
+    let (mut cmin, mut cmax) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for &p in prims.iter() {
         cmin = cmin.min(centroids[p as usize]);
         cmax = cmax.max(centroids[p as usize]);
     }
-    let extent = cmax - cmin;
+    // In `f64`: the extent of finite centroids cannot overflow there.
+    let (cmin, extent) = (cmin.as_dvec3(), cmax.as_dvec3() - cmin.as_dvec3());
     let bin_of = |p: u32, axis: usize, scale: f64| -> usize {
         // `as` saturates, and the `min` keeps the largest centroid in the
         // last bin whatever the rounding of `scale`.
-        (((centroids[p as usize][axis] - cmin[axis]) * scale) as usize).min(BINS - 1)
+        let c = f64::from(centroids[p as usize][axis]);
+        (((c - cmin[axis]) * scale) as usize).min(BINS - 1)
     };
     // (cost, axis, first bin of the right part)
     let mut best: Option<(f64, usize, usize)> = None;
