@@ -76,9 +76,9 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
     let mut prims = vec![0u32; n];
     let mut start = vec![0u32; n];
     let root_area = b[0].bounds.half_area();
-    // Areas relative to the root's; an empty root area (a single triangle
-    // seen edge-on is impossible: degenerate triangles were left out, so
-    // this is only a guard) leaves them absolute.
+    // Areas relative to the root's. The root's area is positive (a
+    // non-degenerate triangle's box has two non-zero extents); the guard
+    // keeps a zero from turning every cost into NaN.
     let scale = if root_area > 0.0 {
         1.0 / root_area
     } else {
