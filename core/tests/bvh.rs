@@ -139,9 +139,10 @@ fn bvh_matches_brute_force_identical_triangles() {
 #[test]
 fn bvh_matches_brute_force_exponential_spacing() {
     // Triangles at x = 1.5^k, each as large as its distance from the
-    // origin: the binned SAH split peels off the few largest at every
-    // level, so the binary tree is far deeper than `MAX_DEPTH` 4-wide
-    // levels and the collapse has to flatten its bottom into leaves.
+    // origin: a split can only peel off the few largest at every level,
+    // so the binary trees are deeper than `MAX_DEPTH` 4-wide levels allow
+    // and the collapse has to flatten their bottoms into leaves (the last
+    // assertion checks that the layout reached the limit).
     let mut rng = Rng(7);
     let tris: Vec<[Vec3; 3]> = (0..160)
         .map(|k| {
