@@ -20,9 +20,10 @@ use glam::Vec3;
 use super::binary::BinaryTree;
 use crate::accel::bvh::node::{MAX_DEPTH, Node4};
 
-/// Relative costs of the single-ray kernels (callgrind instructions on the
-/// benchmark mesh, AVX2 form): a node's four box tests, a leaf's setup and
-/// one 4-wide triangle test, and what each further triangle adds.
+/// Relative costs, per unit of box area, of visiting a node (four box
+/// tests), of a leaf's set-up and 4-wide triangle test per group of up to
+/// four triangles, and of each triangle (`build::COSTS` gives the values
+/// used and how they were chosen).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Costs {
     pub node: f64,
@@ -31,6 +32,14 @@ pub(super) struct Costs {
     /// Largest leaf the collapse makes (a binary subtree with more
     /// triangles is split into further slots).
     pub max_leaf: u32,
+}
+
+impl Costs {
+    /// The cost of a leaf of `k` triangles, per unit of its box's area.
+    pub fn leaf_of(&self, k: u32) -> f64 {
+        let k = f64::from(k);
+        self.leaf * (k / 4.0).ceil() + self.tri * k
+    }
 }
 
 /// What covering one binary subtree costs with at most `j` slots, `j` =
@@ -106,10 +115,8 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
             prims[i] = prims[l] + prims[r];
             start[i] = start[l];
         }
-        let leaf_cost = (prims[i] <= costs.max_leaf || node.is_leaf()).then(|| {
-            let k = f64::from(prims[i]);
-            area * (costs.leaf * (k / 4.0).ceil() + costs.tri * k)
-        });
+        let leaf_cost =
+            (prims[i] <= costs.max_leaf || node.is_leaf()).then(|| area * costs.leaf_of(prims[i]));
         let node_cost = (!node.is_leaf()).then(|| {
             let (split, children) = (1..4)
                 .map(|s| {
@@ -269,10 +276,9 @@ mod tests {
             for c in 0..4 {
                 if node.is_leaf(c) {
                     let first = node.child[c] as usize;
-                    let k = node.count[c] as usize;
-                    let lb = bounds(&w.tris[first..first + k]);
-                    let k = k as f64;
-                    sum += lb.half_area() * (costs.leaf * (k / 4.0).ceil() + costs.tri * k);
+                    let k = node.count[c];
+                    let lb = bounds(&w.tris[first..first + k as usize]);
+                    sum += lb.half_area() * costs.leaf_of(k);
                     b.grow(&lb);
                 } else if node.child[c] != EMPTY_CHILD {
                     let (s, cb) = node_cost(w, node.child[c] as usize, costs);
@@ -374,10 +380,7 @@ mod tests {
             };
         }
         let is_leaf = |i: usize| b[i].is_leaf() || prims[i] <= leaf_below;
-        let leaf = |i: usize| {
-            let k = f64::from(prims[i]);
-            b[i].bounds.half_area() * (costs.leaf * (k / 4.0).ceil() + costs.tri * k)
-        };
+        let leaf = |i: usize| b[i].bounds.half_area() * costs.leaf_of(prims[i]);
         if is_leaf(0) {
             return leaf(0) / b[0].bounds.half_area();
         }
