@@ -176,6 +176,14 @@ impl WatertightRay {
     /// the one the sequential loop keeps. It replaces a chain of
     /// data-dependent branches per triangle, which mispredict often, with
     /// one mask test per group.
+    ///
+    /// Leaves of one or two triangles take this path too, although it costs
+    /// more instructions than the scalar test for them: their scalar
+    /// branches mispredict on incoherent rays, which are what single rays
+    /// mostly trace. Together with `traverse::prefetch`, measured in one
+    /// process against the scalar rule (stop 22, `docs/rays.md`): diffuse
+    /// bounces 2–6% faster on all five benchmark scenes, coherent primary
+    /// rays 5% slower on the four small ones, where the branches predict.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     pub(crate) fn intersect_many_sse<const ANY: bool>(
@@ -183,11 +191,6 @@ impl WatertightRay {
         tris: &[[Vec3; 3]],
         mut t_max: f32,
     ) -> Option<(usize, f32, f32, f32)> {
-        // One or two triangles: the lanes cost more than the (often well
-        // predicted) scalar branches, measured on coherent rays.
-        if tris.len() <= 2 {
-            return self.intersect_many::<ANY>(tris, t_max);
-        }
         let mut best = None;
         for (g, group) in tris.chunks(4).enumerate() {
             if let Some((j, t, b1, b2)) = self.intersect4_sse(group, t_max) {

@@ -195,7 +195,9 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     } else {
                         (c0, c1)
                     };
-                    stack.push(entry(f));
+                    let e = entry(f);
+                    prefetch(view, e.child, e.count);
+                    stack.push(e);
                     cur = entry(n);
                     continue;
                 }
@@ -211,11 +213,15 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     let slot = |i: usize| (sorted[i] & 3) as usize;
                     // Farther children far-to-near, so the next pop is the
                     // next nearest; descend into the nearest right away.
+                    let mut defer = |e: Entry| {
+                        prefetch(view, e.child, e.count);
+                        stack.push(e);
+                    };
                     if n == 4 {
-                        stack.push(entry(slot(3)));
+                        defer(entry(slot(3)));
                     }
-                    stack.push(entry(slot(2)));
-                    stack.push(entry(slot(1)));
+                    defer(entry(slot(2)));
+                    defer(entry(slot(1)));
                     cur = entry(slot(0));
                     continue;
                 }
@@ -244,6 +250,44 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         }
     }
     best
+}
+
+/// Starts loading a deferred child (`child`, `count` as in [`Entry`]):
+/// both cache lines of an inner node, or the first 128 bytes of a leaf's
+/// triangles.
+///
+/// A child goes on the stack because its box was hit, so it is likely to
+/// be visited, but only after the nearer subtree is done; on scenes larger
+/// than the caches its first touch would otherwise stall the traversal.
+/// Measured in one process against the same traversal without it (stop
+/// 22, `docs/rays.md`): 5% faster on the mesh's diffuse bounces and on
+/// veach-mis's shadow rays, within ±2% elsewhere.
+///
+/// A prefetch never faults and changes no result; the address is formed
+/// with `wrapping_add`, so even an index a layout would reject is harmless.
+#[inline(always)]
+fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = if count == 0 {
+            view.nodes
+                .as_ptr()
+                .wrapping_add(child as usize)
+                .cast::<i8>()
+        } else {
+            view.tris.as_ptr().wrapping_add(child as usize).cast::<i8>()
+        };
+        // SAFETY: SSE is part of the x86_64 baseline; a prefetch is a hint
+        // that reads nothing the program can observe and never faults, at
+        // any address.
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (view, child, count);
 }
 
 /// The whole tree, from the root.
