@@ -90,14 +90,18 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> Bvh {
     // One after the other: a library call should not start threads its
     // host did not ask for. PLOC first: obvhs' working set is the larger,
     // and it is better not to hold the other layout during it.
-    let b = collapse(ploc(&kept));
-    let a = collapse(binned_sah::build(&kept));
+    let ploc_wide = collapse(ploc(&kept));
+    let sah_wide = collapse(binned_sah::build(&kept));
     let Wide {
         mut nodes,
         tris: leaf_tris,
         ids: leaf_ids,
         ..
-    } = if a.cost <= b.cost { a } else { b };
+    } = if sah_wide.cost <= ploc_wide.cost {
+        sah_wide
+    } else {
+        ploc_wide
+    };
     super::node::refit(&mut nodes, &leaf_tris);
     Bvh::from_parts(nodes, leaf_tris, leaf_ids).expect("the builder produces valid layouts")
 }

@@ -195,9 +195,7 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     } else {
                         (c0, c1)
                     };
-                    let e = entry(f);
-                    prefetch(view, e.child, e.count);
-                    stack.push(e);
+                    defer(view, stack, entry(f));
                     cur = entry(n);
                     continue;
                 }
@@ -213,15 +211,11 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     let slot = |i: usize| (sorted[i] & 3) as usize;
                     // Farther children far-to-near, so the next pop is the
                     // next nearest; descend into the nearest right away.
-                    let mut defer = |e: Entry| {
-                        prefetch(view, e.child, e.count);
-                        stack.push(e);
-                    };
                     if n == 4 {
-                        defer(entry(slot(3)));
+                        defer(view, stack, entry(slot(3)));
                     }
-                    defer(entry(slot(2)));
-                    defer(entry(slot(1)));
+                    defer(view, stack, entry(slot(2)));
+                    defer(view, stack, entry(slot(1)));
                     cur = entry(slot(0));
                     continue;
                 }
@@ -250,6 +244,13 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
         }
     }
     best
+}
+
+/// Puts `e` on the stack for later and starts loading it ([`prefetch`]).
+#[inline(always)]
+fn defer(view: &BvhView<'_>, stack: &mut Stack<Entry>, e: Entry) {
+    prefetch(view, e.child, e.count);
+    stack.push(e);
 }
 
 /// Starts loading a deferred child (`child`, `count` as in [`Entry`]):

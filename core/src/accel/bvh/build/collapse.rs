@@ -115,20 +115,25 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
             prims[i] = prims[l] + prims[r];
             start[i] = start[l];
         }
+        // The cheapest split of `j` = 2..=4 slots between the two
+        // children's covers (the first on a tie); `j = 4` is what the
+        // subtree costs as a 4-wide node, below the node itself.
+        let mut pair = [(f64::INFINITY, 0u8); 5];
+        if !node.is_leaf() {
+            for (j, best) in pair.iter_mut().enumerate().skip(2) {
+                for s in 1..j {
+                    let c = f64::from(cover[l].cost[s]) + f64::from(cover[r].cost[j - s]);
+                    if c < best.0 {
+                        *best = (c, s as u8);
+                    }
+                }
+            }
+        }
         let leaf_cost =
             (prims[i] <= costs.max_leaf || node.is_leaf()).then(|| area * costs.leaf_of(prims[i]));
         let node_cost = (!node.is_leaf()).then(|| {
-            let (split, children) = (1..4)
-                .map(|s| {
-                    (
-                        s,
-                        f64::from(cover[l].cost[s]) + f64::from(cover[r].cost[4 - s]),
-                    )
-                })
-                .min_by(|x, y| x.1.total_cmp(&y.1))
-                .expect("three candidates");
-            node_split[i] = split as u8;
-            area * costs.node + children
+            node_split[i] = pair[4].1;
+            area * costs.node + pair[4].0
         });
         let slot = match (leaf_cost, node_cost) {
             (Some(leaf), Some(inner)) if leaf <= inner => {
@@ -144,15 +149,9 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
         };
         let mut cost = [slot; 5];
         let mut split = [0u8; 5];
-        if !node.is_leaf() {
-            for j in 2..5 {
-                for s in 1..j {
-                    let c = f64::from(cover[l].cost[s]) + f64::from(cover[r].cost[j - s]);
-                    if c < cost[j] {
-                        cost[j] = c;
-                        split[j] = s as u8;
-                    }
-                }
+        for j in 2..5 {
+            if pair[j].0 < slot {
+                (cost[j], split[j]) = pair[j];
             }
         }
         cover[i] = Cover {
