@@ -215,7 +215,7 @@ mod bench {
             build,
             view.nodes().len(),
             leaves,
-            view.tris().len() as f64 / leaves as f64,
+            view.triangles().count() as f64 / leaves as f64,
             view.depth()
         );
         let sets = [

@@ -534,7 +534,7 @@ fn single_triangle_and_non_finite_rays() {
         Vec3::new(0.0, 1.0, 0.0),
     ];
     let bvh = Bvh::build(&[[Vec3::ZERO; 3], tri]);
-    assert_eq!(bvh.view().tris().len(), 1);
+    assert_eq!(bvh.view().triangles().collect::<Vec<_>>(), [(tri, 1)]);
     let h = bvh
         .intersect(&Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z))
         .unwrap();
@@ -603,27 +603,54 @@ fn single_triangle_and_non_finite_rays() {
 fn layouts_are_validated() {
     let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
     let bvh = Bvh::build(&[tri, tri.map(|v| v + Vec3::Z)]);
-    let (nodes, tris, ids) = bvh.clone().into_parts();
-    assert!(BvhView::new(&nodes, &tris, &ids).is_ok());
-    assert_eq!(
-        BvhView::new(&nodes, &tris, &ids[..1]).unwrap_err(),
-        LayoutError::Lengths
-    );
+    let (nodes, blocks) = bvh.clone().into_parts();
+    assert!(BvhView::new(&nodes, &blocks).is_ok());
+    let mut bad = blocks.clone();
+    bad[0].ids[2] = u32::MAX;
     assert!(matches!(
-        BvhView::new(&nodes, &tris, &[0, u32::MAX]),
-        Err(LayoutError::ReservedPrimId { index: 1 })
+        BvhView::new(&nodes, &bad),
+        Err(LayoutError::ReservedPrimId { index: 2 })
     ));
+    // A leaf range past the last block's slots.
+    let leaf = (0..4).find(|&c| nodes[0].count[c] > 0).unwrap();
     let mut bad = nodes.clone();
-    bad[0].count[0] = 7;
+    bad[0].count[leaf] = 4 * blocks.len() as u32 + 1;
     assert!(matches!(
-        BvhView::new(&bad, &tris, &ids),
+        BvhView::new(&bad, &blocks),
+        Err(LayoutError::BadChild { node: 0, .. })
+    ));
+    // A leaf that does not start a block.
+    let mut bad = nodes.clone();
+    bad[0].child[leaf] += 1;
+    bad[0].count[leaf] = 1;
+    assert!(matches!(
+        BvhView::new(&bad, &blocks),
         Err(LayoutError::BadChild { node: 0, .. })
     ));
     let mut bad = nodes.clone();
     bad[0].child[0] = 0;
     bad[0].count[0] = 0;
     assert!(matches!(
-        BvhView::new(&bad, &tris, &ids),
+        BvhView::new(&bad, &blocks),
+        Err(LayoutError::BadChild { node: 0, slot: 0 })
+    ));
+    // `from_parts` checks the leaf-order input before packing it.
+    let mut one = Node4::EMPTY;
+    one.set_bounds(0, [0.0; 3], [1.0, 1.0, 1.0]);
+    (one.child[0], one.count[0]) = (0, 2);
+    let two = vec![tri, tri.map(|v| v + Vec3::Z)];
+    assert!(Bvh::from_parts(vec![one], two.clone(), vec![0, 1]).is_ok());
+    assert_eq!(
+        Bvh::from_parts(vec![one], two.clone(), vec![0]).unwrap_err(),
+        LayoutError::Lengths
+    );
+    assert!(matches!(
+        Bvh::from_parts(vec![one], two.clone(), vec![0, u32::MAX]),
+        Err(LayoutError::ReservedPrimId { index: 1 })
+    ));
+    one.count[0] = 3;
+    assert!(matches!(
+        Bvh::from_parts(vec![one], two, vec![0, 1]),
         Err(LayoutError::BadChild { node: 0, slot: 0 })
     ));
 
@@ -861,7 +888,7 @@ fn refit_after_motion_matches_brute_force() {
     bvh.refit(|prim| moved[prim as usize]);
     // Triangles degenerate at build time (the soup has some) stay out of
     // the tree by contract, even once the wobble unfolds them.
-    let (_, _, ids) = bvh.clone().into_parts();
+    let ids: Vec<u32> = bvh.view().triangles().map(|(_, id)| id).collect();
     assert!(ids.len() < tris.len(), "the soup has degenerate triangles");
     let moved: Vec<[Vec3; 3]> = (0..moved.len() as u32)
         .map(|p| {

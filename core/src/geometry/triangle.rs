@@ -140,19 +140,33 @@ impl WatertightRay {
     }
 }
 
+/// Four triangles in SoA form, `planes[vertex][axis][lane]`: the layout of
+/// the BVH's leaf blocks (`accel::bvh::TriBlock`), one triangle per lane.
+pub(crate) type Planes4 = [[[f32; 4]; 3]; 3];
+
+/// Lane `l`'s triangle of `p`.
+#[inline(always)]
+pub(crate) fn planes_tri(p: &Planes4, l: usize) -> [Vec3; 3] {
+    let l = l & 3;
+    let v = |v: usize| Vec3::new(p[v][0][l], p[v][1][l], p[v][2][l]);
+    [v(0), v(1), v(2)]
+}
+
 impl WatertightRay {
-    /// The closest hit among `tris` (any length): `(index, t, b1, b2)` with
-    /// `t` in `(0, t_max)`, the first of equally close hits. Tests them one
-    /// by one with [`WatertightRay::intersect`], shrinking `t_max` at each
-    /// hit; with `ANY`, stops at the first hit.
+    /// The closest hit among `count` triangles `tri(0..count)`:
+    /// `(index, t, b1, b2)` with `t` in `(0, t_max)`, the first of equally
+    /// close hits. Tests them one by one with [`WatertightRay::intersect`],
+    /// shrinking `t_max` at each hit; with `ANY`, stops at the first hit.
     #[inline(always)]
     pub(crate) fn intersect_many<const ANY: bool>(
         &self,
-        tris: &[[Vec3; 3]],
+        count: usize,
+        tri: impl Fn(usize) -> [Vec3; 3],
         mut t_max: f32,
     ) -> Option<(usize, f32, f32, f32)> {
         let mut best = None;
-        for (j, tri) in tris.iter().enumerate() {
+        for j in 0..count {
+            let tri = tri(j);
             if let Some((t, b1, b2)) = self.intersect(tri[0], tri[1], tri[2], t_max) {
                 t_max = t;
                 best = Some((j, t, b1, b2));
@@ -164,8 +178,10 @@ impl WatertightRay {
         best
     }
 
-    /// [`Self::intersect_many`] with SSE: four triangles per step, one per
-    /// lane (the permutation is the ray's, shared by all lanes).
+    /// [`Self::intersect_many`] with SSE over groups of four triangles in
+    /// SoA form (`groups`, `count` triangles in all, the last group's lanes
+    /// past `count` ignored): one group per step, one triangle per lane
+    /// (the permutation is the ray's, shared by all lanes).
     ///
     /// Same answer bit for bit: every lane evaluates the IEEE operations of
     /// the scalar helpers in the same order (`transform`, `edge_functions`,
@@ -186,14 +202,19 @@ impl WatertightRay {
     /// rays 5% slower on the four small ones, where the branches predict.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    pub(crate) fn intersect_many_sse<const ANY: bool>(
+    pub(crate) fn intersect_many_sse<'g, const ANY: bool>(
         &self,
-        tris: &[[Vec3; 3]],
+        groups: impl Iterator<Item = &'g Planes4>,
+        count: usize,
         mut t_max: f32,
     ) -> Option<(usize, f32, f32, f32)> {
         let mut best = None;
-        for (g, group) in tris.chunks(4).enumerate() {
-            if let Some((j, t, b1, b2)) = self.intersect4_sse(group, t_max) {
+        for (g, group) in groups.enumerate() {
+            let n = count.saturating_sub(4 * g).min(4);
+            if n == 0 {
+                break;
+            }
+            if let Some((j, t, b1, b2)) = self.intersect4_sse(group, n, t_max) {
                 t_max = t;
                 best = Some((4 * g + j, t, b1, b2));
                 if ANY {
@@ -204,76 +225,33 @@ impl WatertightRay {
         best
     }
 
-    /// One group of 1–4 triangles for [`Self::intersect_many_sse`].
+    /// One group of `n` (1–4) triangles for [`Self::intersect_many_sse`]:
+    /// lanes `0..n` of `p`.
+    ///
+    /// The ray's axis permutation is applied by the addresses of the nine
+    /// plane loads (`p[vertex][k[i]]`), so the permuted planes go straight
+    /// into registers.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn intersect4_sse(&self, tris: &[[Vec3; 3]], t_max: f32) -> Option<(usize, f32, f32, f32)> {
+    fn intersect4_sse(&self, p: &Planes4, n: usize, t_max: f32) -> Option<(usize, f32, f32, f32)> {
         use core::arch::x86_64::*;
 
-        /// The (up to) four triangles' vertices in SoA form, `v[vertex][axis]`
-        /// with one lane per triangle; lanes past the group repeat its
-        /// last triangle.
-        ///
-        /// Each triangle is read as three overlapping 16-byte rows of its
-        /// nine floats (`v0.xyz v1.x`, `v1.xyz v2.x`, `v1.z v2.xyz`), then
-        /// the rows of the four triangles are transposed: 12 loads and 21
-        /// shuffles, where the 36 floats were gathered one by one (this cut
-        /// a single-ray trace's instructions by 2–10%, callgrind).
-        #[inline(always)]
-        fn soa(tris: &[[Vec3; 3]]) -> [[__m128; 3]; 3] {
-            let last = tris.len() - 1;
-            // `Vec3` is `repr(C)` `{x, y, z}` (12 bytes), so a triangle is
-            // nine consecutive floats.
-            let f = |j: usize| tris[j.min(last)].as_ptr().cast::<f32>();
-            let (t0, t1, t2, t3) = (f(0), f(1), f(2), f(3));
-            // SAFETY: SSE2 is part of the x86_64 baseline. Every load
-            // reads four floats at offset 0, 3 or 5 of a triangle's nine,
-            // so within the `[Vec3; 3]` its pointer was derived from
-            // (unaligned loads).
-            unsafe {
-                let rows = |o: usize| {
-                    [
-                        _mm_loadu_ps(t0.add(o)),
-                        _mm_loadu_ps(t1.add(o)),
-                        _mm_loadu_ps(t2.add(o)),
-                        _mm_loadu_ps(t3.add(o)),
-                    ]
-                };
-                // Columns of four rows `[a, b, c, d]`: lane j of column
-                // i is element i of row j.
-                let columns = |r: [__m128; 4]| {
-                    let lo01 = _mm_unpacklo_ps(r[0], r[1]);
-                    let lo23 = _mm_unpacklo_ps(r[2], r[3]);
-                    let hi01 = _mm_unpackhi_ps(r[0], r[1]);
-                    let hi23 = _mm_unpackhi_ps(r[2], r[3]);
-                    [
-                        _mm_movelh_ps(lo01, lo23),
-                        _mm_movehl_ps(lo23, lo01),
-                        _mm_movelh_ps(hi01, hi23),
-                        _mm_movehl_ps(hi23, hi01),
-                    ]
-                };
-                let a = columns(rows(0));
-                let b = columns(rows(3));
-                let c = columns(rows(5));
-                [[a[0], a[1], a[2]], [b[0], b[1], b[2]], [c[1], c[2], c[3]]]
-            }
-        }
-
         /// One vertex of the four triangles in ray space, as `transform`:
-        /// `[ax − Sx·az, ay − Sy·az, Sz·az, az]`.
+        /// `[ax − Sx·az, ay − Sy·az, Sz·az, az]`, from its planes `v`
+        /// (`v[axis]`, one lane per triangle) permuted by `k`.
         #[inline(always)]
         fn ray_space(
-            v: [__m128; 3],
+            v: &[[f32; 4]; 3],
             k: [usize; 3],
             org: [__m128; 3],
             shear: [__m128; 3],
         ) -> [__m128; 4] {
-            // SAFETY: SSE2 is part of the x86_64 baseline; no memory access.
+            // SAFETY: SSE2 is part of the x86_64 baseline; each load reads
+            // one `[f32; 4]` of `v` (`k[i] < 3`; unaligned loads).
             unsafe {
-                let ax = _mm_sub_ps(v[k[0]], org[0]);
-                let ay = _mm_sub_ps(v[k[1]], org[1]);
-                let az = _mm_sub_ps(v[k[2]], org[2]);
+                let ax = _mm_sub_ps(_mm_loadu_ps(v[k[0]].as_ptr()), org[0]);
+                let ay = _mm_sub_ps(_mm_loadu_ps(v[k[1]].as_ptr()), org[1]);
+                let az = _mm_sub_ps(_mm_loadu_ps(v[k[2]].as_ptr()), org[2]);
                 [
                     _mm_sub_ps(ax, _mm_mul_ps(shear[0], az)),
                     _mm_sub_ps(ay, _mm_mul_ps(shear[1], az)),
@@ -297,8 +275,6 @@ impl WatertightRay {
             unsafe { _mm_max_ps(_mm_max_ps(p, q), r) }
         }
 
-        let n = tris.len();
-        let tri = |j: usize| &tris[j.min(n - 1)];
         let live = (1u32 << n) - 1;
         let k = self.k.map(|k| k % 3);
         let mut t = [0.0f32; 4];
@@ -310,11 +286,10 @@ impl WatertightRay {
         let (mut ok, mut unsure, zero) = unsafe {
             let org = self.org.map(|x| _mm_set1_ps(x));
             let shear = self.shear.map(|x| _mm_set1_ps(x));
-            let [v0, v1, v2] = soa(tris);
             let (a, b, c) = (
-                ray_space(v0, k, org, shear),
-                ray_space(v1, k, org, shear),
-                ray_space(v2, k, org, shear),
+                ray_space(&p[0], k, org, shear),
+                ray_space(&p[1], k, org, shear),
+                ray_space(&p[2], k, org, shear),
             );
             // `edge_functions`.
             let u = _mm_sub_ps(_mm_mul_ps(c[0], b[1]), _mm_mul_ps(c[1], b[0]));
@@ -402,12 +377,12 @@ impl WatertightRay {
             // The scalar test, lane by lane, from the first lane (the
             // lanes before the zero ones were fine but are redone too:
             // the order of hits must stay the sequential one).
-            return self.intersect_many::<false>(tris, t_max);
+            return self.intersect_many::<false>(n, |j| planes_tri(p, j), t_max);
         }
         while unsure != 0 {
             let j = unsure.trailing_zeros() as usize;
             unsure &= unsure - 1;
-            if let Some(tj) = decide_t_f64(t[j], *tri(j), self.k, self.org, self.shear) {
+            if let Some(tj) = decide_t_f64(t[j], planes_tri(p, j), self.k, self.org, self.shear) {
                 t[j] = tj;
                 if tj < t_max {
                     ok |= 1 << j;

@@ -93,7 +93,7 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> Bvh {
     let ploc_wide = collapse(ploc(&kept));
     let sah_wide = collapse(binned_sah::build(&kept));
     let Wide {
-        mut nodes,
+        nodes,
         tris: leaf_tris,
         ids: leaf_ids,
         ..
@@ -102,6 +102,8 @@ pub(super) fn build(tris: &[[Vec3; 3]]) -> Bvh {
     } else {
         ploc_wide
     };
-    super::node::refit(&mut nodes, &leaf_tris);
-    Bvh::from_parts(nodes, leaf_tris, leaf_ids).expect("the builder produces valid layouts")
+    let mut bvh =
+        Bvh::from_parts(nodes, leaf_tris, leaf_ids).expect("the builder produces valid layouts");
+    super::node::refit(&mut bvh.nodes, &bvh.blocks);
+    bvh
 }

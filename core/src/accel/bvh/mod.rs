@@ -3,9 +3,11 @@
 //!
 //! - [`Node4`]: four child boxes in SoA form plus child references (inner
 //!   node / leaf range / empty).
-//! - [`BvhView`]: traversal over borrowed slices — nodes, triangles in leaf
-//!   order, and `prim_ids` mapping them back to scene-global indices. A
-//!   `no_std` host can build or map that memory itself and hand it over.
+//! - [`TriBlock`]: leaf triangles in blocks of four, transposed for the
+//!   SIMD leaf test, with their scene-global ids.
+//! - [`BvhView`]: traversal over borrowed slices — nodes and triangle
+//!   blocks. A `no_std` host can build or map that memory itself and hand
+//!   it over.
 //! - [`Bvh`] (feature `alloc`): the owned form; [`Bvh::build`] (feature
 //!   `std`) builds two binary BVHs (obvhs' PLOC with reinsertion, and our
 //!   binned SAH builder), collapses each into the 4-wide layout with the
@@ -39,6 +41,7 @@
 
 #[cfg(target_arch = "x86_64")]
 mod lanes;
+mod leaf;
 mod node;
 mod packet;
 mod simd;
@@ -47,6 +50,7 @@ mod traverse;
 #[cfg(feature = "std")]
 mod build;
 
+pub use leaf::TriBlock;
 pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node4, STACK_SIZE};
 pub use simd::Kernel;
 
@@ -61,17 +65,19 @@ use alloc::vec::Vec;
 /// Why a set of slices is not a valid BVH layout (see [`BvhView::new`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LayoutError {
-    /// `tris` and `prim_ids` differ in length, or a slice is too long to be
-    /// indexed by `u32`.
+    /// `tris` and `prim_ids` differ in length ([`Bvh::from_parts`]), or a
+    /// slice is too long to be indexed by `u32` (blocks: by `u32` slots).
     Lengths,
     /// A primitive id equals [`HitPacket::MISS`], which is reserved.
     ReservedPrimId {
-        /// Position in `prim_ids`.
+        /// Position in `prim_ids`, or slot (`4 · block + lane`) in the
+        /// blocks.
         index: usize,
     },
     /// A child slot is inconsistent: an inner child that does not come
     /// after its parent or is out of range, a leaf range beyond the
-    /// triangles, or an empty slot whose bounds are not inverted.
+    /// triangles (or, in blocks, not starting at a block boundary), or an
+    /// empty slot whose bounds are not inverted.
     BadChild {
         /// Node index.
         node: usize,
@@ -101,17 +107,17 @@ impl core::fmt::Display for LayoutError {
 /// A BVH over borrowed memory: the traversal-side type.
 ///
 /// - `nodes[0]` is the root (no nodes = empty scene, every ray misses);
-/// - `tris` holds the triangles in leaf order, each as its three vertices;
-/// - `prim_ids[i]` is the scene-global index of `tris[i]`, reported in
-///   [`Hit::prim`].
+/// - `blocks` holds the leaves' triangles, four slots per [`TriBlock`]: a
+///   leaf slot of a node covers slots `child .. child + count`, where
+///   `child` is a multiple of 4 (slot `s` is lane `s % 4` of block
+///   `s / 4`); each slot's id is reported in [`Hit::prim`].
 ///
 /// Child bounds must contain their triangles (else hits are missed; memory
 /// safety never depends on it).
 #[derive(Clone, Copy, Debug)]
 pub struct BvhView<'a> {
     nodes: &'a [Node4],
-    tris: &'a [[Vec3; 3]],
-    prim_ids: &'a [u32],
+    blocks: &'a [TriBlock],
     depth: u32,
     /// Always an available kernel (checked by [`BvhView::with_kernel`]).
     kernel: Kernel,
@@ -122,18 +128,17 @@ impl<'a> BvhView<'a> {
     ///
     /// Runs in time linear in the number of root-to-node paths (the node
     /// count for a tree) without allocating.
-    pub fn new(
-        nodes: &'a [Node4],
-        tris: &'a [[Vec3; 3]],
-        prim_ids: &'a [u32],
-    ) -> Result<Self, LayoutError> {
-        if tris.len() != prim_ids.len()
-            || tris.len() >= u32::MAX as usize
-            || nodes.len() >= u32::MAX as usize
-        {
+    pub fn new(nodes: &'a [Node4], blocks: &'a [TriBlock]) -> Result<Self, LayoutError> {
+        let slots = 4 * blocks.len() as u64;
+        if slots >= u32::MAX as u64 || nodes.len() >= u32::MAX as usize {
             return Err(LayoutError::Lengths);
         }
-        if let Some(index) = prim_ids.iter().position(|&p| p == HitPacket::<1>::MISS) {
+        // Every lane, padding included: a padding lane repeats a real one.
+        if let Some(index) = blocks
+            .iter()
+            .flat_map(|b| b.ids)
+            .position(|p| p == HitPacket::<1>::MISS)
+        {
             return Err(LayoutError::ReservedPrimId { index });
         }
         for (i, node) in nodes.iter().enumerate() {
@@ -143,7 +148,7 @@ impl<'a> BvhView<'a> {
                         node.min[a][c] == f32::INFINITY && node.max[a][c] == f32::NEG_INFINITY
                     })
                 } else if node.is_leaf(c) {
-                    node.child[c] as u64 + node.count[c] as u64 <= tris.len() as u64
+                    node.child[c] % 4 == 0 && node.child[c] as u64 + node.count[c] as u64 <= slots
                 } else {
                     (node.child[c] as usize) > i && (node.child[c] as usize) < nodes.len()
                 };
@@ -159,8 +164,7 @@ impl<'a> BvhView<'a> {
         };
         Ok(BvhView {
             nodes,
-            tris,
-            prim_ids,
+            blocks,
             depth,
             kernel: Kernel::best(),
         })
@@ -183,14 +187,22 @@ impl<'a> BvhView<'a> {
         self.nodes
     }
 
-    /// The triangles in leaf order.
-    pub fn tris(&self) -> &'a [[Vec3; 3]] {
-        self.tris
+    /// The leaves' triangle blocks.
+    pub fn blocks(&self) -> &'a [TriBlock] {
+        self.blocks
     }
 
-    /// Scene-global index of each leaf-order triangle.
-    pub fn prim_ids(&self) -> &'a [u32] {
-        self.prim_ids
+    /// The triangles in the leaves (padding lanes left out), with their
+    /// scene-global ids, in slot order.
+    pub fn triangles(&self) -> impl Iterator<Item = ([Vec3; 3], u32)> + 'a {
+        let blocks = self.blocks;
+        self.nodes.iter().flat_map(move |n| {
+            (0..4).filter(|&c| n.is_leaf(c)).flat_map(move |c| {
+                let first = n.child[c] as usize;
+                (first..first + n.count[c] as usize)
+                    .map(move |s| (leaf::slot_tri(blocks, s), leaf::slot_id(blocks, s)))
+            })
+        })
     }
 
     /// Levels of nodes (0 for an empty BVH, 1 for a lone root).
@@ -263,8 +275,7 @@ impl Intersector for BvhView<'_> {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<Node4>,
-    tris: Vec<[Vec3; 3]>,
-    prim_ids: Vec<u32>,
+    blocks: Vec<TriBlock>,
     depth: u32,
     /// Always an available kernel (checked by [`Bvh::with_kernel`]).
     kernel: Kernel,
@@ -275,8 +286,7 @@ impl Default for Bvh {
     fn default() -> Self {
         Bvh {
             nodes: Vec::new(),
-            tris: Vec::new(),
-            prim_ids: Vec::new(),
+            blocks: Vec::new(),
             depth: 0,
             kernel: Kernel::best(),
         }
@@ -305,17 +315,42 @@ impl Bvh {
         build::build(tris)
     }
 
-    /// Wraps prebuilt storage after checking it like [`BvhView::new`].
+    /// A BVH from a layout whose leaves index triangles in leaf order (a
+    /// leaf slot's `child` is its first triangle in `tris`; `prim_ids[i]`
+    /// is the scene-global id of `tris[i]`): checked like
+    /// [`BvhView::new`], then packed into [`TriBlock`]s (leaf children
+    /// become slot indices).
     pub fn from_parts(
-        nodes: Vec<Node4>,
+        mut nodes: Vec<Node4>,
         tris: Vec<[Vec3; 3]>,
         prim_ids: Vec<u32>,
     ) -> Result<Bvh, LayoutError> {
-        let depth = BvhView::new(&nodes, &tris, &prim_ids)?.depth;
+        if tris.len() != prim_ids.len() || tris.len() >= u32::MAX as usize / 4 {
+            return Err(LayoutError::Lengths);
+        }
+        if let Some(index) = prim_ids.iter().position(|&p| p == HitPacket::<1>::MISS) {
+            return Err(LayoutError::ReservedPrimId { index });
+        }
+        // The leaf ranges against `tris` (before packing, which trusts
+        // them); the packed layout is then checked in full.
+        for (i, node) in nodes.iter().enumerate() {
+            for c in (0..4).filter(|&c| node.is_leaf(c)) {
+                if node.child[c] as u64 + node.count[c] as u64 > tris.len() as u64 {
+                    return Err(LayoutError::BadChild { node: i, slot: c });
+                }
+            }
+        }
+        let blocks = leaf::pack(&mut nodes, &tris, &prim_ids);
+        Bvh::from_blocks(nodes, blocks)
+    }
+
+    /// Wraps prebuilt storage in the block layout after checking it like
+    /// [`BvhView::new`].
+    pub fn from_blocks(nodes: Vec<Node4>, blocks: Vec<TriBlock>) -> Result<Bvh, LayoutError> {
+        let depth = BvhView::new(&nodes, &blocks)?.depth;
         Ok(Bvh {
             nodes,
-            tris,
-            prim_ids,
+            blocks,
             depth,
             kernel: Kernel::best(),
         })
@@ -347,15 +382,21 @@ impl Bvh {
     /// (rebuild then). Triangles that were degenerate at build time are
     /// not in the tree and stay out: rebuild if one unfolds.
     pub fn refit(&mut self, triangle: impl Fn(u32) -> [Vec3; 3]) {
-        for (t, &prim) in self.tris.iter_mut().zip(&self.prim_ids) {
-            *t = triangle(prim);
+        // Padding lanes hold a copy of a real slot (id included), so they
+        // follow it.
+        for b in &mut self.blocks {
+            for l in 0..4 {
+                let id = b.ids[l];
+                b.set(l, triangle(id), id);
+            }
         }
-        node::refit(&mut self.nodes, &self.tris);
+        node::refit(&mut self.nodes, &self.blocks);
     }
 
-    /// The storage: nodes, leaf-ordered triangles, scene-global ids.
-    pub fn into_parts(self) -> (Vec<Node4>, Vec<[Vec3; 3]>, Vec<u32>) {
-        (self.nodes, self.tris, self.prim_ids)
+    /// The storage: nodes and triangle blocks (as [`Bvh::from_blocks`]
+    /// takes them).
+    pub fn into_parts(self) -> (Vec<Node4>, Vec<TriBlock>) {
+        (self.nodes, self.blocks)
     }
 
     /// Borrows the BVH for traversal.
@@ -363,8 +404,7 @@ impl Bvh {
     pub fn view(&self) -> BvhView<'_> {
         BvhView {
             nodes: &self.nodes,
-            tris: &self.tris,
-            prim_ids: &self.prim_ids,
+            blocks: &self.blocks,
             depth: self.depth,
             kernel: self.kernel,
         }

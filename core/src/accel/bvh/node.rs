@@ -4,6 +4,9 @@
 #[cfg(feature = "alloc")]
 use glam::Vec3;
 
+#[cfg(feature = "alloc")]
+use super::leaf::{TriBlock, slot_tri};
+
 use crate::geometry::offset::gamma;
 
 /// `child` value of an empty slot.
@@ -38,8 +41,9 @@ pub const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 /// - an **inner node** when `count[c] == 0 && child[c] != EMPTY_CHILD`:
 ///   `child[c]` is its index in the node array (always greater than this
 ///   node's index);
-/// - a **leaf** when `count[c] > 0`: triangles `child[c] .. child[c] +
-///   count[c]` of the leaf-ordered triangle array;
+/// - a **leaf** when `count[c] > 0`: triangle slots `child[c] .. child[c] +
+///   count[c]` of the [`super::TriBlock`] array (`child[c]` a multiple of
+///   4: a leaf starts a block);
 /// - **empty** when `count[c] == 0 && child[c] == EMPTY_CHILD`: its bounds are
 ///   inverted (`min = +∞`, `max = −∞`), so every ray misses it.
 ///
@@ -196,7 +200,7 @@ pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
 /// (children come after parents). The builders' boxes would do, but this
 /// way the conservativeness of the boxes never depends on a builder.
 #[cfg(feature = "alloc")]
-pub(super) fn refit(nodes: &mut [Node4], tris: &[[Vec3; 3]]) {
+pub(super) fn refit(nodes: &mut [Node4], blocks: &[TriBlock]) {
     for i in (0..nodes.len()).rev() {
         for c in 0..4 {
             let node = &nodes[i];
@@ -204,9 +208,11 @@ pub(super) fn refit(nodes: &mut [Node4], tris: &[[Vec3; 3]]) {
                 let first = node.child[c] as usize;
                 let mut lo = Vec3::INFINITY;
                 let mut hi = Vec3::NEG_INFINITY;
-                for v in tris[first..first + node.count[c] as usize].iter().flatten() {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
+                for s in first..first + node.count[c] as usize {
+                    for v in slot_tri(blocks, s) {
+                        lo = lo.min(v);
+                        hi = hi.max(v);
+                    }
                 }
                 (lo, hi)
             } else if node.is_inner(c) {

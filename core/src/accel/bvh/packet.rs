@@ -15,6 +15,7 @@
 //! masked, so they are never written to the output.
 
 use super::BvhView;
+use super::leaf::{slot_id, slot_tri};
 use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
@@ -303,7 +304,7 @@ struct Entry {
 }
 
 /// Closest hits (`ANY = false`) or occlusion (`ANY = true`) of the `live`
-/// lanes. Returns, per lane, the leaf-order index of the hit triangle
+/// lanes. Returns, per lane, the slot (see [`super::TriBlock`]) of the hit triangle
 /// (`u32::MAX` for none) with `b1`, `b2`; hit distances are left in
 /// `l.t_max`. For `ANY`, the returned mask holds the occluded lanes.
 #[inline(always)]
@@ -394,17 +395,21 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             }
         } else {
             let first = cur.child as usize;
-            let tris = &view.tris[first..first + cur.count as usize];
+            let count = cur.count as usize;
+            // The leaf's blocks (bounds-checked once): slot `first + j` is
+            // lane `j % 4` of `blocks[j / 4]`.
+            let blocks = &view.blocks[first / 4..(first + count).div_ceil(4)];
+            let tri = |j: usize| slot_tri(blocks, j);
             let mut lanes = cur.mask;
             let mut j = 0;
-            while j < tris.len() {
+            while j < count {
                 // Two triangles per step where the kernel can; the second
                 // one's hits count only where closer than the first's,
                 // which is what one after the other gives.
-                let pair = if j + 1 < tris.len() {
+                let pair = if j + 1 < count {
                     B::tri2_lanes(
                         &l.wt,
-                        [&tris[j], &tris[j + 1]],
+                        [&tri(j), &tri(j + 1)],
                         &l.t_max,
                         lanes,
                         [[&mut tt, &mut tb1, &mut tb2], [&mut ut, &mut ub1, &mut ub2]],
@@ -445,7 +450,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                         b1: &mut tb1,
                         b2: &mut tb2,
                     };
-                    let m = B::tri_lanes(&l.wt, &tris[j], &l.t_max, lanes, out);
+                    let m = B::tri_lanes(&l.wt, &tri(j), &l.t_max, lanes, out);
                     apply_hits(
                         m,
                         (first + j) as u32,
@@ -557,7 +562,7 @@ fn intersect_packet_with<B: BoxTest, const N: usize>(
     for i in active.iter().filter(|&i| i < N) {
         let h = (best[i] != u32::MAX).then(|| Hit {
             t: l.t_max[i],
-            prim: view.prim_ids[best[i] as usize],
+            prim: slot_id(view.blocks, best[i] as usize),
             b1: b1[i],
             b2: b2[i],
         });

@@ -27,6 +27,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::lanes::{box4_lanes_8x2, box4_lanes_simd};
+use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{BoxRay, Node4, box4};
@@ -163,18 +164,21 @@ pub(super) trait BoxTest {
         None
     }
 
-    /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice).
+    /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice),
+    /// over the `count` triangles that start the leaf's `blocks`: the
+    /// index (`0..count`), `t`, `b1`, `b2` of the closest hit.
     #[inline(always)]
     fn leaf<const ANY: bool>(
         r: &WatertightRay,
-        tris: &[[Vec3; 3]],
+        blocks: &[TriBlock],
+        count: usize,
         t_max: f32,
     ) -> Option<(usize, f32, f32, f32)> {
         #[cfg(target_arch = "x86_64")]
         if Self::SSE_LEAF {
-            return r.intersect_many_sse::<ANY>(tris, t_max);
+            return r.intersect_many_sse::<ANY>(blocks.iter().map(|b| &b.v), count, t_max);
         }
-        r.intersect_many::<ANY>(tris, t_max)
+        r.intersect_many::<ANY>(count, |j| slot_tri(blocks, j), t_max)
     }
 }
 

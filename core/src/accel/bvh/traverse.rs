@@ -3,6 +3,7 @@
 use core::mem::MaybeUninit;
 
 use super::BvhView;
+use super::leaf::slot_id;
 use super::node::{BoxRay, FAR_SCALE, STACK_SIZE};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Kernel, Sse2Box};
@@ -154,8 +155,8 @@ fn sort4(mut k: [u64; 4]) -> [u64; 4] {
 /// one ray whose closest hit so far is at `*t_max`. Children are visited
 /// nearest first (for occlusion too: it finds blockers sooner, measured) and
 /// a deferred child is culled once its entry distance is beyond the closest
-/// hit; with `ANY` the first hit ends the traversal. Returns the leaf-order
-/// index and barycentrics of a closer hit, whose distance is left in
+/// hit; with `ANY` the first hit ends the traversal. Returns the triangle
+/// slot and barycentrics of a closer hit, whose distance is left in
 /// `*t_max`.
 #[inline(always)]
 pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
@@ -222,8 +223,9 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
             }
         } else {
             let first = cur.child as usize;
-            let tris = &view.tris[first..first + cur.count as usize];
-            if let Some((j, t, b1, b2)) = B::leaf::<ANY>(&r.wr, tris, *t_max) {
+            let count = cur.count as usize;
+            let blocks = &view.blocks[first / 4..(first + count).div_ceil(4)];
+            if let Some((j, t, b1, b2)) = B::leaf::<ANY>(&r.wr, blocks, count, *t_max) {
                 *t_max = t;
                 best = Some((first + j, b1, b2));
                 if ANY {
@@ -254,8 +256,9 @@ fn defer(view: &BvhView<'_>, stack: &mut Stack<Entry>, e: Entry) {
 }
 
 /// Starts loading a deferred child (`child`, `count` as in [`Entry`]):
-/// both cache lines of an inner node, or the first 128 bytes of a leaf's
-/// triangles.
+/// both cache lines of an inner node, or the first 192 bytes from a
+/// leaf's first block (the whole 160-byte block, wherever its 32-byte
+/// alignment puts it in a line).
 ///
 /// A child goes on the stack because its box was hit, so it is likely to
 /// be visited, but only after the nearer subtree is done; on scenes larger
@@ -271,13 +274,12 @@ fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = if count == 0 {
-            view.nodes
-                .as_ptr()
-                .wrapping_add(child as usize)
-                .cast::<i8>()
+        let (p, leaf) = if count == 0 {
+            let p = view.nodes.as_ptr().wrapping_add(child as usize);
+            (p.cast::<i8>(), false)
         } else {
-            view.tris.as_ptr().wrapping_add(child as usize).cast::<i8>()
+            let p = view.blocks.as_ptr().wrapping_add(child as usize / 4);
+            (p.cast::<i8>(), true)
         };
         // SAFETY: SSE is part of the x86_64 baseline; a prefetch is a hint
         // that reads nothing the program can observe and never faults, at
@@ -285,6 +287,9 @@ fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
         unsafe {
             _mm_prefetch::<_MM_HINT_T0>(p);
             _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+            if leaf {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
+            }
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -306,7 +311,7 @@ pub(super) fn intersect_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> Optio
     let mut stack = Stack::new();
     traverse_from::<B, false>(view, &r, ROOT, &mut t, &mut stack).map(|(j, b1, b2)| Hit {
         t,
-        prim: view.prim_ids[j],
+        prim: slot_id(view.blocks, j),
         b1,
         b2,
     })
