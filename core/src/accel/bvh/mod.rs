@@ -94,7 +94,7 @@ impl core::fmt::Display for LayoutError {
             LayoutError::Lengths => write!(f, "BVH layout: mismatched or oversized slices"),
             LayoutError::ReservedPrimId { index } => write!(
                 f,
-                "BVH layout: prim_ids[{index}] is the reserved miss value"
+                "BVH layout: the primitive id at position {index} is the reserved miss value"
             ),
             LayoutError::BadChild { node, slot } => {
                 write!(f, "BVH layout: invalid child slot {slot} of node {node}")

@@ -498,7 +498,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     (done, best, b1, b2)
 }
 
-/// Records the hits `m` on triangle `idx` (leaf order) with their `t`,
+/// Records the hits `m` on triangle slot `idx` with their `t`,
 /// `b1`, `b2`: the closest hit so far of those lanes.
 #[inline(always)]
 fn apply_hits<const N: usize>(
