@@ -163,7 +163,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
     /// crosses the image at `raster`), evaluated from its stored vertices
     /// instead of retraced: every segment of a level-1 path was traced or
     /// tested for visibility when level 1 made it, so no ray is needed. The
-    /// value is [`Target::evaluate`]'s (the same [`Self::end_value`] and
+    /// value is [`Target::evaluate`]'s (the same end value and
     /// specular lobes), up to the rounding of retracing the camera ray.
     /// `None` when the path does not fit the anchor (it always does for
     /// the anchor [`super::path::classify`] made of it).

@@ -522,7 +522,7 @@ impl MltWorker {
     /// [`MltWorker::restart`] (the chains keep their depths and random
     /// streams). A chain whose state no longer contributes restarts from a
     /// seed sample of its depth in `bootstrap` (the new frame's, seeded by
-    /// `seed`; see [`start_sample`]): left at zero it would record nothing
+    /// `seed`; see `start_sample`): left at zero it would record nothing
     /// until a proposal hits, and those records would darken the image.
     /// Counters start again from zero. Allocates nothing.
     pub fn reevaluate<I: Intersector>(

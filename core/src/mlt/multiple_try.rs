@@ -152,7 +152,7 @@ pub trait Proposal<S> {
 /// The target p over states `S`, evaluated a batch at a time so that an
 /// implementation can trace the candidates of one step as ray packets.
 ///
-/// `evaluate(states, p)` writes p(states[i]) (luminance, any non-negative
+/// `evaluate(states, p)` writes `p(states[i])` (luminance, any non-negative
 /// value; [`sanitize_target`] is applied afterwards) into `p[i]` for every
 /// `Some` state and may complete the states in place (a path-space target
 /// stores the traced contribution there). `None` entries are skipped; their
