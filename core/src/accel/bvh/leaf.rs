@@ -29,10 +29,12 @@ use alloc::vec::Vec;
 /// Four triangle slots, transposed: `v[vertex][axis][lane]`, plus each
 /// slot's scene-global id.
 ///
-/// Lanes of a leaf's last block past its triangle count repeat the leaf's
-/// last triangle (and its id): the SIMD test reads all four lanes and masks
-/// the extra ones, so they must hold finite, harmless values. 160 bytes,
-/// aligned to 32 so the nine planes are aligned 16-byte loads.
+/// The SIMD test reads all four lanes of a leaf's last block and masks
+/// those past the leaf's triangle count, whatever they hold; `Bvh::from_parts`
+/// fills them with copies of the leaf's last triangle and id (ids are
+/// checked in every lane, so a padding id must not be the reserved miss
+/// value either). 160 bytes, aligned to 32 so the nine planes are aligned
+/// 16-byte loads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
 pub struct TriBlock {
