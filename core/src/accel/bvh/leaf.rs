@@ -93,22 +93,35 @@ pub(super) fn slot_id(blocks: &[TriBlock], s: usize) -> u32 {
     blocks[s / 4].ids[s % 4]
 }
 
+/// How many blocks [`pack`] makes for `nodes`: one per started group of
+/// four triangles of each leaf. A `u64`, because leaf ranges may overlap,
+/// so the sum is not bounded by the triangle count.
+#[cfg(feature = "alloc")]
+pub(super) fn blocks_needed(nodes: &[Node4]) -> u64 {
+    nodes
+        .iter()
+        .flat_map(|n| n.count)
+        .map(|k| u64::from(k).div_ceil(4))
+        .sum()
+}
+
 /// Packs a layout whose leaves index `tris` (leaf order: a leaf slot's
 /// `child` is its first triangle) into blocks, rewriting each leaf's
 /// `child` to its first slot. Leaves are packed in the order they are
 /// met walking the node array, each from a fresh block, padded with its
 /// last triangle.
 ///
-/// The caller has checked every leaf range against `tris` and that `ids`
-/// has one id per triangle.
+/// The caller has checked every leaf range against `tris`, that `ids`
+/// has one id per triangle, and that `n_blocks` (the [`blocks_needed`])
+/// have fewer than `u32::MAX` slots.
 #[cfg(feature = "alloc")]
-pub(super) fn pack(nodes: &mut [Node4], tris: &[[Vec3; 3]], ids: &[u32]) -> Vec<TriBlock> {
-    let blocks_needed: usize = nodes
-        .iter()
-        .flat_map(|n| n.count.iter())
-        .map(|&k| (k as usize).div_ceil(4))
-        .sum();
-    let mut blocks = Vec::with_capacity(blocks_needed);
+pub(super) fn pack(
+    nodes: &mut [Node4],
+    tris: &[[Vec3; 3]],
+    ids: &[u32],
+    n_blocks: usize,
+) -> Vec<TriBlock> {
+    let mut blocks = Vec::with_capacity(n_blocks);
     for node in nodes.iter_mut() {
         for c in 0..4 {
             if !node.is_leaf(c) {
@@ -156,7 +169,8 @@ mod tests {
         // Leaves of 2 and 5 triangles.
         (nodes[0].child[0], nodes[0].count[0]) = (0, 2);
         (nodes[0].child[1], nodes[0].count[1]) = (2, 5);
-        let blocks = pack(&mut nodes, &tris, &ids);
+        assert_eq!(blocks_needed(&nodes), 3);
+        let blocks = pack(&mut nodes, &tris, &ids, 3);
         assert_eq!(blocks.len(), 3);
         assert_eq!((nodes[0].child[0], nodes[0].child[1]), (0, 4));
         assert_eq!(blocks[0].ids, [100, 101, 101, 101]);

@@ -335,19 +335,18 @@ impl Bvh {
         // them), and the slots the packed leaves will take (ranges may
         // overlap, so this is not bounded by `tris.len()`); the packed
         // layout is then checked in full.
-        let mut slots = 0u64;
         for (i, node) in nodes.iter().enumerate() {
             for c in (0..4).filter(|&c| node.is_leaf(c)) {
                 if node.child[c] as u64 + node.count[c] as u64 > tris.len() as u64 {
                     return Err(LayoutError::BadChild { node: i, slot: c });
                 }
-                slots += (node.count[c] as u64).div_ceil(4) * 4;
             }
         }
-        if slots >= u32::MAX as u64 {
+        let n_blocks = leaf::blocks_needed(&nodes);
+        if 4 * n_blocks >= u32::MAX as u64 {
             return Err(LayoutError::Lengths);
         }
-        let blocks = leaf::pack(&mut nodes, &tris, &prim_ids);
+        let blocks = leaf::pack(&mut nodes, &tris, &prim_ids, n_blocks as usize);
         Bvh::from_blocks(nodes, blocks)
     }
 
