@@ -4,7 +4,7 @@
 
 mod intersect;
 
-use cmlt::accel::bvh::{Bvh, BvhView, Kernel, LayoutError, MAX_DEPTH, Node4};
+use cmlt::accel::bvh::{Bvh, BvhView, Kernel, LayoutError, MAX_DEPTH, Node, WIDTH};
 use cmlt::accel::{BruteForce, Intersector};
 use cmlt::geometry::offset::{TrianglePoint, offset_ray_origin, triangle_point};
 use cmlt::geometry::triangle::intersect_triangle;
@@ -140,11 +140,11 @@ fn bvh_matches_brute_force_identical_triangles() {
 fn bvh_matches_brute_force_exponential_spacing() {
     // Triangles at x = 1.5^k, each as large as its distance from the
     // origin: a split can only peel off the few largest at every level,
-    // so the binary trees are deeper than `MAX_DEPTH` 4-wide levels allow
+    // so the binary trees are deeper than `MAX_DEPTH` wide levels allow
     // and the collapse has to flatten their bottoms into leaves (the last
     // assertion checks that the layout reached the limit).
     let mut rng = Rng(7);
-    let tris: Vec<[Vec3; 3]> = (0..160)
+    let tris: Vec<[Vec3; 3]> = (0..215)
         .map(|k| {
             let s = 1.5f32.powi(k);
             let c = Vec3::new(s, 0.0, 0.0);
@@ -612,7 +612,7 @@ fn layouts_are_validated() {
         Err(LayoutError::ReservedPrimId { index: 2 })
     ));
     // A leaf range past the last block's slots.
-    let leaf = (0..4).find(|&c| nodes[0].count[c] > 0).unwrap();
+    let leaf = (0..WIDTH).find(|&c| nodes[0].count[c] > 0).unwrap();
     let mut bad = nodes.clone();
     bad[0].count[leaf] = 4 * blocks.len() as u32 + 1;
     assert!(matches!(
@@ -635,7 +635,7 @@ fn layouts_are_validated() {
         Err(LayoutError::BadChild { node: 0, slot: 0 })
     ));
     // `from_parts` checks the leaf-order input before packing it.
-    let mut one = Node4::EMPTY;
+    let mut one = Node::EMPTY;
     one.set_bounds(0, [0.0; 3], [1.0, 1.0, 1.0]);
     (one.child[0], one.count[0]) = (0, 2);
     let two = vec![tri, tri.map(|v| v + Vec3::Z)];
@@ -660,7 +660,7 @@ fn layouts_are_validated() {
         let tris: Vec<[Vec3; 3]> = (0..levels)
             .map(|k| tri.map(|v| v + Vec3::Z * k as f32))
             .collect();
-        let mut nodes = vec![Node4::EMPTY; levels];
+        let mut nodes = vec![Node::EMPTY; levels];
         for k in (0..levels).rev() {
             nodes[k].child[0] = k as u32;
             nodes[k].count[0] = 1;

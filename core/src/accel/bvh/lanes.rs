@@ -1,49 +1,49 @@
 //! The packet box test in explicit registers ([`LaneVec`]).
 //!
-//! `packet::box4_lanes_portable` is the portable form over `[f32; N]`;
+//! `packet::boxes_lanes_portable` is the portable form over `[f32; N]`;
 //! LLVM vectorised it across a node's four children instead of across the
 //! lanes and then transposed every result into lane order, which cost more
-//! than the arithmetic. [`box4_lanes_simd`] is the same test one register
+//! than the arithmetic. [`boxes_lanes_simd`] is the same test one register
 //! of lanes at a time, bit for bit (`max_keep(acc, x)` is x86's
 //! `maxps(x, acc)`, which returns `acc` for a NaN `x`, and `min_keep`
 //! likewise). x86_64 only; other targets use the portable form.
 
-use super::node::{FAR_SCALE, Node4};
+use super::node::{FAR_SCALE, Node, WIDTH};
 use super::packet::BoxLanes;
 use crate::math::lanes::{LaneVec, both_halves, halves, split_halves};
 
-/// Robust slab test of `N` lanes against a node's four children, as
-/// `packet::box4_lanes`: per child, the lanes of `lanes` that hit it and
+/// Robust slab test of `N` lanes against a node's children, as
+/// `packet::boxes_lanes`: per child, the lanes of `lanes` that hit it and
 /// their smallest entry distance (`+∞` for none). `N` must be a multiple
 /// of `V::W`.
 #[inline(always)]
-pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
-    node: &Node4,
+pub(super) fn boxes_lanes_simd<V: LaneVec, const N: usize>(
+    node: &Node,
     l: &BoxLanes<'_, N>,
     lanes: u32,
-) -> ([u32; 4], [f32; 4]) {
+) -> ([u32; WIDTH], [f32; WIDTH]) {
     debug_assert!(N.is_multiple_of(V::W));
-    let mut masks = [0u32; 4];
-    let mut t_min = [f32::INFINITY; 4];
+    let mut masks = [0u32; WIDTH];
+    let mut t_min = [f32::INFINITY; WIDTH];
     let inf = V::splat(f32::INFINITY);
     let scale = V::splat(FAR_SCALE);
     for chunk in 0..N / V::W {
         let at = chunk * V::W;
         let shift = at as u32;
         let tm = V::load(&l.t_max[at..]);
-        let mut near = [V::splat(0.0); 4];
-        let mut far = [tm; 4];
+        let mut near = [V::splat(0.0); WIDTH];
+        let mut far = [tm; WIDTH];
         for a in 0..3 {
             let oa = V::load(&l.o[a][at..]);
             let ia = V::load(&l.inv[a][at..]);
             let neg = l.neg_bits[a] >> shift;
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 let (lo, hi) = (V::splat(node.min[a][c]), V::splat(node.max[a][c]));
                 (near[c], far[c]) = slab(near[c], far[c], (lo, hi), oa, ia, l.uniform_neg, a, neg);
             }
         }
         let live = lanes >> shift;
-        for c in 0..4 {
+        for c in 0..WIDTH {
             let hit = near[c].le(far[c].mul(scale)) & live & lane_bits(V::W);
             masks[c] |= hit << shift;
             // Entry distances are never NaN (they start at +0 and
@@ -55,27 +55,27 @@ pub(super) fn box4_lanes_simd<V: LaneVec, const N: usize>(
     (masks, t_min)
 }
 
-/// [`box4_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
+/// [`boxes_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
 /// rays are repeated in both halves of a register and tested against two
 /// children at once (child `c` in lanes 0–7, child `c + 1` in lanes 8–15),
-/// so a node costs two register steps instead of four. The same operations
+/// so a node costs `WIDTH / 2` register steps instead of `WIDTH`. The same operations
 /// per lane and child, so the same bits.
 ///
 /// Only for functions compiled with AVX-512F, run after
 /// `Kernel::is_available` confirmed it (see `LaneVec`).
 #[inline(always)]
-pub(super) fn box4_lanes_8x2(
-    node: &Node4,
+pub(super) fn boxes_lanes_8x2(
+    node: &Node,
     l: &BoxLanes<'_, 8>,
     lanes: u32,
-) -> ([u32; 4], [f32; 4]) {
+) -> ([u32; WIDTH], [f32; WIDTH]) {
     use core::arch::x86_64::__m512;
     // No closures here: a closure is compiled without the caller's target
     // features, so intrinsics inside it would become calls.
     let lanes = lanes & 0xff;
     let live = lanes | lanes << 8;
-    let mut masks = [0u32; 4];
-    let mut t_min = [f32::INFINITY; 4];
+    let mut masks = [0u32; WIDTH];
+    let mut t_min = [f32::INFINITY; WIDTH];
     let inf = __m512::splat(f32::INFINITY);
     let scale = __m512::splat(FAR_SCALE);
     let tm = both_halves(l.t_max);
@@ -89,7 +89,7 @@ pub(super) fn box4_lanes_8x2(
         both_halves(&l.inv[1]),
         both_halves(&l.inv[2]),
     ];
-    for c in [0, 2] {
+    for c in (0..WIDTH).step_by(2) {
         let mut near = __m512::splat(0.0);
         let mut far = tm;
         for a in 0..3 {
@@ -155,7 +155,7 @@ const fn lane_bits(w: usize) -> u32 {
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
-    use crate::accel::bvh::packet::box4_lanes_portable;
+    use crate::accel::bvh::packet::boxes_lanes_portable;
     use core::arch::x86_64::{__m128, __m256, __m512};
 
     /// A small xorshift generator: the test needs no statistics, only
@@ -174,15 +174,15 @@ mod tests {
         }
     }
 
-    type Inputs = (Node4, [[f32; 16]; 3], [[f32; 16]; 3], [f32; 16], [u32; 3]);
+    type Inputs = (Node, [[f32; 16]; 3], [[f32; 16]; 3], [f32; 16], [u32; 3]);
 
     /// A node (some slots empty, some boxes flat) and 16 lanes whose
     /// origins often lie exactly on a slab plane and whose directions
     /// often have zero components (`inv = ±∞`, slab distances `0·∞ =
     /// NaN`), with `t_max` sometimes below the boxes or a dummy's `−1`.
     fn inputs(rng: &mut Rng) -> Inputs {
-        let mut node = Node4::EMPTY;
-        for c in 0..4 {
+        let mut node = Node::EMPTY;
+        for c in 0..WIDTH {
             if rng.next().is_multiple_of(5) {
                 continue;
             }
@@ -206,7 +206,7 @@ mod tests {
             for a in 0..3 {
                 o[a][i] = match rng.next() % 3 {
                     // On a plane of some box (or of the empty slots' ±∞).
-                    0 => node.min[a][(rng.next() % 4) as usize],
+                    0 => node.min[a][rng.next() as usize % WIDTH],
                     _ => rng.f(-4.0, 4.0),
                 };
                 if !o[a][i].is_finite() {
@@ -247,8 +247,8 @@ mod tests {
                     neg_bits: neg,
                     uniform_neg,
                 };
-                let want = box4_lanes_portable(&node, &b, lanes);
-                let got = box4_lanes_simd::<V, 16>(&node, &b, lanes);
+                let want = boxes_lanes_portable(&node, &b, lanes);
+                let got = boxes_lanes_simd::<V, 16>(&node, &b, lanes);
                 assert_eq!(got.0, want.0, "masks, uniform {uniform_neg:?}");
                 assert_eq!(
                     got.1.map(f32::to_bits),
@@ -293,8 +293,8 @@ mod tests {
                     neg_bits: neg,
                     uniform_neg,
                 };
-                let want = box4_lanes_portable(&node, &b, lanes);
-                let got = box4_lanes_8x2(&node, &b, lanes);
+                let want = boxes_lanes_portable(&node, &b, lanes);
+                let got = boxes_lanes_8x2(&node, &b, lanes);
                 assert_eq!(got.0, want.0, "8x2 masks, uniform {uniform_neg:?}");
                 assert_eq!(
                     got.1.map(f32::to_bits),

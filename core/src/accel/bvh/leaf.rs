@@ -22,7 +22,7 @@ use glam::Vec3;
 use crate::geometry::triangle::planes_tri;
 
 #[cfg(feature = "alloc")]
-use super::node::Node4;
+use super::node::{Node, WIDTH};
 #[cfg(feature = "alloc")]
 use alloc::vec::Vec;
 
@@ -97,7 +97,7 @@ pub(super) fn slot_id(blocks: &[TriBlock], s: usize) -> u32 {
 /// four triangles of each leaf. A `u64`, because leaf ranges may overlap,
 /// so the sum is not bounded by the triangle count.
 #[cfg(feature = "alloc")]
-pub(super) fn blocks_needed(nodes: &[Node4]) -> u64 {
+pub(super) fn blocks_needed(nodes: &[Node]) -> u64 {
     nodes
         .iter()
         .flat_map(|n| n.count)
@@ -116,14 +116,14 @@ pub(super) fn blocks_needed(nodes: &[Node4]) -> u64 {
 /// have fewer than `u32::MAX` slots.
 #[cfg(feature = "alloc")]
 pub(super) fn pack(
-    nodes: &mut [Node4],
+    nodes: &mut [Node],
     tris: &[[Vec3; 3]],
     ids: &[u32],
     n_blocks: usize,
 ) -> Vec<TriBlock> {
     let mut blocks = Vec::with_capacity(n_blocks);
     for node in nodes.iter_mut() {
-        for c in 0..4 {
+        for c in 0..WIDTH {
             if !node.is_leaf(c) {
                 continue;
             }
@@ -165,7 +165,7 @@ mod tests {
             .map(|i| [Vec3::splat(i as f32), Vec3::X, Vec3::Y])
             .collect();
         let ids: Vec<u32> = (0..7).map(|i| 100 + i).collect();
-        let mut nodes = [Node4::EMPTY];
+        let mut nodes = [Node::EMPTY];
         // Leaves of 2 and 5 triangles.
         (nodes[0].child[0], nodes[0].count[0]) = (0, 2);
         (nodes[0].child[1], nodes[0].count[1]) = (2, 5);

@@ -1,8 +1,8 @@
-//! The default BVH: a 4-wide tree in a layout owned by this crate,
+//! The default BVH: an 8-wide tree in a layout owned by this crate,
 //! traversed by our own `no_std`, allocation-free code.
 //!
-//! - [`Node4`]: four child boxes in SoA form plus child references (inner
-//!   node / leaf range / empty).
+//! - [`Node`]: [`WIDTH`] child boxes in SoA form plus child references
+//!   (inner node / leaf range / empty).
 //! - [`TriBlock`]: leaf triangles in blocks of four, transposed for the
 //!   SIMD leaf test, with their scene-global ids.
 //! - [`BvhView`]: traversal over borrowed slices — nodes and triangle
@@ -10,7 +10,7 @@
 //!   it over.
 //! - [`Bvh`] (feature `alloc`): the owned form; [`Bvh::build`] (feature
 //!   `std`) builds two binary BVHs (obvhs' PLOC with reinsertion, and our
-//!   binned SAH builder), collapses each into the 4-wide layout with the
+//!   binned SAH builder), collapses each into the wide layout with the
 //!   SAH-optimal collapse, and keeps the cheaper.
 //!
 //! Both implement [`Intersector`]: closest hit visits children front to
@@ -51,7 +51,7 @@ mod traverse;
 mod build;
 
 pub use leaf::TriBlock;
-pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node4, STACK_SIZE};
+pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node, STACK_SIZE, WIDTH};
 pub use simd::Kernel;
 
 use glam::Vec3;
@@ -116,7 +116,7 @@ impl core::fmt::Display for LayoutError {
 /// safety never depends on it).
 #[derive(Clone, Copy, Debug)]
 pub struct BvhView<'a> {
-    nodes: &'a [Node4],
+    nodes: &'a [Node],
     blocks: &'a [TriBlock],
     depth: u32,
     /// Always an available kernel (checked by [`BvhView::with_kernel`]).
@@ -124,11 +124,11 @@ pub struct BvhView<'a> {
 }
 
 impl<'a> BvhView<'a> {
-    /// Checks the layout (see [`Node4`] for the encoding) and wraps it.
+    /// Checks the layout (see [`Node`] for the encoding) and wraps it.
     ///
     /// Runs in time linear in the number of root-to-node paths (the node
     /// count for a tree) without allocating.
-    pub fn new(nodes: &'a [Node4], blocks: &'a [TriBlock]) -> Result<Self, LayoutError> {
+    pub fn new(nodes: &'a [Node], blocks: &'a [TriBlock]) -> Result<Self, LayoutError> {
         let slots = 4 * blocks.len() as u64;
         if slots >= u32::MAX as u64 || nodes.len() >= u32::MAX as usize {
             return Err(LayoutError::Lengths);
@@ -142,7 +142,7 @@ impl<'a> BvhView<'a> {
             return Err(LayoutError::ReservedPrimId { index });
         }
         for (i, node) in nodes.iter().enumerate() {
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 let ok = if node.is_empty(c) {
                     (0..3).all(|a| {
                         node.min[a][c] == f32::INFINITY && node.max[a][c] == f32::NEG_INFINITY
@@ -183,7 +183,7 @@ impl<'a> BvhView<'a> {
     }
 
     /// The nodes; `nodes()[0]` is the root.
-    pub fn nodes(&self) -> &'a [Node4] {
+    pub fn nodes(&self) -> &'a [Node] {
         self.nodes
     }
 
@@ -197,7 +197,7 @@ impl<'a> BvhView<'a> {
     pub fn triangles(&self) -> impl Iterator<Item = ([Vec3; 3], u32)> + 'a {
         let blocks = self.blocks;
         self.nodes.iter().flat_map(move |n| {
-            (0..4).filter(|&c| n.is_leaf(c)).flat_map(move |c| {
+            (0..WIDTH).filter(|&c| n.is_leaf(c)).flat_map(move |c| {
                 let first = n.child[c] as usize;
                 (first..first + n.count[c] as usize)
                     .map(move |s| (leaf::slot_tri(blocks, s), leaf::slot_id(blocks, s)))
@@ -218,10 +218,11 @@ impl<'a> BvhView<'a> {
 
 /// Depth of a structurally checked layout (children after parents, so the
 /// walk terminates), or [`LayoutError::TooDeep`].
-fn layout_depth(nodes: &[Node4]) -> Result<u32, LayoutError> {
-    // Depth-first; a popped node pushes at most 4 children, so with the
-    // depth capped the stack never holds more than 3·MAX_DEPTH + 1.
-    let mut stack = [(0u32, 0u32); STACK_SIZE + 4];
+fn layout_depth(nodes: &[Node]) -> Result<u32, LayoutError> {
+    // Depth-first; a popped node pushes at most WIDTH children, so with
+    // the depth capped the stack never holds more than (WIDTH − 1) ·
+    // MAX_DEPTH + 1.
+    let mut stack = [(0u32, 0u32); STACK_SIZE + WIDTH];
     stack[0] = (0, 1);
     let mut sp = 1;
     let mut depth = 1;
@@ -230,7 +231,7 @@ fn layout_depth(nodes: &[Node4]) -> Result<u32, LayoutError> {
         let (n, level) = stack[sp];
         depth = depth.max(level);
         let node = &nodes[n as usize];
-        for c in 0..4 {
+        for c in 0..WIDTH {
             if node.is_inner(c) {
                 if level as usize >= MAX_DEPTH {
                     return Err(LayoutError::TooDeep);
@@ -274,7 +275,7 @@ impl Intersector for BvhView<'_> {
 #[cfg(feature = "alloc")]
 #[derive(Clone, Debug)]
 pub struct Bvh {
-    nodes: Vec<Node4>,
+    nodes: Vec<Node>,
     blocks: Vec<TriBlock>,
     depth: u32,
     /// Always an available kernel (checked by [`Bvh::with_kernel`]).
@@ -300,7 +301,7 @@ impl Bvh {
     ///
     /// Two binary BVHs are built down to single triangles: obvhs' PLOC
     /// (wide search window, then reinsertion optimisation) and a top-down
-    /// binned SAH build. Each is collapsed into 4-wide nodes by dynamic
+    /// binned SAH build. Each is collapsed into wide nodes by dynamic
     /// programming that chooses leaves (up to 4 triangles) and node
     /// contents of least SAH cost, and the layout of lower SAH cost is
     /// kept: neither builder gives the better tree on every scene.
@@ -321,7 +322,7 @@ impl Bvh {
     /// [`BvhView::new`], then packed into [`TriBlock`]s (leaf children
     /// become slot indices).
     pub fn from_parts(
-        mut nodes: Vec<Node4>,
+        mut nodes: Vec<Node>,
         tris: Vec<[Vec3; 3]>,
         prim_ids: Vec<u32>,
     ) -> Result<Bvh, LayoutError> {
@@ -336,7 +337,7 @@ impl Bvh {
         // overlap, so this is not bounded by `tris.len()`); the packed
         // layout is then checked in full.
         for (i, node) in nodes.iter().enumerate() {
-            for c in (0..4).filter(|&c| node.is_leaf(c)) {
+            for c in (0..WIDTH).filter(|&c| node.is_leaf(c)) {
                 if node.child[c] as u64 + node.count[c] as u64 > tris.len() as u64 {
                     return Err(LayoutError::BadChild { node: i, slot: c });
                 }
@@ -352,7 +353,7 @@ impl Bvh {
 
     /// Wraps prebuilt storage in the block layout after checking it like
     /// [`BvhView::new`].
-    pub fn from_blocks(nodes: Vec<Node4>, blocks: Vec<TriBlock>) -> Result<Bvh, LayoutError> {
+    pub fn from_blocks(nodes: Vec<Node>, blocks: Vec<TriBlock>) -> Result<Bvh, LayoutError> {
         let depth = BvhView::new(&nodes, &blocks)?.depth;
         Ok(Bvh {
             nodes,
@@ -401,7 +402,7 @@ impl Bvh {
 
     /// The storage: nodes and triangle blocks (as [`Bvh::from_blocks`]
     /// takes them).
-    pub fn into_parts(self) -> (Vec<Node4>, Vec<TriBlock>) {
+    pub fn into_parts(self) -> (Vec<Node>, Vec<TriBlock>) {
         (self.nodes, self.blocks)
     }
 

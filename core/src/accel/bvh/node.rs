@@ -1,5 +1,5 @@
-//! The 4-wide node layout, its robust box test, and the exact refit of its
-//! boxes.
+//! The wide node layout ([`WIDTH`] children per node), its robust box
+//! test, and the exact refit of its boxes.
 
 #[cfg(feature = "alloc")]
 use glam::Vec3;
@@ -12,18 +12,28 @@ use crate::geometry::offset::gamma;
 /// `child` value of an empty slot.
 pub const EMPTY_CHILD: u32 = u32::MAX;
 
-/// Maximum depth (levels of [`Node4`], root = level 1) of a valid layout.
+/// Children per node.
+///
+/// Eight, as Embree's BVH8: a node's eight boxes are tested in one 256-bit
+/// register per plane (two SSE registers on the SSE2 kernel), so a visit
+/// costs about what a 4-wide one did, and a tree of eight-way nodes is a
+/// third shallower (log 8 / log 4 = 1.5), which cut the SAH cost of the
+/// benchmark mesh's nodes by about a third (`docs/rays.md`, stop 24).
+pub const WIDTH: usize = 8;
+
+/// Maximum depth (levels of [`Node`], root = level 1) of a valid layout.
 ///
 /// The builder flattens anything deeper into one leaf, and
 /// [`super::BvhView::new`] rejects deeper layouts, so traversal can use a
 /// fixed stack of [`STACK_SIZE`] entries: while visiting a node, the stack
-/// holds at most the 3 unvisited siblings from each ancestor level. A
-/// balanced 4-wide tree of depth 32 addresses 4³² leaves; real builds are
-/// 10–25 levels deep.
+/// holds at most the `WIDTH − 1` unvisited siblings from each ancestor
+/// level. A balanced 8-wide tree of depth 32 addresses 8³² leaves; real
+/// builds are 7–20 levels deep.
 pub const MAX_DEPTH: usize = 32;
 
-/// Entries in a traversal stack: 3 per level (see [`MAX_DEPTH`]).
-pub const STACK_SIZE: usize = 3 * MAX_DEPTH;
+/// Entries in a traversal stack: `WIDTH − 1` per level (see
+/// [`MAX_DEPTH`]).
+pub const STACK_SIZE: usize = (WIDTH - 1) * MAX_DEPTH;
 
 /// Scale applied to the far end of a box's ray interval, `1 + 2γ(3)`.
 ///
@@ -34,8 +44,9 @@ pub const STACK_SIZE: usize = 3 * MAX_DEPTH;
 /// arithmetic is never culled by rounding.
 pub const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
-/// A 4-wide BVH node: the bounds of its (up to) four children in SoA form,
-/// plus what each child is. 128 bytes, aligned to a 64-byte cache line pair.
+/// A wide BVH node: the bounds of its (up to) [`WIDTH`] children in SoA
+/// form, plus what each child is. 256 bytes: four cache lines, aligned to
+/// one.
 ///
 /// Child slot `c` is
 /// - an **inner node** when `count[c] == 0 && child[c] != EMPTY_CHILD`:
@@ -51,27 +62,27 @@ pub const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 /// map it and hand it to [`super::BvhView::new`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Node4 {
+pub struct Node {
     /// Lower bounds, `min[axis][child]`.
-    pub min: [[f32; 4]; 3],
+    pub min: [[f32; WIDTH]; 3],
     /// Upper bounds, `max[axis][child]`.
-    pub max: [[f32; 4]; 3],
+    pub max: [[f32; WIDTH]; 3],
     /// Node index or first triangle per child (see the type docs).
-    pub child: [u32; 4],
+    pub child: [u32; WIDTH],
     /// Triangle count per child; 0 for inner and empty slots.
-    pub count: [u32; 4],
+    pub count: [u32; WIDTH],
 }
 
-// Two cache lines exactly; `repr(C)` keeps the field order.
-const _: () = assert!(core::mem::size_of::<Node4>() == 128);
+// Whole cache lines exactly; `repr(C)` keeps the field order.
+const _: () = assert!(core::mem::size_of::<Node>() == 32 * WIDTH);
 
-impl Node4 {
-    /// A node with four empty slots.
-    pub const EMPTY: Node4 = Node4 {
-        min: [[f32::INFINITY; 4]; 3],
-        max: [[f32::NEG_INFINITY; 4]; 3],
-        child: [EMPTY_CHILD; 4],
-        count: [0; 4],
+impl Node {
+    /// A node with every slot empty.
+    pub const EMPTY: Node = Node {
+        min: [[f32::INFINITY; WIDTH]; 3],
+        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        child: [EMPTY_CHILD; WIDTH],
+        count: [0; WIDTH],
     };
 
     /// Whether slot `c` is empty.
@@ -92,19 +103,20 @@ impl Node4 {
         self.count[c] == 0 && self.child[c] != EMPTY_CHILD
     }
 
-    /// The node's 128 bytes as eight rows of four floats: rows 0–2 are
+    /// The node's bytes as eight rows of [`WIDTH`] floats: rows 0–2 are
     /// `min[axis]`, rows 3–5 `max[axis]`; rows 6 and 7 alias `child` and
     /// `count` and are never read as planes. Indexing a row with `& 7`
     /// needs no bounds check, which is what the single-ray box tests use
     /// with [`BoxRay`]'s precomputed plane rows.
     #[inline(always)]
-    pub(crate) fn rows(&self) -> &[[f32; 4]; 8] {
-        // SAFETY: `Node4` is `repr(C)`, 128 bytes (asserted above) with no
-        // padding (six `[f32; 4]` then two `[u32; 4]`), so all 128 bytes
-        // are initialised; every bit pattern is a valid `f32`, the target
-        // type's alignment (4) divides the node's (64), and the shared
-        // borrow keeps the node immutable for the reference's lifetime.
-        unsafe { &*(self as *const Node4).cast::<[[f32; 4]; 8]>() }
+    pub(crate) fn rows(&self) -> &[[f32; WIDTH]; 8] {
+        // SAFETY: `Node` is `repr(C)`, `8 · 4 · WIDTH` bytes (asserted
+        // above) with no padding (six `[f32; WIDTH]` then two `[u32;
+        // WIDTH]`), so all its bytes are initialised; every bit pattern is
+        // a valid `f32`, the target type's alignment (4) divides the
+        // node's (64), and the shared borrow keeps the node immutable for
+        // the reference's lifetime.
+        unsafe { &*(self as *const Node).cast::<[[f32; WIDTH]; 8]>() }
     }
 
     /// Sets the bounds of slot `c`.
@@ -125,7 +137,7 @@ pub(crate) struct BoxRay {
     /// `1/d` per axis; `±∞` for a zero component (the sign of the zero
     /// picks the sign of the infinity, consistently with the planes).
     pub inv: [f32; 3],
-    /// Per axis, the row of [`Node4::rows`] holding the near plane: `min`
+    /// Per axis, the row of [`Node::rows`] holding the near plane: `min`
     /// (row `a`) when `inv[a]` is positive, `max` (row `3 + a`) when its
     /// sign bit is set. Picked once per ray, so the box test does no
     /// per-node selection.
@@ -170,27 +182,27 @@ pub(crate) fn min_keep(acc: f32, x: f32) -> f32 {
     if x < acc { x } else { acc }
 }
 
-/// Robust slab test of one ray against a node's four child boxes over
-/// `[0, t_max]`. Returns the hit mask (bit `c` = child `c`) and the entry
+/// Robust slab test of one ray against a node's child boxes over `[0,
+/// t_max]`. Returns the hit mask (bit `c` = child `c`) and the entry
 /// distances.
 ///
 /// The portable per-node kernel (the scalar kernel's; `simd::Sse2Box`
-/// is the same in one SSE register per plane): four boxes, one ray,
-/// straight-line code over `[f32; 4]`.
+/// and `simd::Avx2Box` are the same in SSE and AVX registers): the
+/// node's boxes, one ray, straight-line code over `[f32; WIDTH]`.
 #[inline(always)]
-pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+pub(crate) fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
     let rows = node.rows();
-    let mut near = [0.0f32; 4];
-    let mut far = [t_max; 4];
+    let mut near = [0.0f32; WIDTH];
+    let mut far = [t_max; WIDTH];
     for a in 0..3 {
         let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
-        for c in 0..4 {
+        for c in 0..WIDTH {
             near[c] = max_keep(near[c], (nb[c] - r.o[a]) * r.inv[a]);
             far[c] = min_keep(far[c], (fb[c] - r.o[a]) * r.inv[a]);
         }
     }
     let mut mask = 0;
-    for c in 0..4 {
+    for c in 0..WIDTH {
         mask |= ((near[c] <= far[c] * FAR_SCALE) as u32) << c;
     }
     (mask, near)
@@ -200,9 +212,9 @@ pub(crate) fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
 /// (children come after parents). The builders' boxes would do, but this
 /// way the conservativeness of the boxes never depends on a builder.
 #[cfg(feature = "alloc")]
-pub(super) fn refit(nodes: &mut [Node4], blocks: &[TriBlock]) {
+pub(super) fn refit(nodes: &mut [Node], blocks: &[TriBlock]) {
     for i in (0..nodes.len()).rev() {
-        for c in 0..4 {
+        for c in 0..WIDTH {
             let node = &nodes[i];
             let (lo, hi) = if node.is_leaf(c) {
                 let first = node.child[c] as usize;
@@ -217,8 +229,16 @@ pub(super) fn refit(nodes: &mut [Node4], blocks: &[TriBlock]) {
                 (lo, hi)
             } else if node.is_inner(c) {
                 let child = &nodes[node.child[c] as usize];
-                let lo = Vec3::new(min4(child.min[0]), min4(child.min[1]), min4(child.min[2]));
-                let hi = Vec3::new(max4(child.max[0]), max4(child.max[1]), max4(child.max[2]));
+                let lo = Vec3::new(
+                    min_of(child.min[0]),
+                    min_of(child.min[1]),
+                    min_of(child.min[2]),
+                );
+                let hi = Vec3::new(
+                    max_of(child.max[0]),
+                    max_of(child.max[1]),
+                    max_of(child.max[2]),
+                );
                 (lo, hi)
             } else {
                 continue;
@@ -229,11 +249,11 @@ pub(super) fn refit(nodes: &mut [Node4], blocks: &[TriBlock]) {
 }
 
 #[cfg(feature = "alloc")]
-fn min4(v: [f32; 4]) -> f32 {
+fn min_of(v: [f32; WIDTH]) -> f32 {
     v.into_iter().fold(f32::INFINITY, f32::min)
 }
 
 #[cfg(feature = "alloc")]
-fn max4(v: [f32; 4]) -> f32 {
+fn max_of(v: [f32; WIDTH]) -> f32 {
     v.into_iter().fold(f32::NEG_INFINITY, f32::max)
 }

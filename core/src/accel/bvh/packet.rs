@@ -3,7 +3,7 @@
 //! A node is visited when any live lane's ray hits its box; per-lane
 //! `t_max` shrinks as hits are found, and a deferred child is dropped for
 //! the lanes whose closest hit is already in front of it. The two kernels,
-//! [`box4_lanes`] and the triangle test, come from the view's [`Kernel`]
+//! [`boxes_lanes`] and the triangle test, come from the view's [`Kernel`]
 //! through [`BoxTest`]: in registers of its width (`super::lanes`,
 //! `triangle::intersect_lanes_simd`; two children or triangles per
 //! register for packets of 8 on AVX-512), or as the portable lane loops
@@ -16,11 +16,11 @@
 
 use super::BvhView;
 use super::leaf::{slot_id, slot_tri};
-use super::node::{BoxRay, FAR_SCALE, Node4, STACK_SIZE, max_keep, min_keep};
+use super::node::{BoxRay, FAR_SCALE, Node, STACK_SIZE, WIDTH, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox, TriLanesOut};
-use super::traverse::{self, Prepared, Stack, order4, traverse_from};
+use super::traverse::{self, Prepared, Stack, order_hits, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
@@ -170,10 +170,10 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
     }
 }
 
-/// Robust slab test (see `node::box4`) of all lanes against a node's four
+/// Robust slab test (see `node::boxes`) of all lanes against a node's four
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
 /// the smallest entry distance among them; in the kernel's instruction set
-/// ([`BoxTest::box4_lanes`]).
+/// ([`BoxTest::boxes_lanes`]).
 ///
 /// Measured and left out: a conservative interval ("frustum") test of the
 /// whole packet first, testing the lanes only against the children it
@@ -183,11 +183,11 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 /// packets ran 0.75–0.8× as fast on every scene (cornell-box primary 49 ->
 /// 38 Mrays/s, mesh MTM16 14.5 -> 11.4).
 #[inline(always)]
-fn box4_lanes<B: BoxTest, const N: usize>(
-    node: &Node4,
+fn boxes_lanes<B: BoxTest, const N: usize>(
+    node: &Node,
     l: &Lanes<N>,
     lanes: u32,
-) -> ([u32; 4], [f32; 4]) {
+) -> ([u32; WIDTH], [f32; WIDTH]) {
     let b = BoxLanes {
         o: &l.o,
         inv: &l.inv,
@@ -195,7 +195,7 @@ fn box4_lanes<B: BoxTest, const N: usize>(
         neg_bits: l.neg_bits,
         uniform_neg: l.uniform_neg,
     };
-    B::box4_lanes(node, &b, lanes)
+    B::boxes_lanes(node, &b, lanes)
 }
 
 /// A packet's lanes as every form of the box test reads them (SoA).
@@ -215,15 +215,15 @@ pub(super) struct BoxLanes<'a, const N: usize> {
     pub uniform_neg: Option<[bool; 3]>,
 }
 
-/// The portable form of [`box4_lanes`], for any `N`.
+/// The portable form of [`boxes_lanes`], for any `N`.
 #[inline(always)]
-pub(super) fn box4_lanes_portable<const N: usize>(
-    node: &Node4,
+pub(super) fn boxes_lanes_portable<const N: usize>(
+    node: &Node,
     l: &BoxLanes<'_, N>,
     lanes: u32,
-) -> ([u32; 4], [f32; 4]) {
-    let mut near = [[0.0f32; N]; 4];
-    let mut far = [*l.t_max; 4];
+) -> ([u32; WIDTH], [f32; WIDTH]) {
+    let mut near = [[0.0f32; N]; WIDTH];
+    let mut far = [*l.t_max; WIDTH];
     if let Some(neg) = l.uniform_neg {
         for (a, &neg) in neg.iter().enumerate() {
             let (nb, fb) = if neg {
@@ -231,7 +231,7 @@ pub(super) fn box4_lanes_portable<const N: usize>(
             } else {
                 (&node.min[a], &node.max[a])
             };
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 for i in 0..N {
                     near[c][i] = max_keep(near[c][i], (nb[c] - l.o[a][i]) * l.inv[a][i]);
                     far[c][i] = min_keep(far[c][i], (fb[c] - l.o[a][i]) * l.inv[a][i]);
@@ -240,7 +240,7 @@ pub(super) fn box4_lanes_portable<const N: usize>(
         }
     } else {
         for a in 0..3 {
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 let (lo, hi) = (node.min[a][c], node.max[a][c]);
                 for i in 0..N {
                     let (nb, fb) = if l.neg_bits[a] >> i & 1 != 0 {
@@ -254,9 +254,9 @@ pub(super) fn box4_lanes_portable<const N: usize>(
             }
         }
     }
-    let mut masks = [0u32; 4];
-    let mut t_min = [f32::INFINITY; 4];
-    for c in 0..4 {
+    let mut masks = [0u32; WIDTH];
+    let mut t_min = [f32::INFINITY; WIDTH];
+    for c in 0..WIDTH {
         let mut hit = [false; N];
         let mut key = [f32::INFINITY; N];
         for i in 0..N {
@@ -368,13 +368,13 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
             }
         } else if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
-            let (masks, t_min) = box4_lanes::<B, N>(node, l, cur.mask);
+            let (masks, t_min) = boxes_lanes::<B, N>(node, l, cur.mask);
             let mut any = 0u32;
             for (c, m) in masks.iter().enumerate() {
                 any |= ((*m != 0) as u32) << c;
             }
             if any != 0 {
-                let (order, n) = order4(any, &t_min);
+                let (order, n) = order_hits(any, &t_min);
                 for &c in order[1..n].iter().rev() {
                     stack[sp] = Entry {
                         child: node.child[c],

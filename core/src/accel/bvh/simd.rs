@@ -2,21 +2,23 @@
 //! use, chosen per [`super::BvhView`] with [`Kernel`].
 //!
 //! Every kernel evaluates the same IEEE operations in the same order (the
-//! robust slab test of `node::box4`; SSE `maxps(x, acc)` / `minps(x, acc)`
+//! robust slab test of `node::boxes`; SSE `maxps(x, acc)` / `minps(x, acc)`
 //! return `acc` for a NaN `x`, exactly like `max_keep` / `min_keep`), and no
 //! kernel contracts products into FMAs, so all kernels return bit-identical
 //! hits. The scalar kernel exists on every target and can be forced (for
 //! Miri, or to compare).
 //!
-//! - `Scalar`: portable code over `[f32; 4]`.
-//! - `Sse2`: the 4 child boxes of a node in one SSE register per plane,
-//!   4 triangles of a leaf per SSE step, packets 4 lanes per register
+//! - `Scalar`: portable code over `[f32; WIDTH]`.
+//! - `Sse2`: a node's child boxes four per SSE register and plane, 4
+//!   triangles of a leaf per SSE step, packets 4 lanes per register
 //!   (x86_64 baseline, always available there).
-//! - `Avx2`: the same single-ray tests; packets 8 lanes per 256-bit
-//!   register; the traversal compiled with AVX2 enabled.
+//! - `Avx2`: a node's eight child boxes in one 256-bit register per plane;
+//!   packets 8 lanes per 256-bit register; the traversal compiled with
+//!   AVX2 enabled.
 //! - `Avx512`: packets 16 lanes per 512-bit register; single rays run the
-//!   `Avx2` code (nothing in a 4-wide node's test needs 512 bits, and the
-//!   same traversal compiled for AVX-512F measured 5–7% slower).
+//!   `Avx2` code (nothing in a node's test needs 512 bits, and the same
+//!   traversal compiled for AVX-512F measured 5–7% slower with 4-wide
+//!   nodes).
 //!
 //! Packet kernels run [`super::lanes`] and `triangle::intersect_lanes_simd`
 //! over `crate::math::lanes::LaneVec` registers of the kernel's width.
@@ -26,12 +28,12 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{box4_lanes_8x2, box4_lanes_simd};
+use super::lanes::{boxes_lanes_8x2, boxes_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
-use super::node::{BoxRay, Node4, box4};
-use super::packet::{BoxLanes, box4_lanes_portable};
+use super::node::{BoxRay, Node, WIDTH, boxes};
+use super::packet::{BoxLanes, boxes_lanes_portable};
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
@@ -109,8 +111,8 @@ impl Kernel {
     }
 }
 
-/// One robust slab test of a ray against a node's four children: the hit
-/// mask and entry distances, as `node::box4`.
+/// One robust slab test of a ray against a node's children: the hit mask
+/// and entry distances, as `node::boxes`.
 ///
 /// Also the single-ray leaf test: the closest hit among a leaf's triangles
 /// (the first hit for `ANY`), as `WatertightRay::intersect_many`.
@@ -121,18 +123,18 @@ pub(super) trait BoxTest {
     #[cfg(target_arch = "x86_64")]
     const SSE_LEAF: bool = false;
 
-    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]);
+    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]);
 
-    /// The packet box test (`packet::box4_lanes`): `N` lanes against a
+    /// The packet box test (`packet::boxes_lanes`): `N` lanes against a
     /// node's four children. Portable lane loops unless a kernel has
     /// registers that fit `N`.
     #[inline(always)]
-    fn box4_lanes<const N: usize>(
-        node: &Node4,
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
         l: &BoxLanes<'_, N>,
         lanes: u32,
-    ) -> ([u32; 4], [f32; 4]) {
-        box4_lanes_portable(node, l, lanes)
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
+        boxes_lanes_portable(node, l, lanes)
     }
 
     /// The packet triangle test (`triangle::intersect_lanes`): one
@@ -187,8 +189,8 @@ pub(super) struct ScalarBox;
 
 impl BoxTest for ScalarBox {
     #[inline(always)]
-    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
-        box4(node, r, t_max)
+    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
+        boxes(node, r, t_max)
     }
 }
 
@@ -203,16 +205,16 @@ impl BoxTest for Sse2Box {
 
     /// Four lanes per SSE register.
     #[inline(always)]
-    fn box4_lanes<const N: usize>(
-        node: &Node4,
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
         l: &BoxLanes<'_, N>,
         lanes: u32,
-    ) -> ([u32; 4], [f32; 4]) {
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
         use core::arch::x86_64::__m128;
         if N.is_multiple_of(4) {
-            box4_lanes_simd::<__m128, N>(node, l, lanes)
+            boxes_lanes_simd::<__m128, N>(node, l, lanes)
         } else {
-            box4_lanes_portable(node, l, lanes)
+            boxes_lanes_portable(node, l, lanes)
         }
     }
 
@@ -233,30 +235,35 @@ impl BoxTest for Sse2Box {
         }
     }
 
+    /// Four children per SSE register and plane.
     #[inline(always)]
-    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
+    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         use core::arch::x86_64::*;
-        let mut out = [0.0f32; 4];
-        // SAFETY: SSE2 is part of the x86_64 baseline; every load and store
-        // touches exactly one `[f32; 4]` (unaligned accesses).
-        let mask = unsafe {
-            let rows = node.rows();
-            let mut near = _mm_setzero_ps();
-            let mut far = _mm_set1_ps(t_max);
-            for a in 0..3 {
-                let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
-                let o = _mm_set1_ps(r.o[a]);
-                let inv = _mm_set1_ps(r.inv[a]);
-                let tn = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(nb.as_ptr()), o), inv);
-                let tf = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(fb.as_ptr()), o), inv);
-                // maxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
-                near = _mm_max_ps(tn, near);
-                far = _mm_min_ps(tf, far);
-            }
-            let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)));
-            _mm_storeu_ps(out.as_mut_ptr(), near);
-            _mm_movemask_ps(hit) as u32
-        };
+        let mut out = [0.0f32; WIDTH];
+        let mut mask = 0;
+        let rows = node.rows();
+        for h in 0..WIDTH / 4 {
+            // SAFETY: SSE2 is part of the x86_64 baseline; every load and
+            // store touches four floats of one `[f32; WIDTH]` row, from
+            // offset `4h < WIDTH` (unaligned accesses).
+            mask |= unsafe {
+                let mut near = _mm_setzero_ps();
+                let mut far = _mm_set1_ps(t_max);
+                for a in 0..3 {
+                    let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
+                    let o = _mm_set1_ps(r.o[a]);
+                    let inv = _mm_set1_ps(r.inv[a]);
+                    let tn = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(nb.as_ptr().add(4 * h)), o), inv);
+                    let tf = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(fb.as_ptr().add(4 * h)), o), inv);
+                    // maxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
+                    near = _mm_max_ps(tn, near);
+                    far = _mm_min_ps(tf, far);
+                }
+                let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)));
+                _mm_storeu_ps(out.as_mut_ptr().add(4 * h), near);
+                (_mm_movemask_ps(hit) as u32) << (4 * h)
+            };
+        }
         (mask, out)
     }
 }
@@ -273,16 +280,16 @@ impl BoxTest for Avx2Box {
 
     /// Eight lanes per AVX register (four for packets of 4).
     #[inline(always)]
-    fn box4_lanes<const N: usize>(
-        node: &Node4,
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
         l: &BoxLanes<'_, N>,
         lanes: u32,
-    ) -> ([u32; 4], [f32; 4]) {
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
         use core::arch::x86_64::__m256;
         if N.is_multiple_of(8) {
-            box4_lanes_simd::<__m256, N>(node, l, lanes)
+            boxes_lanes_simd::<__m256, N>(node, l, lanes)
         } else {
-            Sse2Box::box4_lanes(node, l, lanes)
+            Sse2Box::boxes_lanes(node, l, lanes)
         }
     }
 
@@ -303,13 +310,36 @@ impl BoxTest for Avx2Box {
         }
     }
 
-    /// The 128-bit test of [`Sse2Box`]: holding the near and far planes of
-    /// an axis in one 256-bit register (an insert to combine the loads, an
-    /// extract to split the result) measured 5–9% slower on every
-    /// single-ray set of `cmlt bench rays`.
+    /// All eight children in one 256-bit register per plane.
     #[inline(always)]
-    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
-        Sse2Box::box4(node, r, t_max)
+    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
+        use core::arch::x86_64::*;
+        const { assert!(WIDTH == 8) };
+        let mut out = [0.0f32; WIDTH];
+        let rows = node.rows();
+        // SAFETY: only reached from functions compiled with AVX2 (see the
+        // type docs), run after `Kernel::is_available` confirmed it; every
+        // load and store touches one whole `[f32; 8]` row (unaligned
+        // accesses).
+        let mask = unsafe {
+            let mut near = _mm256_setzero_ps();
+            let mut far = _mm256_set1_ps(t_max);
+            for a in 0..3 {
+                let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
+                let o = _mm256_set1_ps(r.o[a]);
+                let inv = _mm256_set1_ps(r.inv[a]);
+                let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(nb.as_ptr()), o), inv);
+                let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(fb.as_ptr()), o), inv);
+                // vmaxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
+                near = _mm256_max_ps(tn, near);
+                far = _mm256_min_ps(tf, far);
+            }
+            let scaled = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
+            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, scaled);
+            _mm256_storeu_ps(out.as_mut_ptr(), near);
+            _mm256_movemask_ps(hit) as u32
+        };
+        (mask, out)
     }
 }
 
@@ -325,20 +355,20 @@ impl BoxTest for Avx512Box {
     const SSE_LEAF: bool = true;
 
     #[inline(always)]
-    fn box4(node: &Node4, r: &BoxRay, t_max: f32) -> (u32, [f32; 4]) {
-        Avx2Box::box4(node, r, t_max)
+    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
+        Avx2Box::boxes(node, r, t_max)
     }
 
     /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
     #[inline(always)]
-    fn box4_lanes<const N: usize>(
-        node: &Node4,
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
         l: &BoxLanes<'_, N>,
         lanes: u32,
-    ) -> ([u32; 4], [f32; 4]) {
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
         use core::arch::x86_64::__m512;
         if N.is_multiple_of(16) {
-            return box4_lanes_simd::<__m512, N>(node, l, lanes);
+            return boxes_lanes_simd::<__m512, N>(node, l, lanes);
         }
         // Packets of 8: two children per 512-bit register.
         if let (Some(o), Some(inv), Some(t_max)) =
@@ -351,9 +381,9 @@ impl BoxTest for Avx512Box {
                 neg_bits: l.neg_bits,
                 uniform_neg: l.uniform_neg,
             };
-            return box4_lanes_8x2(node, &l8, lanes);
+            return boxes_lanes_8x2(node, &l8, lanes);
         }
-        Avx2Box::box4_lanes(node, l, lanes)
+        Avx2Box::boxes_lanes(node, l, lanes)
     }
 
     /// Packets of 8: two triangles per 512-bit register.

@@ -4,7 +4,7 @@ use core::mem::MaybeUninit;
 
 use super::BvhView;
 use super::leaf::slot_id;
-use super::node::{BoxRay, FAR_SCALE, STACK_SIZE};
+use super::node::{BoxRay, FAR_SCALE, STACK_SIZE, WIDTH};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox};
@@ -79,13 +79,14 @@ impl<T: Copy> Stack<T> {
 }
 
 /// The hit children of a node, sorted by key (nearest first); returns the
-/// slots and how many there are. At most four, so an insertion sort (it
-/// measured faster than a branch-free sorting network).
+/// slots and how many there are. An insertion sort: it measured faster
+/// than a branch-free sorting network for four children, and more than
+/// four are rarely hit.
 #[inline(always)]
-pub(super) fn order4(mask: u32, key: &[f32; 4]) -> ([usize; 4], usize) {
-    let mut order = [0usize; 4];
+pub(super) fn order_hits(mask: u32, key: &[f32; WIDTH]) -> ([usize; WIDTH], usize) {
+    let mut order = [0usize; WIDTH];
     let mut n = 0;
-    for c in 0..4 {
+    for c in 0..WIDTH {
         if mask >> c & 1 != 0 {
             order[n] = c;
             n += 1;
@@ -126,29 +127,16 @@ fn prepare(view: &BvhView<'_>, ray: &Ray) -> Option<Prepared> {
 /// below. Entry distances are never NaN or `−0` (they start at `+0` and
 /// `max_keep` only takes strictly larger values), so the keys compare like
 /// (distance, slot): nearest first, lower slot first on a tie — the order
-/// of [`order4`]'s stable sort.
+/// of [`order_hits`]'s stable sort.
 #[inline(always)]
 fn key(near: f32, slot: usize) -> u64 {
     (near.to_bits() as u64) << 32 | slot as u64
 }
 
-/// Sorts four keys ascending (a five-comparator network of branch-free
-/// min/max): no data-dependent branches for nodes where three or four
-/// children are hit.
+/// The slot of a [`key`].
 #[inline(always)]
-fn sort4(mut k: [u64; 4]) -> [u64; 4] {
-    #[inline(always)]
-    fn cas(k: &mut [u64; 4], i: usize, j: usize) {
-        let (a, b) = (k[i], k[j]);
-        k[i] = a.min(b);
-        k[j] = a.max(b);
-    }
-    cas(&mut k, 0, 1);
-    cas(&mut k, 2, 3);
-    cas(&mut k, 0, 2);
-    cas(&mut k, 1, 3);
-    cas(&mut k, 1, 2);
-    k
+fn key_slot(k: u64) -> usize {
+    (k as usize) & (WIDTH - 1)
 }
 
 /// Traverses the subtree `start` (a node or a leaf, as in [`Entry`]) for
@@ -172,7 +160,7 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
     'outer: loop {
         if cur.count == 0 {
             let node = &view.nodes[cur.child as usize];
-            let (mask, near) = B::box4(node, &r.br, *t_max);
+            let (mask, near) = B::boxes(node, &r.br, *t_max);
             let entry = |c: usize| Entry {
                 child: node.child[c],
                 count: node.count[c],
@@ -190,7 +178,7 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                 // one comparison, push the farther, descend into the nearer.
                 2 => {
                     let c0 = mask.trailing_zeros() as usize;
-                    let c1 = (mask & (mask - 1)).trailing_zeros() as usize & 3;
+                    let c1 = (mask & (mask - 1)).trailing_zeros() as usize & (WIDTH - 1);
                     let (n, f) = if near[c1] < near[c0] {
                         (c1, c0)
                     } else {
@@ -201,23 +189,30 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     continue;
                 }
                 n => {
-                    let k = |c: usize| {
-                        if mask >> c & 1 != 0 {
-                            key(near[c], c)
-                        } else {
-                            u64::MAX
+                    // The hit children's keys, sorted by insertion (three
+                    // or four hits are most of these visits).
+                    let mut keys = [u64::MAX; WIDTH];
+                    let mut bits = mask;
+                    for k in keys.iter_mut().take(n as usize) {
+                        let c = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        *k = key(near[c & (WIDTH - 1)], c);
+                    }
+                    for i in 1..n as usize {
+                        let x = keys[i];
+                        let mut j = i;
+                        while j > 0 && keys[j - 1] > x {
+                            keys[j] = keys[j - 1];
+                            j -= 1;
                         }
-                    };
-                    let sorted = sort4([k(0), k(1), k(2), k(3)]);
-                    let slot = |i: usize| (sorted[i] & 3) as usize;
+                        keys[j] = x;
+                    }
                     // Farther children far-to-near, so the next pop is the
                     // next nearest; descend into the nearest right away.
-                    if n == 4 {
-                        defer(view, stack, entry(slot(3)));
+                    for &k in keys[1..n as usize].iter().rev() {
+                        defer(view, stack, entry(key_slot(k)));
                     }
-                    defer(view, stack, entry(slot(2)));
-                    defer(view, stack, entry(slot(1)));
-                    cur = entry(slot(0));
+                    cur = entry(key_slot(keys[0]));
                     continue;
                 }
             }
@@ -256,7 +251,7 @@ fn defer(view: &BvhView<'_>, stack: &mut Stack<Entry>, e: Entry) {
 }
 
 /// Starts loading a deferred child (`child`, `count` as in [`Entry`]):
-/// both cache lines of an inner node, or the first 192 bytes from a
+/// every cache line of an inner node, or the first 192 bytes from a
 /// leaf's first block (the whole 160-byte block, wherever its 32-byte
 /// alignment puts it in a line).
 ///
@@ -274,22 +269,19 @@ fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let (p, leaf) = if count == 0 {
+        // Cache lines to load: a whole node, or three for a block.
+        let (p, lines) = if count == 0 {
             let p = view.nodes.as_ptr().wrapping_add(child as usize);
-            (p.cast::<i8>(), false)
+            (p.cast::<i8>(), size_of::<super::Node>() / 64)
         } else {
             let p = view.blocks.as_ptr().wrapping_add(child as usize / 4);
-            (p.cast::<i8>(), true)
+            (p.cast::<i8>(), 3)
         };
-        // SAFETY: SSE is part of the x86_64 baseline; a prefetch is a hint
-        // that reads nothing the program can observe and never faults, at
-        // any address.
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
-            if leaf {
-                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
-            }
+        for line in 0..lines {
+            // SAFETY: SSE is part of the x86_64 baseline; a prefetch is a
+            // hint that reads nothing the program can observe and never
+            // faults, at any address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line)) };
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

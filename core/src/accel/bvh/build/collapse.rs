@@ -1,12 +1,12 @@
-//! Collapse of a binary tree into 4-wide nodes, choosing which binary
-//! subtrees become leaves, inner nodes, or are merged into their parent's
-//! node so that the tree's SAH cost is least.
+//! Collapse of a binary tree into wide nodes ([`WIDTH`] slots), choosing
+//! which binary subtrees become leaves, inner nodes, or are merged into
+//! their parent's node so that the tree's SAH cost is least.
 //!
-//! The cost of a 4-wide tree is `Σ_nodes A(n)·C_node + Σ_leaves A(l)·
+//! The cost of a wide tree is `Σ_nodes A(n)·C_node + Σ_leaves A(l)·
 //! (C_leaf·⌈k/4⌉ + C_tri·k)` over box half-areas `A` (proportional to the
 //! chance that a ray through the root meets the box). Dynamic programming
 //! over the binary tree, bottom up, finds the cheapest cover of every
-//! binary subtree by at most `j ≤ 4` slots, as in Ylitie et al. 2017
+//! binary subtree by at most `j ≤ WIDTH` slots, as in Ylitie et al. 2017
 //! ("Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 //! BVHs", section 4.1) for 8-wide nodes. Greedily opening the largest child
 //! (what an earlier version did) left 40% of the nodes with two children
@@ -18,10 +18,10 @@ use std::vec::Vec;
 use glam::Vec3;
 
 use super::binary::BinaryTree;
-use crate::accel::bvh::node::{MAX_DEPTH, Node4};
+use crate::accel::bvh::node::{MAX_DEPTH, Node, WIDTH};
 
-/// Relative costs, per unit of box area, of visiting a node (four box
-/// tests), of a leaf's set-up and 4-wide triangle test per group of up to
+/// Relative costs, per unit of box area, of visiting a node (one box
+/// test of all its slots), of a leaf's set-up and 4-wide triangle test per group of up to
 /// four triangles, and of each triangle (`build::COSTS` gives the values
 /// used and how they were chosen).
 #[derive(Clone, Copy, Debug)]
@@ -43,18 +43,18 @@ impl Costs {
 }
 
 /// What covering one binary subtree costs with at most `j` slots, `j` =
-/// 1..=4 (index 0 unused), and how: `split[j] == 0` makes the subtree one
+/// 1..=WIDTH (index 0 unused), and how: `split[j] == 0` makes the subtree one
 /// slot, `split[j] == l > 0` gives `l` slots to the left child's cover and
 /// `j − l` to the right child's.
 ///
 /// Costs are relative to the root's area (so at most about the triangle
 /// count times the leaf cost) and stored in `f32`, rounded once per node:
-/// 28 bytes per binary node instead of 48, which is most of a large
+/// 48 bytes per binary node instead of 84 in `f64`, which is most of a large
 /// build's peak memory. Sums are formed in `f64`.
 #[derive(Clone, Copy)]
 struct Cover {
-    cost: [f32; 5],
-    split: [u8; 5],
+    cost: [f32; WIDTH + 1],
+    split: [u8; WIDTH + 1],
 }
 
 /// A collapsed tree: what [`super::super::Bvh::from_parts`] takes, plus the
@@ -62,7 +62,7 @@ struct Cover {
 pub(super) struct Wide {
     /// Root first, children after parents; boxes are left empty for
     /// `node::refit` to compute from the stored triangles.
-    pub nodes: Vec<Node4>,
+    pub nodes: Vec<Node>,
     /// Triangles in leaf order.
     pub tris: Vec<[Vec3; 3]>,
     /// Scene-global id of each of `tris`.
@@ -73,7 +73,7 @@ pub(super) struct Wide {
     pub cost: f64,
 }
 
-/// The cheapest 4-wide layout of `tree` under `costs`, over `tris` (the
+/// The cheapest wide layout of `tree` under `costs`, over `tris` (the
 /// builder's input; `ids[k]` is the scene-global id of `tris[k]`).
 pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs: Costs) -> Wide {
     let b = &tree.nodes;
@@ -95,14 +95,14 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
     };
     let mut cover = vec![
         Cover {
-            cost: [0.0; 5],
-            split: [0; 5],
+            cost: [0.0; WIDTH + 1],
+            split: [0; WIDTH + 1],
         };
         n
     ];
-    // Whether the subtree's single slot is a leaf (else a 4-wide node).
+    // Whether the subtree's single slot is a leaf (else a wide node).
     let mut slot_leaf = vec![false; n];
-    // Slots given to the left child when the subtree is a 4-wide node.
+    // Slots given to the left child when the subtree is a wide node.
     let mut node_split = vec![0u8; n];
     for i in (0..n).rev() {
         let node = &b[i];
@@ -115,10 +115,10 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
             prims[i] = prims[l] + prims[r];
             start[i] = start[l];
         }
-        // The cheapest split of `j` = 2..=4 slots between the two
-        // children's covers (the first on a tie); `j = 4` is what the
-        // subtree costs as a 4-wide node, below the node itself.
-        let mut pair = [(f64::INFINITY, 0u8); 5];
+        // The cheapest split of `j` = 2..=WIDTH slots between the two
+        // children's covers (the first on a tie); `j = WIDTH` is what the
+        // subtree costs as a wide node, below the node itself.
+        let mut pair = [(f64::INFINITY, 0u8); WIDTH + 1];
         if !node.is_leaf() {
             for (j, best) in pair.iter_mut().enumerate().skip(2) {
                 for s in 1..j {
@@ -132,8 +132,8 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
         let leaf_cost =
             (prims[i] <= costs.max_leaf || node.is_leaf()).then(|| area * costs.leaf_of(prims[i]));
         let node_cost = (!node.is_leaf()).then(|| {
-            node_split[i] = pair[4].1;
-            area * costs.node + pair[4].0
+            node_split[i] = pair[WIDTH].1;
+            area * costs.node + pair[WIDTH].0
         });
         let slot = match (leaf_cost, node_cost) {
             (Some(leaf), Some(inner)) if leaf <= inner => {
@@ -147,9 +147,9 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
             }
             (None, None) => unreachable!("a binary leaf can always be a leaf"),
         };
-        let mut cost = [slot; 5];
-        let mut split = [0u8; 5];
-        for j in 2..5 {
+        let mut cost = [slot; WIDTH + 1];
+        let mut split = [0u8; WIDTH + 1];
+        for j in 2..=WIDTH {
             if pair[j].0 < slot {
                 (cost[j], split[j]) = pair[j];
             }
@@ -160,10 +160,10 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
         };
     }
 
-    let mut nodes = vec![Node4::EMPTY];
+    let mut nodes = vec![Node::EMPTY];
     let mut out_tris = Vec::with_capacity(tree.order.len());
     let mut out_ids = Vec::with_capacity(tree.order.len());
-    let mut emit_leaf = |i: usize, node: &mut Node4, slot: usize| {
+    let mut emit_leaf = |i: usize, node: &mut Node, slot: usize| {
         node.child[slot] = out_tris.len() as u32;
         node.count[slot] = prims[i];
         let range = start[i] as usize..(start[i] + prims[i]) as usize;
@@ -187,12 +187,12 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
     while let Some((i, our, level)) = work.pop() {
         let l = b[i].first as usize;
         let s = node_split[i] as usize;
-        let mut slots = [0usize; 4];
+        let mut slots = [0usize; WIDTH];
         let mut k = 0;
-        // Unfold the covers of both children into at most four slots.
-        let mut pending = [(0usize, 0usize); 4];
+        // Unfold the covers of both children into at most WIDTH slots.
+        let mut pending = [(0usize, 0usize); WIDTH];
         let mut top = 0;
-        pending[top] = (l + 1, 4 - s);
+        pending[top] = (l + 1, WIDTH - s);
         pending[top + 1] = (l, s);
         top += 2;
         while top > 0 {
@@ -209,7 +209,7 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
                 top += 2;
             }
         }
-        let mut pushed = [(0usize, 0usize, 0usize); 4];
+        let mut pushed = [(0usize, 0usize, 0usize); WIDTH];
         let mut np = 0;
         for (slot, &c) in slots[..k].iter().enumerate() {
             // Children of a node on the last allowed level must be
@@ -218,7 +218,7 @@ pub(super) fn collapse(tree: &BinaryTree, tris: &[[Vec3; 3]], ids: &[u32], costs
                 emit_leaf(c, &mut nodes[our], slot);
             } else {
                 let idx = nodes.len();
-                nodes.push(Node4::EMPTY);
+                nodes.push(Node::EMPTY);
                 nodes[our].child[slot] = idx as u32;
                 nodes[our].count[slot] = 0;
                 pushed[np] = (c, idx, level + 1);
@@ -272,7 +272,7 @@ mod tests {
         fn node_cost(w: &Wide, n: usize, costs: Costs) -> (f64, Aabb) {
             let node = &w.nodes[n];
             let (mut sum, mut b) = (0.0, Aabb::EMPTY);
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 if node.is_leaf(c) {
                     let first = node.child[c] as usize;
                     let k = node.count[c];
@@ -285,8 +285,8 @@ mod tests {
                     b.grow(&cb);
                 }
             }
-            let inner = (0..4).any(|c| node.is_inner(c))
-                || (0..4).filter(|&c| !node.is_empty(c)).count() > 1;
+            let inner = (0..WIDTH).any(|c| node.is_inner(c))
+                || (0..WIDTH).filter(|&c| !node.is_empty(c)).count() > 1;
             // A root holding one leaf is that leaf, not a node.
             let own = if n == 0 && !inner {
                 0.0
@@ -310,7 +310,7 @@ mod tests {
         }
         assert!(seen.iter().all(|&s| s), "a triangle is missing");
         for n in &w.nodes {
-            for c in 0..4 {
+            for c in 0..WIDTH {
                 assert!(n.count[c] <= costs.max_leaf, "a leaf of {}", n.count[c]);
             }
         }
@@ -348,7 +348,7 @@ mod tests {
         // Two simple covers of the same binary tree that the optimum must
         // not lose to: every binary subtree of ≤ 4 triangles a leaf, and
         // every triangle its own leaf (each opened greedily, largest box
-        // first, into 4-wide nodes).
+        // first, into wide nodes).
         let tris = soup(3000, 9);
         let ids: Vec<u32> = (0..tris.len() as u32).collect();
         let tree = binned_sah::build(&tris);
@@ -367,7 +367,7 @@ mod tests {
 
     /// SAH cost of the greedy collapse: subtrees of ≤ `leaf_below`
     /// triangles are leaves; an inner node's slots are found by opening
-    /// the inner slot of largest area while fewer than four.
+    /// the inner slot of largest area while fewer than `WIDTH`.
     fn greedy_cost(tree: &BinaryTree, leaf_below: u32, costs: Costs) -> f64 {
         let b = &tree.nodes;
         let mut prims = vec![0u32; b.len()];
@@ -389,7 +389,7 @@ mod tests {
             total += b[i].bounds.half_area() * costs.node;
             let f = b[i].first as usize;
             let mut slots = vec![f, f + 1];
-            while slots.len() < 4 {
+            while slots.len() < WIDTH {
                 let open = (0..slots.len())
                     .filter(|&k| !is_leaf(slots[k]))
                     .max_by(|&x, &y| {
