@@ -10,7 +10,7 @@
 
 use super::node::{FAR_SCALE, Node, WIDTH};
 use super::packet::BoxLanes;
-use crate::math::lanes::{LaneVec, both_halves, halves, split_halves};
+use crate::math::lanes::{LaneVec, both_halves, halves, min_pairs8};
 
 /// Robust slab test of `N` lanes against a node's children, as
 /// `packet::boxes_lanes`: per child, the lanes of `lanes` that hit it and
@@ -31,25 +31,59 @@ pub(super) fn boxes_lanes_simd<V: LaneVec, const N: usize>(
         let at = chunk * V::W;
         let shift = at as u32;
         let tm = V::load(&l.t_max[at..]);
-        let mut near = [V::splat(0.0); WIDTH];
-        let mut far = [tm; WIDTH];
-        for a in 0..3 {
-            let oa = V::load(&l.o[a][at..]);
-            let ia = V::load(&l.inv[a][at..]);
-            let neg = l.neg_bits[a] >> shift;
-            for c in 0..WIDTH {
-                let (lo, hi) = (V::splat(node.min[a][c]), V::splat(node.max[a][c]));
-                (near[c], far[c]) = slab(near[c], far[c], (lo, hi), oa, ia, l.uniform_neg, a, neg);
-            }
-        }
+        // No closures (`map`): a closure is compiled without the caller's
+        // target features, so the intrinsics in it would become calls.
+        let o = [
+            V::load(&l.o[0][at..]),
+            V::load(&l.o[1][at..]),
+            V::load(&l.o[2][at..]),
+        ];
+        let inv = [
+            V::load(&l.inv[0][at..]),
+            V::load(&l.inv[1][at..]),
+            V::load(&l.inv[2][at..]),
+        ];
+        let neg = [
+            l.neg_bits[0] >> shift,
+            l.neg_bits[1] >> shift,
+            l.neg_bits[2] >> shift,
+        ];
         let live = lanes >> shift;
+        // One child at a time: its two accumulators and the lanes' seven
+        // ray registers fit in AVX2's sixteen, where all children's
+        // accumulators at once (sixteen for eight children) spilled.
+        let mut keys = [inf; WIDTH];
         for c in 0..WIDTH {
-            let hit = near[c].le(far[c].mul(scale)) & live & lane_bits(V::W);
+            let (mut near, mut far) = (V::splat(0.0), tm);
+            if let Some(u) = l.uniform_neg {
+                // The same planes for every lane: picked by row, with no
+                // per-lane select (the selection was a tenth of the
+                // instructions of MTM packets when matched per child).
+                let rows = node.rows();
+                for a in 0..3 {
+                    let (nr, fr) = if u[a] { (3 + a, a) } else { (a, 3 + a) };
+                    let p = (V::splat(rows[nr][c]), V::splat(rows[fr][c]));
+                    (near, far) = slab(near, far, p, o[a], inv[a]);
+                }
+            } else {
+                for a in 0..3 {
+                    let (lo, hi) = (V::splat(node.min[a][c]), V::splat(node.max[a][c]));
+                    (near, far) = slab(near, far, planes(lo, hi, neg[a]), o[a], inv[a]);
+                }
+            }
+            let hit = near.le(far.mul(scale)) & live & lane_bits(V::W);
             masks[c] |= hit << shift;
-            // Entry distances are never NaN (they start at +0 and
-            // `max_keep` drops NaN), so the reduction order is free.
-            let key = V::select(hit, near[c], inf).min_lane();
-            t_min[c] = if key < t_min[c] { key } else { t_min[c] };
+            keys[c] = V::select(hit, near, inf);
+        }
+        // Entry distances are never NaN (they start at +0 and `max_keep`
+        // drops NaN), so the reduction order is free.
+        let mins = V::min_lanes8(keys);
+        for c in 0..WIDTH {
+            t_min[c] = if mins[c] < t_min[c] {
+                mins[c]
+            } else {
+                t_min[c]
+            };
         }
     }
     (masks, t_min)
@@ -74,10 +108,11 @@ pub(super) fn boxes_lanes_8x2(
     // features, so intrinsics inside it would become calls.
     let lanes = lanes & 0xff;
     let live = lanes | lanes << 8;
+    const { assert!(WIDTH == 8) };
     let mut masks = [0u32; WIDTH];
-    let mut t_min = [f32::INFINITY; WIDTH];
     let inf = __m512::splat(f32::INFINITY);
     let scale = __m512::splat(FAR_SCALE);
+    let mut keys = [inf; WIDTH / 2];
     let tm = both_halves(l.t_max);
     let o = [
         both_halves(&l.o[0]),
@@ -92,58 +127,50 @@ pub(super) fn boxes_lanes_8x2(
     for c in (0..WIDTH).step_by(2) {
         let mut near = __m512::splat(0.0);
         let mut far = tm;
-        for a in 0..3 {
-            // Child `c` in the low half, `c + 1` in the high half.
-            let lo = halves(node.min[a][c], node.min[a][c + 1]);
-            let hi = halves(node.max[a][c], node.max[a][c + 1]);
-            let neg = l.neg_bits[a] & 0xff;
-            (near, far) = slab(
-                near,
-                far,
-                (lo, hi),
-                o[a],
-                inv[a],
-                l.uniform_neg,
-                a,
-                neg | neg << 8,
-            );
+        // Child `c` in the low half, `c + 1` in the high half.
+        if let Some(u) = l.uniform_neg {
+            // The same planes for every lane, picked by row (as in
+            // `boxes_lanes_simd`).
+            let rows = node.rows();
+            for a in 0..3 {
+                let (nr, fr) = if u[a] { (3 + a, a) } else { (a, 3 + a) };
+                let nb = halves(rows[nr][c], rows[nr][c + 1]);
+                let fb = halves(rows[fr][c], rows[fr][c + 1]);
+                (near, far) = slab(near, far, (nb, fb), o[a], inv[a]);
+            }
+        } else {
+            for a in 0..3 {
+                let lo = halves(node.min[a][c], node.min[a][c + 1]);
+                let hi = halves(node.max[a][c], node.max[a][c + 1]);
+                let neg = l.neg_bits[a] & 0xff;
+                let neg = neg | neg << 8;
+                (near, far) = slab(near, far, planes(lo, hi, neg), o[a], inv[a]);
+            }
         }
         let hit = near.le(far.mul(scale)) & live;
         masks[c] = hit & 0xff;
         masks[c + 1] = hit >> 8;
-        let key = __m512::select(hit, near, inf);
-        let (lo, hi) = split_halves(key);
-        t_min[c] = lo.min_lane();
-        t_min[c + 1] = hi.min_lane();
+        keys[c / 2] = __m512::select(hit, near, inf);
     }
-    (masks, t_min)
+    (masks, min_pairs8(keys))
 }
 
 /// One axis of the robust slab test for a register of lanes: the entry
-/// and exit distances `near`, `far` narrowed by the box planes `lo`, `hi`
-/// (per lane) with origin `o` and reciprocal direction `inv`. The near
-/// plane is `hi` where the direction is negative: for all lanes at once
-/// when the signs agree (`uniform[a]`), else per lane from the bits `neg`.
+/// and exit distances `near`, `far` narrowed by the near and far planes
+/// `nb`, `fb` (picked by the direction's sign: per lane, or once for all
+/// when the signs agree) with origin `o` and reciprocal direction `inv`.
 /// `max_keep(acc, x)` is `maxps(x, acc)` (NaN `x` dropped), `min_keep`
 /// likewise.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn slab<V: LaneVec>(
-    near: V,
-    far: V,
-    (lo, hi): (V, V),
-    o: V,
-    inv: V,
-    uniform: Option<[bool; 3]>,
-    a: usize,
-    neg: u32,
-) -> (V, V) {
-    let (nb, fb) = match uniform {
-        Some(u) if u[a] => (hi, lo),
-        Some(_) => (lo, hi),
-        None => (V::select(neg, hi, lo), V::select(neg, lo, hi)),
-    };
+fn slab<V: LaneVec>(near: V, far: V, (nb, fb): (V, V), o: V, inv: V) -> (V, V) {
     (nb.sub(o).mul(inv).max(near), fb.sub(o).mul(inv).min(far))
+}
+
+/// The near and far planes per lane: `hi`, `lo` where bit `neg` marks a
+/// negative direction, `lo`, `hi` elsewhere.
+#[inline(always)]
+fn planes<V: LaneVec>(lo: V, hi: V, neg: u32) -> (V, V) {
+    (V::select(neg, hi, lo), V::select(neg, lo, hi))
 }
 
 /// The low `w` bits.

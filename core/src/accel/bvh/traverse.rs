@@ -265,7 +265,7 @@ fn defer(view: &BvhView<'_>, stack: &mut Stack<Entry>, e: Entry) {
 /// A prefetch never faults and changes no result; the address is formed
 /// with `wrapping_add`, so even an index a layout would reject is harmless.
 #[inline(always)]
-fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
+pub(super) fn prefetch(view: &BvhView<'_>, child: u32, count: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
