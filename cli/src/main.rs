@@ -54,7 +54,7 @@ enum MethodArg {
 /// `--accel`: which ray-tracing backend renders.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum AccelArg {
-    /// Our BVH (4-wide, SIMD kernels; always available).
+    /// Our BVH (8-wide, SIMD kernels; always available).
     Ours,
     /// Embree 3 (only in builds with `--features embree`; an error otherwise).
     Embree,

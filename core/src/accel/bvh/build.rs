@@ -1,6 +1,6 @@
 //! Construction (feature `std`). Two builders make binary trees over the
 //! same triangles: obvhs (PLOC with reinsertion) and our binned SAH
-//! builder. Each is collapsed into 4-wide nodes by the SAH-optimal
+//! builder. Each is collapsed into 8-wide nodes by the SAH-optimal
 //! collapse, and the tree of lower SAH cost is kept.
 //!
 //! Neither builder wins everywhere (callgrind instructions of our kernels,

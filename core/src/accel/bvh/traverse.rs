@@ -79,9 +79,9 @@ impl<T: Copy> Stack<T> {
 }
 
 /// The hit children of a node, sorted by key (nearest first); returns the
-/// slots and how many there are. An insertion sort: it measured faster
-/// than a branch-free sorting network for four children, and more than
-/// four are rarely hit.
+/// slots and how many there are. An insertion sort over the hit children
+/// only (with 4-wide nodes it measured faster than a branch-free sorting
+/// network).
 #[inline(always)]
 pub(super) fn order_hits(mask: u32, key: &[f32; WIDTH]) -> ([usize; WIDTH], usize) {
     let mut order = [0usize; WIDTH];
@@ -189,8 +189,9 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                     continue;
                 }
                 n => {
-                    // The hit children's keys, sorted by insertion (three
-                    // or four hits are most of these visits).
+                    // The hit children's keys, sorted by insertion (over
+                    // the `n` hit children only; an 8-key network would
+                    // sort eight every time).
                     let mut keys = [u64::MAX; WIDTH];
                     let mut bits = mask;
                     for k in keys.iter_mut().take(n as usize) {

@@ -5,7 +5,7 @@
 //! of least SAH cost, `A(L)·|L| + A(R)·|R|`.
 //!
 //! The tree goes down to single triangles: which subtrees become leaves is
-//! decided by the 4-wide collapse, which knows what a leaf costs in our
+//! decided by the wide collapse, which knows what a leaf costs in our
 //! kernels (see `collapse`). The boxes here only steer the build: the
 //! traversal's boxes are recomputed exactly from the stored triangles
 //! afterwards (`node::refit`), so nothing here has to be conservative.

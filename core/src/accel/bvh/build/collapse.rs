@@ -21,8 +21,8 @@ use super::binary::BinaryTree;
 use crate::accel::bvh::node::{MAX_DEPTH, Node, WIDTH};
 
 /// Relative costs, per unit of box area, of visiting a node (one box
-/// test of all its slots), of a leaf's set-up and 4-wide triangle test per group of up to
-/// four triangles, and of each triangle (`build::COSTS` gives the values
+/// test of all its slots), of a leaf's set-up and 4-wide triangle test
+/// per group of up to four triangles (one block), and of each triangle (`build::COSTS` gives the values
 /// used and how they were chosen).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Costs {
