@@ -92,8 +92,8 @@ pub(super) fn boxes_lanes_simd<V: LaneVec, const N: usize>(
 /// [`boxes_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
 /// rays are repeated in both halves of a register and tested against two
 /// children at once (child `c` in lanes 0–7, child `c + 1` in lanes 8–15),
-/// so a node costs `WIDTH / 2` register steps instead of `WIDTH`. The same operations
-/// per lane and child, so the same bits.
+/// so a node costs `WIDTH / 2` register steps instead of `WIDTH`. The same
+/// operations per lane and child, so the same bits.
 ///
 /// Only for functions compiled with AVX-512F, run after
 /// `Kernel::is_available` confirmed it (see `LaneVec`).

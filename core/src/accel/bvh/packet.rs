@@ -170,7 +170,7 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
     }
 }
 
-/// Robust slab test (see `node::boxes`) of all lanes against a node's four
+/// Robust slab test (see `node::boxes`) of all lanes against a node's
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
 /// the smallest entry distance among them; in the kernel's instruction set
 /// ([`BoxTest::boxes_lanes`]).
@@ -181,7 +181,9 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 /// register the per-lane test costs about what the interval test does, and
 /// the packet's bounds cost more to set up than the culling saved: 16-lane
 /// packets ran 0.75–0.8× as fast on every scene (cornell-box primary 49 ->
-/// 38 Mrays/s, mesh MTM16 14.5 -> 11.4).
+/// 38 Mrays/s, mesh MTM16 14.5 -> 11.4). Measured again with 8-wide nodes
+/// (stop 24, `docs/rays.md`), as a culling step before this test and as
+/// the whole node test (Embree's coherent mode): slower in both forms.
 #[inline(always)]
 fn boxes_lanes<B: BoxTest, const N: usize>(
     node: &Node,
