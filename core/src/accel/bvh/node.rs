@@ -16,9 +16,9 @@ pub const EMPTY_CHILD: u32 = u32::MAX;
 ///
 /// Eight, as Embree's BVH8: a node's eight boxes are tested in one 256-bit
 /// register per plane (two SSE registers on the SSE2 kernel), so a visit
-/// costs about what a 4-wide one did, and a tree of eight-way nodes is a
-/// third shallower (log 8 / log 4 = 1.5), which cut the SAH cost of the
-/// benchmark mesh's nodes by about a third (`docs/rays.md`, stop 24).
+/// costs about what a 4-wide one did, and the tree has half the nodes
+/// (the benchmark mesh: 16,247 against 32,658 at four wide; single-ray
+/// diffuse bounces 12% fewer instructions, `docs/rays.md`, stop 24).
 pub const WIDTH: usize = 8;
 
 /// Maximum depth (levels of [`Node`], root = level 1) of a valid layout.
@@ -27,8 +27,9 @@ pub const WIDTH: usize = 8;
 /// [`super::BvhView::new`] rejects deeper layouts, so traversal can use a
 /// fixed stack of [`STACK_SIZE`] entries: while visiting a node, the stack
 /// holds at most the `WIDTH − 1` unvisited siblings from each ancestor
-/// level. A balanced 8-wide tree of depth 32 addresses 8³² leaves; real
-/// builds are 7–20 levels deep.
+/// level. A balanced 8-wide tree of depth 32 addresses 8³² leaves; the
+/// benchmark scenes' builds are 2–10 levels deep (the 260k-triangle mesh
+/// 10).
 pub const MAX_DEPTH: usize = 32;
 
 /// Entries in a traversal stack: `WIDTH − 1` per level (see
