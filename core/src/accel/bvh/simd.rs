@@ -38,6 +38,8 @@ use crate::geometry::triangle::WatertightRay;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::triangle::{intersect_lanes_8x2, intersect_lanes_simd};
+#[cfg(target_arch = "x86_64")]
+use crate::math::lanes::LaneVec;
 use glam::Vec3;
 
 /// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
@@ -238,33 +240,7 @@ impl BoxTest for Sse2Box {
     /// Four children per SSE register and plane.
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-        use core::arch::x86_64::*;
-        let mut out = [0.0f32; WIDTH];
-        let mut mask = 0;
-        let rows = node.rows();
-        for h in 0..WIDTH / 4 {
-            // SAFETY: SSE2 is part of the x86_64 baseline; every load and
-            // store touches four floats of one `[f32; WIDTH]` row, from
-            // offset `4h < WIDTH` (unaligned accesses).
-            mask |= unsafe {
-                let mut near = _mm_setzero_ps();
-                let mut far = _mm_set1_ps(t_max);
-                for a in 0..3 {
-                    let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
-                    let o = _mm_set1_ps(r.o[a]);
-                    let inv = _mm_set1_ps(r.inv[a]);
-                    let tn = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(nb.as_ptr().add(4 * h)), o), inv);
-                    let tf = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(fb.as_ptr().add(4 * h)), o), inv);
-                    // maxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
-                    near = _mm_max_ps(tn, near);
-                    far = _mm_min_ps(tf, far);
-                }
-                let hit = _mm_cmple_ps(near, _mm_mul_ps(far, _mm_set1_ps(FAR_SCALE)));
-                _mm_storeu_ps(out.as_mut_ptr().add(4 * h), near);
-                (_mm_movemask_ps(hit) as u32) << (4 * h)
-            };
-        }
-        (mask, out)
+        boxes_in::<core::arch::x86_64::__m128>(node, r, t_max)
     }
 }
 
@@ -313,33 +289,7 @@ impl BoxTest for Avx2Box {
     /// All eight children in one 256-bit register per plane.
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-        use core::arch::x86_64::*;
-        const { assert!(WIDTH == 8) };
-        let mut out = [0.0f32; WIDTH];
-        let rows = node.rows();
-        // SAFETY: only reached from functions compiled with AVX2 (see the
-        // type docs), run after `Kernel::is_available` confirmed it; every
-        // load and store touches one whole `[f32; 8]` row (unaligned
-        // accesses).
-        let mask = unsafe {
-            let mut near = _mm256_setzero_ps();
-            let mut far = _mm256_set1_ps(t_max);
-            for a in 0..3 {
-                let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
-                let o = _mm256_set1_ps(r.o[a]);
-                let inv = _mm256_set1_ps(r.inv[a]);
-                let tn = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(nb.as_ptr()), o), inv);
-                let tf = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(fb.as_ptr()), o), inv);
-                // vmaxps(x, acc) keeps acc when x is NaN: max_keep(acc, x).
-                near = _mm256_max_ps(tn, near);
-                far = _mm256_min_ps(tf, far);
-            }
-            let scaled = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
-            let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, scaled);
-            _mm256_storeu_ps(out.as_mut_ptr(), near);
-            _mm256_movemask_ps(hit) as u32
-        };
-        (mask, out)
+        boxes_in::<core::arch::x86_64::__m256>(node, r, t_max)
     }
 }
 
@@ -420,6 +370,32 @@ impl BoxTest for Avx512Box {
             Avx2Box::tri_lanes(r, tri, t_max, lanes, out)
         }
     }
+}
+
+/// The single-ray box test (`node::boxes`) in registers of `V::W`
+/// children, `WIDTH / V::W` registers per plane: the same operations per
+/// child (`LaneVec::max(x, acc)` is `maxps(x, acc)`, which keeps `acc` for
+/// a NaN `x`, as `max_keep(acc, x)`), so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn boxes_in<V: LaneVec>(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let mut out = [0.0f32; WIDTH];
+    let mut mask = 0;
+    let rows = node.rows();
+    let scale = V::splat(FAR_SCALE);
+    for at in (0..WIDTH).step_by(V::W) {
+        let mut near = V::splat(0.0);
+        let mut far = V::splat(t_max);
+        for a in 0..3 {
+            let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
+            let (o, inv) = (V::splat(r.o[a]), V::splat(r.inv[a]));
+            near = V::load(&nb[at..]).sub(o).mul(inv).max(near);
+            far = V::load(&fb[at..]).sub(o).mul(inv).min(far);
+        }
+        mask |= near.le(far.mul(scale)) << at;
+        near.store(&mut out[at..]);
+    }
+    (mask, out)
 }
 
 /// `v` as an array of 8 when `N == 8`.
