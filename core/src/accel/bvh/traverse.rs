@@ -78,30 +78,6 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// The hit children of a node, sorted by key (nearest first); returns the
-/// slots and how many there are. An insertion sort over the hit children
-/// only (with 4-wide nodes it measured faster than a branch-free sorting
-/// network).
-#[inline(always)]
-pub(super) fn order_hits(mask: u32, key: &[f32; WIDTH]) -> ([usize; WIDTH], usize) {
-    let mut order = [0usize; WIDTH];
-    let mut n = 0;
-    for c in 0..WIDTH {
-        if mask >> c & 1 != 0 {
-            order[n] = c;
-            n += 1;
-        }
-    }
-    for i in 1..n {
-        let mut j = i;
-        while j > 0 && key[order[j - 1]] > key[order[j]] {
-            order.swap(j - 1, j);
-            j -= 1;
-        }
-    }
-    (order, n)
-}
-
 /// A ray's precomputation for both tests.
 #[derive(Clone, Copy)]
 pub(super) struct Prepared {
@@ -126,8 +102,7 @@ fn prepare(view: &BvhView<'_>, ray: &Ray) -> Option<Prepared> {
 /// The order key of a hit child: its entry distance above, its slot
 /// below. Entry distances are never NaN or `−0` (they start at `+0` and
 /// `max_keep` only takes strictly larger values), so the keys compare like
-/// (distance, slot): nearest first, lower slot first on a tie — the order
-/// of [`order_hits`]'s stable sort.
+/// (distance, slot): nearest first, lower slot first on a tie.
 #[inline(always)]
 fn key(near: f32, slot: usize) -> u64 {
     (near.to_bits() as u64) << 32 | slot as u64
@@ -135,8 +110,46 @@ fn key(near: f32, slot: usize) -> u64 {
 
 /// The slot of a [`key`].
 #[inline(always)]
-fn key_slot(k: u64) -> usize {
+pub(super) fn key_slot(k: u64) -> usize {
     (k as usize) & (WIDTH - 1)
+}
+
+/// The keys ([`key`]) of the `n` hit children in `mask`, nearest first,
+/// in `keys[..n]`: an insertion sort over the hit children only (an 8-key
+/// network would sort eight every time). Shared by the single-ray and
+/// packet kernels, so both visit a node's children in the same order.
+#[inline(always)]
+pub(super) fn sorted_keys(mask: u32, n: usize, near: &[f32; WIDTH]) -> [u64; WIDTH] {
+    let mut keys = [u64::MAX; WIDTH];
+    let mut bits = mask;
+    for k in keys.iter_mut().take(n) {
+        let c = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        *k = key(near[c & (WIDTH - 1)], c);
+    }
+    for i in 1..n {
+        let x = keys[i];
+        let mut j = i;
+        while j > 0 && keys[j - 1] > x {
+            keys[j] = keys[j - 1];
+            j -= 1;
+        }
+        keys[j] = x;
+    }
+    keys
+}
+
+/// The two hit children of `mask` (exactly two bits set), nearer first;
+/// on a tie the lower slot first, as [`sorted_keys`] orders them.
+#[inline(always)]
+pub(super) fn two_hits(mask: u32, near: &[f32; WIDTH]) -> (usize, usize) {
+    let c0 = mask.trailing_zeros() as usize & (WIDTH - 1);
+    let c1 = (mask & (mask - 1)).trailing_zeros() as usize & (WIDTH - 1);
+    if near[c1] < near[c0] {
+        (c1, c0)
+    } else {
+        (c0, c1)
+    }
 }
 
 /// Traverses the subtree `start` (a node or a leaf, as in [`Entry`]) for
@@ -177,37 +190,13 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                 // Two (a fifth of the visits on incoherent rays, measured):
                 // one comparison, push the farther, descend into the nearer.
                 2 => {
-                    let c0 = mask.trailing_zeros() as usize;
-                    let c1 = (mask & (mask - 1)).trailing_zeros() as usize & (WIDTH - 1);
-                    let (n, f) = if near[c1] < near[c0] {
-                        (c1, c0)
-                    } else {
-                        (c0, c1)
-                    };
+                    let (n, f) = two_hits(mask, &near);
                     defer(view, stack, entry(f));
                     cur = entry(n);
                     continue;
                 }
                 n => {
-                    // The hit children's keys, sorted by insertion (over
-                    // the `n` hit children only; an 8-key network would
-                    // sort eight every time).
-                    let mut keys = [u64::MAX; WIDTH];
-                    let mut bits = mask;
-                    for k in keys.iter_mut().take(n as usize) {
-                        let c = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        *k = key(near[c & (WIDTH - 1)], c);
-                    }
-                    for i in 1..n as usize {
-                        let x = keys[i];
-                        let mut j = i;
-                        while j > 0 && keys[j - 1] > x {
-                            keys[j] = keys[j - 1];
-                            j -= 1;
-                        }
-                        keys[j] = x;
-                    }
+                    let keys = sorted_keys(mask, n as usize, &near);
                     // Farther children far-to-near, so the next pop is the
                     // next nearest; descend into the nearest right away.
                     for &k in keys[1..n as usize].iter().rev() {
