@@ -477,6 +477,46 @@ pub(crate) fn halves(a: f32, b: f32) -> __m512 {
     __m512::select(0xff00, __m512::splat(b), __m512::splat(a))
 }
 
+/// A row of 8 floats, loaded once, to take pairs from with
+/// [`row_pair`] (AVX-512F, as [`both_halves`]). Lanes 8–15 are never read.
+#[inline(always)]
+pub(crate) fn row8(p: &[f32; 8]) -> __m512 {
+    // SAFETY: AVX-512F is enabled where this is used; the load reads the
+    // 8 floats of `p`.
+    unsafe { _mm512_castps256_ps512(_mm256_loadu_ps(p.as_ptr())) }
+}
+
+/// `row[c]` in lanes 0–7 and `row[c + 1]` in lanes 8–15 of a [`row8`]
+/// register, `c` even and below 8: one permute, where [`halves`] of two
+/// loaded floats took two loads and a two-source permute.
+#[inline(always)]
+pub(crate) fn row_pair(row: __m512, c: usize) -> __m512 {
+    debug_assert!(c % 2 == 0 && c < 8);
+    let c = c as i32;
+    // SAFETY: AVX-512F is enabled where this is used; no memory access.
+    unsafe {
+        let idx = _mm512_set_epi32(
+            c + 1,
+            c + 1,
+            c + 1,
+            c + 1,
+            c + 1,
+            c + 1,
+            c + 1,
+            c + 1,
+            c,
+            c,
+            c,
+            c,
+            c,
+            c,
+            c,
+            c,
+        );
+        _mm512_permutexvar_ps(idx, row)
+    }
+}
+
 /// Lanes 0–7 and 8–15 of `v` as two 256-bit registers (AVX-512F, as
 /// [`both_halves`]).
 #[inline(always)]

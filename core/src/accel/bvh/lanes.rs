@@ -10,7 +10,7 @@
 
 use super::node::{FAR_SCALE, Node, WIDTH};
 use super::packet::BoxLanes;
-use crate::math::lanes::{LaneVec, both_halves, halves, min_pairs8};
+use crate::math::lanes::{LaneVec, both_halves, min_pairs8, row_pair, row8};
 
 /// Robust slab test of `N` lanes against a node's children, as
 /// `packet::boxes_lanes`: per child, the lanes of `lanes` that hit it and
@@ -124,6 +124,17 @@ pub(super) fn boxes_lanes_8x2(
         both_halves(&l.inv[1]),
         both_halves(&l.inv[2]),
     ];
+    // The six plane rows, loaded once; each pair of children is then one
+    // permute per plane.
+    let rows = node.rows();
+    let r = [
+        row8(&rows[0]),
+        row8(&rows[1]),
+        row8(&rows[2]),
+        row8(&rows[3]),
+        row8(&rows[4]),
+        row8(&rows[5]),
+    ];
     for c in (0..WIDTH).step_by(2) {
         let mut near = __m512::splat(0.0);
         let mut far = tm;
@@ -131,17 +142,16 @@ pub(super) fn boxes_lanes_8x2(
         if let Some(u) = l.uniform_neg {
             // The same planes for every lane, picked by row (as in
             // `boxes_lanes_simd`).
-            let rows = node.rows();
             for a in 0..3 {
                 let (nr, fr) = if u[a] { (3 + a, a) } else { (a, 3 + a) };
-                let nb = halves(rows[nr][c], rows[nr][c + 1]);
-                let fb = halves(rows[fr][c], rows[fr][c + 1]);
+                let nb = row_pair(r[nr], c);
+                let fb = row_pair(r[fr], c);
                 (near, far) = slab(near, far, (nb, fb), o[a], inv[a]);
             }
         } else {
             for a in 0..3 {
-                let lo = halves(node.min[a][c], node.min[a][c + 1]);
-                let hi = halves(node.max[a][c], node.max[a][c + 1]);
+                let lo = row_pair(r[a], c);
+                let hi = row_pair(r[3 + a], c);
                 let neg = l.neg_bits[a] & 0xff;
                 let neg = neg | neg << 8;
                 (near, far) = slab(near, far, planes(lo, hi, neg), o[a], inv[a]);
