@@ -491,7 +491,7 @@ pub(crate) fn row8(p: &[f32; 8]) -> __m512 {
 /// loaded floats took two loads and a two-source permute.
 #[inline(always)]
 pub(crate) fn row_pair(row: __m512, c: usize) -> __m512 {
-    debug_assert!(c % 2 == 0 && c < 8);
+    debug_assert!(c.is_multiple_of(2) && c < 8);
     let c = c as i32;
     // SAFETY: AVX-512F is enabled where this is used; no memory access.
     unsafe {
