@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""Time two builds of `cmlt` against each other on `bench rays`.
+
+    python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS]
+    python3 bench/rays_abba.py /tmp/cmlt-old target/release/cmlt 2 mesh,veach-mis \\
+        primary,mtm8,mtm16,shadow,diffuse ours-packet8,ours-packet16
+
+The two binaries run in turns, A B B A then B A A B, CYCLES times, so a
+drift of the shared machine falls on both alike. Every run also times
+Embree's `rtcIntersect1` (`embree-1`, so both binaries must be built with
+`--features embree`), and each figure is divided by that run's `embree-1`
+figure of the same cell: the ratio cancels most of the machine's
+run-to-run swing. Prints per cell the median of those ratios for each
+binary and NEW ÷ OLD.
+
+Run from the repository root (the shared scenes are read from
+`tests/scenes`).
+"""
+import collections
+import re
+import statistics
+import subprocess
+import sys
+
+
+def main():
+    if len(sys.argv) < 7:
+        sys.exit(__doc__)
+    old, new, cycles, scenes, sets, kernels = sys.argv[1:7]
+    threads = sys.argv[7] if len(sys.argv) > 7 else "1"
+    seconds = sys.argv[8] if len(sys.argv) > 8 else "0.15"
+    res = [collections.defaultdict(list), collections.defaultdict(list)]
+
+    def run(which):
+        binary = (old, new)[which]
+        out = subprocess.run(
+            [binary, "bench", "rays", "--scenes", scenes, "--sets", sets,
+             "--kernels", kernels + ",embree-1", "--threads", threads,
+             "--time", seconds, "--rounds", "1", "--clock", "cpu"],
+            capture_output=True, text=True, check=True).stdout
+        for line in out.splitlines():
+            # "        mesh     mtm8 1T  ours-packet8 9.39  embree-1 7.30  | best ..."
+            m = re.match(r"\s*(\S+)\s+(\S+)\s+(\d+)T\s+(.*?)\s*\|", line)
+            if not m:
+                continue
+            figures = dict(re.findall(r"(\S+) ([0-9.]+)", m.group(4)))
+            base = float(figures.pop("embree-1"))
+            for kernel, v in figures.items():
+                res[which][(m.group(1), m.group(2), m.group(3), kernel)].append(float(v) / base)
+
+    for c in range(int(cycles)):
+        for which in ([0, 1, 1, 0] if c % 2 == 0 else [1, 0, 0, 1]):
+            run(which)
+    for cell in sorted(res[0]):
+        a = statistics.median(res[0][cell])
+        b = statistics.median(res[1][cell])
+        scene, ray_set, t, kernel = cell
+        print(f"{scene:12} {ray_set:8} {t}T {kernel:14} old {a:6.3f} new {b:6.3f}  new/old {b / a:6.3f}")
+
+
+if __name__ == "__main__":
+    main()
