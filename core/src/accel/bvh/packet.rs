@@ -20,7 +20,7 @@ use super::node::{BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, ScalarBox, TriLanesOut};
-use super::traverse::{self, Prepared, Stack, key_slot, sorted_keys, traverse_from, two_hits};
+use super::traverse::{self, Prepared, Stack, descend, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
@@ -381,35 +381,14 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                 mask: masks[c],
                 t: t_min[c],
             };
-            let mut defer = |e: Entry| {
+            let defer = |e: Entry| {
                 traverse::prefetch(view, e.child, e.count);
                 stack.push(e);
             };
-            // As in the single-ray kernel: no sorting for one or two hit
-            // children (a third and a quarter of the visits on the mesh's
-            // MTM bundles; a fifth hit none), and the hit children found
-            // by bit scans, not a test of every slot (one unpredictable
-            // branch per slot: 8% of the time of packets of 8 there).
-            match any.count_ones() {
-                0 => {}
-                1 => {
-                    cur = entry(any.trailing_zeros() as usize & (WIDTH - 1));
-                    continue;
-                }
-                2 => {
-                    let (n, f) = two_hits(any, &t_min);
-                    defer(entry(f));
-                    cur = entry(n);
-                    continue;
-                }
-                n => {
-                    let keys = sorted_keys(any, n as usize, &t_min);
-                    for &k in keys[1..n as usize].iter().rev() {
-                        defer(entry(key_slot(k)));
-                    }
-                    cur = entry(key_slot(keys[0]));
-                    continue;
-                }
+            // In the single-ray kernel's order (`traverse::descend`).
+            if let Some(e) = descend(any, &t_min, entry, defer) {
+                cur = e;
+                continue;
             }
         } else {
             let first = cur.child as usize;
