@@ -89,6 +89,42 @@ pub(super) fn boxes_lanes_simd<V: LaneVec, const N: usize>(
     (masks, t_min)
 }
 
+/// `node::child_lanes` in registers of `V::W` lanes: the per-lane test of
+/// child `c` from the frustum test's plane offsets, the same bits.
+/// `N` must be a multiple of `V::W`.
+#[inline(always)]
+pub(super) fn child_lanes_simd<V: LaneVec, const N: usize>(
+    offsets: &[[f32; WIDTH]; 6],
+    c: usize,
+    inv: &[[f32; N]; 3],
+    t_max: &[f32; N],
+    lanes: u32,
+) -> u32 {
+    debug_assert!(N.is_multiple_of(V::W));
+    let c = c & (WIDTH - 1);
+    let scale = V::splat(FAR_SCALE);
+    let d: [V; 6] = [
+        V::splat(offsets[0][c]),
+        V::splat(offsets[1][c]),
+        V::splat(offsets[2][c]),
+        V::splat(offsets[3][c]),
+        V::splat(offsets[4][c]),
+        V::splat(offsets[5][c]),
+    ];
+    let mut hit = 0;
+    for at in (0..N).step_by(V::W) {
+        let mut near = V::splat(0.0);
+        let mut far = V::load(&t_max[at..]);
+        for a in 0..3 {
+            let inv = V::load(&inv[a][at..]);
+            near = d[a].mul(inv).max(near);
+            far = d[3 + a].mul(inv).min(far);
+        }
+        hit |= (near.le(far.mul(scale)) & lane_bits(V::W)) << at;
+    }
+    hit & lanes
+}
+
 /// [`boxes_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
 /// rays are repeated in both halves of a register and tested against two
 /// children at once (child `c` in lanes 0–7, child `c + 1` in lanes 8–15),

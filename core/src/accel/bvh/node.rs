@@ -209,6 +209,133 @@ pub(crate) fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) 
     (mask, near)
 }
 
+/// The rays of a packet that share one origin and one direction octant,
+/// bounded as one ray with an interval of reciprocal directions: a
+/// frustum whose box test ([`boxes_frustum`]) is conservative, to the
+/// bit, against every lane's own slab test.
+///
+/// Why to the bit: with the origin shared, each lane's slab distance is
+/// `fl(fl(b − o) · inv)` with the same `fl(b − o)`, and a rounded product
+/// is monotone in either factor; so the smaller of the two products with
+/// `inv_lo` and `inv_hi` is never above any lane's distance, and the
+/// larger never below. The reciprocals must be finite (no `0·∞ = NaN`
+/// slab, which a lane drops and the bound could not).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoxFrustum {
+    /// The shared origin.
+    pub o: [f32; 3],
+    /// Per axis, the smallest `1/d` among the rays (finite).
+    pub inv_lo: [f32; 3],
+    /// Per axis, the largest `1/d` among the rays (finite, same sign as
+    /// `inv_lo`).
+    pub inv_hi: [f32; 3],
+    /// Per axis, the row of [`Node::rows`] holding the near plane, as in
+    /// [`BoxRay::near`] (the same for every ray of the frustum).
+    pub near: [usize; 3],
+    /// Per axis, the row of the far plane.
+    pub far: [usize; 3],
+}
+
+impl BoxFrustum {
+    /// The frustum of rays from `o` with reciprocal directions between
+    /// `inv_lo` and `inv_hi` per axis; `None` unless every bound is finite
+    /// and both bounds of an axis have the same sign.
+    #[inline(always)]
+    pub fn new(o: [f32; 3], inv_lo: [f32; 3], inv_hi: [f32; 3]) -> Option<Self> {
+        for a in 0..3 {
+            let ok = inv_lo[a].is_finite()
+                && inv_hi[a].is_finite()
+                && inv_lo[a] <= inv_hi[a]
+                && inv_lo[a].is_sign_negative() == inv_hi[a].is_sign_negative();
+            if !ok {
+                return None;
+            }
+        }
+        let r = BoxRay::with_inv(o, inv_lo);
+        Some(BoxFrustum {
+            o,
+            inv_lo,
+            inv_hi,
+            near: r.near,
+            far: r.far,
+        })
+    }
+}
+
+/// What [`boxes_frustum`] finds for a node.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FrustumHits {
+    /// Bit `c` set when some ray of the frustum may meet child `c` (always
+    /// when one does).
+    pub mask: u32,
+    /// Per child, a lower bound of the rays' entry distances.
+    pub near: [f32; WIDTH],
+    /// The plane offsets `fl(b − o)` per child: rows 0–2 the near planes
+    /// of each axis, rows 3–5 the far planes. Every ray's own slab
+    /// distance is this times its `1/d` (the origin is shared), so a lane
+    /// test of one child needs no subtraction ([`child_lanes`]).
+    pub offsets: [[f32; WIDTH]; 6],
+}
+
+/// The box test of a [`BoxFrustum`] over `[0, t_far]`, where `t_far` is
+/// the largest `t_max` among its rays. The same operations as the SIMD
+/// forms (`x < y ? x : y` is `minps(x, y)`), so the same bits.
+#[inline(always)]
+pub(crate) fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+    let rows = node.rows();
+    let mut near = [0.0f32; WIDTH];
+    let mut far = [t_far; WIDTH];
+    let mut offsets = [[0.0f32; WIDTH]; 6];
+    for a in 0..3 {
+        let (nb, fb) = (&rows[f.near[a] & 7], &rows[f.far[a] & 7]);
+        for c in 0..WIDTH {
+            let (dn, df) = (nb[c] - f.o[a], fb[c] - f.o[a]);
+            offsets[a][c] = dn;
+            offsets[3 + a][c] = df;
+            let (x, y) = (dn * f.inv_lo[a], dn * f.inv_hi[a]);
+            near[c] = max_keep(near[c], if x < y { x } else { y });
+            let (x, y) = (df * f.inv_lo[a], df * f.inv_hi[a]);
+            far[c] = min_keep(far[c], if x > y { x } else { y });
+        }
+    }
+    let mut mask = 0;
+    for c in 0..WIDTH {
+        mask |= ((near[c] <= far[c] * FAR_SCALE) as u32) << c;
+    }
+    FrustumHits {
+        mask,
+        near,
+        offsets,
+    }
+}
+
+/// The lanes (within `lanes`) whose own slab test meets child `c` of a
+/// node whose frustum test gave `offsets` ([`FrustumHits::offsets`]): for
+/// lanes of that frustum, the same bits as the per-lane test
+/// (`packet::boxes_lanes`), since `fl(b − o)` is the same for all of
+/// them. Portable form; `lanes::child_lanes_simd` is the same in
+/// registers.
+#[inline(always)]
+pub(crate) fn child_lanes<const N: usize>(
+    offsets: &[[f32; WIDTH]; 6],
+    c: usize,
+    inv: &[[f32; N]; 3],
+    t_max: &[f32; N],
+    lanes: u32,
+) -> u32 {
+    let c = c & (WIDTH - 1);
+    let mut hit = 0;
+    for i in 0..N {
+        let (mut near, mut far) = (0.0f32, t_max[i]);
+        for a in 0..3 {
+            near = max_keep(near, offsets[a][c] * inv[a][i]);
+            far = min_keep(far, offsets[3 + a][c] * inv[a][i]);
+        }
+        hit |= ((near <= far * FAR_SCALE) as u32) << i;
+    }
+    hit & lanes
+}
+
 /// Recomputes every child box exactly from the stored triangles, bottom up
 /// (children come after parents). The builders' boxes would do, but this
 /// way the conservativeness of the boxes never depends on a builder.

@@ -28,11 +28,13 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{boxes_lanes_8x2, boxes_lanes_simd};
+use super::lanes::{boxes_lanes_8x2, boxes_lanes_simd, child_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
-use super::node::{BoxRay, Node, WIDTH, boxes};
+use super::node::{
+    BoxFrustum, BoxRay, FrustumHits, Node, WIDTH, boxes, boxes_frustum, child_lanes,
+};
 use super::packet::{BoxLanes, boxes_lanes_portable};
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
@@ -126,6 +128,27 @@ pub(super) trait BoxTest {
     const SSE_LEAF: bool = false;
 
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]);
+
+    /// The frustum test (`node::boxes_frustum`) of a packet whose rays
+    /// share their origin: a node's children against all rays at once.
+    #[inline(always)]
+    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+        boxes_frustum(node, f, t_far)
+    }
+
+    /// The per-lane test of one child after the frustum test
+    /// (`node::child_lanes`). Portable lane loops unless a kernel has
+    /// registers that fit `N`.
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        child_lanes(offsets, c, inv, t_max, lanes)
+    }
 
     /// The packet box test (`packet::boxes_lanes`): `N` lanes against a
     /// node's four children. Portable lane loops unless a kernel has
@@ -242,6 +265,29 @@ impl BoxTest for Sse2Box {
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         boxes_in::<core::arch::x86_64::__m128>(node, r, t_max)
     }
+
+    /// Four children per SSE register and plane.
+    #[inline(always)]
+    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+        frustum_in::<core::arch::x86_64::__m128>(node, f, t_far)
+    }
+
+    /// Four lanes per SSE register.
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        use core::arch::x86_64::__m128;
+        if N.is_multiple_of(4) {
+            child_lanes_simd::<__m128, N>(offsets, c, inv, t_max, lanes)
+        } else {
+            child_lanes(offsets, c, inv, t_max, lanes)
+        }
+    }
 }
 
 /// AVX: near and far planes of one axis in one 256-bit register. Only
@@ -291,6 +337,29 @@ impl BoxTest for Avx2Box {
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         boxes_in::<core::arch::x86_64::__m256>(node, r, t_max)
     }
+
+    /// All eight children in one 256-bit register per plane.
+    #[inline(always)]
+    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+        frustum_in::<core::arch::x86_64::__m256>(node, f, t_far)
+    }
+
+    /// Eight lanes per AVX register (four for packets of 4).
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        use core::arch::x86_64::__m256;
+        if N.is_multiple_of(8) {
+            child_lanes_simd::<__m256, N>(offsets, c, inv, t_max, lanes)
+        } else {
+            Sse2Box::child_lanes(offsets, c, inv, t_max, lanes)
+        }
+    }
 }
 
 /// AVX-512F: the single-ray tests of [`Avx2Box`], and packets of 16 lanes
@@ -307,6 +376,28 @@ impl BoxTest for Avx512Box {
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         Avx2Box::boxes(node, r, t_max)
+    }
+
+    #[inline(always)]
+    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+        Avx2Box::boxes_frustum(node, f, t_far)
+    }
+
+    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        use core::arch::x86_64::__m512;
+        if N.is_multiple_of(16) {
+            child_lanes_simd::<__m512, N>(offsets, c, inv, t_max, lanes)
+        } else {
+            Avx2Box::child_lanes(offsets, c, inv, t_max, lanes)
+        }
     }
 
     /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
@@ -396,6 +487,40 @@ fn boxes_in<V: LaneVec>(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDT
         near.store(&mut out[at..]);
     }
     (mask, out)
+}
+
+/// The frustum test (`node::boxes_frustum`) in registers of `V::W`
+/// children: the same operations per child, so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+    let mut out = [0.0f32; WIDTH];
+    let mut offsets = [[0.0f32; WIDTH]; 6];
+    let mut mask = 0;
+    let rows = node.rows();
+    let scale = V::splat(FAR_SCALE);
+    for at in (0..WIDTH).step_by(V::W) {
+        let mut near = V::splat(0.0);
+        let mut far = V::splat(t_far);
+        for a in 0..3 {
+            let (nb, fb) = (&rows[f.near[a] & 7], &rows[f.far[a] & 7]);
+            let o = V::splat(f.o[a]);
+            let (lo, hi) = (V::splat(f.inv_lo[a]), V::splat(f.inv_hi[a]));
+            let dn = V::load(&nb[at..]).sub(o);
+            dn.store(&mut offsets[a][at..]);
+            near = dn.mul(lo).min(dn.mul(hi)).max(near);
+            let df = V::load(&fb[at..]).sub(o);
+            df.store(&mut offsets[3 + a][at..]);
+            far = df.mul(lo).max(df.mul(hi)).min(far);
+        }
+        mask |= near.le(far.mul(scale)) << at;
+        near.store(&mut out[at..]);
+    }
+    FrustumHits {
+        mask,
+        near: out,
+        offsets,
+    }
 }
 
 /// `v` as an array of 8 when `N == 8`.
