@@ -1044,106 +1044,6 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
     finish_lanes(r, tri, t_max, ok, unsure, zero, sel.as_ref(), t, b1, b2)
 }
 
-/// [`intersect_lanes`] of two triangles for a packet of 8 lanes in 512-bit
-/// registers: the rays repeated in both halves, triangle `tris[0]` in lanes
-/// 0–7 and `tris[1]` in lanes 8–15, each tested against the same `t_max`;
-/// returns each triangle's hit lanes, with their `t`, `b1`, `b2` in
-/// `out[0]` and `out[1]`. Per triangle the same bits as
-/// [`intersect_lanes`]; the caller applies the second triangle's hits
-/// after the first's (where both hit, the second only if closer), which is
-/// what testing them one after the other gives. Only for functions
-/// compiled with AVX-512F (see `LaneVec`); `N` must be 8.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) fn intersect_lanes_8x2<const N: usize>(
-    r: &WatertightLanes<N>,
-    tris: [&[Vec3; 3]; 2],
-    t_max: &[f32; N],
-    lanes: u32,
-    out: [[&mut [f32; N]; 3]; 2],
-) -> [u32; 2] {
-    use crate::math::lanes::{both_halves, halves, split_halves};
-    use core::arch::x86_64::__m512;
-    debug_assert_eq!(N, 8);
-    let lanes = lanes & 0xff;
-    let live = lanes | lanes << 8;
-    let org = [
-        both_halves(&r.org[0]),
-        both_halves(&r.org[1]),
-        both_halves(&r.org[2]),
-    ];
-    let shear = [
-        both_halves(&r.shear[0]),
-        both_halves(&r.shear[1]),
-        both_halves(&r.shear[2]),
-    ];
-    let tm = both_halves(t_max);
-    // Permuted vertex components: the first triangle's in the low half,
-    // the second's in the high half (no closures: see
-    // `intersect_lanes_simd`).
-    let mut sv = [[__m512::splat(0.0); 3]; 3];
-    for (vi, s) in sv.iter_mut().enumerate() {
-        let (p, q) = (tris[0][vi], tris[1][vi]);
-        match r.uniform {
-            Some(k) => {
-                let (pv, qv) = ([p.x, p.y, p.z, p.z], [q.x, q.y, q.z, q.z]);
-                for (sj, &kj) in s.iter_mut().zip(&k) {
-                    *sj = halves(pv[kj], qv[kj]);
-                }
-            }
-            None => {
-                let (x, y, z) = (halves(p.x, q.x), halves(p.y, q.y), halves(p.z, q.z));
-                for (sj, &[is0, is1]) in s.iter_mut().zip(&r.k_is) {
-                    // The 8 lanes' masks, repeated for the high half.
-                    let (is0, is1) = (is0 & 0xff, is1 & 0xff);
-                    let (is0, is1) = (is0 | is0 << 8, is1 | is1 << 8);
-                    *sj = __m512::select(is0, x, __m512::select(is1, y, z));
-                }
-            }
-        }
-    }
-    let mut hits = [0u32; 2];
-    let Some(f) = lanes_f32(sv, org, shear, tm, live) else {
-        return hits;
-    };
-    let [out0, out1] = out;
-    // Only for unsure lanes (see `intersect_lanes_simd`).
-    let mut sel: Option<[[[[f32; N]; 3]; 3]; 2]> = None;
-    if f.unsure != 0 {
-        let sel = sel.insert([[[[0.0f32; N]; 3]; 3]; 2]);
-        for (vi, p) in sv.iter().enumerate() {
-            for (j, x) in p.iter().enumerate() {
-                let (lo, hi) = split_halves(*x);
-                lo.store(&mut sel[0][vi][j]);
-                hi.store(&mut sel[1][vi][j]);
-            }
-        }
-    }
-    let (t, b1, b2) = (split_halves(f.t), split_halves(f.b1), split_halves(f.b2));
-    for (h, [ot, ob1, ob2]) in [out0, out1].into_iter().enumerate() {
-        let pick = |v: (core::arch::x86_64::__m256, core::arch::x86_64::__m256)| {
-            if h == 0 { v.0 } else { v.1 }
-        };
-        pick(t).store(ot.as_mut_slice());
-        pick(b1).store(ob1.as_mut_slice());
-        pick(b2).store(ob2.as_mut_slice());
-        let bits = |m: u32| (m >> (8 * h)) & 0xff;
-        hits[h] = finish_lanes(
-            r,
-            tris[h],
-            t_max,
-            bits(f.ok),
-            bits(f.unsure),
-            bits(f.zero),
-            sel.as_ref().map(|s| &s[h]),
-            ot,
-            ob1,
-            ob2,
-        );
-    }
-    hits
-}
-
 /// What [`lanes_f32`] finds for one register of lanes.
 #[cfg(target_arch = "x86_64")]
 struct LanesF32<V> {
@@ -1354,47 +1254,6 @@ mod tests {
             ) -> u32 {
                 intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, t, b1, b2)
             }
-            /// The two-triangle form with this triangle in one half and a
-            /// decoy (the triangle moved) in the other, both ways round:
-            /// the triangle's half must give the one-triangle answer.
-            #[target_feature(enable = "avx2,avx512f")]
-            fn avx512_pair<const N: usize>(
-                r: &WatertightLanes<N>,
-                tri: &[Vec3; 3],
-                t_max: &[f32; N],
-                lanes: u32,
-                t: &mut [f32; N],
-                b1: &mut [f32; N],
-                b2: &mut [f32; N],
-            ) -> u32 {
-                let shift = Vec3::new(0.37, -0.21, 0.13);
-                let decoy = [tri[0] + shift, tri[1] + shift, tri[2] + shift];
-                let (mut t2, mut b12, mut b22) = ([0.0; N], [0.0; N], [0.0; N]);
-                let (mut dt, mut db1, mut db2) = ([0.0; N], [0.0; N], [0.0; N]);
-                let [m, _] = intersect_lanes_8x2(
-                    r,
-                    [tri, &decoy],
-                    t_max,
-                    lanes,
-                    [[t, b1, b2], [&mut dt, &mut db1, &mut db2]],
-                );
-                let [_, m2] = intersect_lanes_8x2(
-                    r,
-                    [&decoy, tri],
-                    t_max,
-                    lanes,
-                    [[&mut dt, &mut db1, &mut db2], [&mut t2, &mut b12, &mut b22]],
-                );
-                assert_eq!(m, m2, "pairs: the halves disagree");
-                for i in (0..N).filter(|&i| m >> i & 1 == 1) {
-                    assert_eq!(
-                        [t[i], b1[i], b2[i]].map(f32::to_bits),
-                        [t2[i], b12[i], b22[i]].map(f32::to_bits),
-                        "pairs: lane {i}"
-                    );
-                }
-                m
-            }
             let mut forms: Vec<(&str, Form<N>)> = Vec::new();
             if N.is_multiple_of(4) {
                 forms.push(("sse2", intersect_lanes_simd::<__m128, N>));
@@ -1412,15 +1271,6 @@ mod tests {
                 // SAFETY: AVX2 and AVX-512F were just detected.
                 forms.push(("avx512", |r, tri, tm, l, t, b1, b2| unsafe {
                     avx512(r, tri, tm, l, t, b1, b2)
-                }));
-            }
-            if N == 8
-                && std::is_x86_feature_detected!("avx2")
-                && std::is_x86_feature_detected!("avx512f")
-            {
-                // SAFETY: AVX2 and AVX-512F were just detected.
-                forms.push(("avx512 pairs", |r, tri, tm, l, t, b1, b2| unsafe {
-                    avx512_pair(r, tri, tm, l, t, b1, b2)
                 }));
             }
             for (name, form) in forms {

@@ -413,7 +413,7 @@ impl LaneVec for __m512 {
 }
 
 /// `[a′ | b′]`, eight lanes each, `a′` the pairwise minimum of `a`'s
-/// halves (AVX-512F, as [`both_halves`]).
+/// halves (AVX-512F, see [`LaneVec`]).
 #[inline(always)]
 fn fold_halves(a: __m512, b: __m512) -> __m512 {
     // SAFETY: AVX-512F is enabled where this is used; no memory access.
@@ -427,10 +427,10 @@ fn fold_halves(a: __m512, b: __m512) -> __m512 {
 
 /// The smallest lane of each half of four registers: child `2k` in the
 /// low half of `v[k]`, child `2k + 1` in its high half (the layout of
-/// [`LaneVec::min_lanes8`] after one fold, and of the two-children-per-
-/// register box test). No lane may be NaN. AVX-512F, as [`both_halves`].
+/// [`LaneVec::min_lanes8`] after one fold). No lane may be NaN.
+/// AVX-512F, see [`LaneVec`].
 #[inline(always)]
-pub(crate) fn min_pairs8(v: [__m512; 4]) -> [f32; 8] {
+fn min_pairs8(v: [__m512; 4]) -> [f32; 8] {
     let mut out = [0.0f32; 8];
     // SAFETY: AVX-512F is enabled where this is used; register-only but
     // the last store, which writes the 8 floats of `out`.
@@ -456,76 +456,4 @@ pub(crate) fn min_pairs8(v: [__m512; 4]) -> [f32; 8] {
         _mm256_storeu_ps(out.as_mut_ptr(), _mm512_castps512_ps256(m));
     }
     out
-}
-
-/// The first 8 floats of `p` in both halves of a 512-bit register. Only
-/// inside functions compiled with AVX-512F (see [`LaneVec`]).
-#[inline(always)]
-pub(crate) fn both_halves(p: &[f32]) -> __m512 {
-    let p = &p[..8];
-    // SAFETY: AVX-512F is enabled where this is used; the load reads the
-    // 8 floats of `p`.
-    unsafe {
-        let y = _mm512_castps256_ps512(_mm256_loadu_ps(p.as_ptr()));
-        _mm512_shuffle_f32x4::<0b01_00_01_00>(y, y)
-    }
-}
-
-/// `a` in lanes 0–7 and `b` in lanes 8–15 (AVX-512F, as [`both_halves`]).
-#[inline(always)]
-pub(crate) fn halves(a: f32, b: f32) -> __m512 {
-    __m512::select(0xff00, __m512::splat(b), __m512::splat(a))
-}
-
-/// A row of 8 floats, loaded once, to take pairs from with
-/// [`row_pair`] (AVX-512F, as [`both_halves`]). Lanes 8–15 are never read.
-#[inline(always)]
-pub(crate) fn row8(p: &[f32; 8]) -> __m512 {
-    // SAFETY: AVX-512F is enabled where this is used; the load reads the
-    // 8 floats of `p`.
-    unsafe { _mm512_castps256_ps512(_mm256_loadu_ps(p.as_ptr())) }
-}
-
-/// `row[c]` in lanes 0–7 and `row[c + 1]` in lanes 8–15 of a [`row8`]
-/// register, `c` even and below 8: one permute, where [`halves`] of two
-/// loaded floats took two loads and a two-source permute.
-#[inline(always)]
-pub(crate) fn row_pair(row: __m512, c: usize) -> __m512 {
-    debug_assert!(c.is_multiple_of(2) && c < 8);
-    let c = c as i32;
-    // SAFETY: AVX-512F is enabled where this is used; no memory access.
-    unsafe {
-        let idx = _mm512_set_epi32(
-            c + 1,
-            c + 1,
-            c + 1,
-            c + 1,
-            c + 1,
-            c + 1,
-            c + 1,
-            c + 1,
-            c,
-            c,
-            c,
-            c,
-            c,
-            c,
-            c,
-            c,
-        );
-        _mm512_permutexvar_ps(idx, row)
-    }
-}
-
-/// Lanes 0–7 and 8–15 of `v` as two 256-bit registers (AVX-512F, as
-/// [`both_halves`]).
-#[inline(always)]
-pub(crate) fn split_halves(v: __m512) -> (__m256, __m256) {
-    // SAFETY: AVX-512F is enabled where this is used; no memory access.
-    unsafe {
-        (
-            _mm512_castps512_ps256(v),
-            _mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(_mm512_castps_pd(v))),
-        )
-    }
 }

@@ -10,7 +10,7 @@
 
 use super::node::{FAR_SCALE, Node, WIDTH};
 use super::packet::BoxLanes;
-use crate::math::lanes::{LaneVec, both_halves, min_pairs8, row_pair, row8};
+use crate::math::lanes::LaneVec;
 
 /// Robust slab test of `N` lanes against a node's children, as
 /// `packet::boxes_lanes`: per child, the lanes of `lanes` that hit it and
@@ -125,82 +125,6 @@ pub(super) fn child_lanes_simd<V: LaneVec, const N: usize>(
     hit & lanes
 }
 
-/// [`boxes_lanes_simd`] for packets of 8 lanes in 512-bit registers: the 8
-/// rays are repeated in both halves of a register and tested against two
-/// children at once (child `c` in lanes 0–7, child `c + 1` in lanes 8–15),
-/// so a node costs `WIDTH / 2` register steps instead of `WIDTH`. The same
-/// operations per lane and child, so the same bits.
-///
-/// Only for functions compiled with AVX-512F, run after
-/// `Kernel::is_available` confirmed it (see `LaneVec`).
-#[inline(always)]
-pub(super) fn boxes_lanes_8x2(
-    node: &Node,
-    l: &BoxLanes<'_, 8>,
-    lanes: u32,
-) -> ([u32; WIDTH], [f32; WIDTH]) {
-    use core::arch::x86_64::__m512;
-    // No closures here: a closure is compiled without the caller's target
-    // features, so intrinsics inside it would become calls.
-    let lanes = lanes & 0xff;
-    let live = lanes | lanes << 8;
-    const { assert!(WIDTH == 8) };
-    let mut masks = [0u32; WIDTH];
-    let inf = __m512::splat(f32::INFINITY);
-    let scale = __m512::splat(FAR_SCALE);
-    let mut keys = [inf; WIDTH / 2];
-    let tm = both_halves(l.t_max);
-    let o = [
-        both_halves(&l.o[0]),
-        both_halves(&l.o[1]),
-        both_halves(&l.o[2]),
-    ];
-    let inv = [
-        both_halves(&l.inv[0]),
-        both_halves(&l.inv[1]),
-        both_halves(&l.inv[2]),
-    ];
-    // The six plane rows, loaded once; each pair of children is then one
-    // permute per plane.
-    let rows = node.rows();
-    let r = [
-        row8(&rows[0]),
-        row8(&rows[1]),
-        row8(&rows[2]),
-        row8(&rows[3]),
-        row8(&rows[4]),
-        row8(&rows[5]),
-    ];
-    for c in (0..WIDTH).step_by(2) {
-        let mut near = __m512::splat(0.0);
-        let mut far = tm;
-        // Child `c` in the low half, `c + 1` in the high half.
-        if let Some(u) = l.uniform_neg {
-            // The same planes for every lane, picked by row (as in
-            // `boxes_lanes_simd`).
-            for a in 0..3 {
-                let (nr, fr) = if u[a] { (3 + a, a) } else { (a, 3 + a) };
-                let nb = row_pair(r[nr], c);
-                let fb = row_pair(r[fr], c);
-                (near, far) = slab(near, far, (nb, fb), o[a], inv[a]);
-            }
-        } else {
-            for a in 0..3 {
-                let lo = row_pair(r[a], c);
-                let hi = row_pair(r[3 + a], c);
-                let neg = l.neg_bits[a] & 0xff;
-                let neg = neg | neg << 8;
-                (near, far) = slab(near, far, planes(lo, hi, neg), o[a], inv[a]);
-            }
-        }
-        let hit = near.le(far.mul(scale)) & live;
-        masks[c] = hit & 0xff;
-        masks[c + 1] = hit >> 8;
-        keys[c / 2] = __m512::select(hit, near, inf);
-    }
-    (masks, min_pairs8(keys))
-}
-
 /// One axis of the robust slab test for a register of lanes: the entry
 /// and exit distances `near`, `far` narrowed by the near and far planes
 /// `nb`, `fb` (picked by the direction's sign: per lane, or once for all
@@ -228,7 +152,9 @@ const fn lane_bits(w: usize) -> u32 {
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
+    use crate::accel::bvh::node::{BoxFrustum, boxes_frustum, child_lanes};
     use crate::accel::bvh::packet::boxes_lanes_portable;
+    use crate::accel::bvh::simd::frustum_in;
     use core::arch::x86_64::{__m128, __m256, __m512};
 
     /// A small xorshift generator: the test needs no statistics, only
@@ -335,57 +261,138 @@ mod tests {
     #[target_feature(enable = "avx2")]
     fn check_avx2(rng: &mut Rng) {
         check::<__m256>(rng);
+        check_frustum::<__m256>(rng);
     }
 
     #[target_feature(enable = "avx2,avx512f")]
     fn check_avx512(rng: &mut Rng) {
         check::<__m512>(rng);
-        check_8x2(rng);
+        check_frustum::<__m512>(rng);
     }
 
-    /// The two-children-per-register form for packets of 8 against the
-    /// portable form on the first 8 lanes, bit for bit. Only called with
-    /// AVX-512F enabled.
-    #[inline(always)]
-    fn check_8x2(rng: &mut Rng) {
+    /// Sixteen lanes from one origin (often on a slab plane of some box),
+    /// directions within `spread` of a random one with the same signs and
+    /// no zero component (a frustum's requirement), `t_max` varied. Returns
+    /// the lanes' `o`, `inv`, `t_max`, sign bits and the frustum.
+    #[allow(clippy::type_complexity)]
+    fn frustum_inputs(
+        rng: &mut Rng,
+        node: &Node,
+    ) -> (
+        [[f32; 16]; 3],
+        [[f32; 16]; 3],
+        [f32; 16],
+        [u32; 3],
+        BoxFrustum,
+    ) {
+        let mut o0 = [0.0f32; 3];
+        let mut d0 = [0.0f32; 3];
+        for a in 0..3 {
+            o0[a] = match rng.next() % 3 {
+                0 => node.min[a][rng.next() as usize % WIDTH],
+                _ => rng.f(-4.0, 4.0),
+            };
+            if !o0[a].is_finite() {
+                o0[a] = 0.5;
+            }
+            d0[a] = rng.f(0.05, 1.0) * if rng.next().is_multiple_of(2) { 1.0 } else { -1.0 };
+        }
+        let spread = [1e-4, 1e-2, 0.3][rng.next() as usize % 3];
+        let (mut o, mut inv) = ([[0.0; 16]; 3], [[0.0; 16]; 3]);
+        let mut t_max = [0.0; 16];
+        let mut neg = [0u32; 3];
+        for i in 0..16 {
+            for a in 0..3 {
+                o[a][i] = o0[a];
+                // Same sign as `d0[a]`, never zero.
+                let d = d0[a] * (1.0 + rng.f(-spread, spread)).max(0.01);
+                inv[a][i] = 1.0 / d;
+                neg[a] |= (inv[a][i].is_sign_negative() as u32) << i;
+            }
+            t_max[i] = match rng.next() % 4 {
+                0 => rng.f(0.0, 0.5),
+                1 => f32::INFINITY,
+                _ => rng.f(0.0, 20.0),
+            };
+        }
+        let lo = inv.map(|v| v.into_iter().fold(f32::INFINITY, f32::min));
+        let hi = inv.map(|v| v.into_iter().fold(f32::NEG_INFINITY, f32::max));
+        let f = BoxFrustum::new(o0, lo, hi).expect("finite reciprocals of one sign per axis");
+        (o, inv, t_max, neg, f)
+    }
+
+    /// The frustum test meets every child any lane's own slab test meets,
+    /// with an entry distance no larger than any such lane's, in every
+    /// register width bit for bit; and the lane test of one child from
+    /// the frustum's plane offsets (`child_lanes`) gives the per-lane
+    /// test's mask exactly, for every child.
+    fn check_frustum<V: LaneVec>(rng: &mut Rng) {
+        let mut culled = 0;
         for _ in 0..4000 {
-            let (node, o16, inv16, t16, neg16) = inputs(rng);
-            let first = |v: &[f32; 16]| -> [f32; 8] { core::array::from_fn(|i| v[i]) };
-            let o = [first(&o16[0]), first(&o16[1]), first(&o16[2])];
-            let inv = [first(&inv16[0]), first(&inv16[1]), first(&inv16[2])];
-            let t_max = first(&t16);
-            let neg = neg16.map(|m| m & 0xff);
-            let lanes = rng.next() & 0xff;
-            let uniform = (neg.iter().all(|&m| m & lanes == 0 || m & lanes == lanes) && lanes != 0)
-                .then(|| neg.map(|m| m & lanes != 0));
-            for uniform_neg in [None, uniform] {
-                let b = BoxLanes {
-                    o: &o,
-                    inv: &inv,
-                    t_max: &t_max,
-                    neg_bits: neg,
-                    uniform_neg,
-                };
-                let want = boxes_lanes_portable(&node, &b, lanes);
-                let got = boxes_lanes_8x2(&node, &b, lanes);
-                assert_eq!(got.0, want.0, "8x2 masks, uniform {uniform_neg:?}");
+            let (node, ..) = inputs(rng);
+            let (o, inv, t_max, neg, f) = frustum_inputs(rng, &node);
+            let lanes = rng.next() & 0xffff | 1;
+            // The frustum spans all sixteen lanes; its far end is the
+            // largest `t_max` of the tested ones.
+            let t_far = (0..16)
+                .filter(|i| lanes >> i & 1 != 0)
+                .map(|i| t_max[i])
+                .fold(f32::NEG_INFINITY, f32::max);
+            let b = BoxLanes {
+                o: &o,
+                inv: &inv,
+                t_max: &t_max,
+                neg_bits: neg,
+                uniform_neg: Some(neg.map(|m| m != 0)),
+            };
+            let (masks, t_min) = boxes_lanes_portable(&node, &b, lanes);
+            let want = boxes_frustum(&node, &f, t_far);
+            // A node's eight children fill at most a 256-bit register
+            // (AVX-512 kernels run the AVX2 frustum test).
+            if V::W <= WIDTH {
+                let got = frustum_in::<V>(&node, &f, t_far);
+                assert_eq!(got.mask, want.mask, "frustum mask");
+                assert_eq!(got.near.map(f32::to_bits), want.near.map(f32::to_bits));
                 assert_eq!(
-                    got.1.map(f32::to_bits),
-                    want.1.map(f32::to_bits),
-                    "8x2 entry distances, uniform {uniform_neg:?}"
+                    got.offsets.map(|r| r.map(f32::to_bits)),
+                    want.offsets.map(|r| r.map(f32::to_bits))
                 );
             }
+            for c in 0..WIDTH {
+                if masks[c] != 0 {
+                    assert!(
+                        want.mask >> c & 1 != 0,
+                        "child {c} hit by lanes {:#x} culled",
+                        masks[c]
+                    );
+                    assert!(
+                        want.near[c] <= t_min[c],
+                        "child {c}: frustum near above a lane's"
+                    );
+                } else if want.mask >> c & 1 != 0 {
+                    culled += 1;
+                }
+                let one = child_lanes(&want.offsets, c, &inv, &t_max, lanes);
+                let one_simd = child_lanes_simd::<V, 16>(&want.offsets, c, &inv, &t_max, lanes);
+                assert_eq!(one, masks[c], "child_lanes, child {c}");
+                assert_eq!(one_simd, masks[c], "child_lanes_simd, child {c}");
+            }
         }
+        // The frustum is looser than the lanes on wide spreads: some
+        // children it keeps are missed by every lane (so the lane test of
+        // leaves has something to do, and this test sees both outcomes).
+        assert!(culled > 0);
     }
 
-    /// Every register width (and the two-children form for packets of 8)
-    /// agrees with the portable lane loops bit for bit, NaN slabs, flat and empty boxes, dummy lanes and partial
-    /// masks included (the packet tests compare final hits only; this
+    /// Every register width agrees with the portable lane loops bit for
+    /// bit, NaN slabs, flat and empty boxes, dummy lanes and partial masks
+    /// included (the packet tests compare final hits only; this
     /// compares the box test itself).
     #[test]
     fn simd_box_test_matches_portable() {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         check::<__m128>(&mut rng);
+        check_frustum::<__m128>(&mut rng);
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: AVX2 was just detected.
             unsafe { check_avx2(&mut rng) };

@@ -1,13 +1,23 @@
-//! Packet traversal: one shared stack for `N` rays.
+//! Packet traversal: one shared stack for `N` rays, in one of two forms.
 //!
-//! A node is visited when any live lane's ray hits its box; per-lane
-//! `t_max` shrinks as hits are found, and a deferred child is dropped for
-//! the lanes whose closest hit is already in front of it. The two kernels,
-//! [`boxes_lanes`] and the triangle test, come from the view's [`Kernel`]
-//! through [`BoxTest`]: in registers of its width (`super::lanes`,
-//! `triangle::intersect_lanes_simd`; two children or triangles per
-//! register for packets of 8 on AVX-512), or as the portable lane loops
-//! over `[f32; N]` arrays for the scalar kernel and odd widths.
+//! - **Frustum** ([`traverse_frustum`]): when the live lanes share their
+//!   origin bit for bit and point within [`FRUSTUM_SPREAD`] of each other
+//!   (pinhole tiles, the multiple-try step's bundles), the packet walks
+//!   the tree once as a single ray would, with one conservative box test
+//!   of its frustum per node (`node::BoxFrustum`); leaves are tested lane
+//!   by lane.
+//! - **Per lane** ([`traverse`]): otherwise a node is visited when any
+//!   live lane's ray hits its box, each child tested for every lane; a
+//!   deferred child is dropped for the lanes whose closest hit is already
+//!   in front of it.
+//!
+//! Per-lane `t_max` shrinks as hits are found in both. The kernels
+//! ([`boxes_lanes`], the frustum tests and the triangle test) come from the
+//! view's [`Kernel`] through [`BoxTest`]: in registers of its width
+//! (`super::lanes`, `triangle::intersect_lanes_simd`), or as the portable
+//! lane loops over `[f32; N]` arrays for the scalar kernel and odd widths.
+//! Both forms give every lane the closest hit its own single-ray traversal
+//! finds (a tie between two triangles at the same distance aside).
 //!
 //! Lanes outside the active mask never influence anything: the kernels
 //! work on an internal copy in which those lanes hold a dummy ray (the
@@ -65,7 +75,9 @@ impl<const N: usize> Lanes<N> {
     }
 
     /// Copies the valid active lanes of `rays` into lanes fresh from
-    /// [`Self::dummies`] (the others stay dummies); returns their mask.
+    /// [`Self::dummies`]; returns their mask. The other lanes stay dummies
+    /// (an empty interval), with the first valid lane's origin and
+    /// direction so that reductions over all lanes need no mask.
     /// Invalid lanes (non-finite, zero direction, `t_max` not positive)
     /// cannot hit anything and are left out, like in the single-ray path.
     ///
@@ -238,15 +250,12 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 /// the smallest entry distance among them; in the kernel's instruction set
 /// ([`BoxTest::boxes_lanes`]).
 ///
-/// Measured and left out: a conservative interval ("frustum") test of the
-/// whole packet first, testing the lanes only against the children it
-/// cannot rule out (Wald-style coherent traversal). With 16 lanes in one
-/// register the per-lane test costs about what the interval test does, and
-/// the packet's bounds cost more to set up than the culling saved: 16-lane
-/// packets ran 0.75–0.8× as fast on every scene (cornell-box primary 49 ->
-/// 38 Mrays/s, mesh MTM16 14.5 -> 11.4). Measured again with 8-wide nodes
-/// (stop 24, `docs/rays.md`), as a culling step before this test and as
-/// the whole node test (Embree's coherent mode): slower in both forms.
+/// Packets with distinct origins (shadow rays, bounces) have no cheap
+/// exact frustum: an interval bound over the lanes' origins and
+/// reciprocal directions, as a culling step before this test or as the
+/// whole node test, was measured slower at stops 20, 24 and 25
+/// (`docs/rays.md`). Shared origins make the bound as cheap as one ray's
+/// test ([`traverse_frustum`]).
 #[inline(always)]
 fn boxes_lanes<B: BoxTest, const N: usize>(
     node: &Node,
@@ -467,7 +476,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                 continue;
             }
         } else {
-            let m = leaf::<B, N, ANY, true>(view, l, (cur.child, cur.count), cur.mask, &mut found);
+            let m = leaf::<B, N, ANY>(view, l, (cur.child, cur.count), cur.mask, &mut found);
             if ANY && m != 0 {
                 done |= m;
                 alive &= !m;
@@ -565,7 +574,7 @@ fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
                 continue;
             }
         } else {
-            let m = leaf::<B, N, ANY, false>(view, l, (cur.child, cur.count), alive, &mut found);
+            let m = leaf::<B, N, ANY>(view, l, (cur.child, cur.count), alive, &mut found);
             if m != 0 {
                 if ANY {
                     done |= m;
@@ -618,13 +627,13 @@ fn far_of<const N: usize>(t_max: &[f32; N], lanes: u32) -> f32 {
 
 /// The closest hit so far per lane (triangle slot, `u32::MAX` for none,
 /// and barycentrics; the distance is the lane's `t_max`), with scratch
-/// space for the triangle tests.
+/// space for the triangle test.
 struct Found<const N: usize> {
     best: [u32; N],
     b1: [f32; N],
     b2: [f32; N],
-    /// The tests' outputs (`t`, `b1`, `b2`) for one or two triangles.
-    scratch: [[[f32; N]; 3]; 2],
+    /// The test's outputs: `t`, `b1`, `b2` per lane.
+    scratch: [[f32; N]; 3],
 }
 
 impl<const N: usize> Found<N> {
@@ -634,7 +643,7 @@ impl<const N: usize> Found<N> {
             best: [u32::MAX; N],
             b1: [0.0; N],
             b2: [0.0; N],
-            scratch: [[[0.0; N]; 3]; 2],
+            scratch: [[0.0; N]; 3],
         }
     }
 }
@@ -643,7 +652,7 @@ impl<const N: usize> Found<N> {
 /// hits in `found` and `l.t_max`; returns the lanes that hit. With `ANY`
 /// a lane stops at its first hit.
 #[inline(always)]
-fn leaf<B: BoxTest, const N: usize, const ANY: bool, const PAIRS: bool>(
+fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
     view: &BvhView<'_>,
     l: &mut Lanes<N>,
     (first, count): (u32, u32),
@@ -654,64 +663,29 @@ fn leaf<B: BoxTest, const N: usize, const ANY: bool, const PAIRS: bool>(
     // The leaf's blocks (bounds-checked once): slot `first + j` is lane
     // `j % 4` of `blocks[j / 4]`.
     let blocks = &view.blocks[first / 4..(first + count).div_ceil(4)];
-    let tri = |j: usize| slot_tri(blocks, j);
     let Found {
         best,
         b1,
         b2,
-        scratch,
+        scratch: [tt, tb1, tb2],
     } = found;
-    let [[tt, tb1, tb2], [ut, ub1, ub2]] = scratch;
     let mut hit = 0;
-    let mut j = 0;
-    while j < count {
-        // Two triangles per step where the kernel can; the second one's
-        // hits count only where closer than the first's, which is what one
-        // after the other gives.
-        let pair = if PAIRS && j + 1 < count {
-            B::tri2_lanes(
-                &l.wt,
-                [&tri(j), &tri(j + 1)],
-                &l.t_max,
-                lanes,
-                [
-                    [&mut *tt, &mut *tb1, &mut *tb2],
-                    [&mut *ut, &mut *ub1, &mut *ub2],
-                ],
-            )
-        } else {
-            None
+    for j in 0..count {
+        let out = TriLanesOut {
+            t: &mut *tt,
+            b1: &mut *tb1,
+            b2: &mut *tb2,
         };
-        let m = if let Some([ma, mb]) = pair {
-            let idx = (first + j) as u32;
-            apply_hits(ma, idx, (tt, tb1, tb2), &mut l.t_max, best, b1, b2);
-            let mut closer = [false; N];
-            for (c, (&t, &tm)) in closer.iter_mut().zip(ut.iter().zip(&l.t_max)) {
-                *c = t < tm;
-            }
-            let mb = if ANY { mb } else { mb & lane_mask(&closer) };
-            apply_hits(mb, idx + 1, (ut, ub1, ub2), &mut l.t_max, best, b1, b2);
-            j += 2;
-            ma | mb
-        } else {
-            let out = TriLanesOut {
-                t: &mut *tt,
-                b1: &mut *tb1,
-                b2: &mut *tb2,
-            };
-            let m = B::tri_lanes(&l.wt, &tri(j), &l.t_max, lanes, out);
-            apply_hits(
-                m,
-                (first + j) as u32,
-                (tt, tb1, tb2),
-                &mut l.t_max,
-                best,
-                b1,
-                b2,
-            );
-            j += 1;
-            m
-        };
+        let m = B::tri_lanes(&l.wt, &slot_tri(blocks, j), &l.t_max, lanes, out);
+        apply_hits(
+            m,
+            (first + j) as u32,
+            (tt, tb1, tb2),
+            &mut l.t_max,
+            best,
+            b1,
+            b2,
+        );
         hit |= m;
         if ANY && m != 0 {
             lanes &= !m;
@@ -922,6 +896,8 @@ pub(super) fn intersect_packet<const N: usize>(
         // SAFETY: as above.
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx512 if N > 8 => unsafe { x86::intersect_avx512(view, rays, active, hits) },
+        // Packets of up to 8 lanes fit AVX2's registers, and measured
+        // faster there (see `simd`'s module docs).
         // SAFETY: an AVX-512 kernel is only available with AVX2.
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx512 => unsafe { x86::intersect_avx2(view, rays, active, hits) },
@@ -948,5 +924,66 @@ pub(super) fn occluded_packet<const N: usize>(
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx512 => unsafe { x86::occluded_avx2(view, rays, active) },
         _ => occluded_packet_with::<ScalarBox, N>(view, rays, active),
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use crate::geometry::Ray;
+    use glam::Vec3;
+
+    /// A packet of 8 rays from `o` towards `dirs`.
+    fn packet(o: [Vec3; 8], dirs: [Vec3; 8]) -> RayPacket<8> {
+        let mut p = RayPacket::default();
+        for i in 0..8 {
+            p.set(i, &Ray::new(o[i], dirs[i]));
+        }
+        p
+    }
+
+    /// Directions around `d`, `step` apart.
+    fn fan(d: Vec3, step: f32) -> [Vec3; 8] {
+        core::array::from_fn(|i| {
+            let (u, v) = ((i % 4) as f32 - 1.5, (i / 4) as f32 - 0.5);
+            (d + Vec3::new(u * step, v * step, 0.0)).normalize()
+        })
+    }
+
+    fn frustum(p: &RayPacket<8>, active: u32) -> Option<BoxFrustum> {
+        let mut l = Lanes::<8>::dummies();
+        l.set(p, LaneMask(active));
+        l.frustum
+    }
+
+    /// Which packets are traversed as a frustum: a pinhole tile or MTM
+    /// bundle (one origin, directions close together) is; a bundle wider
+    /// than `FRUSTUM_SPREAD`, two origins, mixed signs or a zero direction
+    /// component is not. Inactive lanes do not count.
+    #[test]
+    fn frustum_packets_are_chosen_by_origin_and_spread() {
+        let o = [Vec3::new(0.1, 0.2, -3.0); 8];
+        let d = Vec3::new(0.3, 0.2, 1.0);
+        let tile = packet(o, fan(d, 0.002));
+        let f = frustum(&tile, 0xff).expect("a pinhole tile is a frustum");
+        assert_eq!(f.o, [0.1, 0.2, -3.0]);
+        for a in 0..3 {
+            assert!(f.inv_lo[a] < f.inv_hi[a] || a == 2);
+        }
+        assert!(frustum(&packet(o, fan(d, 0.2)), 0xff).is_none(), "too wide");
+        let mut two = o;
+        two[5].x += 1e-3;
+        assert!(
+            frustum(&packet(two, fan(d, 0.002)), 0xff).is_none(),
+            "two origins"
+        );
+        // Lane 5 alone has another origin: left out, the others are one.
+        assert!(frustum(&packet(two, fan(d, 0.002)), 0xdf).is_some());
+        let mut mixed = fan(d, 0.002);
+        mixed[3].x = -mixed[3].x;
+        assert!(frustum(&packet(o, mixed), 0xff).is_none(), "mixed signs");
+        let flat = fan(Vec3::new(0.0, 0.2, 1.0), 0.0);
+        assert!(frustum(&packet(o, flat), 0xff).is_none(), "zero component");
+        assert!(frustum(&tile, 0x10).is_none(), "one live lane");
     }
 }

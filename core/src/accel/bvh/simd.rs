@@ -15,10 +15,13 @@
 //! - `Avx2`: a node's eight child boxes in one 256-bit register per plane;
 //!   packets 8 lanes per 256-bit register; the traversal compiled with
 //!   AVX2 enabled.
-//! - `Avx512`: packets 16 lanes per 512-bit register; single rays run the
-//!   `Avx2` code (nothing in a node's test needs 512 bits, and the same
-//!   traversal compiled for AVX-512F measured 5–7% slower with 4-wide
-//!   nodes).
+//! - `Avx512`: packets of 16 lanes per 512-bit register; single rays and
+//!   packets of up to 8 lanes run the `Avx2` code (nothing in a node's
+//!   test needs 512 bits: the same single-ray traversal compiled for
+//!   AVX-512F measured 5–7% slower with 4-wide nodes, and packets of 8
+//!   compiled for AVX-512F, two children or triangles per register, ran
+//!   0.6–0.75× as fast as the AVX2 code once coherent packets took the
+//!   frustum traversal).
 //!
 //! Packet kernels run [`super::lanes`] and `triangle::intersect_lanes_simd`
 //! over `crate::math::lanes::LaneVec` registers of the kernel's width.
@@ -28,7 +31,7 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{boxes_lanes_8x2, boxes_lanes_simd, child_lanes_simd};
+use super::lanes::{boxes_lanes_simd, child_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
@@ -37,9 +40,9 @@ use super::node::{
 };
 use super::packet::{BoxLanes, boxes_lanes_portable};
 use crate::geometry::triangle::WatertightRay;
-use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
-use crate::geometry::triangle::{intersect_lanes_8x2, intersect_lanes_simd};
+use crate::geometry::triangle::intersect_lanes_simd;
+use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 #[cfg(target_arch = "x86_64")]
 use crate::math::lanes::LaneVec;
 use glam::Vec3;
@@ -174,21 +177,6 @@ pub(super) trait BoxTest {
         out: TriLanesOut<'_, N>,
     ) -> u32 {
         intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
-    }
-
-    /// Two triangles against `N` lanes at once, where a kernel can
-    /// (`triangle::intersect_lanes_8x2`): each triangle's hit lanes, both
-    /// tested against the same `t_max`. `None` where the kernel tests one
-    /// triangle at a time.
-    #[inline(always)]
-    fn tri2_lanes<const N: usize>(
-        _r: &WatertightLanes<N>,
-        _tris: [&[Vec3; 3]; 2],
-        _t_max: &[f32; N],
-        _lanes: u32,
-        _out: [[&mut [f32; N]; 3]; 2],
-    ) -> Option<[u32; 2]> {
-        None
     }
 
     /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice),
@@ -411,38 +399,7 @@ impl BoxTest for Avx512Box {
         if N.is_multiple_of(16) {
             return boxes_lanes_simd::<__m512, N>(node, l, lanes);
         }
-        // Packets of 8: two children per 512-bit register.
-        if let (Some(o), Some(inv), Some(t_max)) =
-            (as_eight3(l.o), as_eight3(l.inv), as_eight(l.t_max))
-        {
-            let l8 = BoxLanes {
-                o,
-                inv,
-                t_max,
-                neg_bits: l.neg_bits,
-                uniform_neg: l.uniform_neg,
-            };
-            return boxes_lanes_8x2(node, &l8, lanes);
-        }
         Avx2Box::boxes_lanes(node, l, lanes)
-    }
-
-    /// Packets of 8: two triangles per 512-bit register.
-    #[inline(always)]
-    fn tri2_lanes<const N: usize>(
-        r: &WatertightLanes<N>,
-        tris: [&[Vec3; 3]; 2],
-        t_max: &[f32; N],
-        lanes: u32,
-        out: [[&mut [f32; N]; 3]; 2],
-    ) -> Option<[u32; 2]> {
-        // Not `bool::then(|| ..)`: a closure is compiled without this
-        // function's target features.
-        if N == 8 {
-            Some(intersect_lanes_8x2(r, tris, t_max, lanes, out))
-        } else {
-            None
-        }
     }
 
     /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
@@ -493,7 +450,8 @@ fn boxes_in<V: LaneVec>(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDT
 /// children: the same operations per child, so the same bits.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+pub(super) fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+    debug_assert!(WIDTH.is_multiple_of(V::W));
     let mut out = [0.0f32; WIDTH];
     let mut offsets = [[0.0f32; WIDTH]; 6];
     let mut mask = 0;
@@ -521,21 +479,4 @@ fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHit
         near: out,
         offsets,
     }
-}
-
-/// `v` as an array of 8 when `N == 8`.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn as_eight<T, const N: usize>(v: &[T; N]) -> Option<&[T; 8]> {
-    v.as_slice().try_into().ok()
-}
-
-/// `v` as three arrays of 8 when `N == 8`.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn as_eight3<T, const N: usize>(v: &[[T; N]; 3]) -> Option<&[[T; 8]; 3]> {
-    if N != 8 {
-        return None;
-    }
-    v.as_flattened().as_chunks::<8>().0.try_into().ok()
 }
