@@ -58,6 +58,9 @@ pub(crate) trait LaneVec: Copy {
     fn gt(self, b: Self) -> u32;
     /// Bits of `self <= b` (false for NaN).
     fn le(self, b: Self) -> u32;
+    /// The lanes' sign bits (set for `−0`, negative numbers and NaNs
+    /// with the sign bit).
+    fn sign_bits(self) -> u32;
     /// The smallest lane; no lane may be NaN (the reduction order is
     /// unspecified).
     fn min_lane(self) -> f32;
@@ -161,6 +164,10 @@ impl LaneVec for __m128 {
         unsafe { _mm_movemask_ps(_mm_cmple_ps(self, b)) as u32 }
     }
     #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        unsafe { _mm_movemask_ps(self) as u32 }
+    }
+    #[inline(always)]
     fn min_lane(self) -> f32 {
         unsafe {
             let m = _mm_min_ps(self, _mm_movehl_ps(self, self));
@@ -252,6 +259,10 @@ impl LaneVec for __m256 {
     #[inline(always)]
     fn le(self, b: Self) -> u32 {
         unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(self, b)) as u32 }
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        unsafe { _mm256_movemask_ps(self) as u32 }
     }
     #[inline(always)]
     fn min_lane(self) -> f32 {
@@ -389,6 +400,12 @@ impl LaneVec for __m512 {
     #[inline(always)]
     fn le(self, b: Self) -> u32 {
         unsafe { _mm512_cmp_ps_mask::<_CMP_LE_OQ>(self, b) as u32 }
+    }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        // A set sign bit is a negative 32-bit integer (AVX-512F has no
+        // float movemask).
+        unsafe { _mm512_cmplt_epi32_mask(_mm512_castps_si512(self), _mm512_setzero_si512()) as u32 }
     }
     #[inline(always)]
     fn min_lane(self) -> f32 {

@@ -9,7 +9,8 @@
 //! likewise). x86_64 only; other targets use the portable form.
 
 use super::node::{FAR_SCALE, Node, WIDTH};
-use super::packet::BoxLanes;
+use super::packet::{BoxLanes, LanesOut};
+use crate::geometry::RayPacket;
 use crate::math::lanes::LaneVec;
 
 /// Robust slab test of `N` lanes against a node's children, as
@@ -125,6 +126,41 @@ pub(super) fn child_lanes_simd<V: LaneVec, const N: usize>(
     hit & lanes
 }
 
+/// `packet::prepare_lanes_portable` in registers of `V::W` lanes: the
+/// same values (one IEEE division per lane, selects), so the same bits.
+/// `N` must be a multiple of `V::W`.
+#[inline(always)]
+pub(super) fn prepare_lanes_simd<V: LaneVec, const N: usize>(
+    rays: &RayPacket<N>,
+    valid: u32,
+    out: LanesOut<'_, N>,
+) -> [u32; 3] {
+    debug_assert!(N.is_multiple_of(V::W));
+    let (o, d) = (
+        [&rays.ox, &rays.oy, &rays.oz],
+        [&rays.dx, &rays.dy, &rays.dz],
+    );
+    let first = (valid.trailing_zeros() as usize).min(N - 1);
+    let one = V::splat(1.0);
+    let mut neg_bits = [0u32; 3];
+    for a in 0..3 {
+        let (o0, inv0) = (V::splat(o[a][first]), V::splat(1.0 / d[a][first]));
+        for at in (0..N).step_by(V::W) {
+            let bits = valid >> at & lane_bits(V::W);
+            let inv = one.div(V::load(&d[a][at..]));
+            V::select(bits, V::load(&o[a][at..]), o0).store(&mut out.o[a][at..]);
+            V::select(bits, inv, inv0).store(&mut out.inv[a][at..]);
+            neg_bits[a] |= (inv.sign_bits() & bits) << at;
+        }
+    }
+    let empty = V::splat(-1.0);
+    for at in (0..N).step_by(V::W) {
+        let bits = valid >> at & lane_bits(V::W);
+        V::select(bits, V::load(&rays.t_max[at..]), empty).store(&mut out.t_max[at..]);
+    }
+    neg_bits
+}
+
 /// One axis of the robust slab test for a register of lanes: the entry
 /// and exit distances `near`, `far` narrowed by the near and far planes
 /// `nb`, `fb` (picked by the direction's sign: per lane, or once for all
@@ -153,7 +189,7 @@ const fn lane_bits(w: usize) -> u32 {
 mod tests {
     use super::*;
     use crate::accel::bvh::node::{BoxFrustum, boxes_frustum, child_lanes};
-    use crate::accel::bvh::packet::boxes_lanes_portable;
+    use crate::accel::bvh::packet::{boxes_lanes_portable, prepare_lanes_portable};
     use crate::accel::bvh::simd::frustum_in;
     use core::arch::x86_64::{__m128, __m256, __m512};
 
@@ -262,12 +298,14 @@ mod tests {
     fn check_avx2(rng: &mut Rng) {
         check::<__m256>(rng);
         check_frustum::<__m256>(rng);
+        check_prepare::<__m256>(rng);
     }
 
     #[target_feature(enable = "avx2,avx512f")]
     fn check_avx512(rng: &mut Rng) {
         check::<__m512>(rng);
         check_frustum::<__m512>(rng);
+        check_prepare::<__m512>(rng);
     }
 
     /// Sixteen lanes from one origin (often on a slab plane of some box),
@@ -295,7 +333,12 @@ mod tests {
             if !o0[a].is_finite() {
                 o0[a] = 0.5;
             }
-            d0[a] = rng.f(0.05, 1.0) * if rng.next().is_multiple_of(2) { 1.0 } else { -1.0 };
+            d0[a] = rng.f(0.05, 1.0)
+                * if rng.next().is_multiple_of(2) {
+                    1.0
+                } else {
+                    -1.0
+                };
         }
         let spread = [1e-4, 1e-2, 0.3][rng.next() as usize % 3];
         let (mut o, mut inv) = ([[0.0; 16]; 3], [[0.0; 16]; 3]);
@@ -384,6 +427,57 @@ mod tests {
         assert!(culled > 0);
     }
 
+    /// The packet set-up in registers against the portable form, bit for
+    /// bit: zero, negative-zero and infinite direction components, NaN
+    /// garbage in the invalid lanes, random valid masks.
+    fn check_prepare<V: LaneVec>(rng: &mut Rng) {
+        for _ in 0..2000 {
+            let mut rays = RayPacket::<16>::default();
+            let valid = rng.next() & 0xffff;
+            for i in 0..16 {
+                let garbage = valid >> i & 1 == 0 && rng.next().is_multiple_of(2);
+                let comp = |rng: &mut Rng| match rng.next() % 6 {
+                    _ if garbage => f32::NAN,
+                    0 => 0.0,
+                    1 => -0.0,
+                    _ => rng.f(-2.0, 2.0),
+                };
+                rays.ox[i] = comp(rng);
+                rays.oy[i] = comp(rng);
+                rays.oz[i] = comp(rng);
+                rays.dx[i] = comp(rng);
+                rays.dy[i] = comp(rng);
+                rays.dz[i] = comp(rng);
+                rays.t_max[i] = if garbage { f32::NAN } else { rng.f(0.0, 9.0) };
+            }
+            let mut want = ([[0.0f32; 16]; 3], [[0.0f32; 16]; 3], [0.0f32; 16]);
+            let mut got = want;
+            let nw = prepare_lanes_portable(
+                &rays,
+                valid,
+                LanesOut {
+                    o: &mut want.0,
+                    inv: &mut want.1,
+                    t_max: &mut want.2,
+                },
+            );
+            let ng = prepare_lanes_simd::<V, 16>(
+                &rays,
+                valid,
+                LanesOut {
+                    o: &mut got.0,
+                    inv: &mut got.1,
+                    t_max: &mut got.2,
+                },
+            );
+            assert_eq!(ng, nw, "sign bits, valid {valid:#x}");
+            let bits = |a: &[[f32; 16]; 3]| a.map(|r| r.map(f32::to_bits));
+            assert_eq!(bits(&got.0), bits(&want.0), "origins");
+            assert_eq!(bits(&got.1), bits(&want.1), "reciprocals");
+            assert_eq!(got.2.map(f32::to_bits), want.2.map(f32::to_bits), "t_max");
+        }
+    }
+
     /// Every register width agrees with the portable lane loops bit for
     /// bit, NaN slabs, flat and empty boxes, dummy lanes and partial masks
     /// included (the packet tests compare final hits only; this
@@ -393,6 +487,7 @@ mod tests {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         check::<__m128>(&mut rng);
         check_frustum::<__m128>(&mut rng);
+        check_prepare::<__m128>(&mut rng);
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: AVX2 was just detected.
             unsafe { check_avx2(&mut rng) };

@@ -39,7 +39,6 @@ use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 struct Lanes<const N: usize> {
     o: [[f32; N]; 3],
     inv: [[f32; N]; 3],
-    neg: [[bool; N]; 3],
     /// `neg` as lane masks, one per axis.
     neg_bits: [u32; 3],
     /// The direction signs shared by all live lanes, if any.
@@ -64,7 +63,6 @@ impl<const N: usize> Lanes<N> {
         Lanes {
             o: [[0.0; N]; 3],
             inv: [[1.0; N]; 3],
-            neg: [[false; N]; 3],
             neg_bits: [0; 3],
             uniform_neg: None,
             single_lanes: 1,
@@ -87,7 +85,7 @@ impl<const N: usize> Lanes<N> {
     /// Filled in place: built apart and moved, the set-up (1.5 KB for 16
     /// lanes) was copied by `memcpy` calls on every packet.
     #[inline(always)]
-    fn set(&mut self, rays: &RayPacket<N>, active: LaneMask) -> u32 {
+    fn set<B: BoxTest>(&mut self, rays: &RayPacket<N>, active: LaneMask) -> u32 {
         let active = active.0 & LaneMask::first(N).0;
         let mut t_ok = [false; N];
         for (ok, &t) in t_ok.iter_mut().zip(&rays.t_max) {
@@ -99,33 +97,15 @@ impl<const N: usize> Lanes<N> {
             active & lane_mask(&t_ok),
         );
         self.wt.finish(valid);
-        let (o, d) = (
-            [&rays.ox, &rays.oy, &rays.oz],
-            [&rays.dx, &rays.dy, &rays.dz],
+        let neg_bits = B::prepare_lanes(
+            rays,
+            valid,
+            LanesOut {
+                o: &mut self.o,
+                inv: &mut self.inv,
+                t_max: &mut self.t_max,
+            },
         );
-        let mut neg_bits = [0u32; 3];
-        // Dummies copy the first live lane's ray (their empty interval
-        // keeps them out of every test), so reductions over all lanes
-        // need no mask (`frustum_of`).
-        let first = (valid.trailing_zeros() as usize).min(N - 1);
-        for a in 0..3 {
-            let (o0, inv0) = (o[a][first], 1.0 / d[a][first]);
-            for i in 0..N {
-                let v = valid >> i & 1 != 0;
-                let inv = 1.0 / d[a][i];
-                self.o[a][i] = if v { o[a][i] } else { o0 };
-                self.inv[a][i] = if v { inv } else { inv0 };
-                self.neg[a][i] = v && inv.is_sign_negative();
-            }
-            neg_bits[a] = lane_mask(&self.neg[a]);
-        }
-        for i in 0..N {
-            self.t_max[i] = if valid >> i & 1 != 0 {
-                rays.t_max[i]
-            } else {
-                -1.0
-            };
-        }
         if valid != 0 && neg_bits.iter().all(|&m| m == 0 || m == valid) {
             self.uniform_neg = Some(neg_bits.map(|m| m != 0));
         }
@@ -149,6 +129,57 @@ impl<const N: usize> Lanes<N> {
             br: BoxRay::with_inv(o, inv),
         }
     }
+}
+
+/// Where a packet's box-test set-up goes ([`BoxTest::prepare_lanes`]).
+pub(super) struct LanesOut<'a, const N: usize> {
+    /// Origins.
+    pub o: &'a mut [[f32; N]; 3],
+    /// `1/d` per lane.
+    pub inv: &'a mut [[f32; N]; 3],
+    /// Upper bound per lane (`−1`, an empty interval, for dummies).
+    pub t_max: &'a mut [f32; N],
+}
+
+/// The box-test half of [`Lanes::set`]: origins, reciprocal directions
+/// and `t_max` of the `valid` lanes; the other lanes become dummies with
+/// the first valid lane's origin and direction and an empty interval, so
+/// that reductions over all lanes need no mask (`frustum_of`). Returns
+/// per axis the valid lanes whose reciprocal direction has its sign bit
+/// set. Portable form; `lanes::prepare_lanes_simd` is the same in
+/// registers.
+#[inline(always)]
+pub(super) fn prepare_lanes_portable<const N: usize>(
+    rays: &RayPacket<N>,
+    valid: u32,
+    out: LanesOut<'_, N>,
+) -> [u32; 3] {
+    let (o, d) = (
+        [&rays.ox, &rays.oy, &rays.oz],
+        [&rays.dx, &rays.dy, &rays.dz],
+    );
+    let first = (valid.trailing_zeros() as usize).min(N - 1);
+    let mut neg_bits = [0u32; 3];
+    for a in 0..3 {
+        let (o0, inv0) = (o[a][first], 1.0 / d[a][first]);
+        let mut neg = [false; N];
+        for i in 0..N {
+            let v = valid >> i & 1 != 0;
+            let inv = 1.0 / d[a][i];
+            out.o[a][i] = if v { o[a][i] } else { o0 };
+            out.inv[a][i] = if v { inv } else { inv0 };
+            neg[i] = v && inv.is_sign_negative();
+        }
+        neg_bits[a] = lane_mask(&neg);
+    }
+    for i in 0..N {
+        out.t_max[i] = if valid >> i & 1 != 0 {
+            rays.t_max[i]
+        } else {
+            -1.0
+        };
+    }
+    neg_bits
 }
 
 /// The widest spread of a frustum packet's unit directions, per axis
@@ -768,7 +799,7 @@ fn intersect_packet_with<B: BoxTest, const N: usize>(
         return;
     }
     let mut l = Lanes::dummies();
-    let valid = l.set(rays, active);
+    let valid = l.set::<B>(rays, active);
     // One live ray: the single-ray kernel is cheaper and gives the same
     // answer bit for bit.
     if valid.count_ones() <= 1 {
@@ -814,7 +845,7 @@ fn occluded_packet_with<B: BoxTest, const N: usize>(
         return out;
     }
     let mut l = Lanes::dummies();
-    let valid = l.set(rays, active);
+    let valid = l.set::<B>(rays, active);
     if valid.count_ones() <= 1 {
         for i in LaneMask(valid).iter() {
             if traverse::occluded_with::<B>(view, &rays.get(i)) {
@@ -952,7 +983,7 @@ mod tests {
 
     fn frustum(p: &RayPacket<8>, active: u32) -> Option<BoxFrustum> {
         let mut l = Lanes::<8>::dummies();
-        l.set(p, LaneMask(active));
+        l.set::<ScalarBox>(p, LaneMask(active));
         l.frustum
     }
 

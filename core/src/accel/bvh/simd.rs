@@ -31,14 +31,15 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{boxes_lanes_simd, child_lanes_simd};
+use super::lanes::{boxes_lanes_simd, child_lanes_simd, prepare_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{
     BoxFrustum, BoxRay, FrustumHits, Node, WIDTH, boxes, boxes_frustum, child_lanes,
 };
-use super::packet::{BoxLanes, boxes_lanes_portable};
+use super::packet::{BoxLanes, LanesOut, boxes_lanes_portable, prepare_lanes_portable};
+use crate::geometry::RayPacket;
 use crate::geometry::triangle::WatertightRay;
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::triangle::intersect_lanes_simd;
@@ -137,6 +138,17 @@ pub(super) trait BoxTest {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         boxes_frustum(node, f, t_far)
+    }
+
+    /// The box-test set-up of a packet (`packet::prepare_lanes_portable`).
+    /// Portable lane loops unless a kernel has registers that fit `N`.
+    #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        prepare_lanes_portable(rays, valid, out)
     }
 
     /// The per-lane test of one child after the frustum test
@@ -262,6 +274,21 @@ impl BoxTest for Sse2Box {
 
     /// Four lanes per SSE register.
     #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        use core::arch::x86_64::__m128;
+        if N.is_multiple_of(4) {
+            prepare_lanes_simd::<__m128, N>(rays, valid, out)
+        } else {
+            prepare_lanes_portable(rays, valid, out)
+        }
+    }
+
+    /// Four lanes per SSE register.
+    #[inline(always)]
     fn child_lanes<const N: usize>(
         offsets: &[[f32; WIDTH]; 6],
         c: usize,
@@ -334,6 +361,21 @@ impl BoxTest for Avx2Box {
 
     /// Eight lanes per AVX register (four for packets of 4).
     #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        use core::arch::x86_64::__m256;
+        if N.is_multiple_of(8) {
+            prepare_lanes_simd::<__m256, N>(rays, valid, out)
+        } else {
+            Sse2Box::prepare_lanes(rays, valid, out)
+        }
+    }
+
+    /// Eight lanes per AVX register (four for packets of 4).
+    #[inline(always)]
     fn child_lanes<const N: usize>(
         offsets: &[[f32; WIDTH]; 6],
         c: usize,
@@ -369,6 +411,21 @@ impl BoxTest for Avx512Box {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         Avx2Box::boxes_frustum(node, f, t_far)
+    }
+
+    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
+    #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        use core::arch::x86_64::__m512;
+        if N.is_multiple_of(16) {
+            prepare_lanes_simd::<__m512, N>(rays, valid, out)
+        } else {
+            Avx2Box::prepare_lanes(rays, valid, out)
+        }
     }
 
     /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
