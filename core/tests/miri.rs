@@ -40,18 +40,26 @@ fn scalar_bvh_matches_brute_force() {
         assert_eq!(bvh.intersect(r), brute.intersect(r));
         assert_eq!(bvh.occluded(r), brute.occluded(r));
     }
-    let mut packet = RayPacket::<8>::default();
-    for (i, r) in rays.iter().take(8).enumerate() {
-        packet.set(i, r);
-    }
-    for mask in [0xffu32, 0b1010_0101, 0b1] {
-        let mut hits = HitPacket::<8>::default();
-        bvh.intersect_packet(&packet, LaneMask(mask), &mut hits);
-        let occ = bvh.occluded_packet(&packet, LaneMask(mask)).0;
-        for (i, r) in rays.iter().take(8).enumerate() {
-            if mask & (1 << i) != 0 {
-                assert_eq!(hits.get(i), brute.intersect(r), "lane {i}");
-                assert_eq!(occ & (1 << i) != 0, brute.occluded(r), "lane {i}");
+    // Distinct origins (the per-lane traversal), then one origin and
+    // directions close together (the frustum traversal).
+    let o = Vec3::new(0.2, 0.1, 3.0);
+    let bundle: Vec<Ray> = (0..8)
+        .map(|i| Ray::new(o, Vec3::new(0.01 + 0.005 * i as f32, -0.03, -1.0)))
+        .collect();
+    for lanes in [&rays[..8], &bundle[..]] {
+        let mut packet = RayPacket::<8>::default();
+        for (i, r) in lanes.iter().enumerate() {
+            packet.set(i, r);
+        }
+        for mask in [0xffu32, 0b1010_0101, 0b1] {
+            let mut hits = HitPacket::<8>::default();
+            bvh.intersect_packet(&packet, LaneMask(mask), &mut hits);
+            let occ = bvh.occluded_packet(&packet, LaneMask(mask)).0;
+            for (i, r) in lanes.iter().enumerate() {
+                if mask & (1 << i) != 0 {
+                    assert_eq!(hits.get(i), brute.intersect(r), "lane {i}");
+                    assert_eq!(occ & (1 << i) != 0, brute.occluded(r), "lane {i}");
+                }
             }
         }
     }

@@ -749,7 +749,8 @@ fn apply_hits<const N: usize>(
     // MTM bundles, AVX-512); with a loop per array it is masked moves
     // (3.4%). Timed in alternating runs, packets of 16 gave 0.97–1.07 on
     // the mesh and veach-mis. Packets of 8 gave 0.96–1.01 with the split
-    // loops, so they keep the single one.
+    // loops (measured when they still ran the AVX-512 code), so they keep
+    // the single one.
     if N > 8 {
         let mut hit = [false; N];
         for (i, h) in hit.iter_mut().enumerate() {
