@@ -16,12 +16,14 @@
 //!   packets 8 lanes per 256-bit register; the traversal compiled with
 //!   AVX2 enabled.
 //! - `Avx512`: packets of 16 lanes per 512-bit register; single rays and
-//!   packets of up to 8 lanes run the `Avx2` code (nothing in a node's
+//!   packets of up to 8 lanes run the `Avx2` code. Nothing in a node's
 //!   test needs 512 bits: the same single-ray traversal compiled for
-//!   AVX-512F measured 5–7% slower with 4-wide nodes, and packets of 8
-//!   compiled for AVX-512F, two children or triangles per register, ran
-//!   0.6–0.75× as fast as the AVX2 code once coherent packets took the
-//!   frustum traversal).
+//!   AVX-512F measured 5–7% slower with 4-wide nodes, and packets of 8 in
+//!   the traversal compiled for AVX-512F (two children or triangles per
+//!   512-bit register on their per-lane path) traced veach-mis' primary
+//!   rays at 20 Mrays/s and the mesh's MTM bundles at 8.7 where the AVX2
+//!   code does 32 and 11.7, once coherent packets took the frustum
+//!   traversal (single runs; why was not found).
 //!
 //! Packet kernels run [`super::lanes`] and `triangle::intersect_lanes_simd`
 //! over `crate::math::lanes::LaneVec` registers of the kernel's width.
