@@ -1,4 +1,5 @@
-//! The packet box test in explicit registers ([`LaneVec`]).
+//! The packet's per-lane box tests and its set-up in explicit registers
+//! ([`LaneVec`]).
 //!
 //! `packet::boxes_lanes_portable` is the portable form over `[f32; N]`;
 //! LLVM vectorised it across a node's four children instead of across the
@@ -6,7 +7,11 @@
 //! than the arithmetic. [`boxes_lanes_simd`] is the same test one register
 //! of lanes at a time, bit for bit (`max_keep(acc, x)` is x86's
 //! `maxps(x, acc)`, which returns `acc` for a NaN `x`, and `min_keep`
-//! likewise). x86_64 only; other targets use the portable form.
+//! likewise). [`child_lanes_simd`] tests the lanes of a frustum packet
+//! against one child (`node::child_lanes`), and [`prepare_lanes_simd`] is
+//! the box half of the packet set-up (`packet::prepare_lanes_portable`,
+//! whose divisions LLVM had left scalar). x86_64 only; other targets use
+//! the portable forms.
 
 use super::node::{FAR_SCALE, Node, WIDTH};
 use super::packet::{BoxLanes, LanesOut};
