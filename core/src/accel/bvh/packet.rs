@@ -6,7 +6,7 @@
 //!   the tree once as a single ray would, with one conservative box test
 //!   of its frustum per node (`node::BoxFrustum`); leaves are tested lane
 //!   by lane.
-//! - **Per lane** ([`traverse`]): otherwise a node is visited when any
+//! - **Per lane** ([`traverse()`]): otherwise a node is visited when any
 //!   live lane's ray hits its box, each child tested for every lane; a
 //!   deferred child is dropped for the lanes whose closest hit is already
 //!   in front of it.
@@ -537,7 +537,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     (done, found.best, found.b1, found.b2)
 }
 
-/// [`traverse`] for a packet whose live lanes form one frustum
+/// [`traverse()`] for a packet whose live lanes form one frustum
 /// ([`Lanes::frustum`]): the tree is walked once, as by a single ray, with
 /// the frustum's box test ([`BoxTest::boxes_frustum`]) in place of the
 /// per-lane one; the lanes are tested only against the boxes of the
