@@ -380,37 +380,36 @@ pub(super) fn boxes_lanes_portable<const N: usize>(
     (masks, t_min)
 }
 
-/// The smallest of `v` (none NaN), reduced pairwise so the halves are
-/// vectors: a left-to-right `min_keep` chain is one dependent compare per
-/// lane, which LLVM may not reorder (it was a fifth of the packet kernel's
-/// time on MTM bundles). Entry distances are never NaN and never `−0`
-/// (they start at `+0` and `max_keep` only takes strictly larger values),
-/// so every order of the comparisons gives the same bits.
+/// The smallest of `v` (none NaN), reduced pairwise ([`pairwise`]).
+/// Entry distances are never NaN and never `−0` (they start at `+0` and
+/// `max_keep` only takes strictly larger values), so every order of the
+/// comparisons gives the same bits.
 #[inline(always)]
-fn min_lanes<const N: usize>(mut v: [f32; N]) -> f32 {
-    let mut w = N;
-    while w > 1 {
-        let h = w.div_ceil(2);
-        for i in 0..w - h {
-            v[i] = min_keep(v[i], v[i + h]);
-        }
-        w = h;
-    }
-    if N == 0 { f32::INFINITY } else { v[0] }
+fn min_lanes<const N: usize>(v: [f32; N]) -> f32 {
+    pairwise(v, f32::INFINITY, min_keep)
 }
 
-/// The largest of `v` (none NaN), reduced pairwise as [`min_lanes`].
+/// The largest of `v` (none NaN), reduced pairwise ([`pairwise`]).
 #[inline(always)]
-fn max_lanes<const N: usize>(mut v: [f32; N]) -> f32 {
+fn max_lanes<const N: usize>(v: [f32; N]) -> f32 {
+    pairwise(v, f32::NEG_INFINITY, max_keep)
+}
+
+/// `v` reduced by `op` in halves, so that each step is a vector
+/// operation: a left-to-right chain is one dependent compare per lane,
+/// which LLVM may not reorder (it was a fifth of the packet kernel's time
+/// on MTM bundles). `empty` for `N = 0`.
+#[inline(always)]
+fn pairwise<const N: usize>(mut v: [f32; N], empty: f32, op: fn(f32, f32) -> f32) -> f32 {
     let mut w = N;
     while w > 1 {
         let h = w.div_ceil(2);
         for i in 0..w - h {
-            v[i] = max_keep(v[i], v[i + h]);
+            v[i] = op(v[i], v[i + h]);
         }
         w = h;
     }
-    if N == 0 { f32::NEG_INFINITY } else { v[0] }
+    if N == 0 { empty } else { v[0] }
 }
 
 /// A deferred child with the lanes that hit it and their smallest entry
