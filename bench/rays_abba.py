@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Time two builds of `cmlt` against each other on `bench rays`.
 
-    python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS]
+    python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS] [BASE]
     python3 bench/rays_abba.py /tmp/cmlt-old target/release/cmlt 2 mesh,veach-mis \\
         primary,mtm8,mtm16,shadow,diffuse ours-packet8,ours-packet16
 
@@ -10,7 +10,9 @@ drift of the shared machine falls on both alike. Every run also times
 Embree's `rtcIntersect1` (`embree-1`, so both binaries must be built with
 `--features embree`), and each figure is divided by that run's `embree-1`
 figure of the same cell: the ratio cancels most of the machine's
-run-to-run swing. Prints per cell the median of those ratios for each
+run-to-run swing. BASE names another baseline kernel (e.g. `embree-8`
+when comparing packets of 8: measured next to them, it tracks the same
+cache state). Prints per cell the median of those ratios for each
 binary and NEW ÷ OLD.
 
 Run from the repository root (the shared scenes are read from
@@ -29,13 +31,14 @@ def main():
     old, new, cycles, scenes, sets, kernels = sys.argv[1:7]
     threads = sys.argv[7] if len(sys.argv) > 7 else "1"
     seconds = sys.argv[8] if len(sys.argv) > 8 else "0.15"
+    base_kernel = sys.argv[9] if len(sys.argv) > 9 else "embree-1"
     res = [collections.defaultdict(list), collections.defaultdict(list)]
 
     def run(which):
         binary = (old, new)[which]
         out = subprocess.run(
             [binary, "bench", "rays", "--scenes", scenes, "--sets", sets,
-             "--kernels", kernels + ",embree-1", "--threads", threads,
+             "--kernels", kernels + "," + base_kernel, "--threads", threads,
              "--time", seconds, "--rounds", "1", "--clock", "cpu"],
             capture_output=True, text=True, check=True).stdout
         for line in out.splitlines():
@@ -44,7 +47,7 @@ def main():
             if not m:
                 continue
             figures = dict(re.findall(r"(\S+) ([0-9.]+)", m.group(4)))
-            base = float(figures.pop("embree-1"))
+            base = float(figures.pop(base_kernel))
             for kernel, v in figures.items():
                 res[which][(m.group(1), m.group(2), m.group(3), kernel)].append(float(v) / base)
 

@@ -744,15 +744,18 @@ fn apply_hits<const N: usize>(
     if m == 0 {
         return;
     }
-    // Branch-free selects, so the update vectorises. For 16 lanes one
-    // loop over all four arrays was compiled lane by lane, a store per
-    // lane and array (5.1% of the samples of packets of 16 on the mesh's
-    // MTM bundles, AVX-512); with a loop per array it is masked moves
-    // (3.4%). Timed in alternating runs, packets of 16 gave 0.97–1.07 on
-    // the mesh and veach-mis. Packets of 8 gave 0.96–1.01 with the split
-    // loops (measured when they still ran the AVX-512 code), so they keep
-    // the single one.
-    if N > 8 {
+    // Branch-free selects, one loop per array, so the update is compiled
+    // to blends and whole-register stores. One loop over all four arrays
+    // was compiled lane by lane, a store per lane and array: for 16 lanes
+    // 5.1% of the samples on the mesh's MTM bundles (AVX-512), against
+    // 3.4% for the split loops. For 8 lanes the lane stores also defeat
+    // store forwarding, as the next triangle test loads `t_max` as one
+    // register right after them: callgrind counts the two forms within
+    // 0.2% of each other, yet timed in alternating runs against Embree's
+    // packets of 8 (stop 27, `docs/rays.md`) the split loops gave 1.02–1.10
+    // on the mesh and 1.00–1.10 on veach-mis's primary rays and bundles.
+    // Fewer lanes keep the single loop (one register or less).
+    if N >= 8 {
         let mut hit = [false; N];
         for (i, h) in hit.iter_mut().enumerate() {
             *h = m >> i & 1 != 0;
