@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Time two builds of `cmlt` against each other on `bench rays`.
 
-    python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS] [BASE]
+    python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS] [BASE] [ROUNDS]
     python3 bench/rays_abba.py /tmp/cmlt-old target/release/cmlt 2 mesh,veach-mis \\
         primary,mtm8,mtm16,shadow,diffuse ours-packet8,ours-packet16
 
@@ -12,8 +12,9 @@ Embree's `rtcIntersect1` (`embree-1`, so both binaries must be built with
 figure of the same cell: the ratio cancels most of the machine's
 run-to-run swing. BASE names another baseline kernel (e.g. `embree-8`
 when comparing packets of 8: measured next to them, it tracks the same
-cache state). Prints per cell the median of those ratios for each
-binary and NEW ÷ OLD.
+cache state). ROUNDS > 1 has each run measure every kernel ROUNDS times
+in turn and report its best (interference only ever slows a run down).
+Prints per cell the median of those ratios for each binary and NEW ÷ OLD.
 
 Run from the repository root (the shared scenes are read from
 `tests/scenes`).
@@ -32,6 +33,7 @@ def main():
     threads = sys.argv[7] if len(sys.argv) > 7 else "1"
     seconds = sys.argv[8] if len(sys.argv) > 8 else "0.15"
     base_kernel = sys.argv[9] if len(sys.argv) > 9 else "embree-1"
+    rounds = sys.argv[10] if len(sys.argv) > 10 else "1"
     res = [collections.defaultdict(list), collections.defaultdict(list)]
 
     def run(which):
@@ -39,7 +41,7 @@ def main():
         out = subprocess.run(
             [binary, "bench", "rays", "--scenes", scenes, "--sets", sets,
              "--kernels", kernels + "," + base_kernel, "--threads", threads,
-             "--time", seconds, "--rounds", "1", "--clock", "cpu"],
+             "--time", seconds, "--rounds", rounds, "--clock", "cpu"],
             capture_output=True, text=True, check=True).stdout
         for line in out.splitlines():
             # "        mesh     mtm8 1T  ours-packet8 9.39  embree-1 7.30  | best ..."
