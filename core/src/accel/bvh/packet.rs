@@ -29,7 +29,7 @@ use super::leaf::{slot_id, slot_tri};
 use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
-use super::simd::{BoxTest, ScalarBox, TriLanesOut};
+use super::simd::{BoxTest, LaneTests, ScalarBox, TriLanesOut};
 use super::traverse::{self, Prepared, Stack, descend, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
@@ -98,7 +98,7 @@ impl<const N: usize> Lanes<N> {
             active & lane_mask(&t_ok),
         );
         self.wt.finish(valid);
-        let neg_bits = B::prepare_lanes(
+        let neg_bits = B::Lanes::prepare_lanes(
             rays,
             valid,
             LanesOut {
@@ -132,7 +132,7 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
-/// Where a packet's box-test set-up goes ([`BoxTest::prepare_lanes`]).
+/// Where a packet's box-test set-up goes ([`LaneTests::prepare_lanes`]).
 pub(super) struct LanesOut<'a, const N: usize> {
     /// Origins.
     pub o: &'a mut [[f32; N]; 3],
@@ -280,7 +280,7 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 /// Robust slab test (see `node::boxes`) of all lanes against a node's
 /// children: per child, the mask of lanes (within `lanes`) that hit it and
 /// the smallest entry distance among them; in the kernel's instruction set
-/// ([`BoxTest::boxes_lanes`]).
+/// ([`LaneTests::boxes_lanes`]).
 ///
 /// Packets with distinct origins (shadow rays, bounces) have no cheap
 /// exact frustum: an interval bound over the lanes' origins and
@@ -301,7 +301,7 @@ fn boxes_lanes<B: BoxTest, const N: usize>(
         neg_bits: l.neg_bits,
         uniform_neg: l.uniform_neg,
     };
-    B::boxes_lanes(node, &b, lanes)
+    B::Lanes::boxes_lanes(node, &b, lanes)
 }
 
 /// A packet's lanes as every form of the box test reads them (SoA).
@@ -596,7 +596,7 @@ fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
             while leaves != 0 {
                 let c = leaves.trailing_zeros() as usize;
                 leaves &= leaves - 1;
-                if B::child_lanes(&h.offsets, c, &l.inv, &l.t_max, alive) == 0 {
+                if B::Lanes::child_lanes(&h.offsets, c, &l.inv, &l.t_max, alive) == 0 {
                     mask &= !(1 << c);
                 } else {
                     traverse::prefetch(view, node.child[c], node.count[c]);
@@ -722,7 +722,7 @@ fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
             b1: &mut *tb1,
             b2: &mut *tb2,
         };
-        let m = B::tri_lanes(&l.wt, &slot_tri(blocks, j), &l.t_max, lanes, out);
+        let m = B::Lanes::tri_lanes(&l.wt, &slot_tri(blocks, j), &l.t_max, lanes, out);
         apply_hits(
             m,
             (first + j) as u32,

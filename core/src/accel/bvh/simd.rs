@@ -26,7 +26,10 @@
 //!   traversal (single runs; why was not found).
 //!
 //! Packet kernels run [`super::lanes`] and `triangle::intersect_lanes_simd`
-//! over `crate::math::lanes::LaneVec` registers of the kernel's width.
+//! over `crate::math::lanes::LaneVec` registers of the kernel's width,
+//! through each kernel's [`BoxTest::Lanes`]: a chain of [`RegLanes`] from
+//! its widest register down to [`PortableLanes`], so a packet narrower
+//! than the registers runs the next narrower kernel's code.
 //!
 //! Selection: [`Kernel::best`] picks the widest kernel the CPU supports —
 //! detected at run time under `std`, from the build's `target-feature`s
@@ -50,7 +53,7 @@ use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
 use crate::math::lanes::LaneVec;
 use glam::Vec3;
 
-/// Where [`BoxTest::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
+/// Where [`LaneTests::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
 /// (other lanes' entries are left unspecified).
 pub(super) struct TriLanesOut<'a, const N: usize> {
     /// Hit distance per lane.
@@ -133,6 +136,10 @@ pub(super) trait BoxTest {
     #[cfg(target_arch = "x86_64")]
     const SSE_LEAF: bool = false;
 
+    /// The packet lane tests: in registers of this kernel's width when a
+    /// packet fills them, else those of the next narrower kernel.
+    type Lanes: LaneTests;
+
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]);
 
     /// The frustum test (`node::boxes_frustum`) of a packet whose rays
@@ -140,57 +147,6 @@ pub(super) trait BoxTest {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         boxes_frustum(node, f, t_far)
-    }
-
-    /// The box-test set-up of a packet (`packet::prepare_lanes_portable`).
-    /// Portable lane loops unless a kernel has registers that fit `N`.
-    #[inline(always)]
-    fn prepare_lanes<const N: usize>(
-        rays: &RayPacket<N>,
-        valid: u32,
-        out: LanesOut<'_, N>,
-    ) -> [u32; 3] {
-        prepare_lanes_portable(rays, valid, out)
-    }
-
-    /// The per-lane test of one child after the frustum test
-    /// (`node::child_lanes`). Portable lane loops unless a kernel has
-    /// registers that fit `N`.
-    #[inline(always)]
-    fn child_lanes<const N: usize>(
-        offsets: &[[f32; WIDTH]; 6],
-        c: usize,
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-    ) -> u32 {
-        child_lanes(offsets, c, inv, t_max, lanes)
-    }
-
-    /// The packet box test (`packet::boxes_lanes`): `N` lanes against a
-    /// node's four children. Portable lane loops unless a kernel has
-    /// registers that fit `N`.
-    #[inline(always)]
-    fn boxes_lanes<const N: usize>(
-        node: &Node,
-        l: &BoxLanes<'_, N>,
-        lanes: u32,
-    ) -> ([u32; WIDTH], [f32; WIDTH]) {
-        boxes_lanes_portable(node, l, lanes)
-    }
-
-    /// The packet triangle test (`triangle::intersect_lanes`): one
-    /// triangle against `N` lanes. Portable lane loops unless a kernel has
-    /// registers that fit `N`.
-    #[inline(always)]
-    fn tri_lanes<const N: usize>(
-        r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-        out: TriLanesOut<'_, N>,
-    ) -> u32 {
-        intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
     }
 
     /// The leaf test [`Self::SSE_LEAF`] selects (a compile-time choice),
@@ -211,10 +167,169 @@ pub(super) trait BoxTest {
     }
 }
 
+/// The packet tests of a kernel, one lane per ray: the set-up
+/// (`packet::prepare_lanes_portable`), the per-lane box test of a node
+/// (`packet::boxes_lanes`), the per-lane test of one child after the
+/// frustum test (`node::child_lanes`) and the triangle test
+/// (`triangle::intersect_lanes`). Every implementation gives the portable
+/// loops' bits.
+pub(super) trait LaneTests {
+    /// The box-test set-up of a packet: writes the lanes' origins and
+    /// reciprocal directions (dummies in lanes outside `valid`) and returns
+    /// each axis' lanes with a negative direction.
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3];
+
+    /// The `lanes` whose rays meet child `c`, from the frustum test's
+    /// plane offsets.
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32;
+
+    /// `N` lanes against a node's children: per child the lanes that hit
+    /// it, and its smallest entry distance.
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
+        l: &BoxLanes<'_, N>,
+        lanes: u32,
+    ) -> ([u32; WIDTH], [f32; WIDTH]);
+
+    /// One triangle against `N` lanes: the lanes that hit it in front of
+    /// their `t_max`, with `t`, `b1`, `b2` in `out`.
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32;
+}
+
+/// The portable lane loops over `[f32; N]`: the scalar kernel's, and
+/// every kernel's last resort for packets narrower than its registers.
+pub(super) struct PortableLanes;
+
+impl LaneTests for PortableLanes {
+    #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        prepare_lanes_portable(rays, valid, out)
+    }
+
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        child_lanes(offsets, c, inv, t_max, lanes)
+    }
+
+    #[inline(always)]
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
+        l: &BoxLanes<'_, N>,
+        lanes: u32,
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
+        boxes_lanes_portable(node, l, lanes)
+    }
+
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+    }
+}
+
+/// The lane tests in registers `V` (`V::W` lanes each) when `N` is a
+/// multiple of `V::W`, else `Narrower`'s: AVX-512 runs packets of 8 in
+/// AVX registers and packets of 4 in SSE ones. `N` is a constant, so the
+/// choice is made at compile time.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct RegLanes<V, Narrower>(core::marker::PhantomData<(V, Narrower)>);
+
+#[cfg(target_arch = "x86_64")]
+impl<V: LaneVec, Narrower: LaneTests> LaneTests for RegLanes<V, Narrower> {
+    #[inline(always)]
+    fn prepare_lanes<const N: usize>(
+        rays: &RayPacket<N>,
+        valid: u32,
+        out: LanesOut<'_, N>,
+    ) -> [u32; 3] {
+        if N.is_multiple_of(V::W) {
+            prepare_lanes_simd::<V, N>(rays, valid, out)
+        } else {
+            Narrower::prepare_lanes(rays, valid, out)
+        }
+    }
+
+    #[inline(always)]
+    fn child_lanes<const N: usize>(
+        offsets: &[[f32; WIDTH]; 6],
+        c: usize,
+        inv: &[[f32; N]; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+    ) -> u32 {
+        if N.is_multiple_of(V::W) {
+            child_lanes_simd::<V, N>(offsets, c, inv, t_max, lanes)
+        } else {
+            Narrower::child_lanes(offsets, c, inv, t_max, lanes)
+        }
+    }
+
+    #[inline(always)]
+    fn boxes_lanes<const N: usize>(
+        node: &Node,
+        l: &BoxLanes<'_, N>,
+        lanes: u32,
+    ) -> ([u32; WIDTH], [f32; WIDTH]) {
+        if N.is_multiple_of(V::W) {
+            boxes_lanes_simd::<V, N>(node, l, lanes)
+        } else {
+            Narrower::boxes_lanes(node, l, lanes)
+        }
+    }
+
+    #[inline(always)]
+    fn tri_lanes<const N: usize>(
+        r: &WatertightLanes<N>,
+        tri: &[Vec3; 3],
+        t_max: &[f32; N],
+        lanes: u32,
+        out: TriLanesOut<'_, N>,
+    ) -> u32 {
+        if N.is_multiple_of(V::W) {
+            intersect_lanes_simd::<V, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+        } else {
+            Narrower::tri_lanes(r, tri, t_max, lanes, out)
+        }
+    }
+}
+
 /// The portable box test.
 pub(super) struct ScalarBox;
 
 impl BoxTest for ScalarBox {
+    type Lanes = PortableLanes;
+
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         boxes(node, r, t_max)
@@ -230,37 +345,7 @@ impl BoxTest for Sse2Box {
     /// Four triangles per SSE step.
     const SSE_LEAF: bool = true;
 
-    /// Four lanes per SSE register.
-    #[inline(always)]
-    fn boxes_lanes<const N: usize>(
-        node: &Node,
-        l: &BoxLanes<'_, N>,
-        lanes: u32,
-    ) -> ([u32; WIDTH], [f32; WIDTH]) {
-        use core::arch::x86_64::__m128;
-        if N.is_multiple_of(4) {
-            boxes_lanes_simd::<__m128, N>(node, l, lanes)
-        } else {
-            boxes_lanes_portable(node, l, lanes)
-        }
-    }
-
-    /// Four lanes per SSE register.
-    #[inline(always)]
-    fn tri_lanes<const N: usize>(
-        r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-        out: TriLanesOut<'_, N>,
-    ) -> u32 {
-        use core::arch::x86_64::__m128;
-        if N.is_multiple_of(4) {
-            intersect_lanes_simd::<__m128, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
-        } else {
-            intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
-        }
-    }
+    type Lanes = RegLanes<core::arch::x86_64::__m128, PortableLanes>;
 
     /// Four children per SSE register and plane.
     #[inline(always)]
@@ -272,38 +357,6 @@ impl BoxTest for Sse2Box {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         frustum_in::<core::arch::x86_64::__m128>(node, f, t_far)
-    }
-
-    /// Four lanes per SSE register.
-    #[inline(always)]
-    fn prepare_lanes<const N: usize>(
-        rays: &RayPacket<N>,
-        valid: u32,
-        out: LanesOut<'_, N>,
-    ) -> [u32; 3] {
-        use core::arch::x86_64::__m128;
-        if N.is_multiple_of(4) {
-            prepare_lanes_simd::<__m128, N>(rays, valid, out)
-        } else {
-            prepare_lanes_portable(rays, valid, out)
-        }
-    }
-
-    /// Four lanes per SSE register.
-    #[inline(always)]
-    fn child_lanes<const N: usize>(
-        offsets: &[[f32; WIDTH]; 6],
-        c: usize,
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-    ) -> u32 {
-        use core::arch::x86_64::__m128;
-        if N.is_multiple_of(4) {
-            child_lanes_simd::<__m128, N>(offsets, c, inv, t_max, lanes)
-        } else {
-            child_lanes(offsets, c, inv, t_max, lanes)
-        }
     }
 }
 
@@ -317,37 +370,7 @@ impl BoxTest for Avx2Box {
     /// Four triangles per SSE step.
     const SSE_LEAF: bool = true;
 
-    /// Eight lanes per AVX register (four for packets of 4).
-    #[inline(always)]
-    fn boxes_lanes<const N: usize>(
-        node: &Node,
-        l: &BoxLanes<'_, N>,
-        lanes: u32,
-    ) -> ([u32; WIDTH], [f32; WIDTH]) {
-        use core::arch::x86_64::__m256;
-        if N.is_multiple_of(8) {
-            boxes_lanes_simd::<__m256, N>(node, l, lanes)
-        } else {
-            Sse2Box::boxes_lanes(node, l, lanes)
-        }
-    }
-
-    /// Eight lanes per AVX register (four for packets of 4).
-    #[inline(always)]
-    fn tri_lanes<const N: usize>(
-        r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-        out: TriLanesOut<'_, N>,
-    ) -> u32 {
-        use core::arch::x86_64::__m256;
-        if N.is_multiple_of(8) {
-            intersect_lanes_simd::<__m256, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
-        } else {
-            Sse2Box::tri_lanes(r, tri, t_max, lanes, out)
-        }
-    }
+    type Lanes = RegLanes<core::arch::x86_64::__m256, <Sse2Box as BoxTest>::Lanes>;
 
     /// All eight children in one 256-bit register per plane.
     #[inline(always)]
@@ -359,38 +382,6 @@ impl BoxTest for Avx2Box {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         frustum_in::<core::arch::x86_64::__m256>(node, f, t_far)
-    }
-
-    /// Eight lanes per AVX register (four for packets of 4).
-    #[inline(always)]
-    fn prepare_lanes<const N: usize>(
-        rays: &RayPacket<N>,
-        valid: u32,
-        out: LanesOut<'_, N>,
-    ) -> [u32; 3] {
-        use core::arch::x86_64::__m256;
-        if N.is_multiple_of(8) {
-            prepare_lanes_simd::<__m256, N>(rays, valid, out)
-        } else {
-            Sse2Box::prepare_lanes(rays, valid, out)
-        }
-    }
-
-    /// Eight lanes per AVX register (four for packets of 4).
-    #[inline(always)]
-    fn child_lanes<const N: usize>(
-        offsets: &[[f32; WIDTH]; 6],
-        c: usize,
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-    ) -> u32 {
-        use core::arch::x86_64::__m256;
-        if N.is_multiple_of(8) {
-            child_lanes_simd::<__m256, N>(offsets, c, inv, t_max, lanes)
-        } else {
-            Sse2Box::child_lanes(offsets, c, inv, t_max, lanes)
-        }
     }
 }
 
@@ -405,6 +396,8 @@ impl BoxTest for Avx512Box {
     /// Four triangles per SSE step.
     const SSE_LEAF: bool = true;
 
+    type Lanes = RegLanes<core::arch::x86_64::__m512, <Avx2Box as BoxTest>::Lanes>;
+
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         Avx2Box::boxes(node, r, t_max)
@@ -413,69 +406,6 @@ impl BoxTest for Avx512Box {
     #[inline(always)]
     fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
         Avx2Box::boxes_frustum(node, f, t_far)
-    }
-
-    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
-    #[inline(always)]
-    fn prepare_lanes<const N: usize>(
-        rays: &RayPacket<N>,
-        valid: u32,
-        out: LanesOut<'_, N>,
-    ) -> [u32; 3] {
-        use core::arch::x86_64::__m512;
-        if N.is_multiple_of(16) {
-            prepare_lanes_simd::<__m512, N>(rays, valid, out)
-        } else {
-            Avx2Box::prepare_lanes(rays, valid, out)
-        }
-    }
-
-    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
-    #[inline(always)]
-    fn child_lanes<const N: usize>(
-        offsets: &[[f32; WIDTH]; 6],
-        c: usize,
-        inv: &[[f32; N]; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-    ) -> u32 {
-        use core::arch::x86_64::__m512;
-        if N.is_multiple_of(16) {
-            child_lanes_simd::<__m512, N>(offsets, c, inv, t_max, lanes)
-        } else {
-            Avx2Box::child_lanes(offsets, c, inv, t_max, lanes)
-        }
-    }
-
-    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
-    #[inline(always)]
-    fn boxes_lanes<const N: usize>(
-        node: &Node,
-        l: &BoxLanes<'_, N>,
-        lanes: u32,
-    ) -> ([u32; WIDTH], [f32; WIDTH]) {
-        use core::arch::x86_64::__m512;
-        if N.is_multiple_of(16) {
-            return boxes_lanes_simd::<__m512, N>(node, l, lanes);
-        }
-        Avx2Box::boxes_lanes(node, l, lanes)
-    }
-
-    /// Sixteen lanes per AVX-512 register (AVX2 for narrower packets).
-    #[inline(always)]
-    fn tri_lanes<const N: usize>(
-        r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
-        t_max: &[f32; N],
-        lanes: u32,
-        out: TriLanesOut<'_, N>,
-    ) -> u32 {
-        use core::arch::x86_64::__m512;
-        if N.is_multiple_of(16) {
-            intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
-        } else {
-            Avx2Box::tri_lanes(r, tri, t_max, lanes, out)
-        }
     }
 }
 
