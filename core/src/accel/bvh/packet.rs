@@ -762,9 +762,10 @@ fn apply_hits<const N: usize>(
     // to blends and whole-register stores. One loop over all four arrays
     // was compiled lane by lane, a store per lane and array: for 16 lanes
     // 5.1% of the samples on the mesh's MTM bundles (AVX-512), against
-    // 3.4% for the split loops. For 8 lanes the lane stores also defeat
-    // store forwarding, as the next triangle test loads `t_max` as one
-    // register right after them: callgrind counts 0.8% more instructions
+    // 3.4% for the split loops. For 8 lanes the lane stores likely also
+    // defeat store forwarding, as the next triangle test loads `t_max` as
+    // one register right after them (not observable without hardware
+    // counters): callgrind counts 0.8% more instructions
     // for the split loops, yet timed in alternating runs against Embree's
     // packets of 8 (stop 27, `docs/rays.md`) the split loops gave 1.04–1.10
     // on the mesh's and 1.00–1.10 on veach-mis's primary rays and bundles.
