@@ -174,9 +174,10 @@ pub(super) trait BoxTest {
 /// (`triangle::intersect_lanes`). Every implementation gives the portable
 /// loops' bits.
 pub(super) trait LaneTests {
-    /// The box-test set-up of a packet: writes the lanes' origins and
-    /// reciprocal directions (dummies in lanes outside `valid`) and returns
-    /// each axis' lanes with a negative direction.
+    /// The box-test set-up of a packet: writes the lanes' origins,
+    /// reciprocal directions and `t_max` (dummies with an empty interval in
+    /// lanes outside `valid`) and returns, per axis, the `valid` lanes whose
+    /// reciprocal direction has its sign bit set.
     fn prepare_lanes<const N: usize>(
         rays: &RayPacket<N>,
         valid: u32,
