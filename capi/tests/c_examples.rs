@@ -1,7 +1,7 @@
-//! Builds every C program in `examples-c/` against the release staticlib
-//! (`cargo build --release -p cmlt-capi`, with this test run's features)
-//! with `-std=c99 -Wall -Wextra -Werror -pedantic`, checks that the header
-//! also compiles as C++, runs the programs and checks their output against
+//! Builds every C program in `examples-c/` against the staticlib of this
+//! test run's own build of `cmlt-capi` (same profile and features) with
+//! `-std=c99 -Wall -Wextra -Werror -pedantic`, checks that the header also
+//! compiles as C++, runs the programs and checks their output against
 //! Rust-side renders of the same scenes. With `CMLT_VALGRIND=1` every
 //! program runs under valgrind memcheck and must report no errors and no
 //! definite leaks.
@@ -16,24 +16,87 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The release staticlib, built once per test process.
+/// This crate's cargo features that change what the library contains, as
+/// `cargo` arguments, so that the build below selects the library unit
+/// this test binary was built with.
+fn feature_args() -> Vec<String> {
+    let optional = [
+        ("glossy", cfg!(feature = "glossy")),
+        ("specular", cfg!(feature = "specular")),
+        ("refraction", cfg!(feature = "refraction")),
+        ("textures", cfg!(feature = "textures")),
+        ("depth-of-field", cfg!(feature = "depth-of-field")),
+        ("embree", cfg!(feature = "embree")),
+        ("soft-float", cfg!(feature = "soft-float")),
+    ];
+    let mut args = Vec::new();
+    if !cfg!(feature = "effects") {
+        args.push("--no-default-features".to_string());
+    }
+    let on: Vec<&str> = optional.iter().filter(|f| f.1).map(|f| f.0).collect();
+    if !on.is_empty() {
+        args.push("--features".into());
+        args.push(on.join(","));
+    }
+    args
+}
+
+/// The staticlib this test binary's own `cmlt-capi` unit wrote: the same
+/// profile and features as the Rust code the examples are compared with,
+/// and already built by the `cargo test` that runs this (a separate
+/// release build took 4.5 of CI's minutes). Cargo names it without a hash
+/// (`deps/libcmlt_capi.a`), so builds with other features overwrite it;
+/// the check below makes a stale one an error, not a silent mismatch.
 fn staticlib() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
     LIB.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         let mut cmd = Command::new(cargo);
         cmd.current_dir(workspace())
-            .args(["build", "--release", "-p", "cmlt-capi", "--lib"]);
-        if cfg!(feature = "embree") {
-            cmd.args(["--features", "embree"]);
+            .args(["test", "-p", "cmlt-capi", "--test", "c_examples"])
+            .args(["--no-run", "--message-format=json"])
+            .args(feature_args());
+        if !cfg!(debug_assertions) {
+            cmd.arg("--release");
         }
-        let status = cmd.status().expect("run cargo");
-        assert!(status.success(), "cargo build of the staticlib failed");
-        let target = std::env::var_os("CARGO_TARGET_DIR")
-            .map(PathBuf::from)
-            .unwrap_or_else(|| workspace().join("target"));
-        target.join("release/libcmlt_capi.a")
+        let o = cmd
+            .stderr(std::process::Stdio::inherit())
+            .output()
+            .expect("run cargo");
+        assert!(o.status.success(), "cargo build of the staticlib failed");
+        let json = String::from_utf8(o.stdout).expect("cargo prints UTF-8");
+        let lib = json
+            .lines()
+            .filter(|l| l.contains(r#""reason":"compiler-artifact""#))
+            .filter(|l| l.contains(r#""name":"cmlt_capi""#) && l.contains(r#""staticlib""#))
+            .find_map(staticlib_in)
+            .unwrap_or_else(|| panic!("cargo reported no cmlt_capi staticlib:\n{json}"));
+        // The Embree backend's entry points are referenced by, and only
+        // by, a library built with the feature.
+        let nm = Command::new("nm").arg(&lib).output().expect("run nm");
+        assert!(nm.status.success(), "nm {} failed", lib.display());
+        assert_eq!(
+            String::from_utf8_lossy(&nm.stdout).contains("rtcNewDevice"),
+            cfg!(feature = "embree"),
+            "{} was written by a build with other features since this one \
+             (cargo gives staticlibs one name); rebuild it: touch capi/src/lib.rs",
+            lib.display()
+        );
+        lib
     })
+}
+
+/// The `.a` file among a compiler-artifact message's `filenames`.
+fn staticlib_in(message: &str) -> Option<PathBuf> {
+    let list = message
+        .split(r#""filenames":["#)
+        .nth(1)?
+        .split(']')
+        .next()?;
+    list.split(',')
+        .map(|f| f.trim_matches('"'))
+        .find(|f| f.ends_with(".a"))
+        .map(PathBuf::from)
 }
 
 fn out_dir() -> PathBuf {

@@ -1,9 +1,9 @@
 //! The default BVH agrees with brute-force intersection on every shared
-//! scene: 100,000 random rays each (origins inside the scene bounds, uniform
+//! scene: 25,000 random rays each (origins inside the scene bounds, uniform
 //! directions), same hit or miss, same primitive (or the same distance when
 //! coplanar triangles tie), and the same occlusion answer.
 
-mod common;
+use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::accel::{BruteForce, Intersector};
@@ -71,20 +71,20 @@ fn check(name: &str, rays: usize) {
 
 #[test]
 fn cornell_box() {
-    check("cornell-box", 100_000);
+    check("cornell-box", 25_000);
 }
 
 #[test]
 fn veach_mis() {
-    check("veach-mis", 100_000);
+    check("veach-mis", 25_000);
 }
 
 #[test]
 fn veach_bidir() {
-    check("veach-bidir", 100_000);
+    check("veach-bidir", 25_000);
 }
 
 #[test]
 fn veach_ajar() {
-    check("veach-ajar", 100_000);
+    check("veach-ajar", 25_000);
 }

@@ -6,7 +6,7 @@
 //! colour balance of the chains; the relative-MSE bound checks that the
 //! energy lands in the right pixels.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -24,14 +24,14 @@
 //! Renders are deterministic (fixed seeds, one worker), so the tolerances
 //! below are margins around one fixed outcome, not flaky statistics.
 
-#[path = "../common/mod.rs"]
-mod common;
 mod degenerate;
 mod geometry;
 mod host_input;
 mod lights;
 mod materials;
 mod parameters;
+
+use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Settings;

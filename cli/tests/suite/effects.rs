@@ -4,7 +4,7 @@
 //! image beyond noise; the per-effect work counters count only what the
 //! scene has.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 //! through a global allocator — `set_camera`, `prepare`, `render` and
 //! `resolve` allocate nothing.
 
-mod common;
+use crate::common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -3,7 +3,7 @@
 //! `max_depth` segments it is Le · Σ_{k<max_depth} aᵏ (Mitsuba's depth
 //! semantics). Every estimator must reproduce these numbers.
 
-mod common;
+use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;

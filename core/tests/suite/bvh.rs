@@ -2,7 +2,7 @@
 //! closed meshes, robust spawn offsets, and the edge cases (empty, single
 //! triangle, non-finite rays, packets with inactive lanes).
 
-mod intersect;
+use crate::intersect;
 
 use cmlt::accel::bvh::{Bvh, BvhView, Kernel, LayoutError, MAX_DEPTH, Node, WIDTH};
 use cmlt::accel::{BruteForce, Intersector};

@@ -8,7 +8,7 @@
 //! - quadrupling the samples cuts the relative MSE by at least 3× (the
 //!   estimator's error falls like 1/N: it is unbiased and converging).
 
-mod common;
+use crate::common;
 
 use cmlt::integrator::Method;
 use cmlt_cli::metrics::rel_mse;

@@ -4,7 +4,7 @@
 //! scene (b = 0), determinism, and a negative control showing that the
 //! furnace test catches a wrong splatting rule.
 
-mod common;
+use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;

@@ -7,7 +7,7 @@
 //! and thread count every render is bit-identical, so the test cannot be
 //! flaky, and timings never enter an assertion.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::Command;

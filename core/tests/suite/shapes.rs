@@ -5,7 +5,7 @@
 //! diffuse sphere under uniform light Le has radiance ρ·Le at every pixel
 //! it covers. Invalid host answers never reach the film.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 

@@ -1,0 +1,28 @@
+//! The CLI crate's integration tests, in one binary so that the renderer
+//! and loader code they share is compiled once (each test binary
+//! instantiates the generic renderer again). Run one part with a filter,
+//! e.g. `cargo test -p cmlt-cli --test suite references::`.
+//!
+//! - [`bench_convergence`]: `cmlt bench convergence`, `plot` and `score`
+//!   end to end;
+//! - [`bvh_scenes`]: the default BVH against brute force on the shared
+//!   scenes;
+//! - [`cli`]: the `cmlt` binary end to end, bad input included;
+//! - [`effects`]: the effect analysis of the shared scenes;
+//! - [`loader`]: the Mitsuba 3 XML loader and its malformed corpus;
+//! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
+//! - [`references`]: PT and BDPT against Mitsuba 3's references.
+//!
+//! `bench_rays` and `embree_render` stay separate binaries: CI builds them
+//! with the `embree` feature.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod bench_convergence;
+mod bvh_scenes;
+mod cli;
+mod effects;
+mod loader;
+mod mlt;
+mod references;

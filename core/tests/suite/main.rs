@@ -1,0 +1,29 @@
+//! The core's integration tests, in one binary so that the generic
+//! renderer, integrators and BVH kernels are compiled once for all of them
+//! (each test binary instantiates them again; seven binaries took most of
+//! the test build). Run one part with a filter, e.g.
+//! `cargo test -p cmlt --test suite stability::`.
+//!
+//! - [`bvh`]: the default BVH against brute force, watertightness, spawn
+//!   offsets, packets with any mask;
+//! - [`furnace`]: white-furnace answers of every estimator;
+//! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
+//! - [`renderer`]: the host's frame loop, including that it allocates
+//!   nothing per frame;
+//! - [`shapes`]: host-intersected analytic shapes;
+//! - [`stability`]: the adversarial suite of issue 7.
+//!
+//! `effects`, `miri` and `embree` stay separate binaries: CI builds them
+//! with other features or under Miri.
+
+#[path = "../common/mod.rs"]
+mod common;
+#[path = "../intersect/mod.rs"]
+mod intersect;
+
+mod bvh;
+mod furnace;
+mod mlt;
+mod renderer;
+mod shapes;
+mod stability;
