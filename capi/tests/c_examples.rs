@@ -16,63 +16,30 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// This crate's cargo features that change what the library contains, as
-/// `cargo` arguments, so that the build below selects the library unit
-/// this test binary was built with.
-fn feature_args() -> Vec<String> {
-    let optional = [
-        ("glossy", cfg!(feature = "glossy")),
-        ("specular", cfg!(feature = "specular")),
-        ("refraction", cfg!(feature = "refraction")),
-        ("textures", cfg!(feature = "textures")),
-        ("depth-of-field", cfg!(feature = "depth-of-field")),
-        ("embree", cfg!(feature = "embree")),
-        ("soft-float", cfg!(feature = "soft-float")),
-    ];
-    let mut args = Vec::new();
-    if !cfg!(feature = "effects") {
-        args.push("--no-default-features".to_string());
-    }
-    let on: Vec<&str> = optional.iter().filter(|f| f.1).map(|f| f.0).collect();
-    if !on.is_empty() {
-        args.push("--features".into());
-        args.push(on.join(","));
-    }
-    args
-}
-
-/// The staticlib this test binary's own `cmlt-capi` unit wrote: the same
-/// profile and features as the Rust code the examples are compared with,
-/// and already built by the `cargo test` that runs this (a separate
-/// release build took 4 min 33 s of `cargo test --workspace`). Cargo
-/// names it without a hash (`deps/libcmlt_capi.a`), so builds with other
-/// features overwrite it, and a later fresh build does not rewrite it. The
-/// check below makes a library of the other Embree setting an error; one
-/// with other effect features is not told apart.
+/// The staticlib of this test binary's own `cmlt-capi` unit: the same
+/// profile and features as the Rust code the examples are compared with.
+/// Cargo builds every crate type of the library in one go, so the
+/// `cargo test` that built this binary also wrote the `.a`, next to it in
+/// `deps/` (a separate release build took 4 min 33 s of `cargo test
+/// --workspace`). Cargo names it without a hash, so a later build with
+/// other features overwrites it, and a fresh build does not rewrite it.
+/// The check below makes a library of the other Embree setting an error;
+/// one with other effect features is not told apart.
 fn staticlib() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
     LIB.get_or_init(|| {
-        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-        let mut cmd = Command::new(cargo);
-        cmd.current_dir(workspace())
-            .args(["test", "-p", "cmlt-capi", "--test", "c_examples"])
-            .args(["--no-run", "--message-format=json"])
-            .args(feature_args());
-        if !cfg!(debug_assertions) {
-            cmd.arg("--release");
-        }
-        let o = cmd
-            .stderr(std::process::Stdio::inherit())
-            .output()
-            .expect("run cargo");
-        assert!(o.status.success(), "cargo build of the staticlib failed");
-        let json = String::from_utf8(o.stdout).expect("cargo prints UTF-8");
-        let lib = json
-            .lines()
-            .filter(|l| l.contains(r#""reason":"compiler-artifact""#))
-            .filter(|l| l.contains(r#""name":"cmlt_capi""#) && l.contains(r#""staticlib""#))
-            .find_map(staticlib_in)
-            .unwrap_or_else(|| panic!("cargo reported no cmlt_capi staticlib:\n{json}"));
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let name = if cfg!(windows) {
+            "cmlt_capi.lib"
+        } else {
+            "libcmlt_capi.a"
+        };
+        let lib = exe.with_file_name(name);
+        assert!(
+            lib.is_file(),
+            "{} is missing: it is written with this test binary's library unit",
+            lib.display()
+        );
         // The Embree backend's entry points are referenced by, and only
         // by, a library built with the feature.
         let nm = Command::new("nm").arg(&lib).output().expect("run nm");
@@ -86,19 +53,6 @@ fn staticlib() -> &'static Path {
         );
         lib
     })
-}
-
-/// The `.a` file among a compiler-artifact message's `filenames`.
-fn staticlib_in(message: &str) -> Option<PathBuf> {
-    let list = message
-        .split(r#""filenames":["#)
-        .nth(1)?
-        .split(']')
-        .next()?;
-    list.split(',')
-        .map(|f| f.trim_matches('"'))
-        .find(|f| f.ends_with(".a"))
-        .map(PathBuf::from)
 }
 
 fn out_dir() -> PathBuf {
@@ -245,7 +199,7 @@ fn minimal_matches_a_rust_render() {
         assert!(out.contains("bad calls refused"), "{out}");
         assert_eq!(numbers(&out, "rays")[1], 0.0, "non-finite samples");
 
-        let loaded = cmlt_cli::scene::builtin_scene(
+        let loaded = cmlt_scene::builtin_scene(
             "cornell-box",
             &[("resx".into(), "32".into()), ("resy".into(), "32".into())],
         )

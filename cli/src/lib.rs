@@ -1,13 +1,16 @@
-//! The cmlt front end as a library: scene loading (Mitsuba 3 XML), image
-//! files, error metrics, the run-time choice of ray-tracing backend and the
-//! multi-threaded render driver. The `cmlt` binary is a thin command-line
-//! layer over it; tests use it directly.
+//! The cmlt front end as a library: image files, error metrics, the
+//! multi-threaded render driver and the benchmarks, over the scene loading
+//! (Mitsuba 3 XML) and run-time backend choice of `cmlt-scene`, which it
+//! re-exports as [`scene`] and [`accel`]. The `cmlt` binary is a thin
+//! command-line layer over it; tests use it directly.
 
-pub mod accel;
 pub mod bench;
 pub mod frames;
 pub mod image_io;
 pub mod metrics;
 pub mod render;
 
-pub mod scene;
+/// The Mitsuba 3 loader (crate `cmlt-scene`, re-exported).
+pub use cmlt_scene as scene;
+/// The run-time choice of backend (crate `cmlt-scene`, re-exported).
+pub use cmlt_scene::accel;

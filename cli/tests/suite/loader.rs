@@ -1023,7 +1023,7 @@ fn errors_point_at_the_offending_line() {
 
 #[test]
 fn truncated_and_corrupted_scenes_never_panic() {
-    let text = include_str!("../../scenes/cornell-box.xml");
+    let text = include_str!("../../../scene/scenes/cornell-box.xml");
     for cut in (0..text.len()).step_by(23) {
         let _ = load_scene_str(&text[..cut], Path::new("."), "cut.xml", &[]);
     }

@@ -1,4 +1,10 @@
-//! Loading Mitsuba 3 XML scenes into a `cmlt::scene::Scene`.
+//! Scenes for hosts with `std`, shared by the command-line front end
+//! (`cmlt-cli`) and the C API (`cmlt-capi`): loading Mitsuba 3 XML scenes
+//! into a `cmlt::scene::Scene` (this crate's root: [`load_scene`],
+//! [`builtin_scene`]) and the ray-tracing backend a scene is traced with,
+//! chosen at run time ([`accel`]). It is a crate of its own so that the C
+//! library and the fuzz targets do not carry the CLI's image writers,
+//! plotting and argument parsing.
 //!
 //! The supported subset is what Bitterli's scenes in Mitsuba 3 syntax use,
 //! with Mitsuba's semantics (defaults, conventions, error cases) read from
@@ -25,6 +31,8 @@
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
 //! added in document order, one per `<shape>`.
 
+pub mod accel;
+
 mod bsdf;
 mod error;
 mod loader;
@@ -41,7 +49,7 @@ pub use error::LoadError;
 pub const BUILTIN_SCENES: &[&str] = &["cornell-box"];
 
 /// The Cornell box of Bitterli's rendering resources (CC0), embedded.
-const CORNELL_BOX: &str = include_str!("../../scenes/cornell-box.xml");
+const CORNELL_BOX: &str = include_str!("../scenes/cornell-box.xml");
 
 /// A loaded scene and what the file says about rendering it.
 #[derive(Debug)]
