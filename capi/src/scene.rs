@@ -160,7 +160,8 @@ impl cmlt_camera {
 }
 
 /// What a committed scene traces with: a backend the library builds (our
-/// BVH or Embree, the CLI's run-time choice) or the host's callbacks.
+/// BVH or Embree, chosen at run time as in `cmlt-scene`) or the host's
+/// callbacks.
 pub(crate) enum Accel {
     Built(::cmlt_scene::accel::Accel),
     Host(HostIntersector),

@@ -1,5 +1,5 @@
 //! The ray-tracing backend a render uses, chosen at run time
-//! (`cmlt render --accel ours|embree`).
+//! (`cmlt render --accel ours|embree`, the C API's `CMLT_ACCEL_*`).
 //!
 //! [`Accel`] is one [`Intersector`] over either backend, so every method
 //! (PT, BDPT, MLT, CMLT) and the render driver stay generic over the trait
