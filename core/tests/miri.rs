@@ -31,7 +31,7 @@ fn scalar_bvh_matches_brute_force() {
     let bvh = scalar(&tris);
     // 80 of the sphere's 2,304 triangles: enough for inner nodes below the
     // root, so traversal pushes and pops its stack (329 triangles took
-    // Miri about 2 minutes longer, mostly in the build).
+    // Miri about 2 minutes longer).
     assert!(bvh.view().depth() >= 2, "depth {}", bvh.view().depth());
     let brute = BruteForce::new(tris.iter().copied());
     let mut rays = Vec::new();
