@@ -152,6 +152,48 @@ pub(super) fn descend<E>(
     }
 }
 
+/// [`descend`] for occlusion: the nearest hit child is entered as there,
+/// but with three or more hits the others are deferred in slot order, not
+/// sorted. Any blocker ends an occlusion query, so only the first choice
+/// has to be good; the order of the deferred ones barely matters, and
+/// sorting them cost mispredicted branches. Measured at stop 30 (shadow
+/// rays, AVX2 single rays, callgrind): mispredictions −12% on the mesh,
+/// −13% on cornell-box, −3% on veach-mis, instructions −1.8%, +0.4%,
+/// +1.1%; in alternating timed runs the mesh's shadow rays went
+/// 1.07–1.10× in two runs, the other scenes 0.91–1.09× (within the runs'
+/// spread). An occlusion answer does not depend on the order, so it stays
+/// the same bit as the packet kernels' (which keep [`descend`]).
+/// Entering children in slot order instead (as Embree's any-hit step
+/// does) made the mesh 1.17× but veach-bidir 0.87× and veach-mis 0.89×.
+#[inline(always)]
+fn descend_any<E>(
+    mask: u32,
+    near: &[f32; WIDTH],
+    entry: impl Fn(usize) -> E,
+    mut defer: impl FnMut(E),
+) -> Option<E> {
+    if mask.count_ones() <= 2 {
+        return descend(mask, near, entry, defer);
+    }
+    // Nearest first, lower slot on a tie (strict `<` keeps the first).
+    let mut best = mask.trailing_zeros() as usize & (WIDTH - 1);
+    let mut bits = mask & (mask - 1);
+    while bits != 0 {
+        let c = bits.trailing_zeros() as usize & (WIDTH - 1);
+        bits &= bits - 1;
+        if near[c] < near[best] {
+            best = c;
+        }
+    }
+    let mut bits = mask & !(1 << best);
+    while bits != 0 {
+        let c = bits.trailing_zeros() as usize & (WIDTH - 1);
+        bits &= bits - 1;
+        defer(entry(c));
+    }
+    Some(entry(best))
+}
+
 /// The keys ([`key`]) of the `n` hit children in `mask`, nearest first,
 /// in `keys[..n]`: an insertion sort over the hit children only (an 8-key
 /// network would sort eight every time).
@@ -191,7 +233,8 @@ fn two_hits(mask: u32, near: &[f32; WIDTH]) -> (usize, usize) {
 
 /// Traverses the subtree `start` (a node or a leaf, as in [`Entry`]) for
 /// one ray whose closest hit so far is at `*t_max`. Children are visited
-/// nearest first (for occlusion too: it finds blockers sooner, measured) and
+/// nearest first (for occlusion the nearest is entered first too: it finds
+/// blockers sooner, measured; the rest unsorted, [`descend_any`]) and
 /// a deferred child is culled once its entry distance is beyond the closest
 /// hit; with `ANY` the first hit ends the traversal. Returns the triangle
 /// slot and barycentrics of a closer hit, whose distance is left in
@@ -216,7 +259,12 @@ pub(super) fn traverse_from<B: BoxTest, const ANY: bool>(
                 count: node.count[c],
                 t: near[c],
             };
-            if let Some(e) = descend(mask, &near, entry, |e| defer(view, stack, e)) {
+            let next = if ANY {
+                descend_any(mask, &near, entry, |e| defer(view, stack, e))
+            } else {
+                descend(mask, &near, entry, |e| defer(view, stack, e))
+            };
+            if let Some(e) = next {
                 cur = e;
                 continue;
             }
