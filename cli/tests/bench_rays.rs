@@ -80,9 +80,26 @@ fn bench_rays_writes_csv() {
         .filter(|k| k.is_available())
         .map(|k| format!("ours-{}", k.name()))
         .collect();
-    want.extend(["ours-packet4", "ours-packet8", "ours-packet16"].map(String::from));
+    want.extend(
+        [
+            "ours-packet4",
+            "ours-packet8",
+            "ours-packet16",
+            "ours-stream",
+        ]
+        .map(String::from),
+    );
     if cfg!(feature = "embree") {
-        want.extend(["embree-1", "embree-4", "embree-8", "embree-16"].map(String::from));
+        want.extend(
+            [
+                "embree-1",
+                "embree-4",
+                "embree-8",
+                "embree-16",
+                "embree-stream",
+            ]
+            .map(String::from),
+        );
     }
     assert_eq!(kernels, want);
     assert_eq!(keys.len(), 2 * 5 * 2 * want.len());

@@ -1,7 +1,7 @@
 //! A small subset for Miri (`cargo +nightly miri test -p cmlt --test
 //! miri`): BVH construction and traversal with the scalar kernel forced
-//! (Miri runs no SIMD intrinsics), single rays and packets with partial
-//! lane masks against the brute-force reference, and one tiny render pass
+//! (Miri runs no SIMD intrinsics), single rays, packets with partial
+//! lane masks and an interleaved stream against the brute-force reference, and one tiny render pass
 //! of each estimator. Natively it is just a fast test.
 
 mod common;
@@ -43,6 +43,17 @@ fn scalar_bvh_matches_brute_force() {
     for r in &rays {
         assert_eq!(bvh.intersect(r), brute.intersect(r));
         assert_eq!(bvh.occluded(r), brute.occluded(r));
+    }
+    // The same rays as an interleaved stream (more rays than walks in
+    // flight, so slots are refilled and their stacks reused).
+    let stream = bvh.view().with_interleave_from(0);
+    let mut hits = vec![None; rays.len()];
+    let mut occ = vec![false; rays.len()];
+    stream.intersect_stream(&rays, &mut hits);
+    stream.occluded_stream(&rays, &mut occ);
+    for (i, r) in rays.iter().enumerate() {
+        assert_eq!(hits[i], brute.intersect(r), "stream ray {i}");
+        assert_eq!(occ[i], brute.occluded(r), "stream ray {i}");
     }
     // Distinct origins (the per-lane traversal), then one origin and
     // directions close together (the frustum traversal).

@@ -14,8 +14,12 @@
 //!
 //! Kernels: `ours-<isa>` trace ray by ray with our BVH and one kernel
 //! (`scalar`, `sse2`, `avx2`, `avx512`, those the CPU runs);
-//! `ours-packet{4,8,16}` trace packets with the best kernel; `embree-1`
-//! and `embree-{4,8,16}` (feature `embree`) do the same through Embree.
+//! `ours-packet{4,8,16}` trace packets with the best kernel;
+//! `ours-stream` traces the set as streams of 256 independent rays
+//! (`Intersector::intersect_stream`: interleaved walks on trees of
+//! `INTERLEAVE_MIN_BYTES` and more); `embree-1`, `embree-{4,8,16}` and
+//! `embree-stream` (feature `embree`; `rtcIntersect1M`/`rtcOccluded1M` in
+//! incoherent mode) do the same through Embree.
 //! Each measurement traces its ray set repeatedly for about `--time`
 //! seconds, on 1 and 2 threads (each thread a share of the set); with
 //! `--rounds R`, every kernel of a cell is measured R times, the kernels
@@ -341,6 +345,7 @@ fn ray_sets(s: &BenchScene, bvh: &Bvh, count: usize) -> RaySets {
 enum Mode {
     Single,
     Packet(usize),
+    Stream,
 }
 
 /// Traces `rays` once (closest hits, or occlusion for shadow rays); returns
@@ -357,6 +362,26 @@ fn trace<I: Intersector>(acc: &I, mode: Mode, packets: &Packets, range: (usize, 
                     sum += acc.occluded(r) as u64;
                 } else if let Some(h) = acc.intersect(r) {
                     sum += h.prim as u64;
+                }
+            }
+        }
+        Mode::Stream => {
+            let rays = &packets.rays[range.0..range.1];
+            if packets.occlusion {
+                let mut out = [false; 256];
+                for c in rays.chunks(256) {
+                    acc.occluded_stream(c, &mut out);
+                    sum += out[..c.len()].iter().map(|&o| o as u64).sum::<u64>();
+                }
+            } else {
+                let mut out = [None; 256];
+                for c in rays.chunks(256) {
+                    acc.intersect_stream(c, &mut out);
+                    sum += out[..c.len()]
+                        .iter()
+                        .flatten()
+                        .map(|h| h.prim as u64)
+                        .sum::<u64>();
                 }
             }
         }
@@ -481,10 +506,11 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
         };
         writeln!(
             out,
-            "{}: {} triangles, BVH build {:.3} s, best kernel {}",
+            "{}: {} triangles, BVH build {:.3} s, {:.1} MiB, best kernel {}",
             scene.name,
             scene.tris.len(),
             build_ours.as_secs_f64(),
+            bvh.view().size_bytes() as f64 / (1024.0 * 1024.0),
             bvh.kernel().name()
         )
         .map_err(io)?;
@@ -521,6 +547,14 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                     }
                 }
                 let view = bvh.view();
+                if opts.wants_kernel("ours-stream") {
+                    jobs.push((
+                        "ours-stream".to_string(),
+                        Box::new(move || {
+                            measure(&view, Mode::Stream, packets, threads, time, clock)
+                        }),
+                    ));
+                }
                 for n in [4, 8, 16] {
                     let name = format!("ours-packet{n}");
                     if opts.wants_kernel(&name) {
@@ -531,6 +565,16 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
                             }),
                         ));
                     }
+                }
+                #[cfg(feature = "embree")]
+                if opts.wants_kernel("embree-stream") {
+                    let embree = &embree;
+                    jobs.push((
+                        "embree-stream".to_string(),
+                        Box::new(move || {
+                            measure(embree, Mode::Stream, packets, threads, time, clock)
+                        }),
+                    ));
                 }
                 #[cfg(feature = "embree")]
                 for n in [1, 4, 8, 16] {

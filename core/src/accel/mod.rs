@@ -59,6 +59,26 @@ pub trait Intersector {
         }
         out
     }
+
+    /// Closest hits of a stream of independent rays: `hits[i]` for
+    /// `rays[i]`, for `i` below the shorter length. A backend may trace
+    /// them in any order and several at once (our BVH keeps a few in
+    /// flight so their memory loads overlap); each answer is what
+    /// [`Self::intersect`] gives for that ray.
+    fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (r, h) in rays.iter().zip(hits) {
+            *h = self.intersect(r);
+        }
+    }
+
+    /// Occlusion of a stream of independent rays: `occluded[i]` for
+    /// `rays[i]`, for `i` below the shorter length; see
+    /// [`Self::intersect_stream`].
+    fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        for (r, o) in rays.iter().zip(occluded) {
+            *o = self.occluded(r);
+        }
+    }
 }
 
 impl<T: Intersector + ?Sized> Intersector for &T {
@@ -82,5 +102,13 @@ impl<T: Intersector + ?Sized> Intersector for &T {
     #[inline]
     fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
         (**self).occluded_packet(rays, active)
+    }
+    #[inline]
+    fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        (**self).intersect_stream(rays, hits)
+    }
+    #[inline]
+    fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        (**self).occluded_stream(rays, occluded)
     }
 }

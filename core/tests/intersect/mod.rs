@@ -611,8 +611,68 @@ pub fn compare_packets<const N: usize, I: Intersector>(
     }
 }
 
-/// Every backend query — single rays, packets of 4, 8 and 16 — against
-/// the brute-force answers `truth` for `rays`.
+/// Streams of `rays` (with [`nasty_rays`] mixed in, in chunks of odd
+/// lengths) against `truth`; outputs past the shorter of the two slices
+/// must be left alone.
+pub fn compare_stream<I: Intersector>(
+    name: &str,
+    backend: &I,
+    rays: &[Ray],
+    truth: &[Option<Hit>],
+    check: &Checker<'_>,
+) {
+    let sentinel = Hit {
+        t: -7.0,
+        prim: 12345,
+        b1: -3.0,
+        b2: -4.0,
+    };
+    let nasty = nasty_rays();
+    let mut stream: Vec<(Ray, Option<Hit>)> = Vec::new();
+    for (k, (r, h)) in rays.iter().zip(truth).enumerate() {
+        stream.push((*r, *h));
+        if k % 5 == 0 {
+            stream.push((nasty[k / 5 % nasty.len()], None));
+        }
+    }
+    let mut start = 0;
+    for len in [1usize, 3, 7, 8, 9, 31, 200].into_iter().cycle() {
+        if start >= stream.len() {
+            break;
+        }
+        let chunk = &stream[start..(start + len).min(stream.len())];
+        start += len;
+        let chunk_rays: Vec<Ray> = chunk.iter().map(|c| c.0).collect();
+        // One output more than there are rays: it must stay untouched.
+        let mut hits = vec![Some(sentinel); chunk.len() + 1];
+        let mut occ = vec![true; chunk.len() + 1];
+        backend.intersect_stream(&chunk_rays, &mut hits);
+        backend.occluded_stream(&chunk_rays, &mut occ);
+        assert_eq!(
+            hits[chunk.len()],
+            Some(sentinel),
+            "{name}: stream wrote past its rays"
+        );
+        assert!(
+            occ[chunk.len()],
+            "{name}: occlusion stream wrote past its rays"
+        );
+        for (i, (r, want)) in chunk.iter().enumerate() {
+            let what = format!("{name} stream");
+            check.hit(&what, r, hits[i], *want);
+            check.occluded(&what, r, occ[i], *want, || hits[i]);
+        }
+        // Fewer outputs than rays: only those are written.
+        if chunk.len() >= 2 {
+            let mut short = vec![Some(sentinel); chunk.len() - 1];
+            backend.intersect_stream(&chunk_rays, &mut short);
+            assert_eq!(&short[..], &hits[..chunk.len() - 1], "{name}: short stream");
+        }
+    }
+}
+
+/// Every backend query — single rays, packets of 4, 8 and 16, streams —
+/// against the brute-force answers `truth` for `rays`.
 pub fn compare_backend<I: Intersector>(
     name: &str,
     backend: &I,
@@ -625,6 +685,7 @@ pub fn compare_backend<I: Intersector>(
     compare_packets::<4, I>(name, backend, brute, rays, truth, check);
     compare_packets::<8, I>(name, backend, brute, rays, truth, check);
     compare_packets::<16, I>(name, backend, brute, rays, truth, check);
+    compare_stream(name, backend, rays, truth, check);
 }
 
 pub fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {

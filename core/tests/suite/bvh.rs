@@ -51,6 +51,28 @@ fn compare_scene(name: &str, tris: &[[Vec3; 3]], rays: &[Ray]) {
                 "{what}: differs from scalar for {r:?}"
             );
         }
+        // Streams interleaved whatever the tree's size: every ray's own
+        // single-ray answer, bit for bit.
+        let interleaved = view.with_interleave_from(0);
+        compare_stream(
+            &format!("{what} interleaved"),
+            &interleaved,
+            rays,
+            &truth,
+            &check,
+        );
+        let mut hits = vec![None; rays.len()];
+        let mut occ = vec![false; rays.len()];
+        interleaved.intersect_stream(rays, &mut hits);
+        interleaved.occluded_stream(rays, &mut occ);
+        for ((r, want), (h, o)) in rays.iter().zip(&reference).zip(hits.iter().zip(&occ)) {
+            assert_eq!(*h, *want, "{what}: interleaved stream differs for {r:?}");
+            assert_eq!(
+                *o,
+                view.occluded(r),
+                "{what}: interleaved occlusion differs for {r:?}"
+            );
+        }
     }
 }
 

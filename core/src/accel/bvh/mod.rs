@@ -18,6 +18,10 @@
 //! traversal stack (a node is visited when any live lane hits its box), and
 //! a subtree reached by a single lane is finished ray by ray with
 //! the same arithmetic, so packet and single-ray answers are bit-identical.
+//! Streams of independent rays ([`Intersector::intersect_stream`]) keep
+//! several single-ray walks in flight, taking turns one step each, so that
+//! their memory loads overlap on trees larger than the caches
+//! ([`INTERLEAVE_MIN_BYTES`]); each answer is again bit-identical.
 //! Traversal kernels ([`Kernel`]: scalar, SSE2, AVX2, AVX-512) differ only
 //! in instruction set and return bit-identical answers; a view uses
 //! [`Kernel::best`] unless told otherwise ([`BvhView::with_kernel`]), and the
@@ -45,6 +49,7 @@ mod leaf;
 mod node;
 mod packet;
 mod simd;
+mod stream;
 mod traverse;
 
 #[cfg(feature = "std")]
@@ -53,6 +58,7 @@ mod build;
 pub use leaf::TriBlock;
 pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node, STACK_SIZE, WIDTH};
 pub use simd::Kernel;
+pub use stream::INTERLEAVE_MIN_BYTES;
 
 use glam::Vec3;
 
@@ -121,6 +127,9 @@ pub struct BvhView<'a> {
     depth: u32,
     /// Always an available kernel (checked by [`BvhView::with_kernel`]).
     kernel: Kernel,
+    /// Streams are interleaved from this tree size up
+    /// ([`BvhView::with_interleave_from`]).
+    interleave_from: usize,
 }
 
 impl<'a> BvhView<'a> {
@@ -167,7 +176,21 @@ impl<'a> BvhView<'a> {
             blocks,
             depth,
             kernel: Kernel::best(),
+            interleave_from: INTERLEAVE_MIN_BYTES,
         })
+    }
+
+    /// The same BVH with streams ([`Intersector::intersect_stream`])
+    /// interleaved when the tree takes at least `bytes`
+    /// ([`BvhView::size_bytes`]), and traced ray by ray below: 0 always
+    /// interleaves, `usize::MAX` never does. The default is
+    /// [`INTERLEAVE_MIN_BYTES`], measured on one machine; a host that
+    /// knows its caches may move it. Answers are the same either way.
+    pub fn with_interleave_from(self, bytes: usize) -> Self {
+        BvhView {
+            interleave_from: bytes,
+            ..self
+        }
     }
 
     /// The same BVH traversed with `kernel`; `None` if this CPU (or, without
@@ -203,6 +226,11 @@ impl<'a> BvhView<'a> {
                     .map(move |s| (leaf::slot_tri(blocks, s), leaf::slot_id(blocks, s)))
             })
         })
+    }
+
+    /// Bytes of nodes and leaf blocks the view's traversal reads.
+    pub fn size_bytes(&self) -> usize {
+        size_of_val(self.nodes) + size_of_val(self.blocks)
     }
 
     /// Levels of nodes (0 for an empty BVH, 1 for a lone root).
@@ -268,6 +296,18 @@ impl Intersector for BvhView<'_> {
     #[inline]
     fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
         packet::occluded_packet(self, rays, active)
+    }
+
+    #[inline]
+    fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        let n = rays.len().min(hits.len());
+        stream::intersect(self, &rays[..n], &mut hits[..n])
+    }
+
+    #[inline]
+    fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        let n = rays.len().min(occluded.len());
+        stream::occluded(self, &rays[..n], &mut occluded[..n])
     }
 }
 
@@ -414,6 +454,7 @@ impl Bvh {
             blocks: &self.blocks,
             depth: self.depth,
             kernel: self.kernel,
+            interleave_from: INTERLEAVE_MIN_BYTES,
         }
     }
 }
@@ -443,5 +484,15 @@ impl Intersector for Bvh {
     #[inline]
     fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
         self.view().occluded_packet(rays, active)
+    }
+
+    #[inline]
+    fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        self.view().intersect_stream(rays, hits)
+    }
+
+    #[inline]
+    fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        self.view().occluded_stream(rays, occluded)
     }
 }

@@ -340,6 +340,39 @@ impl EmbreeScene {
         true
     }
 
+    /// An Embree ray-hit record for a usable `ray`, hit fields empty.
+    #[inline]
+    fn ray_hit1(ray: &Ray) -> sys::RTCRayHit {
+        sys::RTCRayHit {
+            ray: Self::ray1(ray),
+            hit: sys::RTCHit {
+                primID: sys::RTC_INVALID_GEOMETRY_ID,
+                geomID: sys::RTC_INVALID_GEOMETRY_ID,
+                instID: [sys::RTC_INVALID_GEOMETRY_ID],
+                ..Default::default()
+            },
+        }
+    }
+
+    /// The usable rays of `rays` (at most [`STREAM_CHUNK`]) as Embree
+    /// records made by `record`, in `out`; returns how many, with their
+    /// indices in `index`.
+    #[inline]
+    fn stream_chunk<T>(
+        rays: &[Ray],
+        record: impl Fn(&Ray) -> T,
+        out: &mut [T; STREAM_CHUNK],
+        index: &mut [usize; STREAM_CHUNK],
+    ) -> usize {
+        let mut m = 0;
+        for (i, r) in rays.iter().enumerate().filter(|(_, r)| usable(r)) {
+            out[m] = record(r);
+            index[m] = i;
+            m += 1;
+        }
+        m
+    }
+
     /// An Embree single ray for a usable `ray`.
     #[inline]
     fn ray1(ray: &Ray) -> sys::RTCRay {
@@ -365,15 +398,7 @@ impl Intersector for EmbreeScene {
         if !usable(ray) {
             return None;
         }
-        let mut rh = sys::RTCRayHit {
-            ray: Self::ray1(ray),
-            hit: sys::RTCHit {
-                primID: sys::RTC_INVALID_GEOMETRY_ID,
-                geomID: sys::RTC_INVALID_GEOMETRY_ID,
-                instID: [sys::RTC_INVALID_GEOMETRY_ID],
-                ..Default::default()
-            },
-        };
+        let mut rh = Self::ray_hit1(ray);
         let mut ctx = sys::RTCIntersectContext::new(sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
         // SAFETY: committed scene; `rh` is a 16-byte aligned RTCRayHit with
         // a finite ray and mask ~0.
@@ -451,4 +476,77 @@ impl Intersector for EmbreeScene {
         }
         out
     }
+
+    /// `rtcIntersect1M` in incoherent mode, [`STREAM_CHUNK`] rays per call
+    /// (Embree 3.13 traces such a stream as packets of its SIMD width).
+    fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        let n = rays.len().min(hits.len());
+        let mut rh = [sys::RTCRayHit::default(); STREAM_CHUNK];
+        let mut index = [0usize; STREAM_CHUNK];
+        for (rays, hits) in rays[..n]
+            .chunks(STREAM_CHUNK)
+            .zip(hits[..n].chunks_mut(STREAM_CHUNK))
+        {
+            hits.fill(None);
+            let m = Self::stream_chunk(rays, Self::ray_hit1, &mut rh, &mut index);
+            if m == 0 {
+                continue;
+            }
+            let mut ctx = sys::RTCIntersectContext::new(sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+            // SAFETY: committed scene; `rh[..m]` are 16-byte aligned
+            // RTCRayHit records of finite rays with mask ~0, `m` ≤ 64 fits
+            // `unsigned int`, and the stride is the record's size.
+            unsafe {
+                sys::rtcIntersect1M(
+                    self.scene,
+                    &mut ctx,
+                    rh.as_mut_ptr(),
+                    m as u32,
+                    size_of::<sys::RTCRayHit>(),
+                )
+            };
+            for (r, &i) in rh[..m].iter().zip(&index[..m]) {
+                hits[i] = self.hit(r.hit.geomID, r.hit.primID, r.ray.tfar, r.hit.u, r.hit.v);
+            }
+        }
+    }
+
+    /// `rtcOccluded1M` in incoherent mode, [`STREAM_CHUNK`] rays per call
+    /// (Embree 3.13 sorts such a stream by direction octant and traces it
+    /// as packets).
+    fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
+        let n = rays.len().min(occluded.len());
+        let mut rs = [sys::RTCRay::default(); STREAM_CHUNK];
+        let mut index = [0usize; STREAM_CHUNK];
+        for (rays, occluded) in rays[..n]
+            .chunks(STREAM_CHUNK)
+            .zip(occluded[..n].chunks_mut(STREAM_CHUNK))
+        {
+            occluded.fill(false);
+            let m = Self::stream_chunk(rays, Self::ray1, &mut rs, &mut index);
+            if m == 0 {
+                continue;
+            }
+            let mut ctx = sys::RTCIntersectContext::new(sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+            // SAFETY: committed scene; `rs[..m]` are 16-byte aligned RTCRay
+            // records of finite rays, `m` ≤ 64, stride = the record's size.
+            unsafe {
+                sys::rtcOccluded1M(
+                    self.scene,
+                    &mut ctx,
+                    rs.as_mut_ptr(),
+                    m as u32,
+                    size_of::<sys::RTCRay>(),
+                )
+            };
+            for (r, &i) in rs[..m].iter().zip(&index[..m]) {
+                // Embree marks an occluded ray by setting tfar to -inf.
+                occluded[i] = r.tfar < 0.0;
+            }
+        }
+    }
 }
+
+/// Rays per `rtcIntersect1M`/`rtcOccluded1M` call: Embree's own internal
+/// stream size, and a 5 KB array of records on the stack.
+const STREAM_CHUNK: usize = 64;

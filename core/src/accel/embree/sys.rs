@@ -189,6 +189,20 @@ unsafe extern "C" {
 
     pub fn rtcIntersect1(scene: RTCScene, ctx: *mut RTCIntersectContext, rayhit: *mut RTCRayHit);
     pub fn rtcOccluded1(scene: RTCScene, ctx: *mut RTCIntersectContext, ray: *mut RTCRay);
+    pub fn rtcIntersect1M(
+        scene: RTCScene,
+        ctx: *mut RTCIntersectContext,
+        rayhit: *mut RTCRayHit,
+        m: c_uint,
+        byte_stride: usize,
+    );
+    pub fn rtcOccluded1M(
+        scene: RTCScene,
+        ctx: *mut RTCIntersectContext,
+        ray: *mut RTCRay,
+        m: c_uint,
+        byte_stride: usize,
+    );
     pub fn rtcIntersect4(
         valid: *const i32,
         scene: RTCScene,
