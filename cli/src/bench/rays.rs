@@ -515,6 +515,12 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
         )
         .map_err(io)?;
         let sets = ray_sets(&scene, &bvh, opts.rays);
+        let sizes: Vec<String> = sets
+            .sets
+            .iter()
+            .map(|(set, rays, _)| format!("{set} {}", rays.len()))
+            .collect();
+        writeln!(out, "{}: rays per set: {}", scene.name, sizes.join(", ")).map_err(io)?;
         for (set, rays, occlusion) in sets.sets {
             if !opts.wants_set(set) {
                 continue;

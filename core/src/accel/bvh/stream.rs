@@ -3,13 +3,14 @@
 //! A single ray's walk is a chain of dependent loads: the next node's
 //! address comes out of the current node's box test. On a tree larger than
 //! the core's caches each link waits for memory, and one ray leaves the
-//! core idle for most of that wait (the 260k-triangle benchmark mesh:
-//! about 740 instructions per diffuse bounce at well under one instruction
-//! per cycle, `docs/rays.md`). Here [`LANES`] rays take turns, one
+//! core idle for much of that wait (the 260k-triangle benchmark mesh's
+//! diffuse bounces run about 1.2 instructions per cycle, where
+//! veach-mis' 3.4 MiB tree runs its bounces at about two; `docs/rays.md`,
+//! stop 31). Here [`LANES`] rays take turns, one
 //! [`Walk::step`] each: a step prefetches the entry its ray visits next,
-//! and the other rays' steps run while that load is under way (the ray
-//! streams of Wald et al., "Getting Rid of Packets", 2007, and the
-//! interleaving CPUs' hardware threads would do; here in software).
+//! and the other rays' steps run while that load is under way. It is the
+//! overlap a core's hardware threads would give, done in software, and
+//! unlike a packet it asks nothing of the rays' coherence.
 //!
 //! Every ray follows exactly its own single-ray traversal, same arithmetic
 //! and same order, so each answer is bit-identical to

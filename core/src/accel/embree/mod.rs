@@ -10,11 +10,11 @@
 //!
 //! Facts of the system library this relies on (Debian's 3.13 build):
 //! - `rtcInitIntersectContext` is an inline header function, re-implemented
-//!   in [`sys::RTCIntersectContext::new`];
+//!   in `sys::RTCIntersectContext::new` (private);
 //! - ray masks are compiled in, so every ray carries mask `0xFFFF_FFFF`
 //!   (mask 0 would hit nothing);
 //! - packets want 16/32/64-byte alignment for 4/8/16 lanes and a `valid`
-//!   word of -1 (active) or 0 per lane; [`sys::RTCRayHitN`] is 64-byte
+//!   word of -1 (active) or 0 per lane; `sys::RTCRayHitN` is 64-byte
 //!   aligned.
 //!
 //! Embree accepts hits with `t` in `[tnear, tfar]`; our contract is the open
@@ -477,7 +477,7 @@ impl Intersector for EmbreeScene {
         out
     }
 
-    /// `rtcIntersect1M` in incoherent mode, [`STREAM_CHUNK`] rays per call
+    /// `rtcIntersect1M` in incoherent mode, `STREAM_CHUNK` (64) rays per call
     /// (Embree 3.13 traces such a stream as packets of its SIMD width).
     fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         let n = rays.len().min(hits.len());
@@ -511,7 +511,7 @@ impl Intersector for EmbreeScene {
         }
     }
 
-    /// `rtcOccluded1M` in incoherent mode, [`STREAM_CHUNK`] rays per call
+    /// `rtcOccluded1M` in incoherent mode, `STREAM_CHUNK` (64) rays per call
     /// (Embree 3.13 sorts such a stream by direction octant and traces it
     /// as packets).
     fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
@@ -547,6 +547,7 @@ impl Intersector for EmbreeScene {
     }
 }
 
-/// Rays per `rtcIntersect1M`/`rtcOccluded1M` call: Embree's own internal
-/// stream size, and a 5 KB array of records on the stack.
+/// Rays per `rtcIntersect1M`/`rtcOccluded1M` call: the records live in a
+/// 5 KB array on the stack (no allocation per call), and Embree cuts a
+/// stream into batches of its own anyway (`RayStreamFilter::filterAOS`).
 const STREAM_CHUNK: usize = 64;
