@@ -480,68 +480,90 @@ impl Intersector for EmbreeScene {
     /// `rtcIntersect1M` in incoherent mode, `STREAM_CHUNK` (64) rays per call
     /// (Embree 3.13 traces such a stream as packets of its SIMD width).
     fn intersect_stream(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-        let n = rays.len().min(hits.len());
-        let mut rh = [sys::RTCRayHit::default(); STREAM_CHUNK];
-        let mut index = [0usize; STREAM_CHUNK];
-        for (rays, hits) in rays[..n]
-            .chunks(STREAM_CHUNK)
-            .zip(hits[..n].chunks_mut(STREAM_CHUNK))
-        {
-            hits.fill(None);
-            let m = Self::stream_chunk(rays, Self::ray_hit1, &mut rh, &mut index);
-            if m == 0 {
-                continue;
-            }
-            let mut ctx = sys::RTCIntersectContext::new(sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
-            // SAFETY: committed scene; `rh[..m]` are 16-byte aligned
-            // RTCRayHit records of finite rays with mask ~0, `m` ≤ 64 fits
-            // `unsigned int`, and the stride is the record's size.
-            unsafe {
-                sys::rtcIntersect1M(
-                    self.scene,
-                    &mut ctx,
-                    rh.as_mut_ptr(),
-                    m as u32,
-                    size_of::<sys::RTCRayHit>(),
-                )
-            };
-            for (r, &i) in rh[..m].iter().zip(&index[..m]) {
-                hits[i] = self.hit(r.hit.geomID, r.hit.primID, r.ray.tfar, r.hit.u, r.hit.v);
-            }
-        }
+        self.stream(
+            rays,
+            hits,
+            None,
+            Self::ray_hit1,
+            |ctx, records, m| {
+                // SAFETY: committed scene; `records[..m]` are 16-byte
+                // aligned RTCRayHit records of finite rays with mask ~0
+                // (`stream`), and the stride is the record's size.
+                unsafe {
+                    sys::rtcIntersect1M(
+                        self.scene,
+                        ctx,
+                        records.as_mut_ptr(),
+                        m,
+                        size_of::<sys::RTCRayHit>(),
+                    )
+                }
+            },
+            |r| self.hit(r.hit.geomID, r.hit.primID, r.ray.tfar, r.hit.u, r.hit.v),
+        );
     }
 
     /// `rtcOccluded1M` in incoherent mode, `STREAM_CHUNK` (64) rays per call
     /// (Embree 3.13 sorts such a stream by direction octant and traces it
     /// as packets).
     fn occluded_stream(&self, rays: &[Ray], occluded: &mut [bool]) {
-        let n = rays.len().min(occluded.len());
-        let mut rs = [sys::RTCRay::default(); STREAM_CHUNK];
+        self.stream(
+            rays,
+            occluded,
+            false,
+            Self::ray1,
+            |ctx, records, m| {
+                // SAFETY: committed scene; `records[..m]` are 16-byte
+                // aligned RTCRay records of finite rays (`stream`), stride
+                // = the record's size.
+                unsafe {
+                    sys::rtcOccluded1M(
+                        self.scene,
+                        ctx,
+                        records.as_mut_ptr(),
+                        m,
+                        size_of::<sys::RTCRay>(),
+                    )
+                }
+            },
+            // Embree marks an occluded ray by setting tfar to -inf.
+            |r| r.tfar < 0.0,
+        );
+    }
+}
+
+impl EmbreeScene {
+    /// A stream through one of Embree's `*1M` calls: per chunk of
+    /// `STREAM_CHUNK` rays, the usable ones become `record`s and go to
+    /// `call(context, records, count)`, and each answer is read back with
+    /// `answer`; unusable rays (and chunks with none usable) get `miss`.
+    /// Outputs past the shorter of `rays` and `out` are left alone.
+    fn stream<T: Copy + Default, O: Copy>(
+        &self,
+        rays: &[Ray],
+        out: &mut [O],
+        miss: O,
+        record: impl Fn(&Ray) -> T,
+        call: impl Fn(&mut sys::RTCIntersectContext, &mut [T; STREAM_CHUNK], u32),
+        answer: impl Fn(&T) -> O,
+    ) {
+        let n = rays.len().min(out.len());
+        let mut records = [T::default(); STREAM_CHUNK];
         let mut index = [0usize; STREAM_CHUNK];
-        for (rays, occluded) in rays[..n]
+        for (rays, out) in rays[..n]
             .chunks(STREAM_CHUNK)
-            .zip(occluded[..n].chunks_mut(STREAM_CHUNK))
+            .zip(out[..n].chunks_mut(STREAM_CHUNK))
         {
-            occluded.fill(false);
-            let m = Self::stream_chunk(rays, Self::ray1, &mut rs, &mut index);
+            out.fill(miss);
+            let m = Self::stream_chunk(rays, &record, &mut records, &mut index);
             if m == 0 {
                 continue;
             }
             let mut ctx = sys::RTCIntersectContext::new(sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
-            // SAFETY: committed scene; `rs[..m]` are 16-byte aligned RTCRay
-            // records of finite rays, `m` ≤ 64, stride = the record's size.
-            unsafe {
-                sys::rtcOccluded1M(
-                    self.scene,
-                    &mut ctx,
-                    rs.as_mut_ptr(),
-                    m as u32,
-                    size_of::<sys::RTCRay>(),
-                )
-            };
-            for (r, &i) in rs[..m].iter().zip(&index[..m]) {
-                // Embree marks an occluded ray by setting tfar to -inf.
-                occluded[i] = r.tfar < 0.0;
+            // `m` ≤ 64 fits Embree's `unsigned int`.
+            call(&mut ctx, &mut records, m as u32);
+            for (r, &i) in records[..m].iter().zip(&index[..m]) {
+                out[i] = answer(r);
             }
         }
     }
