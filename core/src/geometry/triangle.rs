@@ -850,29 +850,7 @@ pub(crate) fn intersect_lanes<const N: usize>(
     b1: &mut [f32; N],
     b2: &mut [f32; N],
 ) -> u32 {
-    // The vertices' permuted components, sel[vertex][axis][lane]: splats
-    // when the lanes share a permutation.
-    let mut sel = [[[0.0f32; N]; 3]; 3];
-    for (vi, p) in tri.iter().enumerate() {
-        let pv = [p.x, p.y, p.z, p.z];
-        if let Some(k) = r.uniform {
-            for (j, s) in sel[vi].iter_mut().enumerate() {
-                *s = [pv[k[j]]; N];
-            }
-        } else {
-            for (j, s) in sel[vi].iter_mut().enumerate() {
-                for (si, &k) in s.iter_mut().zip(&r.k[j]) {
-                    *si = if k == 0 {
-                        pv[0]
-                    } else if k == 1 {
-                        pv[1]
-                    } else {
-                        pv[2]
-                    };
-                }
-            }
-        }
-    }
+    let sel = permuted_lanes(r, tri);
     // Vertex `vi` of lane `i` in ray space. Recomputed where needed rather
     // than stored: writing all twelve ray-space arrays per triangle and
     // reading them back was a fifth of the packet kernel's time, and most
@@ -924,6 +902,37 @@ pub(crate) fn intersect_lanes<const N: usize>(
     finish_lanes(r, tri, t_max, ok, unsure, zero, Some(&sel), t, b1, b2)
 }
 
+/// The vertices' components permuted per lane, `sel[vertex][axis][lane]`
+/// (splats when the lanes share a permutation): what the lane tests
+/// compute with. Picking a component is exact, so every form of the test
+/// that picks them otherwise (from registers, from a leaf block) has the
+/// same values in its lanes.
+#[inline(always)]
+fn permuted_lanes<const N: usize>(r: &WatertightLanes<N>, tri: &[Vec3; 3]) -> [[[f32; N]; 3]; 3] {
+    let mut sel = [[[0.0f32; N]; 3]; 3];
+    for (vi, p) in tri.iter().enumerate() {
+        let pv = [p.x, p.y, p.z, p.z];
+        if let Some(k) = r.uniform {
+            for (j, s) in sel[vi].iter_mut().enumerate() {
+                *s = [pv[k[j]]; N];
+            }
+        } else {
+            for (j, s) in sel[vi].iter_mut().enumerate() {
+                for (si, &k) in s.iter_mut().zip(&r.k[j]) {
+                    *si = if k == 0 {
+                        pv[0]
+                    } else if k == 1 {
+                        pv[1]
+                    } else {
+                        pv[2]
+                    };
+                }
+            }
+        }
+    }
+    sel
+}
+
 /// The part of [`intersect_lanes`] after the f32 test, shared by its
 /// portable and register forms: lanes `ok` hit already; lanes `unsure`
 /// (inside, with an f32 `t` not provably of either sign) are decided in
@@ -969,16 +978,22 @@ pub(crate) fn finish_lanes<const N: usize>(
     ok
 }
 
-/// [`intersect_lanes`] one register of lanes at a time ([`LaneVec`]): the
-/// same IEEE operations in the same order per lane (those of the
-/// single-ray SSE leaf test), so the same bits; vertex components are
-/// picked by the permutation masks `k_is` instead of lane by lane. `N`
-/// must be a multiple of `V::W`.
+/// [`intersect_lanes`] one register of lanes at a time ([`LaneVec`]) for
+/// triangle `slot` of the four in `planes` (a leaf block): the same IEEE
+/// operations in the same order per lane (those of the single-ray SSE
+/// leaf test), so the same bits. Vertex components are broadcast straight
+/// from the block's planes (by the shared permutation, or picked by the
+/// permutation masks `k_is`): going through a `[Vec3; 3]` first stored and
+/// reloaded every component (callgrind: about a tenth of the packet
+/// kernel's instructions on the mesh's primary rays). `N` must be a
+/// multiple of `V::W`.
 #[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
     r: &WatertightLanes<N>,
-    tri: &[Vec3; 3],
+    planes: &Planes4,
+    slot: usize,
     t_max: &[f32; N],
     lanes: u32,
     t: &mut [f32; N],
@@ -986,16 +1001,16 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
     b2: &mut [f32; N],
 ) -> u32 {
     debug_assert!(N.is_multiple_of(V::W));
+    let slot = slot & 3;
     let (mut ok, mut unsure, mut zero) = (0u32, 0u32, 0u32);
-    // Only made for a triangle with unsure lanes (rare), and written only
-    // for their chunks, the only ones read: zeroing 9·N floats for every
-    // triangle was a `memset` call per test.
-    let mut sel: Option<[[[f32; N]; 3]; 3]> = None;
     let chunk_bits = if V::W >= 32 {
         u32::MAX
     } else {
         (1u32 << V::W) - 1
     };
+    // The shared permutation, clamped so that the compiler sees the plane
+    // indices in range (`finish` stores values below 3).
+    let uniform = r.uniform.map(|k| k.map(|a| a.min(2)));
     for chunk in 0..N / V::W {
         let at = chunk * V::W;
         let shift = at as u32;
@@ -1017,31 +1032,29 @@ pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
             V::load(&r.shear[2][at..]),
         ];
         let sv = [
-            permuted::<V, N>(r, tri[0], shift),
-            permuted::<V, N>(r, tri[1], shift),
-            permuted::<V, N>(r, tri[2], shift),
+            permuted::<V, N>(r, uniform, &planes[0], slot, shift),
+            permuted::<V, N>(r, uniform, &planes[1], slot, shift),
+            permuted::<V, N>(r, uniform, &planes[2], slot, shift),
         ];
         let tm = V::load(&t_max[at..]);
         let Some(f) = lanes_f32(sv, org, shear, tm, live) else {
             continue;
         };
         zero |= f.zero << shift;
-        let (ok_c, unsure_c) = (f.ok, f.unsure);
         f.t.store(&mut t[at..]);
         f.b1.store(&mut b1[at..]);
         f.b2.store(&mut b2[at..]);
-        ok |= ok_c << shift;
-        unsure |= unsure_c << shift;
-        if unsure_c != 0 {
-            let sel = sel.get_or_insert([[[0.0f32; N]; 3]; 3]);
-            for (vi, p) in sv.iter().enumerate() {
-                for (j, x) in p.iter().enumerate() {
-                    x.store(&mut sel[vi][j][at..]);
-                }
-            }
-        }
+        ok |= f.ok << shift;
+        unsure |= f.unsure << shift;
     }
-    finish_lanes(r, tri, t_max, ok, unsure, zero, sel.as_ref(), t, b1, b2)
+    if unsure | zero == 0 {
+        return ok;
+    }
+    // Rare: lanes decided in f64 or redone by the single-ray test, from
+    // the triangle and its permuted components made here.
+    let tri = planes_tri(planes, slot);
+    let sel = (unsure != 0).then(|| permuted_lanes(r, &tri));
+    finish_lanes(r, &tri, t_max, ok, unsure, zero, sel.as_ref(), t, b1, b2)
 }
 
 /// What [`lanes_f32`] finds for one register of lanes.
@@ -1132,17 +1145,31 @@ fn lanes_f32<V: LaneVec>(
     })
 }
 
-/// Vertex `p`'s components permuted per lane, for the register of lanes
-/// from `shift`: splats for a shared permutation, else picked by the masks
-/// `k_is` (`k` is 0, 1 or 2 per lane).
+/// A vertex's components (`v[axis][slot]`, one vertex of a block's planes)
+/// permuted per lane, for the register of lanes from `shift`: splats by
+/// the shared permutation `uniform` (indices below 3), else picked by the
+/// masks `k_is` (`k` is 0, 1 or 2 per lane).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn permuted<V: LaneVec, const N: usize>(r: &WatertightLanes<N>, p: Vec3, shift: u32) -> [V; 3] {
-    let pv = [p.x, p.y, p.z, p.z];
-    match r.uniform {
-        Some(k) => [V::splat(pv[k[0]]), V::splat(pv[k[1]]), V::splat(pv[k[2]])],
+fn permuted<V: LaneVec, const N: usize>(
+    r: &WatertightLanes<N>,
+    uniform: Option<[usize; 3]>,
+    v: &[[f32; 4]; 3],
+    slot: usize,
+    shift: u32,
+) -> [V; 3] {
+    match uniform {
+        Some(k) => [
+            V::splat(v[k[0]][slot]),
+            V::splat(v[k[1]][slot]),
+            V::splat(v[k[2]][slot]),
+        ],
         None => {
-            let (x, y, z) = (V::splat(p.x), V::splat(p.y), V::splat(p.z));
+            let (x, y, z) = (
+                V::splat(v[0][slot]),
+                V::splat(v[1][slot]),
+                V::splat(v[2][slot]),
+            );
             let [[a0, a1], [b0, b1], [c0, c1]] = r.k_is;
             [
                 V::select(a0 >> shift, x, V::select(a1 >> shift, y, z)),
@@ -1220,10 +1247,14 @@ mod tests {
         let m = intersect_lanes(r, tri, t_max, lanes, t, b1, b2);
         #[cfg(target_arch = "x86_64")]
         {
+            // The triangle in one slot of a block whose other slots hold
+            // something else, in each of the four slots in turn.
+            let other = [Vec3::new(9.0, 8.0, 7.0), Vec3::new(-3.0, 2.0, 5.0), Vec3::X];
             use core::arch::x86_64::{__m128, __m256, __m512};
             type Form<const N: usize> = fn(
                 &WatertightLanes<N>,
-                &[Vec3; 3],
+                &Planes4,
+                usize,
                 &[f32; N],
                 u32,
                 &mut [f32; N],
@@ -1231,28 +1262,32 @@ mod tests {
                 &mut [f32; N],
             ) -> u32;
             #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
             fn avx2<const N: usize>(
                 r: &WatertightLanes<N>,
-                tri: &[Vec3; 3],
+                planes: &Planes4,
+                slot: usize,
                 t_max: &[f32; N],
                 lanes: u32,
                 t: &mut [f32; N],
                 b1: &mut [f32; N],
                 b2: &mut [f32; N],
             ) -> u32 {
-                intersect_lanes_simd::<__m256, N>(r, tri, t_max, lanes, t, b1, b2)
+                intersect_lanes_simd::<__m256, N>(r, planes, slot, t_max, lanes, t, b1, b2)
             }
             #[target_feature(enable = "avx2,avx512f")]
+            #[allow(clippy::too_many_arguments)]
             fn avx512<const N: usize>(
                 r: &WatertightLanes<N>,
-                tri: &[Vec3; 3],
+                planes: &Planes4,
+                slot: usize,
                 t_max: &[f32; N],
                 lanes: u32,
                 t: &mut [f32; N],
                 b1: &mut [f32; N],
                 b2: &mut [f32; N],
             ) -> u32 {
-                intersect_lanes_simd::<__m512, N>(r, tri, t_max, lanes, t, b1, b2)
+                intersect_lanes_simd::<__m512, N>(r, planes, slot, t_max, lanes, t, b1, b2)
             }
             let mut forms: Vec<(&str, Form<N>)> = Vec::new();
             if N.is_multiple_of(4) {
@@ -1260,8 +1295,8 @@ mod tests {
             }
             if N.is_multiple_of(8) && std::is_x86_feature_detected!("avx2") {
                 // SAFETY: AVX2 was just detected.
-                forms.push(("avx2", |r, tri, tm, l, t, b1, b2| unsafe {
-                    avx2(r, tri, tm, l, t, b1, b2)
+                forms.push(("avx2", |r, p, slot, tm, l, t, b1, b2| unsafe {
+                    avx2(r, p, slot, tm, l, t, b1, b2)
                 }));
             }
             if N.is_multiple_of(16)
@@ -1269,20 +1304,31 @@ mod tests {
                 && std::is_x86_feature_detected!("avx512f")
             {
                 // SAFETY: AVX2 and AVX-512F were just detected.
-                forms.push(("avx512", |r, tri, tm, l, t, b1, b2| unsafe {
-                    avx512(r, tri, tm, l, t, b1, b2)
+                forms.push(("avx512", |r, p, slot, tm, l, t, b1, b2| unsafe {
+                    avx512(r, p, slot, tm, l, t, b1, b2)
                 }));
             }
             for (name, form) in forms {
-                let (mut ft, mut fb1, mut fb2) = ([0.0; N], [0.0; N], [0.0; N]);
-                let fm = form(r, tri, t_max, lanes, &mut ft, &mut fb1, &mut fb2);
-                assert_eq!(fm, m, "{name}: hit lanes");
-                for i in (0..N).filter(|&i| m >> i & 1 == 1) {
-                    assert_eq!(
-                        [ft[i], fb1[i], fb2[i]].map(f32::to_bits),
-                        [t[i], b1[i], b2[i]].map(f32::to_bits),
-                        "{name}: lane {i}"
-                    );
+                for slot in 0..4 {
+                    let mut planes: Planes4 = [[[0.0; 4]; 3]; 3];
+                    for (vi, rows) in planes.iter_mut().enumerate() {
+                        for (a, row) in rows.iter_mut().enumerate() {
+                            for (l, x) in row.iter_mut().enumerate() {
+                                let v = if l == slot { tri } else { &other };
+                                *x = v[vi].to_array()[a];
+                            }
+                        }
+                    }
+                    let (mut ft, mut fb1, mut fb2) = ([0.0; N], [0.0; N], [0.0; N]);
+                    let fm = form(r, &planes, slot, t_max, lanes, &mut ft, &mut fb1, &mut fb2);
+                    assert_eq!(fm, m, "{name}, slot {slot}: hit lanes");
+                    for i in (0..N).filter(|&i| m >> i & 1 == 1) {
+                        assert_eq!(
+                            [ft[i], fb1[i], fb2[i]].map(f32::to_bits),
+                            [t[i], b1[i], b2[i]].map(f32::to_bits),
+                            "{name}, slot {slot}: lane {i}"
+                        );
+                    }
                 }
             }
         }

@@ -25,7 +25,7 @@
 //! masked, so they are never written to the output.
 
 use super::BvhView;
-use super::leaf::{slot_id, slot_tri};
+use super::leaf::slot_id;
 use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
@@ -722,7 +722,7 @@ fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
             b1: &mut *tb1,
             b2: &mut *tb2,
         };
-        let m = B::Lanes::tri_lanes(&l.wt, &slot_tri(blocks, j), &l.t_max, lanes, out);
+        let m = B::Lanes::tri_lanes(&l.wt, &blocks[j / 4].v, j % 4, &l.t_max, lanes, out);
         apply_hits(
             m,
             (first + j) as u32,

@@ -48,10 +48,9 @@ use crate::geometry::RayPacket;
 use crate::geometry::triangle::WatertightRay;
 #[cfg(target_arch = "x86_64")]
 use crate::geometry::triangle::intersect_lanes_simd;
-use crate::geometry::triangle::{WatertightLanes, intersect_lanes};
+use crate::geometry::triangle::{Planes4, WatertightLanes, intersect_lanes, planes_tri};
 #[cfg(target_arch = "x86_64")]
 use crate::math::lanes::LaneVec;
-use glam::Vec3;
 
 /// Where [`LaneTests::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
 /// (other lanes' entries are left unspecified).
@@ -202,11 +201,13 @@ pub(super) trait LaneTests {
         lanes: u32,
     ) -> ([u32; WIDTH], [f32; WIDTH]);
 
-    /// One triangle against `N` lanes: the lanes that hit it in front of
-    /// their `t_max`, with `t`, `b1`, `b2` in `out`.
+    /// Triangle `slot` of a leaf block's `planes` against `N` lanes: the
+    /// lanes that hit it in front of their `t_max`, with `t`, `b1`, `b2` in
+    /// `out`.
     fn tri_lanes<const N: usize>(
         r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
+        planes: &Planes4,
+        slot: usize,
         t_max: &[f32; N],
         lanes: u32,
         out: TriLanesOut<'_, N>,
@@ -250,12 +251,14 @@ impl LaneTests for PortableLanes {
     #[inline(always)]
     fn tri_lanes<const N: usize>(
         r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
+        planes: &Planes4,
+        slot: usize,
         t_max: &[f32; N],
         lanes: u32,
         out: TriLanesOut<'_, N>,
     ) -> u32 {
-        intersect_lanes(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+        let tri = planes_tri(planes, slot);
+        intersect_lanes(r, &tri, t_max, lanes, out.t, out.b1, out.b2)
     }
 }
 
@@ -312,15 +315,16 @@ impl<V: LaneVec, Narrower: LaneTests> LaneTests for RegLanes<V, Narrower> {
     #[inline(always)]
     fn tri_lanes<const N: usize>(
         r: &WatertightLanes<N>,
-        tri: &[Vec3; 3],
+        planes: &Planes4,
+        slot: usize,
         t_max: &[f32; N],
         lanes: u32,
         out: TriLanesOut<'_, N>,
     ) -> u32 {
         if N.is_multiple_of(V::W) {
-            intersect_lanes_simd::<V, N>(r, tri, t_max, lanes, out.t, out.b1, out.b2)
+            intersect_lanes_simd::<V, N>(r, planes, slot, t_max, lanes, out.t, out.b1, out.b2)
         } else {
-            Narrower::tri_lanes(r, tri, t_max, lanes, out)
+            Narrower::tri_lanes(r, planes, slot, t_max, lanes, out)
         }
     }
 }
