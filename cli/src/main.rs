@@ -242,6 +242,14 @@ enum BenchCommand {
         #[arg(long, default_value_t = 1)]
         rounds: usize,
     },
+    /// Issue 4's throughput targets checked on the CSVs of `bench rays`
+    /// runs: each run's table and tallies, then the cells that met each
+    /// target in every run.
+    RaysSummary {
+        /// CSV files written by `bench rays --csv`.
+        #[arg(required = true)]
+        csv: Vec<PathBuf>,
+    },
     /// Flicker of frame-by-frame MLT/CMLT with and without each temporal
     /// switch (static camera), and each orbit frame's mean against a BDPT
     /// reference of its camera (moving camera).
@@ -846,6 +854,25 @@ fn run(cli: Cli) -> Result<(), String> {
             let rows = cmlt_cli::bench::rays::run(&opts, &mut std::io::stdout())?;
             if let Some(path) = csv {
                 cmlt_cli::bench::rays::write_csv(&path, &rows)?;
+            }
+            cmlt_cli::bench::ray_targets::write_summary(&rows, &mut std::io::stdout())
+                .map_err(|e| e.to_string())?;
+            Ok(())
+        }
+        Command::Bench(BenchCommand::RaysSummary { csv }) => {
+            let runs = csv
+                .iter()
+                .map(|p| cmlt_cli::bench::ray_targets::read_csv(p))
+                .collect::<Result<Vec<_>, _>>()?;
+            use std::io::Write as _;
+            let mut out = std::io::stdout();
+            let io = |e: std::io::Error| e.to_string();
+            for (path, rows) in csv.iter().zip(&runs) {
+                writeln!(out, "{}:", path.display()).map_err(io)?;
+                cmlt_cli::bench::ray_targets::write_summary(rows, &mut out).map_err(io)?;
+            }
+            if runs.len() > 1 {
+                cmlt_cli::bench::ray_targets::write_across(&runs, &mut out).map_err(io)?;
             }
             Ok(())
         }

@@ -103,5 +103,54 @@ fn bench_rays_writes_csv() {
     }
     assert_eq!(kernels, want);
     assert_eq!(keys.len(), 2 * 5 * 2 * want.len());
+
+    // The run ends with the targets' summary: both scenes' rows, and the
+    // packet target's tally over both scenes' two MTM sets.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("best ours / best embree (1T / 2T)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("1T packets >= 2x single rays, mtm:"),
+        "{stdout}"
+    );
+    assert!(stdout.contains(" of 4"), "{stdout}");
+    // `bench rays-summary` reads the CSV back: the same table, and with two
+    // files the cells met in every run.
+    let summary = Command::new(env!("CARGO_BIN_EXE_cmlt"))
+        .args(["bench", "rays-summary"])
+        .arg(&csv)
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(summary.status.success());
+    let text = String::from_utf8_lossy(&summary.stdout);
+    let table = |s: &str| {
+        s.lines()
+            .skip_while(|l| !l.starts_with("best ours"))
+            .take(3)
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(table(&text), table(&stdout), "{text}");
+    assert!(text.contains("across 2 runs"), "{text}");
+    // A malformed CSV is an error that names the file and the line.
+    let bad = dir.join("bad.csv");
+    std::fs::write(
+        &bad,
+        format!(
+            "{}\nmesh,primary,ours-avx2,1\n",
+            "scene,ray_set,kernel,threads,mrays_per_s"
+        ),
+    )
+    .unwrap();
+    let failed = Command::new(env!("CARGO_BIN_EXE_cmlt"))
+        .args(["bench", "rays-summary"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!failed.status.success());
+    assert!(String::from_utf8_lossy(&failed.stderr).contains("bad.csv:2"));
     std::fs::remove_dir_all(&dir).ok();
 }

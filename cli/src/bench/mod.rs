@@ -1,6 +1,8 @@
 //! Benchmarks of the front end (`cmlt bench …`).
 //!
 //! - [`rays`]: ray throughput of every traversal kernel;
+//! - [`ray_targets`]: issue 4's throughput targets checked on `rays`'
+//!   measurements (one run, or the CSVs of several);
 //! - [`convergence`]: error against a reference versus time, per method;
 //! - [`params`]: CMLT's σ × k × m grid at a fixed time;
 //! - [`flicker`]: frame-to-frame flicker with and without the temporal
@@ -15,5 +17,6 @@ pub mod effects;
 pub mod flicker;
 pub mod params;
 pub mod plot;
+pub mod ray_targets;
 pub mod rays;
 pub mod study;
