@@ -160,6 +160,25 @@ pub struct Targets {
     pub packets: Tally,
 }
 
+/// The targets' labels in the summaries, in [`Targets::get`]'s order.
+pub const TARGET_LABELS: [&str; 3] = [
+    "ours >= 0.8x embree, every set",
+    "ours >= 1.0x embree, mtm bundles",
+    "packets >= 2x single rays, mtm",
+];
+
+impl Targets {
+    /// Target `k`'s tally, in [`TARGET_LABELS`]' order (`k` past the last
+    /// gives the last).
+    pub fn get(&self, k: usize) -> &Tally {
+        match k {
+            0 => &self.every_set,
+            1 => &self.mtm,
+            _ => &self.packets,
+        }
+    }
+}
+
 /// Checks the targets on the cells with `threads` threads. A cell enters a
 /// tally only if both of its figures were measured.
 pub fn targets(cells: &[Cell], threads: usize) -> Targets {
@@ -223,9 +242,9 @@ pub fn write_summary(rows: &[Measurement], out: &mut dyn Write) -> std::io::Resu
     }
     for &t in &threads {
         let tally = targets(&cells, t);
-        write_tally(out, t, "ours >= 0.8x embree, every set", &tally.every_set)?;
-        write_tally(out, t, "ours >= 1.0x embree, mtm bundles", &tally.mtm)?;
-        write_tally(out, t, "packets >= 2x single rays, mtm", &tally.packets)?;
+        for (k, what) in TARGET_LABELS.iter().enumerate() {
+            write_tally(out, t, what, tally.get(k))?;
+        }
     }
     Ok(())
 }
@@ -285,33 +304,27 @@ pub fn read_csv(path: &Path) -> Result<Vec<Measurement>, String> {
 }
 
 /// Across several runs: per thread count and target, the cells that met
-/// it in every run, and for the others the range of their figures.
+/// it in every run, and for the others how often they missed and their
+/// lowest figure.
 pub fn write_across(runs: &[Vec<Measurement>], out: &mut dyn Write) -> std::io::Result<()> {
     let per_run: Vec<Vec<Cell>> = runs.iter().map(|r| cells(r)).collect();
     let threads = distinct(per_run.iter().flatten().map(|c| c.threads));
     writeln!(out, "across {} runs (met = met in every run)", runs.len())?;
-    type Pick = fn(&Targets) -> &Tally;
-    let kinds: [(&str, Pick); 3] = [
-        ("ours >= 0.8x embree, every set", |t| &t.every_set),
-        ("ours >= 1.0x embree, mtm bundles", |t| &t.mtm),
-        ("packets >= 2x single rays, mtm", |t| &t.packets),
-    ];
     for &t in &threads {
         let tallies: Vec<Targets> = per_run.iter().map(|c| targets(c, t)).collect();
-        for (what, pick) in kinds {
-            // Every cell any run measured for this target, with its
-            // figure in each run (missed cells carry theirs; met ones are
-            // only counted, so the range covers the misses).
+        for (k, what) in TARGET_LABELS.iter().enumerate() {
+            // The cells that missed in some run, with their figure in
+            // each run they missed (met cells are only counted).
             let mut missed_somewhere: Vec<(String, Vec<f64>)> = Vec::new();
             for tally in &tallies {
-                for (cell, v) in &pick(tally).missed {
+                for (cell, v) in &tally.get(k).missed {
                     match missed_somewhere.iter_mut().find(|(c, _)| c == cell) {
                         Some((_, vs)) => vs.push(*v),
                         None => missed_somewhere.push((cell.clone(), vec![*v])),
                     }
                 }
             }
-            let of = tallies.iter().map(|x| pick(x).of).max().unwrap_or(0);
+            let of = tallies.iter().map(|x| x.get(k).of).max().unwrap_or(0);
             if of == 0 {
                 continue;
             }
