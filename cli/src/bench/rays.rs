@@ -340,6 +340,34 @@ fn ray_sets(s: &BenchScene, bvh: &Bvh, count: usize) -> RaySets {
     }
 }
 
+/// The processor the figures were measured on ([`cpu_model_in`] of
+/// `/proc/cpuinfo`), or `unknown`. Printed with every run because the
+/// kernels' ratios to Embree differ between processors (`docs/rays.md`,
+/// "Stop 34").
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| cpu_model_in(&info))
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// The first processor's model name in a `/proc/cpuinfo` text, with its
+/// x86 family and model numbers when given (they tell apart
+/// microarchitectures sold under one name, such as "AMD EPYC").
+fn cpu_model_in(info: &str) -> Option<String> {
+    let field = |key: &str| {
+        info.lines()
+            .filter_map(|l| l.split_once(':'))
+            .find(|(k, _)| k.trim() == key)
+            .map(|(_, v)| v.trim().to_string())
+    };
+    let name = field("model name")?;
+    Some(match (field("cpu family"), field("model")) {
+        (Some(fam), Some(model)) => format!("{name} (family {fam}, model {model})"),
+        _ => name,
+    })
+}
+
 /// How a kernel traces a ray set.
 #[derive(Clone, Copy)]
 enum Mode {
@@ -491,6 +519,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Measurement>, Stri
     let mut rows = Vec::new();
     let time = Duration::from_secs_f64(opts.time.max(0.0));
     let io = |e: std::io::Error| e.to_string();
+    writeln!(out, "cpu: {}", cpu_model()).map_err(io)?;
     for name in &opts.scenes {
         let scene = load(name, opts)?;
         let t0 = Instant::now();
@@ -646,4 +675,25 @@ fn print_line(
         write!(out, "  | best ours/embree {:.2}", ours / embree)?;
     }
     writeln!(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu_model_in;
+
+    #[test]
+    fn cpu_model_reads_the_first_processor() {
+        let amd = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 25\nmodel\t\t: 17\n\
+                   model name\t: AMD EPYC\nstepping\t: 1\n\nprocessor\t: 1\nmodel name\t: other\n";
+        assert_eq!(
+            cpu_model_in(amd).as_deref(),
+            Some("AMD EPYC (family 25, model 17)")
+        );
+        // No x86 family and model (as on other architectures): the name.
+        assert_eq!(
+            cpu_model_in("processor : 0\nmodel name : Some Core\n").as_deref(),
+            Some("Some Core")
+        );
+        assert_eq!(cpu_model_in("processor : 0\nBogoMIPS : 50.00\n"), None);
+    }
 }
