@@ -30,7 +30,7 @@ use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep
 #[cfg(target_arch = "x86_64")]
 use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
 use super::simd::{BoxTest, LaneTests, ScalarBox, TriLanesOut};
-use super::traverse::{self, Prepared, Stack, descend, traverse_from};
+use super::traverse::{self, Prepared, Stack, descend, descend_any, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
@@ -501,8 +501,15 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
                 traverse::prefetch(view, e.child, e.count);
                 stack.push(e);
             };
-            // In the single-ray kernel's order (`traverse::descend`).
-            if let Some(e) = descend(any, &t_min, entry, defer) {
+            // In the single-ray kernel's order (`traverse::descend`, or
+            // for occlusion `traverse::descend_any`, the boxes holding some
+            // lane's origin last).
+            let next = if ANY {
+                descend_any(any, &t_min, entry, defer)
+            } else {
+                descend(any, &t_min, entry, defer)
+            };
+            if let Some(e) = next {
                 cur = e;
                 continue;
             }
@@ -615,7 +622,12 @@ fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
                 }
                 stack.push(e);
             };
-            if let Some(e) = descend(mask, &near, entry, defer) {
+            let next = if ANY {
+                descend_any(mask, &near, entry, defer)
+            } else {
+                descend(mask, &near, entry, defer)
+            };
+            if let Some(e) = next {
                 cur = e;
                 continue;
             }
