@@ -131,6 +131,47 @@ pub(super) fn child_lanes_simd<V: LaneVec, const N: usize>(
     hit & lanes
 }
 
+/// `packet::apply_hits` in registers of `V::W` lanes: a select per
+/// register of `t_max`, `b1` and `b2`, and the slot stored in each hit
+/// lane. `N` must be a multiple of `V::W`.
+///
+/// The portable loops over `[bool; N]` were compiled (AVX-512, 16 lanes)
+/// to about 150 mask-register moves, shifts and permutes per call, in
+/// place of the three masked moves they stand for: 13% of the samples of
+/// packets of 16 on the 260k-triangle mesh's MTM bundles (Zen 4, stop 35).
+#[inline(always)]
+pub(super) fn apply_hits_simd<V: LaneVec, const N: usize>(
+    m: u32,
+    idx: u32,
+    (t, tb1, tb2): (&[f32; N], &[f32; N], &[f32; N]),
+    t_max: &mut [f32; N],
+    best: &mut [u32; N],
+    b1: &mut [f32; N],
+    b2: &mut [f32; N],
+) {
+    debug_assert!(N.is_multiple_of(V::W));
+    if m == 0 {
+        // The common case (most triangles are missed by every lane); the
+        // branch also keeps `t_max` off the division's dependency chain
+        // (`packet::apply_hits`).
+        return;
+    }
+    for at in (0..N).step_by(V::W) {
+        let h = m >> at & lane_bits(V::W);
+        V::select(h, V::load(&t[at..]), V::load(&t_max[at..])).store(&mut t_max[at..]);
+        V::select(h, V::load(&tb1[at..]), V::load(&b1[at..])).store(&mut b1[at..]);
+        V::select(h, V::load(&tb2[at..]), V::load(&b2[at..])).store(&mut b2[at..]);
+    }
+    let mut bits = m;
+    while bits != 0 {
+        let i = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        if let Some(b) = best.get_mut(i) {
+            *b = idx;
+        }
+    }
+}
+
 /// `packet::prepare_lanes_portable` in registers of `V::W` lanes: the
 /// same values (one IEEE division per lane, selects), so the same bits.
 /// `N` must be a multiple of `V::W`.

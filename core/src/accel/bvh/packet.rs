@@ -735,10 +735,10 @@ fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
             b2: &mut *tb2,
         };
         let m = B::Lanes::tri_lanes(&l.wt, &blocks[j / 4].v, j % 4, &l.t_max, lanes, out);
-        apply_hits(
+        B::Lanes::apply_hits(
             m,
             (first + j) as u32,
-            (tt, tb1, tb2),
+            (&*tt, &*tb1, &*tb2),
             &mut l.t_max,
             best,
             b1,
@@ -758,7 +758,7 @@ fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
 /// Records the hits `m` on triangle slot `idx` with their `t`,
 /// `b1`, `b2`: the closest hit so far of those lanes.
 #[inline(always)]
-fn apply_hits<const N: usize>(
+pub(super) fn apply_hits<const N: usize>(
     m: u32,
     idx: u32,
     (t, tb1, tb2): (&[f32; N], &[f32; N], &[f32; N]),

@@ -36,14 +36,14 @@
 //! otherwise.
 
 #[cfg(target_arch = "x86_64")]
-use super::lanes::{boxes_lanes_simd, child_lanes_simd, prepare_lanes_simd};
+use super::lanes::{apply_hits_simd, boxes_lanes_simd, child_lanes_simd, prepare_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
 #[cfg(target_arch = "x86_64")]
 use super::node::FAR_SCALE;
 use super::node::{
     BoxFrustum, BoxRay, FrustumHits, Node, WIDTH, boxes, boxes_frustum, child_lanes,
 };
-use super::packet::{BoxLanes, LanesOut, boxes_lanes_portable, prepare_lanes_portable};
+use super::packet::{BoxLanes, LanesOut, apply_hits, boxes_lanes_portable, prepare_lanes_portable};
 use crate::geometry::RayPacket;
 use crate::geometry::triangle::WatertightRay;
 #[cfg(target_arch = "x86_64")]
@@ -212,6 +212,19 @@ pub(super) trait LaneTests {
         lanes: u32,
         out: TriLanesOut<'_, N>,
     ) -> u32;
+
+    /// Records the hits `m` of the lanes on triangle slot `idx`, with the
+    /// test's `t`, `b1`, `b2` in `found`: the closest hit so far of those
+    /// lanes (`packet::apply_hits`).
+    fn apply_hits<const N: usize>(
+        m: u32,
+        idx: u32,
+        found: (&[f32; N], &[f32; N], &[f32; N]),
+        t_max: &mut [f32; N],
+        best: &mut [u32; N],
+        b1: &mut [f32; N],
+        b2: &mut [f32; N],
+    );
 }
 
 /// The portable lane loops over `[f32; N]`: the scalar kernel's, and
@@ -259,6 +272,19 @@ impl LaneTests for PortableLanes {
     ) -> u32 {
         let tri = planes_tri(planes, slot);
         intersect_lanes(r, &tri, t_max, lanes, out.t, out.b1, out.b2)
+    }
+
+    #[inline(always)]
+    fn apply_hits<const N: usize>(
+        m: u32,
+        idx: u32,
+        found: (&[f32; N], &[f32; N], &[f32; N]),
+        t_max: &mut [f32; N],
+        best: &mut [u32; N],
+        b1: &mut [f32; N],
+        b2: &mut [f32; N],
+    ) {
+        apply_hits(m, idx, found, t_max, best, b1, b2)
     }
 }
 
@@ -325,6 +351,27 @@ impl<V: LaneVec, Narrower: LaneTests> LaneTests for RegLanes<V, Narrower> {
             intersect_lanes_simd::<V, N>(r, planes, slot, t_max, lanes, out.t, out.b1, out.b2)
         } else {
             Narrower::tri_lanes(r, planes, slot, t_max, lanes, out)
+        }
+    }
+
+    #[inline(always)]
+    fn apply_hits<const N: usize>(
+        m: u32,
+        idx: u32,
+        found: (&[f32; N], &[f32; N], &[f32; N]),
+        t_max: &mut [f32; N],
+        best: &mut [u32; N],
+        b1: &mut [f32; N],
+        b2: &mut [f32; N],
+    ) {
+        // AVX-512 only: with narrower registers LLVM turns the select
+        // stored back in place into a masked store (`vmaskmovps`), which
+        // AMD's cores run microcoded; their portable loops compile to
+        // blends and whole-register stores (packets of 8).
+        if N.is_multiple_of(V::W) && V::W >= 16 {
+            apply_hits_simd::<V, N>(m, idx, found, t_max, best, b1, b2)
+        } else {
+            Narrower::apply_hits(m, idx, found, t_max, best, b1, b2)
         }
     }
 }
