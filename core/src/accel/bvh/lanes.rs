@@ -340,11 +340,61 @@ mod tests {
         }
     }
 
+    /// `V`'s hit recording and the portable one, from the same state and
+    /// hits (any lane mask, none and all included), leave the same bits.
+    fn check_apply_hits<V: LaneVec>(rng: &mut Rng) {
+        for round in 0..2000 {
+            let lanes = |rng: &mut Rng| -> [f32; 16] { core::array::from_fn(|_| rng.f(0.0, 9.0)) };
+            let found = (lanes(rng), lanes(rng), lanes(rng));
+            let state = (
+                lanes(rng),
+                core::array::from_fn::<u32, 16, _>(|_| rng.next()),
+                lanes(rng),
+                lanes(rng),
+            );
+            let m = match round % 4 {
+                0 => 0,
+                1 => 0xffff,
+                _ => rng.next() & 0xffff,
+            };
+            let idx = rng.next();
+            let (mut want, mut got) = (state, state);
+            let f = (&found.0, &found.1, &found.2);
+            crate::accel::bvh::packet::apply_hits(
+                m,
+                idx,
+                f,
+                &mut want.0,
+                &mut want.1,
+                &mut want.2,
+                &mut want.3,
+            );
+            apply_hits_simd::<V, 16>(m, idx, f, &mut got.0, &mut got.1, &mut got.2, &mut got.3);
+            assert_eq!(
+                got.0.map(f32::to_bits),
+                want.0.map(f32::to_bits),
+                "t_max, m {m:#x}"
+            );
+            assert_eq!(got.1, want.1, "slots, m {m:#x}");
+            assert_eq!(
+                got.2.map(f32::to_bits),
+                want.2.map(f32::to_bits),
+                "b1, m {m:#x}"
+            );
+            assert_eq!(
+                got.3.map(f32::to_bits),
+                want.3.map(f32::to_bits),
+                "b2, m {m:#x}"
+            );
+        }
+    }
+
     #[target_feature(enable = "avx2")]
     fn check_avx2(rng: &mut Rng) {
         check::<__m256>(rng);
         check_frustum::<__m256>(rng);
         check_prepare::<__m256>(rng);
+        check_apply_hits::<__m256>(rng);
     }
 
     #[target_feature(enable = "avx2,avx512f")]
@@ -352,6 +402,7 @@ mod tests {
         check::<__m512>(rng);
         check_frustum::<__m512>(rng);
         check_prepare::<__m512>(rng);
+        check_apply_hits::<__m512>(rng);
     }
 
     /// Sixteen lanes from one origin (often on a slab plane of some box),
@@ -527,13 +578,15 @@ mod tests {
     /// Every register width agrees with the portable lane loops bit for
     /// bit, NaN slabs, flat and empty boxes, dummy lanes and partial masks
     /// included (the packet tests compare final hits only; this
-    /// compares the box test itself).
+    /// compares the box test, the set-up and the hit recording
+    /// themselves).
     #[test]
     fn simd_box_test_matches_portable() {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         check::<__m128>(&mut rng);
         check_frustum::<__m128>(&mut rng);
         check_prepare::<__m128>(&mut rng);
+        check_apply_hits::<__m128>(&mut rng);
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: AVX2 was just detected.
             unsafe { check_avx2(&mut rng) };
