@@ -35,6 +35,7 @@ pub mod accel;
 
 mod bsdf;
 mod error;
+pub mod input;
 mod loader;
 mod mesh_io;
 mod shapes;
@@ -76,7 +77,7 @@ pub struct LoadedScene {
 /// that override the scene's `<default>` values.
 pub fn load_scene(path: &Path, defaults: &[(String, String)]) -> Result<LoadedScene, LoadError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path)
+    let bytes = input::read_bounded(path, input::MAX_SCENE_BYTES, "scene file")
         .map_err(|e| LoadError::whole_file(&name, format!("cannot read scene file: {e}")))?;
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,

@@ -6,7 +6,6 @@
 //! third-party parsers run under `catch_unwind`: a malformed file must give
 //! an error, never take the process down.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
@@ -14,6 +13,8 @@ use std::path::Path;
 use glam::{DVec2, DVec3};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{Property, PropertyAccess};
+
+use crate::input;
 
 /// Triangles in object space, before `to_world`.
 #[derive(Clone, Debug, Default)]
@@ -92,7 +93,7 @@ fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, St
 /// across groups, which only matters for smooth normals computed at group
 /// borders of files without `vn`.
 pub(crate) fn read_obj(path: &Path, flip_tex_coords: bool) -> Result<RawMesh, String> {
-    let file = File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+    let (file, _) = input::open_bounded(path, input::MAX_MESH_BYTES, "mesh file")?;
     let mut reader = BufReader::new(file);
     // Cargo features of tobj (merging, reordering) add fields; keep the
     // struct update so that feature unification cannot break the build.
@@ -257,36 +258,59 @@ impl PropertyAccess for Skip {
     }
 }
 
-/// Rejects element counts that ply-rs would panic on (it unwraps the
-/// parse of any digit string) or that no real file has.
+/// Longest PLY header line accepted; real ones are under 100 bytes.
+const MAX_PLY_HEADER_LINE: u64 = 4096;
+/// Most PLY header lines accepted (comments included).
+const MAX_PLY_HEADER_LINES: usize = 10_000;
+
+/// Checks a PLY header before ply-rs reads it: the header must end within
+/// [`MAX_PLY_HEADER_LINES`] lines of at most [`MAX_PLY_HEADER_LINE`] bytes
+/// (ply-rs reads a line until its newline, however long), and element
+/// counts must be numbers ply-rs will not panic on (it unwraps the parse of
+/// any digit string) that fit the file: every element takes at least one
+/// byte, so a count beyond the file's size is a lie that would make the
+/// parser reserve memory for it.
 fn check_ply_header(path: &Path) -> Result<(), String> {
-    use std::io::BufRead;
-    let file = File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+    use std::io::{BufRead, Read};
+    let (file, file_len) = input::open_bounded(path, input::MAX_MESH_BYTES, "mesh file")?;
     let mut reader = BufReader::new(file);
     let mut line = Vec::new();
-    for _ in 0..10_000 {
+    for _ in 0..MAX_PLY_HEADER_LINES {
         line.clear();
-        let n = reader
+        let n = (&mut reader)
+            .take(MAX_PLY_HEADER_LINE + 1)
             .read_until(b'\n', &mut line)
             .map_err(|e| format!("cannot read: {e}"))?;
-        if n == 0 || line.len() > 4096 {
-            break;
+        if n == 0 {
+            return Err("invalid PLY data: the file ends before 'end_header'".into());
+        }
+        if line.len() as u64 > MAX_PLY_HEADER_LINE {
+            return Err(format!(
+                "invalid PLY data: a header line longer than {MAX_PLY_HEADER_LINE} bytes"
+            ));
         }
         let text = String::from_utf8_lossy(&line);
         let mut words = text.split_whitespace();
         match words.next() {
-            Some("end_header") => break,
+            Some("end_header") => return Ok(()),
             Some("element") => {
                 let count = words.nth(1).unwrap_or("");
                 match count.parse::<u64>() {
-                    Ok(c) if c <= u32::MAX as u64 => {}
+                    Ok(c) if c <= u32::MAX as u64 && c <= file_len => {}
+                    Ok(c) if c <= u32::MAX as u64 => {
+                        return Err(format!(
+                            "invalid PLY data: element count {c} exceeds the file's {file_len} bytes"
+                        ));
+                    }
                     _ => return Err(format!("invalid PLY header: bad element count '{count}'")),
                 }
             }
             _ => {}
         }
     }
-    Ok(())
+    Err(format!(
+        "invalid PLY data: no 'end_header' within {MAX_PLY_HEADER_LINES} lines"
+    ))
 }
 
 /// Reads a PLY file (ascii or binary) like Mitsuba's `ply` plugin: vertex
@@ -296,7 +320,7 @@ fn check_ply_header(path: &Path) -> Result<(), String> {
 /// triangulated as fans here. uv is not flipped (Mitsuba does not either).
 pub(crate) fn read_ply(path: &Path) -> Result<RawMesh, String> {
     check_ply_header(path)?;
-    let file = File::open(path).map_err(|e| format!("cannot open: {e}"))?;
+    let (file, _) = input::open_bounded(path, input::MAX_MESH_BYTES, "mesh file")?;
     let mut reader = BufReader::new(file);
     guarded("PLY", move || {
         let io = |e: std::io::Error| format!("invalid PLY data: {}", tidy(&e.to_string()));

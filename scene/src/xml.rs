@@ -15,6 +15,7 @@ use glam::DMat4;
 use roxmltree::{Document, Node, NodeId};
 
 use super::error::LoadError;
+use super::input;
 use super::transform;
 
 /// Tags that denote objects (plugin instances) rather than properties.
@@ -185,17 +186,48 @@ impl<'a> Xml<'a> {
         }
         let mut value = raw.to_string();
         for p in &self.params {
-            let mut from = 0;
-            while let Some(found) = value[from..].find(&p.key) {
-                let at = from + found;
-                if at > 0 && value.as_bytes()[at - 1] == b'\\' {
-                    from = at + p.key.len();
-                    continue;
-                }
-                value.replace_range(at..at + p.key.len(), &p.value);
-                p.used.set(true);
-                from = at + p.value.len();
+            if !value.contains(&p.key) {
+                continue;
             }
+            // One pass per key, building a new string: replacing in place
+            // moved the tail once per occurrence (quadratic), and a value
+            // that names defaults naming defaults grows exponentially with
+            // the depth, so the result is bounded as it is built.
+            let mut out = String::new();
+            let mut rest = value.as_str();
+            while let Some(at) = rest.find(&p.key) {
+                let escaped = at > 0 && rest.as_bytes()[at - 1] == b'\\';
+                let (piece, replacement) = if escaped {
+                    (&rest[..at + p.key.len()], "")
+                } else {
+                    p.used.set(true);
+                    (&rest[..at], p.value.as_str())
+                };
+                if out.len() + piece.len() + replacement.len() > input::MAX_SUBSTITUTED_BYTES {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "substituting '{}' makes the value longer than {} bytes (defaults that expand into each other?)",
+                            p.key,
+                            input::MAX_SUBSTITUTED_BYTES
+                        ),
+                    ));
+                }
+                out.push_str(piece);
+                out.push_str(replacement);
+                rest = &rest[at + p.key.len()..];
+            }
+            if out.len() + rest.len() > input::MAX_SUBSTITUTED_BYTES {
+                return Err(self.err(
+                    node,
+                    format!(
+                        "the value is longer than {} bytes after substitution",
+                        input::MAX_SUBSTITUTED_BYTES
+                    ),
+                ));
+            }
+            out.push_str(rest);
+            value = out;
         }
         let bytes = value.as_bytes();
         for (i, &b) in bytes.iter().enumerate() {
@@ -713,5 +745,54 @@ mod tests {
     fn tokenizer_accepts_commas_and_spaces() {
         assert_eq!(tokens("0.63, 0.065,0.05"), vec!["0.63", "0.065", "0.05"]);
         assert_eq!(tokens("1 2\t3"), vec!["1", "2", "3"]);
+    }
+
+    /// Defaults that each name the next ten times expand to 10^d bytes at
+    /// depth d (Mitsuba substitutes a default's value where it is
+    /// declared): the first one past the bound is refused at its own line,
+    /// quickly; the ones below it expand exactly.
+    #[test]
+    fn nested_defaults_cannot_expand_without_bound() {
+        // Defaults p10 = "x", p09 = ten "$p10", …, down to p{lowest}.
+        fn chain(lowest: usize) -> String {
+            let mut text =
+                String::from("<scene version=\"3.0.0\">\n<default name=\"p10\" value=\"x\"/>\n");
+            for d in (lowest..10).rev() {
+                let value = format!("$p{:02}", d + 1).repeat(10);
+                text += &format!("<default name=\"p{d:02}\" value=\"{value}\"/>\n");
+            }
+            text + "<integer name=\"n\" value=\"$p04\"/>\n</scene>"
+        }
+        let text = chain(0);
+        let doc = Document::parse(&text).unwrap();
+        let t = std::time::Instant::now();
+        let e = Xml::new(&doc, "deep.xml", &[]).err().expect("refused");
+        assert!(t.elapsed().as_secs_f64() < 5.0, "took {:?}", t.elapsed());
+        assert!(e.message.contains("longer than"), "{e}");
+        // Line 9 declares p03, 10^7 bytes; p04 (10^6) still fits.
+        assert_eq!(e.line, Some(9), "{e}");
+        let text = chain(4);
+        let doc = Document::parse(&text).unwrap();
+        let xml = Xml::new(&doc, "deep.xml", &[]).unwrap();
+        let node = doc
+            .descendants()
+            .find(|n| n.has_tag_name("integer"))
+            .unwrap();
+        assert_eq!(
+            xml.attr(node, "value").unwrap().unwrap(),
+            "x".repeat(1_000_000)
+        );
+    }
+
+    #[test]
+    fn escaped_and_repeated_keys_substitute_as_before() {
+        let text = "<scene version=\"3.0.0\"><default name=\"a\" value=\"1\"/><default name=\"ab\" value=\"2\"/><string name=\"s\" value=\"$a-$ab-\\$a-$a\"/></scene>";
+        let doc = Document::parse(text).unwrap();
+        let xml = Xml::new(&doc, "s.xml", &[]).unwrap();
+        let node = doc
+            .descendants()
+            .find(|n| n.has_tag_name("string"))
+            .unwrap();
+        assert_eq!(xml.attr(node, "value").unwrap().unwrap(), "1-2-$a-1");
     }
 }
