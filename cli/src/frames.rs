@@ -65,7 +65,10 @@ pub fn render_frames<I: Intersector + Sync>(
     camera_at: impl Fn(usize) -> Camera,
     mut on_frame: impl FnMut(usize, FrameResult) -> Result<(), String>,
 ) -> Result<(), String> {
-    let mut renderer = Renderer::new(cfg, camera_at(0)).map_err(|e| e.to_string())?;
+    let first = camera_at(0);
+    // One film per worker, the resolved frame and the renderer's own.
+    crate::render::check_film_memory(first.width(), first.height(), cfg.workers as usize + 2)?;
+    let mut renderer = Renderer::new(cfg, first).map_err(|e| e.to_string())?;
     let mut workers: Vec<RenderWorker> = (0..cfg.workers)
         .map(|i| RenderWorker::new(&renderer, i))
         .collect::<Result<_, _>>()

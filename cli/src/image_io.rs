@@ -1,6 +1,13 @@
 //! Image files: linear OpenEXR (exr crate) and sRGB PNG (image crate).
+//!
+//! Outputs are written atomically: encoded in memory, written to a
+//! temporary file in the target's directory, flushed to disk and checked,
+//! then renamed over the target. A failure at any step (a full disk, a
+//! missing directory) leaves the previous file as it was and removes the
+//! temporary one; the error names the file.
 
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
 use cmlt::math::Rgb;
 use cmlt::math::spectrum::linear_to_srgb;
@@ -62,13 +69,19 @@ impl Image {
     }
 }
 
-/// Writes a linear float32 RGB OpenEXR file.
+/// Writes a linear float32 RGB OpenEXR file (atomically).
 pub fn write_exr(path: &Path, img: &Image) -> Result<(), String> {
-    exr::prelude::write_rgb_file(path, img.width, img.height, |x, y| {
+    use exr::prelude::{Image as ExrImage, SpecificChannels, Vec2, WritableImage};
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = img.pixels[y * img.width + x];
         (p.r, p.g, p.b)
-    })
-    .map_err(|e| format!("{}: cannot write OpenEXR: {e}", path.display()))
+    });
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    ExrImage::from_channels((img.width, img.height), channels)
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|e| format!("{}: cannot write OpenEXR: {e}", path.display()))?;
+    write_atomically(path, bytes.get_ref())
 }
 
 /// Reads the first RGB(A) layer of an OpenEXR file as linear RGB.
@@ -89,8 +102,10 @@ pub fn read_exr(path: &Path) -> Result<Image, String> {
     Ok(image.layer_data.channel_data.pixels)
 }
 
-/// Writes an 8-bit sRGB PNG (values clipped to [0, 1] after encoding).
+/// Writes an 8-bit sRGB PNG (values clipped to [0, 1] after encoding;
+/// atomically).
 pub fn write_png(path: &Path, img: &Image) -> Result<(), String> {
+    use image::ImageEncoder;
     let mut buf = Vec::with_capacity(img.width * img.height * 3);
     for p in &img.pixels {
         for c in p.to_array() {
@@ -98,24 +113,110 @@ pub fn write_png(path: &Path, img: &Image) -> Result<(), String> {
             buf.push((v * 255.0 + 0.5) as u8);
         }
     }
-    image::save_buffer(
-        path,
-        &buf,
-        img.width as u32,
-        img.height as u32,
-        image::ColorType::Rgb8,
-    )
-    .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(
+            &buf,
+            img.width as u32,
+            img.height as u32,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+    write_atomically(path, &bytes)
+}
+
+/// The temporary file an output is written to before it is renamed over
+/// `path`: in the same directory (a rename across file systems is a copy),
+/// hidden, and named after the process so concurrent renders do not meet.
+fn temporary_path(path: &Path) -> Result<PathBuf, String> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| format!("{}: not a file name", path.display()))?;
+    let tmp = format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id());
+    Ok(path.with_file_name(tmp))
+}
+
+/// Writes `bytes` to `path` through a temporary file, flushed to disk and
+/// renamed over `path` only when every step succeeded.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    if path.exists() && !path.is_file() {
+        return Err(format!(
+            "{}: exists and is not a regular file",
+            path.display()
+        ));
+    }
+    let tmp = temporary_path(path)?;
+    let written = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        // Without sync a full disk can surface only when the file is
+        // closed, where the error is lost.
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    written.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("{}: cannot write: {e}", path.display())
+    })
+}
+
+/// True when `path` ends in `.png` (any case).
+pub fn is_png(path: &Path) -> bool {
+    extension(path).as_deref() == Some("png")
+}
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+}
+
+/// Checks before a render that `path` can be written as
+/// [`write_image`] will: a `.exr` or `.png` name in an existing directory
+/// where a file can be created (tried with the temporary file, which is
+/// removed again). The target itself is not touched.
+pub fn check_output(path: &Path) -> Result<(), String> {
+    if !matches!(extension(path).as_deref(), Some("exr" | "png")) {
+        return Err(format!(
+            "{}: output must end in .exr or .png",
+            path.display()
+        ));
+    }
+    // Renaming over a device (`/dev/full`) or a directory would replace
+    // it, not write into it.
+    if path.exists() && !path.is_file() {
+        return Err(format!(
+            "{}: exists and is not a regular file",
+            path.display()
+        ));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.exists() {
+        return Err(format!(
+            "{}: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        ));
+    }
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: {} is not a directory",
+            path.display(),
+            dir.display()
+        ));
+    }
+    let tmp = temporary_path(path)?;
+    std::fs::File::create(&tmp)
+        .and_then(|_| std::fs::remove_file(&tmp))
+        .map_err(|e| format!("{}: cannot write there: {e}", path.display()))
 }
 
 /// Writes `img` in the format the extension names (`.exr` or `.png`).
 pub fn write_image(path: &Path, img: &Image) -> Result<(), String> {
-    match path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .as_deref()
-    {
+    match extension(path).as_deref() {
         Some("exr") => write_exr(path, img),
         Some("png") => write_png(path, img),
         _ => Err(format!(

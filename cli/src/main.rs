@@ -86,12 +86,13 @@ enum Command {
         /// Estimator.
         #[arg(long, value_enum, default_value = "pt")]
         method: MethodArg,
-        /// Samples per pixel (default: the scene's `sample_count`).
-        #[arg(long, conflicts_with = "time")]
+        /// Samples per pixel, at least 1 (default: the scene's
+        /// `sample_count`).
+        #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
         spp: Option<u64>,
-        /// MLT: mutations per pixel over all threads (default: --spp, else
-        /// the scene's `sample_count`).
-        #[arg(long, conflicts_with = "time")]
+        /// MLT: mutations per pixel over all threads, at least 1 (default:
+        /// --spp, else the scene's `sample_count`).
+        #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
         mutations_per_pixel: Option<u64>,
         /// MLT: Markov chains per thread.
         #[arg(long, default_value_t = MltSettings::default().n_chains)]
@@ -133,11 +134,12 @@ enum Command {
         /// CMLT: what a multiple-try step records.
         #[arg(long, value_enum, default_value = "recycled")]
         splatting: SplattingArg,
-        /// Render for this many seconds instead of a fixed sample count.
-        #[arg(long)]
+        /// Render for this many seconds instead of a fixed sample count
+        /// (finite, > 0, at most a year).
+        #[arg(long, value_parser = parse_seconds)]
         time: Option<f64>,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
+        /// Worker threads, 1..=1024 (default: all cores).
+        #[arg(long, value_parser = parse_threads)]
         threads: Option<usize>,
         /// Ray-tracing backend for every method: our BVH, or Embree
         /// (builds with `--features embree` only).
@@ -164,7 +166,7 @@ enum Command {
         /// Render this many frames through the core's frame loop (one
         /// worker per thread), written as OUTPUT-0000.exr, … next to the
         /// output; the budget (--spp or --mutations-per-pixel) is per frame.
-        #[arg(long, conflicts_with = "time")]
+        #[arg(long, conflicts_with = "time", value_parser = parse_frames)]
         frames: Option<usize>,
         /// Frames: orbit the camera about the vertical through the point it
         /// looks at, --orbit-degrees over all frames.
@@ -457,6 +459,45 @@ enum BenchCommand {
     },
 }
 
+/// The longest `--time` budget accepted: a year, so that a deadline
+/// always fits the clock (`inf` or 1e30 s used to panic).
+const MAX_SECONDS: f64 = 365.0 * 24.0 * 3600.0;
+
+/// Most worker threads: far beyond any machine's cores, and each one holds
+/// a film of the whole image.
+const MAX_THREADS: usize = 1024;
+
+/// Most frames one `--frames` render writes.
+const MAX_FRAMES: usize = 1_000_000;
+
+/// A time budget in seconds: finite, positive, at most [`MAX_SECONDS`].
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let t: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if t.is_finite() && t > 0.0 && t <= MAX_SECONDS {
+        Ok(t)
+    } else {
+        Err(format!(
+            "the time budget must be finite, > 0 and at most {MAX_SECONDS} s, got {s}"
+        ))
+    }
+}
+
+/// A thread count in 1..=[`MAX_THREADS`].
+fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!("threads must be in 1..={MAX_THREADS}, got {s}")),
+    }
+}
+
+/// A frame count in 1..=[`MAX_FRAMES`].
+fn parse_frames(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_FRAMES).contains(&n) => Ok(n),
+        _ => Err(format!("frames must be in 1..={MAX_FRAMES}, got {s}")),
+    }
+}
+
 fn parse_define(s: &str) -> Result<(String, String), String> {
     let (k, v) = s
         .split_once('=')
@@ -578,7 +619,7 @@ fn run_mlt(
         threads,
         seed,
         &|n| bar.inc(n),
-    );
+    )?;
     bar.finish_and_clear();
     let img = Image {
         width: w as usize,
@@ -1067,6 +1108,14 @@ fn run(cli: Cli) -> Result<(), String> {
             fixed_sequence,
             all_effects,
         } => {
+            // Before any work: a render must not end in "cannot write".
+            image_io::check_output(&output)?;
+            if let Some(p) = &png {
+                image_io::check_output(p)?;
+                if !image_io::is_png(p) {
+                    return Err(format!("{}: --png must end in .png", p.display()));
+                }
+            }
             let t0 = Instant::now();
             let loaded: LoadedScene =
                 load_scene_or_builtin(scene.as_deref().unwrap_or("cornell-box"), &define)?;
@@ -1218,7 +1267,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 threads,
                 seed,
                 &|| bar.inc(1),
-            );
+            )?;
             bar.finish_and_clear();
             let img = Image {
                 width: w as usize,

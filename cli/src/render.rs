@@ -47,6 +47,60 @@ impl RenderOutput {
     }
 }
 
+/// Bytes of memory available to a new allocation without swapping, where
+/// the system says (Linux's `/proc/meminfo`).
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// The instant `seconds` after `start`, or an error for a budget that is
+/// not finite and non-negative or does not fit the clock.
+fn deadline_after(start: Instant, seconds: f64) -> Result<Instant, String> {
+    Duration::try_from_secs_f64(seconds)
+        .ok()
+        .and_then(|d| start.checked_add(d))
+        .ok_or_else(|| format!("invalid time budget: {seconds} s"))
+}
+
+/// `count` black films of `w × h`, allocated before any thread starts so
+/// that a resolution the heap cannot hold is a clear error, not an abort
+/// half-way through a render.
+/// The films are also checked against the memory the machine has
+/// available (Linux: `MemAvailable`), because an over-committing kernel
+/// grants an allocation it cannot back and kills the process later.
+fn films(w: u32, h: u32, count: usize) -> Result<Vec<Film>, String> {
+    check_film_memory(w, h, count)?;
+    let mut out = Vec::new();
+    out.try_reserve_exact(count)
+        .map_err(|_| format!("out of memory: {count} films"))?;
+    for _ in 0..count {
+        out.push(Film::try_new(w, h).map_err(|e| format!("{w}x{h} image: {e}"))?);
+    }
+    Ok(out)
+}
+
+/// Refuses `count` films of `w × h` that need more memory than the machine
+/// has available (see [`films`]); other drivers (the frame loop) call it
+/// before they allocate theirs.
+pub fn check_film_memory(w: u32, h: u32, count: usize) -> Result<(), String> {
+    let bytes = (w as u64 * h as u64)
+        .saturating_mul(Film::BYTES_PER_PIXEL)
+        .saturating_mul(count as u64);
+    if let Some(available) = available_memory()
+        && bytes > available
+    {
+        return Err(format!(
+            "out of memory: a {w}x{h} image needs {:.1} GB for {count} films (one per thread and the merged one), the machine has {:.1} GB available",
+            bytes as f64 * 1e-9,
+            available as f64 * 1e-9
+        ));
+    }
+    Ok(())
+}
+
 /// Renders `scene` with `method` under `budget` on `threads` threads,
 /// specialised to `analysis` (the scene's, or [`Analysis::all`] for
 /// `--all-effects`; [`Settings::specialised`] and
@@ -63,23 +117,27 @@ pub fn render<I: Intersector + Sync>(
     threads: usize,
     seed: u64,
     on_pass: &(dyn Fn() + Sync),
-) -> RenderOutput {
+) -> Result<RenderOutput, String> {
     let threads = threads.max(1);
+    // One film per thread and the merged one.
+    let mut films = films(scene.camera.width(), scene.camera.height(), threads + 1)?;
+    let mut merged = films.pop().expect("threads + 1 films");
     let settings = &settings.specialised(analysis);
     let start = Instant::now();
     let deadline = match budget {
-        Budget::Time(s) => Some(start + Duration::from_secs_f64(s.max(0.0))),
+        Budget::Time(s) => Some(deadline_after(start, s)?),
         Budget::Spp(_) => None,
     };
     let stop = AtomicBool::new(false);
     let results: Vec<(Film, Stats)> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads)
-            .map(|i| {
+        let handles: Vec<_> = films
+            .into_iter()
+            .enumerate()
+            .map(|(i, mut film)| {
                 let stop = &stop;
                 sc.spawn(move || {
                     let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
                     let mut worker = Worker::new();
-                    let mut film = Film::new(scene.camera.width(), scene.camera.height());
                     let mut pass = i as u64;
                     loop {
                         match budget {
@@ -118,13 +176,16 @@ pub fn render<I: Intersector + Sync>(
             .collect()
     });
     let wall = start.elapsed();
-    let mut film = Film::new(scene.camera.width(), scene.camera.height());
     let mut stats = Stats::default();
     for (f, s) in &results {
-        film.merge(f);
+        merged.merge(f);
         stats.merge(s);
     }
-    RenderOutput { film, stats, wall }
+    Ok(RenderOutput {
+        film: merged,
+        stats,
+        wall,
+    })
 }
 
 /// The work counters per effect, as `cmlt render` prints them: BSDF
@@ -224,16 +285,19 @@ pub fn render_mlt<I: Intersector + Sync>(
     threads: usize,
     seed: u64,
     on_progress: &(dyn Fn(u64) + Sync),
-) -> MltOutput {
+) -> Result<MltOutput, String> {
     let threads = threads.max(1);
     let settings = &settings.specialised(analysis);
     let start = Instant::now();
     let deadline = match budget {
-        MltBudget::Time(s) => Some(start + Duration::from_secs_f64(s.max(0.0))),
+        MltBudget::Time(s) => Some(deadline_after(start, s)?),
         MltBudget::MutationsPerPixel(_) => None,
     };
     let (w, h) = (scene.camera.width(), scene.camera.height());
     let pixels = w as u64 * h as u64;
+    // One film per thread and the merged one, before the bootstrap's work.
+    let mut films = films(w, h, threads + 1)?;
+    let mut merged = films.pop().expect("threads + 1 films");
 
     // Bootstrap: seed samples split into contiguous index ranges,
     // normalisation passes dealt round-robin; both combined in index order.
@@ -301,12 +365,13 @@ pub fn render_mlt<I: Intersector + Sync>(
     };
     let stop = AtomicBool::new(false);
     let results: Vec<(Film, Stats, MltStats)> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads as u64)
-            .map(|i| {
+        let handles: Vec<_> = films
+            .into_iter()
+            .zip(0..threads as u64)
+            .map(|(mut film, i)| {
                 let (stop, boot) = (&stop, &boot);
                 sc.spawn(move || {
                     let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
-                    let mut film = Film::new(w, h);
                     let mut worker =
                         MltWorker::new(&mut tracer, settings, mlt, boot, seed, i, threads as u64);
                     // Batches of whole rounds, small enough for progress and
@@ -346,20 +411,19 @@ pub fn render_mlt<I: Intersector + Sync>(
             .map(|h| h.join().expect("render thread panicked"))
             .collect()
     });
-    let mut film = Film::new(w, h);
     let mut mstats = MltStats::default();
     for (f, s, m) in &results {
-        film.merge(f);
+        merged.merge(f);
         stats.merge(s);
         mstats.merge(m);
     }
-    MltOutput {
+    Ok(MltOutput {
         scale: image_scale(boot.b(), pixels, mstats.records),
-        film,
+        film: merged,
         bootstrap: boot,
         stats,
         mlt: mstats,
         bootstrap_wall,
         wall: start.elapsed(),
-    }
+    })
 }

@@ -303,7 +303,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
                 1
             };
             for seed in 0..seeds {
-                let m = study.measure(estimator, budget, opts.threads, seed);
+                let m = study.measure(estimator, budget, opts.threads, seed)?;
                 writeln!(
                     out,
                     "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5}, mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s",

@@ -95,7 +95,7 @@ fn measure<I: Intersector + Sync>(
     method: BenchMethod,
     seconds: f64,
     threads: usize,
-) -> (f64, Rgb) {
+) -> Result<(f64, Rgb), String> {
     let scene = &loaded.scene;
     let (pixels, throughput) = match method {
         BenchMethod::Pt | BenchMethod::Bdpt => {
@@ -114,7 +114,7 @@ fn measure<I: Intersector + Sync>(
                 threads,
                 0,
                 &|| {},
-            );
+            )?;
             (out.film.resolve(), out.samples_per_sec())
         }
         BenchMethod::Mlt | BenchMethod::Cmlt => {
@@ -133,13 +133,13 @@ fn measure<I: Intersector + Sync>(
                 threads,
                 0,
                 &|_| {},
-            );
+            )?;
             (out.image(), out.mutations_per_sec())
         }
     };
     let n = pixels.len().max(1) as f32;
     let sum = pixels.iter().fold(Rgb::ZERO, |a, &p| a + p);
-    (throughput, sum / n)
+    Ok((throughput, sum / n))
 }
 
 /// Measures every scene × method (see the module docs), printing a line
@@ -169,10 +169,10 @@ pub fn run<I: Intersector + Sync>(
                 mean_off: Rgb::ZERO,
             };
             for _ in 0..repeats.max(1) {
-                let (t, m) = measure(loaded, accel, &analysis, method, seconds, threads);
+                let (t, m) = measure(loaded, accel, &analysis, method, seconds, threads)?;
                 row.on = row.on.max(t);
                 row.mean_on = m;
-                let (t, m) = measure(loaded, accel, &Analysis::all(), method, seconds, threads);
+                let (t, m) = measure(loaded, accel, &Analysis::all(), method, seconds, threads)?;
                 row.off = row.off.max(t);
                 row.mean_off = m;
             }

@@ -109,7 +109,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Cell>, String> {
                 StudyBudget::Seconds(opts.time),
                 opts.threads,
                 seed,
-            );
+            )?;
             let what = if m == 0 {
                 "mlt (baseline)".to_string()
             } else {

@@ -131,7 +131,7 @@ impl Study {
         budget: StudyBudget,
         threads: usize,
         seed: u64,
-    ) -> Measurement {
+    ) -> Result<Measurement, String> {
         let (w, h) = self.resolution();
         let (scene, settings) = (&self.loaded.scene, &self.loaded.settings);
         let start = Instant::now();
@@ -151,7 +151,7 @@ impl Study {
                     threads,
                     seed,
                     &|| {},
-                );
+                )?;
                 let spp = out.film.passes() as f64;
                 (out.film.resolve(), spp, out.mrays_per_sec())
             }
@@ -170,7 +170,7 @@ impl Study {
                     threads,
                     seed,
                     &|_| {},
-                );
+                )?;
                 let mpp = out.mlt.mutations as f64 / (w * h).max(1) as f64;
                 (out.image(), mpp, out.mrays_per_sec())
             }
@@ -181,7 +181,7 @@ impl Study {
             height: h,
             pixels,
         };
-        score(&img, &self.reference, wall_s, samples, mrays)
+        Ok(score(&img, &self.reference, wall_s, samples, mrays))
     }
 }
 

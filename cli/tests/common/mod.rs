@@ -61,7 +61,8 @@ pub fn render_scene(
         2,
         seed,
         &|| {},
-    );
+    )
+    .expect("render");
     let cam = &loaded.scene.camera;
     let img = Image {
         width: cam.width() as usize,

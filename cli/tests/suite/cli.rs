@@ -276,3 +276,117 @@ fn bench_flicker_reports_every_switch() {
     assert!(flicker("b-window") < flicker("none"), "{stdout}");
     assert_eq!(row("fixed-sequence")[2], "identical", "{stdout}");
 }
+
+/// Runs `cmlt render ARGS -o OUT` expecting a refusal: non-zero exit, no
+/// panic, the phrase in the message, nothing rendered and `out` untouched.
+fn refused(args: &[&str], out: &PathBuf, phrase: &str) {
+    // Only regular files are read back (`/dev/full` reads forever).
+    let contents = |p: &PathBuf| p.is_file().then(|| std::fs::read(p).unwrap());
+    let before = contents(out);
+    let o = cmlt()
+        .arg("render")
+        .args(args)
+        .arg("--quiet")
+        .arg("-o")
+        .arg(out)
+        .output()
+        .expect("cmlt runs");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(!o.status.success(), "{args:?} was accepted: {stdout}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    assert!(
+        stderr.contains(phrase),
+        "{args:?}: expected '{phrase}' in: {stderr}"
+    );
+    assert!(!stdout.contains("wrote"), "{args:?} rendered: {stdout}");
+    assert_eq!(contents(out), before, "{args:?} changed {}", out.display());
+}
+
+#[test]
+fn budgets_and_thread_counts_are_checked_before_rendering() {
+    let out = tmp("refused-budget.exr");
+    let _ = std::fs::remove_file(&out);
+    let small = ["-D", "resx=8", "-D", "resy=8"];
+    let cases: &[(&[&str], &str)] = &[
+        (&["--time", "inf"], "time budget must be finite"),
+        (&["--time", "1e30"], "time budget must be finite"),
+        (&["--time", "0"], "time budget must be finite"),
+        (&["--time", "NaN"], "time budget must be finite"),
+        (&["--time=-1"], "time budget must be finite"),
+        (&["--spp", "0"], "--spp"),
+        (
+            &["--method", "mlt", "--mutations-per-pixel", "0"],
+            "--mutations-per-pixel",
+        ),
+        (
+            &["--spp", "1", "--threads", "0"],
+            "threads must be in 1..=1024",
+        ),
+        (
+            &["--spp", "1", "--threads", "4294967295"],
+            "threads must be in 1..=1024",
+        ),
+        (&["--spp", "1", "--frames", "0"], "frames must be in"),
+    ];
+    for (args, phrase) in cases {
+        let all: Vec<&str> = args.iter().chain(small.iter()).copied().collect();
+        refused(&all, &out, phrase);
+    }
+}
+
+#[test]
+fn unwritable_outputs_are_found_before_rendering_and_keep_old_files() {
+    let exr = tmp("kept.exr");
+    render(&["--spp", "1", "-D", "resx=8", "-D", "resy=8"], &exr);
+    let args = ["--spp", "1", "-D", "resx=8", "-D", "resy=8"];
+    // A --png in a missing directory: the existing EXR stays as it was.
+    let mut with_png = args.to_vec();
+    with_png.extend(["--png", "/nonexistent-cmlt-dir/preview.png"]);
+    refused(&with_png, &exr, "does not exist");
+    // A missing output directory, a wrong extension, a device.
+    refused(
+        &args,
+        &PathBuf::from("/nonexistent-cmlt-dir/out.exr"),
+        "does not exist",
+    );
+    refused(&args, &tmp("out.tiff"), "must end in .exr or .png");
+    refused(&args, &exr.join("out.exr"), "is not a directory");
+    refused(
+        &args,
+        &PathBuf::from("/dev/full"),
+        "must end in .exr or .png",
+    );
+    let mut png_to_exr = args.to_vec();
+    png_to_exr.extend(["--png", exr.to_str().unwrap()]);
+    refused(&png_to_exr, &tmp("other.exr"), "--png must end in .png");
+    // No temporary file is left next to the outputs.
+    let dir = exr.parent().unwrap();
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn an_image_larger_than_memory_is_a_clear_error() {
+    let out = tmp("huge.exr");
+    let _ = std::fs::remove_file(&out);
+    // 65536² pixels: the loader's largest film, 206 GB per film.
+    refused(
+        &[
+            "--spp",
+            "1",
+            "--threads",
+            "1",
+            "-D",
+            "resx=65536",
+            "-D",
+            "resy=65536",
+        ],
+        &out,
+        "out of memory",
+    );
+}

@@ -94,7 +94,8 @@ fn render_mean(
         2,
         seed,
         &|| {},
-    );
+    )
+    .expect("render");
     (mean(&out.film.resolve()), out.stats)
 }
 
@@ -121,7 +122,8 @@ fn render_mean_cmlt(
         2,
         seed,
         &|_| {},
-    );
+    )
+    .expect("render");
     (mean(&out.image()), out.stats)
 }
 

@@ -945,7 +945,10 @@ const MALFORMED: &[(&str, &str)] = &[
     ("ply_count_exceeds_file.xml", "exceeds the file's 178 bytes"),
     ("ply_huge_count.xml", "bad element count"),
     ("ply_index_out_of_range.xml", "refers to vertex 7"),
-    ("ply_long_header_line.xml", "header line longer than 4096 bytes"),
+    (
+        "ply_long_header_line.xml",
+        "header line longer than 4096 bytes",
+    ),
     ("rgb_two_values.xml", "expected 1 or 3 values"),
     ("singular_transform.xml", "singular"),
     (

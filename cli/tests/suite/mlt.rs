@@ -38,7 +38,8 @@ fn render(
         threads,
         seed,
         &|_| {},
-    );
+    )
+    .expect("render");
     let cam = &loaded.scene.camera;
     let img = Image {
         width: cam.width() as usize,

@@ -31,8 +31,53 @@ pub struct Film {
     nonfinite: u64,
 }
 
+/// A film's storage could not be allocated (`width × height` pixels of
+/// [`Film::BYTES_PER_PIXEL`] bytes each, which the heap refused or which
+/// overflows the address space).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FilmAllocError {
+    /// Bytes the film needed (saturated at `u64::MAX`).
+    pub bytes: u64,
+}
+
+impl core::fmt::Display for FilmAllocError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "out of memory: a film needs {} bytes", self.bytes)
+    }
+}
+
 impl Film {
-    /// A black film of `width × height` pixels.
+    /// Bytes of storage per pixel: the sum and the splat layer, three f64
+    /// each.
+    pub const BYTES_PER_PIXEL: u64 = 2 * 3 * 8;
+
+    /// A black film of `width × height` pixels, or an error when the heap
+    /// cannot hold it: the fallible form of [`Film::new`] for sizes that
+    /// come from input (a 65536² film needs 206 GB).
+    pub fn try_new(width: u32, height: u32) -> Result<Self, FilmAllocError> {
+        let n = width as u64 * height as u64;
+        let err = FilmAllocError {
+            bytes: n.saturating_mul(Self::BYTES_PER_PIXEL),
+        };
+        let n = usize::try_from(n).map_err(|_| err)?;
+        let zeroed = |n: usize| -> Result<Vec<[f64; 3]>, FilmAllocError> {
+            let mut v = Vec::new();
+            v.try_reserve_exact(n).map_err(|_| err)?;
+            v.resize(n, [0.0; 3]);
+            Ok(v)
+        };
+        Ok(Film {
+            width,
+            height,
+            sum: zeroed(n)?,
+            splat: zeroed(n)?,
+            passes: 0,
+            nonfinite: 0,
+        })
+    }
+
+    /// A black film of `width × height` pixels. Aborts when the heap cannot
+    /// hold it; sizes from input go through [`Film::try_new`].
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
         Film {
@@ -181,6 +226,19 @@ impl Film {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn try_new_refuses_what_the_heap_cannot_hold() {
+        // (2^32 − 1)² pixels overflow any address space: an error, not an
+        // abort, and it says how much was asked for.
+        let e = Film::try_new(u32::MAX, u32::MAX).unwrap_err();
+        assert_eq!(
+            e.bytes,
+            (u32::MAX as u64 * u32::MAX as u64).saturating_mul(Film::BYTES_PER_PIXEL)
+        );
+        let f = Film::try_new(3, 2).unwrap();
+        assert_eq!(f, Film::new(3, 2));
+    }
 
     #[test]
     fn resolve_divides_by_passes_and_merges() {
