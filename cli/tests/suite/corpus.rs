@@ -16,15 +16,15 @@
 //! - A scene committed as XML only (its meshes are too large or missing from
 //!   every public snapshot) cannot render. To still learn whether cmlt
 //!   supports all its plugins, it is loaded from a temporary copy in which
-//!   each absent mesh is replaced by a one-triangle OBJ and each absent
-//!   8-bit image by a 1×1 PNG. Stand-ins are written by this test only, so
-//!   the loader's code path is the normal one (no test-only loader option),
-//!   and they cannot hide an unsupported plugin or property: those are
-//!   rejected from the XML alone. Files of other kinds (EXR/HDR/PFM
-//!   environment maps, `serialized` meshes) get no stand-in, so the
-//!   loader's "cannot read" error for them is reported as what it is. Such
-//!   a scene is `PluginsOk` when it loads; it is not rendered (the image of
-//!   stand-in geometry means nothing).
+//!   each absent OBJ mesh is replaced by a one-triangle OBJ and each absent
+//!   image by a 1×1 grey image of the same format (PNG for JPEG/PNG names,
+//!   OpenEXR, Radiance HDR, PFM). Stand-ins are written by this test only,
+//!   so the loader's code path is the normal one (no test-only loader
+//!   option), and they cannot hide an unsupported plugin or property: those
+//!   are rejected from the XML alone. Files of other kinds (`serialized`
+//!   meshes) get no stand-in, so the loader's error for them is reported as
+//!   what it is. Such a scene is `PluginsOk` when it loads; it is not
+//!   rendered (the image of stand-in geometry means nothing).
 //! - Otherwise the scene is `Blocked` by the loader's first error; the
 //!   table holds a phrase of that message, e.g. the unsupported plugin.
 //!   The loader stops at the first error, so one blocker is listed per
@@ -35,6 +35,8 @@
 use std::path::{Path, PathBuf};
 
 use cmlt::integrator::Method;
+use cmlt::math::Rgb;
+use cmlt_cli::image_io::{Image, read_exr, write_exr};
 use cmlt_cli::scene::load_scene;
 
 use crate::common::render_scene;
@@ -151,6 +153,28 @@ fn write_stand_in(dir: &Path, file: &str) -> bool {
         "jpg" | "jpeg" | "png" => image::RgbImage::from_pixel(1, 1, image::Rgb([128, 128, 128]))
             .save_with_format(&path, image::ImageFormat::Png)
             .unwrap(),
+        "exr" => {
+            let grey = Image {
+                width: 1,
+                height: 1,
+                pixels: vec![Rgb::splat(0.5)],
+            };
+            write_exr(&path, &grey).unwrap();
+        }
+        // Radiance RGBE: mantissas 128 with exponent 128 are 128·2^(128−136) = 0.5.
+        "hdr" => {
+            let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n".to_vec();
+            bytes.extend_from_slice(&[128, 128, 128, 128]);
+            std::fs::write(&path, bytes).unwrap();
+        }
+        // PFM: colour, 1×1, negative scale = little-endian floats.
+        "pfm" => {
+            let mut bytes = b"PF\n1 1\n-1.0\n".to_vec();
+            for _ in 0..3 {
+                bytes.extend_from_slice(&0.5f32.to_le_bytes());
+            }
+            std::fs::write(&path, bytes).unwrap();
+        }
         _ => return false,
     }
     true
@@ -270,7 +294,14 @@ fn stand_ins_only_replace_missing_files() {
     let _ = std::fs::remove_dir_all(&tmp);
     assert!(write_stand_in(&tmp, "models/m.obj"));
     assert!(write_stand_in(&tmp, "textures/a b.jpg"));
-    assert!(!write_stand_in(&tmp, "textures/sky.exr"));
+    assert!(write_stand_in(&tmp, "textures/sky.exr"));
+    assert_eq!(
+        read_exr(&tmp.join("textures/sky.exr")).unwrap().pixels,
+        [Rgb::splat(0.5)]
+    );
+    assert!(write_stand_in(&tmp, "textures/sky.hdr"));
+    assert!(write_stand_in(&tmp, "textures/sky.pfm"));
+    assert!(!write_stand_in(&tmp, "meshes/m.serialized"));
     let scene = r#"<scene version="3.0.0">
         <default name="resx" value="4"/><default name="resy" value="4"/>
         <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="$resx"/>
