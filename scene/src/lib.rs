@@ -17,7 +17,8 @@
 //! - `<integrator>` of any type (recorded) with `max_depth`, `rr_depth`,
 //!   `hide_emitters`;
 //! - `<sensor type="perspective|thinlens">` with `fov`/`fov_axis` or
-//!   `focal_length`, `to_world`, `aperture_radius`, `focus_distance`;
+//!   `focal_length`, `to_world`, `aperture_radius`, `focus_distance` (accepted
+//!   and unused by `perspective`, as in Mitsuba);
 //!   `hdrfilm` `width`/`height`; `sampler` `sample_count`; `rfilter box`
 //!   (other filters render as box, with a warning);
 //! - shapes `obj`, `ply`, `rectangle`, `cube`, `sphere`, `disk` (spheres and

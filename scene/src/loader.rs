@@ -416,6 +416,15 @@ impl<'a> Loader<'a> {
             };
             (a, focus)
         } else {
+            // Mitsuba reads `focus_distance` for every projective camera
+            // (default: far_clip), and a pinhole has no focal plane, so the
+            // value cannot change the image: accept it like Mitsuba, but
+            // refuse a distance no camera could focus at.
+            if let Some((f, n)) = props.float(x, "focus_distance")?
+                && f <= 0.0
+            {
+                return Err(x.err(n, format!("focus_distance must be > 0, got {f}")));
+            }
             (0.0, 1.0)
         };
         props.finish(x, &[])?;

@@ -895,6 +895,36 @@ fn sensor_defaults_and_thin_lens() {
     assert_eq!(p.settings, cmlt::integrator::Settings::default());
 }
 
+/// `focus_distance` on a `perspective` sensor (five of Bitterli's scenes
+/// carry one): Mitsuba reads it for every projective camera and a pinhole
+/// ignores it, so the camera must be the one without it; a distance no
+/// camera could focus at is still refused.
+#[test]
+fn perspective_accepts_focus_distance() {
+    let load = |extra: &str| {
+        load_scene_str(
+            &format!(
+                r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>{extra}
+                     <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>
+                     <rfilter type="box"/></film></sensor></scene>"#
+            ),
+            Path::new("."),
+            "f.xml",
+            &[],
+        )
+    };
+    let plain = load("").unwrap();
+    let focused = load(r#"<float name="focus_distance" value="2.5"/>"#).unwrap();
+    assert!(!focused.scene.camera.has_lens());
+    assert_eq!(focused.scene.camera, plain.scene.camera);
+    assert!(focused.warnings.is_empty(), "{:?}", focused.warnings);
+    for bad in ["0", "-1"] {
+        let e = load(&format!(r#"<float name="focus_distance" value="{bad}"/>"#)).unwrap_err();
+        assert!(e.message.contains("focus_distance must be > 0"), "{e}");
+        assert_eq!(e.line, Some(1), "{e}");
+    }
+}
+
 // ------------------------------------------------------- malformed input
 
 /// Every file of the malformed corpus and a phrase its error must contain.

@@ -8,6 +8,7 @@
 //! - [`bvh_scenes`]: the default BVH against brute force on the shared
 //!   scenes;
 //! - [`cli`]: the `cmlt` binary end to end, bad input included;
+//! - [`corpus`]: Bitterli's 25 Mitsuba scenes against an expectation table;
 //! - [`effects`]: the effect analysis of the shared scenes;
 //! - [`loader`]: the Mitsuba 3 XML loader and its malformed corpus;
 //! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
@@ -22,6 +23,7 @@ mod common;
 mod bench_convergence;
 mod bvh_scenes;
 mod cli;
+mod corpus;
 mod effects;
 mod loader;
 mod mlt;
