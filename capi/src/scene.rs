@@ -370,6 +370,7 @@ fn material_from_c(m: &cmlt_material) -> Result<Material> {
     let material = Material {
         kind,
         two_sided: m.two_sided != 0,
+        detail: Default::default(),
     };
     material
         .validate()
@@ -921,6 +922,10 @@ pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 1 << Effect::AreaLights as u32;
 /// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
 /// the camera).
 pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
+/// Normal or bump maps.
+pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 1 << Effect::NormalMapping as u32;
+/// Alpha masks (opacity textures).
+pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

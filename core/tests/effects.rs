@@ -36,6 +36,7 @@ fn opaque(kind: MaterialKind) -> Material {
     Material {
         kind,
         two_sided: true,
+        detail: Default::default(),
     }
 }
 
@@ -67,6 +68,7 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             Material {
                 kind: MaterialKind::Dielectric { eta: 1.5 },
                 two_sided: false,
+                detail: Default::default(),
             },
             0.0,
         ),
@@ -133,6 +135,7 @@ fn host_shapes_need_their_materials_built() {
     let glass = b.add_material(Material {
         kind: MaterialKind::Dielectric { eta: 1.5 },
         two_sided: false,
+        detail: Default::default(),
     });
     b.add_mesh(common::inward_box(walls, 1.0));
     b.add_shapes(ShapeGroup {

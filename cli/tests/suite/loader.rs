@@ -290,7 +290,8 @@ fn veach_bidir_counts_and_materials() {
         *material(s, 7),
         Material {
             kind: MaterialKind::Dielectric { eta: 1.5 },
-            two_sided: false
+            two_sided: false,
+            detail: Default::default(),
         }
     );
     // face_normals drops the file's normals; Lamp_0002 keeps them.
@@ -699,7 +700,8 @@ fn bsdf_defaults_and_parameters_follow_mitsuba() {
             kind: MaterialKind::Diffuse {
                 reflectance: Texture::Constant(Rgb::splat(0.5))
             },
-            two_sided: false
+            two_sided: false,
+            detail: Default::default(),
         }
     );
     assert_eq!(
