@@ -216,6 +216,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
             && material.detail.perturbs_frame()
             && let Some(frame) = self.detail_frame(&sp, &material.detail)
         {
+            let bsdf = bsdf.with_unperturbed_normal(frame.to_local(sp.ns));
             let mut sp = sp;
             sp.ns = frame.n;
             return Shading { sp, bsdf, frame };
