@@ -1084,7 +1084,10 @@ fn surface_detail_scene_wires_normalmap_bumpmap_and_mask() {
 
 #[test]
 fn surface_detail_errors_name_file_and_line() {
-    let err = |body: &str| load_body(body).err().expect("must fail").to_string();
+    let err = |body: &str| match load_body(body) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("must fail: {body}"),
+    };
     let shape = |bsdf: &str| format!("<shape type=\"rectangle\">\n{bsdf}\n</shape>");
     let e = err(&shape(
         r#"<bsdf type="mask"><float name="opacity" value="1.5"/><bsdf type="diffuse"/></bsdf>"#,
