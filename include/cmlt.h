@@ -71,6 +71,14 @@
 // Embree 3 (`CMLT_ERROR_UNSUPPORTED` in builds without it).
 #define CMLT_ACCEL_EMBREE 1
 
+// "No texture" in `cmlt_material`'s texture fields: zero, so that a
+// zero-initialised material has none (texture ids start at 1).
+#define CMLT_NO_TEXTURE 0
+
+
+
+
+
 
 
 
@@ -260,6 +268,23 @@ typedef struct cmlt_material {
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).
   uint32_t two_sided;
+  // A texture (`cmlt_scene_add_texture`) replacing `color` (diffuse
+  // albedo, metal reflectance), looked up at the mesh's uvs; or
+  // `CMLT_NO_TEXTURE`.
+  uint32_t color_texture;
+  // A tangent-space normal map (RGB in [0, 1] → n = 2c − 1, relative to
+  // the frame whose first tangent is ∂p/∂u; add it with `srgb` = 0), or
+  // `CMLT_NO_TEXTURE`. Not together with `bump_map`.
+  uint32_t normal_map;
+  // A height texture (its luminance) whose uv gradient times
+  // `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`.
+  uint32_t bump_map;
+  // Scale of `bump_map`'s height (finite; Mitsuba's default is 1).
+  float bump_scale;
+  // An opacity texture (its luminance, in [0, 1]): a ray passes through
+  // the surface with probability 1 − opacity (an alpha cut-out with 0
+  // and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
+  uint32_t opacity_texture;
 } cmlt_material;
 
 // A triangle mesh, read from the host's arrays during
@@ -603,6 +628,28 @@ void cmlt_scene_release(struct cmlt_scene *scene);
 enum cmlt_status cmlt_scene_add_material(struct cmlt_scene *scene,
                                          const struct cmlt_material *material,
                                          uint32_t *out_id);
+
+// Adds a texture copied from host memory: `height` rows of `width` texels
+// of `channels` 8-bit values (1 = grey, 3 = RGB, 4 = RGBA with alpha
+// ignored), row 0 at v = 0, `stride` bytes between rows (0 = packed). With
+// `srgb` non-zero the values are sRGB-encoded and decoded to linear (a
+// colour texture); with 0 they are used as they are, /255 (normal, bump
+// and opacity maps). Sampled bilinearly with repeat wrapping. Its id, for
+// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1;
+// `CMLT_NO_TEXTURE` is 0). On failure the scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle; `texels` is NULL or points to `height` rows
+// of `stride` bytes (the last row: `width · channels` bytes); `out_id` is
+// NULL or valid.
+enum cmlt_status cmlt_scene_add_texture(struct cmlt_scene *scene,
+                                        uint32_t width,
+                                        uint32_t height,
+                                        uint32_t channels,
+                                        const uint8_t *texels,
+                                        size_t stride,
+                                        uint32_t srgb,
+                                        uint32_t *out_id);
 
 // Copies a mesh into the scene. Everything is checked first (pointers,
 // strides, finite values, indices in range, a known material, a finite

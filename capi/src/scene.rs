@@ -12,10 +12,11 @@ use ::cmlt_scene::accel::AccelKind;
 use cmlt_core::accel::Intersector;
 use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use cmlt_core::integrator::Settings;
-use cmlt_core::math::{Mat4, Rgb, Vec2, Vec3};
+use cmlt_core::math::spectrum::srgb_to_linear;
+use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
-    Camera, ConductorFresnel, Distribution, Effect, FovAxis, Material, MaterialId, MaterialKind,
-    Mesh, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup, Texture,
+    Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Material,
+    MaterialId, MaterialKind, Mesh, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup, Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -54,7 +55,28 @@ pub struct cmlt_material {
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
     pub two_sided: u32,
+    /// A texture (`cmlt_scene_add_texture`) replacing `color` (diffuse
+    /// albedo, metal reflectance), looked up at the mesh's uvs; or
+    /// `CMLT_NO_TEXTURE`.
+    pub color_texture: u32,
+    /// A tangent-space normal map (RGB in [0, 1] → n = 2c − 1, relative to
+    /// the frame whose first tangent is ∂p/∂u; add it with `srgb` = 0), or
+    /// `CMLT_NO_TEXTURE`. Not together with `bump_map`.
+    pub normal_map: u32,
+    /// A height texture (its luminance) whose uv gradient times
+    /// `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`.
+    pub bump_map: u32,
+    /// Scale of `bump_map`'s height (finite; Mitsuba's default is 1).
+    pub bump_scale: f32,
+    /// An opacity texture (its luminance, in [0, 1]): a ray passes through
+    /// the surface with probability 1 − opacity (an alpha cut-out with 0
+    /// and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
+    pub opacity_texture: u32,
 }
+
+/// "No texture" in `cmlt_material`'s texture fields: zero, so that a
+/// zero-initialised material has none (texture ids start at 1).
+pub const CMLT_NO_TEXTURE: u32 = 0;
 
 /// A triangle mesh, read from the host's arrays during
 /// `cmlt_scene_add_mesh` (copied; the arrays may be freed afterwards).
@@ -252,6 +274,7 @@ impl Committed {
 struct Building {
     builder: SceneBuilder,
     materials: usize,
+    textures: usize,
     meshes: usize,
     triangles: u64,
     shapes: u64,
@@ -319,6 +342,7 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
             state: Mutex::new(State::Building(Box::new(Building {
                 builder: SceneBuilder::new(),
                 materials: 0,
+                textures: 0,
                 meshes: 0,
                 triangles: 0,
                 shapes: 0,
@@ -348,28 +372,59 @@ pub unsafe extern "C" fn cmlt_scene_release(scene: *mut cmlt_scene) {
     });
 }
 
-fn material_from_c(m: &cmlt_material) -> Result<Material> {
+/// The texture of id `id` (`CMLT_NO_TEXTURE`: none) among `textures`
+/// added so far.
+fn texture_from_c(id: u32, textures: usize, what: &str) -> Result<Option<Texture>> {
+    if id == CMLT_NO_TEXTURE {
+        return Ok(None);
+    }
+    if id as usize > textures {
+        return Err(Error::invalid(format!(
+            "material: {what} {id} is not a texture of this scene"
+        )));
+    }
+    Ok(Some(Texture::Bitmap {
+        id: BitmapId(id - 1),
+        to_uv: Affine2::IDENTITY,
+    }))
+}
+
+fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
     let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
+    let tex = texture_from_c(m.color_texture, textures, "color_texture")?;
+    let colour = tex.unwrap_or(Texture::Constant(color));
     let kind = match m.type_ {
         CMLT_MATERIAL_DIFFUSE => MaterialKind::Diffuse {
-            reflectance: Texture::Constant(color),
+            reflectance: colour,
         },
         CMLT_MATERIAL_MIRROR => MaterialKind::Conductor {
             fresnel: ConductorFresnel::Perfect,
-            specular_reflectance: Texture::Constant(color),
+            specular_reflectance: colour,
         },
-        CMLT_MATERIAL_GLASS => MaterialKind::Dielectric { eta: m.ior },
+        CMLT_MATERIAL_GLASS => {
+            if tex.is_some() {
+                return Err(Error::invalid("material: glass takes no color_texture"));
+            }
+            MaterialKind::Dielectric { eta: m.ior }
+        }
         CMLT_MATERIAL_ROUGH_METAL => MaterialKind::RoughConductor {
             distribution: Distribution::Ggx,
             alpha: m.roughness,
             fresnel: ConductorFresnel::Perfect,
-            specular_reflectance: Texture::Constant(color),
+            specular_reflectance: colour,
         },
         t => return Err(Error::invalid(format!("unknown material type {t}"))),
+    };
+    let detail = Detail {
+        normal_map: texture_from_c(m.normal_map, textures, "normal_map")?,
+        bump_map: texture_from_c(m.bump_map, textures, "bump_map")?,
+        bump_scale: m.bump_scale,
+        opacity: texture_from_c(m.opacity_texture, textures, "opacity_texture")?,
     };
     let material = Material {
         kind,
         two_sided: m.two_sided != 0,
+        detail,
     };
     material
         .validate()
@@ -405,11 +460,92 @@ pub unsafe extern "C" fn cmlt_scene_add_material(
                 write(out_id, "out_id")?,
             )
         };
-        let material = material_from_c(m)?;
         scene.building(|b| {
+            let material = material_from_c(m, b.textures)?;
             let MaterialId(id) = b.builder.add_material(material);
             b.materials += 1;
             *out = id;
+            Ok(())
+        })
+    })
+}
+
+/// Adds a texture copied from host memory: `height` rows of `width` texels
+/// of `channels` 8-bit values (1 = grey, 3 = RGB, 4 = RGBA with alpha
+/// ignored), row 0 at v = 0, `stride` bytes between rows (0 = packed). With
+/// `srgb` non-zero the values are sRGB-encoded and decoded to linear (a
+/// colour texture); with 0 they are used as they are, /255 (normal, bump
+/// and opacity maps). Sampled bilinearly with repeat wrapping. Its id, for
+/// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1;
+/// `CMLT_NO_TEXTURE` is 0). On failure the scene is unchanged.
+///
+/// # Safety
+/// `scene` is a valid handle; `texels` is NULL or points to `height` rows
+/// of `stride` bytes (the last row: `width · channels` bytes); `out_id` is
+/// NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_add_texture(
+    scene: *mut cmlt_scene,
+    width: u32,
+    height: u32,
+    channels: u32,
+    texels: *const u8,
+    stride: usize,
+    srgb: u32,
+    out_id: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_add_texture", || {
+        // SAFETY: the caller's contract.
+        let (scene, out) = unsafe { (read(scene, "scene")?, write(out_id, "out_id")?) };
+        if !matches!(channels, 1 | 3 | 4) {
+            return Err(Error::invalid(format!(
+                "texture: channels must be 1, 3 or 4, got {channels}"
+            )));
+        }
+        if width == 0 || height == 0 {
+            return Err(Error::invalid("texture: width and height must be > 0"));
+        }
+        if texels.is_null() {
+            return Err(Error::null("texels"));
+        }
+        let row = width as usize * channels as usize;
+        let stride = if stride == 0 { row } else { stride };
+        if stride < row {
+            return Err(Error::invalid(format!(
+                "texture: stride {stride} is less than a row's {row} bytes"
+            )));
+        }
+        let bytes = (height as usize - 1)
+            .checked_mul(stride)
+            .and_then(|b| b.checked_add(row))
+            .filter(|&b| b <= isize::MAX as usize)
+            .ok_or_else(|| Error::invalid("texture: size overflows the address space"))?;
+        // SAFETY: the caller's contract: `bytes` readable bytes at `texels`.
+        let data = unsafe { std::slice::from_raw_parts(texels, bytes) };
+        let lut: Vec<f32> = (0..256)
+            .map(|i| {
+                let v = i as f32 / 255.0;
+                if srgb != 0 { srgb_to_linear(v) } else { v }
+            })
+            .collect();
+        let c = channels as usize;
+        let mut out_texels = Vec::with_capacity(width as usize * height as usize);
+        for y in 0..height as usize {
+            let r = &data[y * stride..y * stride + row];
+            for t in r.chunks_exact(c) {
+                let v = |k: usize| lut[t[if c == 1 { 0 } else { k }] as usize];
+                out_texels.push(Rgb::new(v(0), v(1), v(2)));
+            }
+        }
+        let bitmap = Bitmap::new(width, height, out_texels)
+            .ok_or_else(|| Error::invalid("texture: invalid size"))?;
+        scene.building(|b| {
+            if b.textures >= u32::MAX as usize - 1 {
+                return Err(Error::invalid("scene: too many textures"));
+            }
+            b.builder.add_bitmap(bitmap);
+            b.textures += 1;
+            *out = b.textures as u32;
             Ok(())
         })
     })
@@ -921,6 +1057,10 @@ pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 1 << Effect::AreaLights as u32;
 /// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
 /// the camera).
 pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
+/// Normal or bump maps.
+pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 1 << Effect::NormalMapping as u32;
+/// Alpha masks (opacity textures).
+pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

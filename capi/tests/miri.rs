@@ -71,6 +71,11 @@ fn host_input_paths_under_miri() {
             ior: 1.0,
             roughness: 0.0,
             two_sided: 1,
+            color_texture: CMLT_NO_TEXTURE,
+            normal_map: CMLT_NO_TEXTURE,
+            bump_map: CMLT_NO_TEXTURE,
+            bump_scale: 1.0,
+            opacity_texture: CMLT_NO_TEXTURE,
         };
         assert_eq!(cmlt_scene_add_material(s, &white, &mut id), CMLT_OK);
         let mesh = cmlt_mesh {

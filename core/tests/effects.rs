@@ -14,8 +14,8 @@ use cmlt::math::{Mat4, Rgb};
 use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
-    Camera, ConductorFresnel, Distribution, Effect, EffectSet, FovAxis, Material, MaterialKind,
-    Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint, ShapeSurface, Texture,
+    Camera, ConductorFresnel, Detail, Distribution, Effect, EffectSet, FovAxis, Material,
+    MaterialKind, Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint, ShapeSurface, Texture,
 };
 
 fn camera(aperture: f32) -> Camera {
@@ -36,6 +36,7 @@ fn opaque(kind: MaterialKind) -> Material {
     Material {
         kind,
         two_sided: true,
+        detail: Default::default(),
     }
 }
 
@@ -67,6 +68,7 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             Material {
                 kind: MaterialKind::Dielectric { eta: 1.5 },
                 two_sided: false,
+                detail: Default::default(),
             },
             0.0,
         ),
@@ -85,6 +87,28 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             Effect::DepthOfField,
             Material::diffuse(Rgb::splat(0.5)),
             0.05,
+        ),
+        (
+            Effect::NormalMapping,
+            Material {
+                detail: Detail {
+                    normal_map: Some(Texture::Constant(Rgb::new(0.6, 0.5, 0.9))),
+                    ..Detail::NONE
+                },
+                ..Material::diffuse(Rgb::splat(0.5))
+            },
+            0.0,
+        ),
+        (
+            Effect::AlphaMasks,
+            Material {
+                detail: Detail {
+                    opacity: Some(Texture::Constant(Rgb::splat(0.5))),
+                    ..Detail::NONE
+                },
+                ..Material::diffuse(Rgb::splat(0.5))
+            },
+            0.0,
         ),
     ]
 }
@@ -133,6 +157,7 @@ fn host_shapes_need_their_materials_built() {
     let glass = b.add_material(Material {
         kind: MaterialKind::Dielectric { eta: 1.5 },
         two_sided: false,
+        detail: Default::default(),
     });
     b.add_mesh(common::inward_box(walls, 1.0));
     b.add_shapes(ShapeGroup {

@@ -43,6 +43,11 @@ fn run(u: &mut Unstructured) -> Result<()> {
         ior: u.arbitrary()?,
         roughness: u.arbitrary()?,
         two_sided: u.arbitrary()?,
+        color_texture: CMLT_NO_TEXTURE,
+        normal_map: CMLT_NO_TEXTURE,
+        bump_map: CMLT_NO_TEXTURE,
+        bump_scale: 1.0,
+        opacity_texture: CMLT_NO_TEXTURE,
     };
     // An array of `count` elements of `size` words at `stride` bytes from
     // word `at`, or NULL / empty.

@@ -20,7 +20,7 @@ use roxmltree::Node;
 use super::error::LoadError;
 use super::loader::Loader;
 use super::transform;
-use super::xml::{Item, Props, Value, key};
+use super::xml::{Entry, Item, Props, Value, key};
 
 /// Deepest nesting of BSDFs (`twosided` around `twosided` …) we follow.
 const MAX_BSDF_DEPTH: usize = 8;
@@ -88,6 +88,7 @@ impl<'a> Loader<'a> {
                 reflectance: Texture::Constant(Rgb::splat(albedo)),
             },
             two_sided: false,
+            detail: Default::default(),
         };
         let id = self.add_material(m, None);
         self.default_materials[slot] = Some(id);
@@ -112,6 +113,16 @@ impl<'a> Loader<'a> {
                 *id = real;
             }
         };
+        for t in [
+            &mut m.detail.normal_map,
+            &mut m.detail.bump_map,
+            &mut m.detail.opacity,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            fix(t);
+        }
         match &mut m.kind {
             MaterialKind::Diffuse { reflectance } => fix(reflectance),
             MaterialKind::Conductor {
@@ -169,14 +180,26 @@ impl<'a> Loader<'a> {
                         "'twosided' cannot wrap a transmissive BSDF ('dielectric')",
                     ));
                 }
+                if m.detail.perturbs_frame() {
+                    // Mitsuba's twosided mirrors the directions before the
+                    // nested normal map perturbs the frame; ours perturbs
+                    // first, which is the other nesting order.
+                    return Err(self.xml.err(
+                        inner,
+                        "'twosided' around 'normalmap'/'bumpmap' is not supported: \
+                         put the normal or bump map outside the 'twosided'",
+                    ));
+                }
                 m.two_sided = true;
                 m
             }
+            "normalmap" | "bumpmap" | "mask" => self.detail_wrapper(&props, node, depth)?,
             "diffuse" => {
                 let reflectance = self.texture_param(&props, "reflectance", Rgb::splat(0.5))?;
                 Material {
                     kind: MaterialKind::Diffuse { reflectance },
                     two_sided: false,
+                    detail: Default::default(),
                 }
             }
             "conductor" => {
@@ -189,6 +212,7 @@ impl<'a> Loader<'a> {
                         specular_reflectance,
                     },
                     two_sided: false,
+                    detail: Default::default(),
                 }
             }
             "roughconductor" => {
@@ -220,6 +244,7 @@ impl<'a> Loader<'a> {
                         specular_reflectance,
                     },
                     two_sided: false,
+                    detail: Default::default(),
                 }
             }
             "dielectric" => {
@@ -242,6 +267,7 @@ impl<'a> Loader<'a> {
                         eta: int_ior / ext_ior,
                     },
                     two_sided: false,
+                    detail: Default::default(),
                 }
             }
             other => {
@@ -255,6 +281,119 @@ impl<'a> Loader<'a> {
             return Err(self.xml.err(node, format!("invalid BSDF: {reason}")));
         }
         self.bsdf_memo.insert(key(node), m);
+        Ok(m)
+    }
+
+    /// Mitsuba's surface-detail wrappers `normalmap`, `bumpmap` and `mask`:
+    /// the nested BSDF's material with the wrapper's texture in its
+    /// [`cmlt::scene::Detail`]. A material takes one of each kind of
+    /// wrapper, and a normal map or a bump map, not both.
+    fn detail_wrapper(
+        &mut self,
+        props: &Props<'a>,
+        node: Node<'a, 'a>,
+        depth: usize,
+    ) -> Result<Material, LoadError> {
+        let plugin = props.plugin.as_str();
+        let nested = props.objects("bsdf");
+        let inner = match nested.as_slice() {
+            [one] => {
+                let Item::Object(n) = one.item else {
+                    unreachable!("objects() returns objects")
+                };
+                n
+            }
+            [] => {
+                return Err(self
+                    .xml
+                    .err(node, format!("'{plugin}' needs a nested <bsdf>")));
+            }
+            [_, second, ..] => {
+                return Err(self.xml.err(
+                    second.node,
+                    format!("'{plugin}' takes exactly one nested <bsdf>"),
+                ));
+            }
+        };
+        let mut m = self.bsdf(inner, depth + 1)?;
+        let x = &self.xml;
+        if plugin == "mask" {
+            if m.detail.opacity.is_some() {
+                return Err(x.err(node, "a 'mask' inside another 'mask' is not supported"));
+            }
+            let opacity = self.texture_param(props, "opacity", Rgb::splat(0.5))?;
+            if let (Texture::Constant(c), Some(e)) = (&opacity, props.get("opacity"))
+                && !(0.0..=1.0).contains(&c.luminance())
+            {
+                return Err(self.xml.err(
+                    e.node,
+                    format!("mask 'opacity' must lie in [0, 1], got {}", c.luminance()),
+                ));
+            }
+            m.detail.opacity = Some(opacity);
+            return Ok(m);
+        }
+        if m.detail.perturbs_frame() {
+            return Err(x.err(
+                node,
+                format!("'{plugin}' around another normal or bump map is not supported"),
+            ));
+        }
+        // Mitsuba flips a perturbed normal that faces away from the viewer
+        // and darkens grazing light with Chiang et al.'s shadow-terminator
+        // term; both depend on the directions and are not modelled.
+        for flag in ["flip_invalid_normals", "use_shadowing_function"] {
+            if props.boolean(x, flag)?.unwrap_or(true) {
+                let w = x.warning(
+                    node,
+                    format!(
+                        "'{plugin}': {flag}=true (Mitsuba's default) is not modelled; \
+                         the image matches Mitsuba's with {flag}=false"
+                    ),
+                );
+                self.warnings.push(w);
+            }
+        }
+        let textures = props.objects("texture");
+        let texture_node = match (plugin, textures.as_slice()) {
+            ("normalmap", _) => match props.get("normalmap") {
+                Some(Entry {
+                    item: Item::Object(n),
+                    ..
+                }) if n.tag_name().name() == "texture" => *n,
+                Some(e) => {
+                    return Err(x.err(e.node, "'normalmap' must be a <texture> (a raw bitmap)"));
+                }
+                None => return Err(x.err(node, "'normalmap' lacks its 'normalmap' texture")),
+            },
+            (_, [one]) => {
+                let Item::Object(n) = one.item else {
+                    unreachable!("objects() returns objects")
+                };
+                n
+            }
+            (_, []) => return Err(x.err(node, "'bumpmap' needs a nested <texture>")),
+            (_, [_, second, ..]) => {
+                return Err(x.err(second.node, "'bumpmap' takes exactly one <texture>"));
+            }
+        };
+        let scale = match plugin {
+            "bumpmap" => match props.float(x, "scale")? {
+                None => 1.0,
+                Some((v, n)) if !v.is_finite() => {
+                    return Err(x.err(n, format!("bumpmap 'scale' must be finite, got {v}")));
+                }
+                Some((v, _)) => v as f32,
+            },
+            _ => 1.0,
+        };
+        let t = self.texture(texture_node)?;
+        if plugin == "normalmap" {
+            m.detail.normal_map = Some(t);
+        } else {
+            m.detail.bump_map = Some(t);
+            m.detail.bump_scale = scale;
+        }
         Ok(m)
     }
 

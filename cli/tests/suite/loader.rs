@@ -6,7 +6,9 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::scene::{ConductorFresnel, Distribution, Material, MaterialKind, Mesh, Scene, Texture};
+use cmlt::scene::{
+    ConductorFresnel, Distribution, Effect, Material, MaterialKind, Mesh, Scene, Texture,
+};
 use cmlt_cli::scene::{
     BUILTIN_SCENES, LoadError, LoadedScene, builtin_scene, load_scene, load_scene_str,
 };
@@ -290,7 +292,8 @@ fn veach_bidir_counts_and_materials() {
         *material(s, 7),
         Material {
             kind: MaterialKind::Dielectric { eta: 1.5 },
-            two_sided: false
+            two_sided: false,
+            detail: Default::default(),
         }
     );
     // face_normals drops the file's normals; Lamp_0002 keeps them.
@@ -699,7 +702,8 @@ fn bsdf_defaults_and_parameters_follow_mitsuba() {
             kind: MaterialKind::Diffuse {
                 reflectance: Texture::Constant(Rgb::splat(0.5))
             },
-            two_sided: false
+            two_sided: false,
+            detail: Default::default(),
         }
     );
     assert_eq!(
@@ -1079,4 +1083,97 @@ fn truncated_and_corrupted_scenes_never_panic() {
             let _ = load_scene_str(s, Path::new("."), "flip.xml", &[]);
         }
     }
+}
+
+// ------------------------------------------------------- surface detail
+
+#[test]
+fn surface_detail_scene_wires_normalmap_bumpmap_and_mask() {
+    let dir = crate::common::scenes_dir().join("surface-detail");
+    let l = cmlt_cli::scene::load_scene(&dir.join("scene.xml"), &[]).unwrap();
+    let s = &l.scene;
+    let details: Vec<_> = s.materials.iter().map(|m| m.detail).collect();
+    let normal = details.iter().find(|d| d.normal_map.is_some()).unwrap();
+    let bump = details.iter().find(|d| d.bump_map.is_some()).unwrap();
+    let mask = details.iter().find(|d| d.opacity.is_some()).unwrap();
+    assert!(normal.bump_map.is_none() && normal.opacity.is_none());
+    assert_eq!(bump.bump_scale, 0.05);
+    // The mask wraps a twosided diffuse: the nested material keeps it.
+    let masked = s
+        .materials
+        .iter()
+        .find(|m| m.detail.opacity.is_some())
+        .unwrap();
+    assert!(masked.two_sided);
+    // Raw bitmaps: the flat normal (128, 128, 255) is read linearly.
+    let Some(Texture::Bitmap { id, .. }) = mask.opacity else {
+        panic!("a bitmap opacity")
+    };
+    let o = s.bitmaps[id.0 as usize].eval(Vec2::new(1.0 / 32.0, 1.0 / 32.0));
+    assert!((o.r - 1.0).abs() < 1e-6, "opaque corner texel, got {o:?}");
+    // flip_invalid_normals/use_shadowing_function are false: no warning.
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    let fx = s.analysis(&s.camera).effects;
+    for e in [Effect::NormalMapping, Effect::AlphaMasks, Effect::Textures] {
+        assert!(fx.contains(e), "{e:?}");
+    }
+}
+
+#[test]
+fn surface_detail_errors_name_file_and_line() {
+    let err = |body: &str| match load_body(body) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("must fail: {body}"),
+    };
+    let shape = |bsdf: &str| format!("<shape type=\"rectangle\">\n{bsdf}\n</shape>");
+    let e = err(&shape(
+        r#"<bsdf type="mask"><float name="opacity" value="1.5"/><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert!(
+        e.starts_with("inline.xml:7:") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    let e = err(&shape(
+        r#"<bsdf type="mask"><float name="opacity" value="-0.1"/><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert!(
+        e.contains("opacity") && e.starts_with("inline.xml:7:"),
+        "{e}"
+    );
+    let e = err(&shape(
+        r#"<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="missing.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert!(
+        e.starts_with("inline.xml:7:") && e.contains("missing.png"),
+        "{e}"
+    );
+    let e = err(&shape(
+        r#"<bsdf type="bumpmap"><float name="scale" value="2"/><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert!(e.contains("needs a nested <texture>"), "{e}");
+    let e = err(&shape(r#"<bsdf type="mask"/>"#));
+    assert!(e.contains("needs a nested <bsdf>"), "{e}");
+    let e = err(&shape(
+        r#"<bsdf type="twosided"><bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf></bsdf>"#,
+    ));
+    assert!(e.contains("not supported"), "{e}");
+    // Mitsuba's defaults for the frame flags are approximations: warned.
+    let l = ok(&shape(
+        r#"<bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert!(
+        l.warnings
+            .iter()
+            .any(|w| w.contains("flip_invalid_normals") && w.starts_with("inline.xml:7:")),
+        "{:?}",
+        l.warnings
+    );
+    // Opacity 0 and 1 are fine; a constant opacity is kept as given.
+    let l = ok(&shape(
+        r#"<bsdf type="mask"><float name="opacity" value="0.25"/><bsdf type="diffuse"/></bsdf>"#,
+    ));
+    assert_eq!(
+        l.scene.materials[0].detail.opacity,
+        Some(Texture::Constant(Rgb::splat(0.25)))
+    );
 }

@@ -124,6 +124,30 @@ fn cornell_box_mlt_matches_reference() {
     assert!(err < 0.05, "relMSE {err}");
 }
 
+/// Level-1 MLT and CMLT converge to the surface-detail scene's reference
+/// (normal and bump maps, an alpha mask with holes and a half-transparent
+/// strip: with masks, level 2 leaves every path at its level-1 state).
+#[test]
+fn surface_detail_mlt_and_cmlt_match_reference() {
+    let mlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    check_reference("surface-detail", 2, &mlt, 32, 2.5);
+    let cmlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        k: 8,
+        m: 4,
+        lens_sigma: 2.0,
+        ..MltSettings::cmlt()
+    };
+    check_reference("surface-detail", 2, &cmlt, 16, 2.5);
+}
+
 /// CMLT (level 2 on) converges to the reference on every shared scene.
 #[test]
 fn cmlt_matches_references() {

@@ -95,3 +95,13 @@ fn veach_ajar_pt() {
 fn veach_ajar_bdpt() {
     check_scene("veach-ajar", Method::Bdpt, 32);
 }
+
+#[test]
+fn surface_detail_pt() {
+    check_scene("surface-detail", Method::Path, 64);
+}
+
+#[test]
+fn surface_detail_bdpt() {
+    check_scene("surface-detail", Method::Bdpt, 32);
+}

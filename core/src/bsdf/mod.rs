@@ -137,6 +137,10 @@ pub struct Bsdf {
     /// Mitsuba's `twosided`: seen from below, the opaque models are
     /// evaluated with both directions mirrored to the upper hemisphere.
     two_sided: bool,
+    /// Under a normal or bump map: the surface's own shading normal in
+    /// this (perturbed) frame (see [`Bsdf::with_unperturbed_normal`]).
+    #[cfg(feature = "normal-mapping")]
+    unperturbed: Option<Vec3>,
 }
 
 /// Mirrors a direction through the tangent plane (Mitsuba's `twosided`
@@ -188,10 +192,42 @@ impl Bsdf {
         let mut bsdf = Bsdf {
             model,
             two_sided: material.two_sided,
+            #[cfg(feature = "normal-mapping")]
+            unperturbed: None,
         };
         // A dielectric is one interface with an inside and an outside.
         bsdf.two_sided &= bsdf.lobe() != Lobe::Refraction;
         bsdf
+    }
+
+    /// The BSDF evaluated in a frame perturbed by a normal or bump map,
+    /// whose unperturbed shading normal is `n` (in the perturbed frame's
+    /// coordinates): as Mitsuba 3's `normalmap`/`bumpmap`, nothing is
+    /// scattered when the light-side direction (`wi` for radiance, `wo`
+    /// for importance) lies on different sides of the two normals. The
+    /// densities stay the nested model's (what its sampler does), so every
+    /// estimator weighs the same function.
+    #[cfg(feature = "normal-mapping")]
+    pub fn with_unperturbed_normal(mut self, n: Vec3) -> Self {
+        self.unperturbed = Some(n);
+        self
+    }
+
+    /// Whether the light-side direction passes the perturbed frame's side
+    /// test ([`Bsdf::with_unperturbed_normal`]); always without one.
+    #[inline]
+    #[cfg_attr(not(feature = "normal-mapping"), allow(unused_variables))]
+    fn light_side_ok(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> bool {
+        #[cfg(feature = "normal-mapping")]
+        if let Some(n) = self.unperturbed {
+            let l = if mode == TransportMode::Radiance {
+                wi
+            } else {
+                wo
+            };
+            return l.dot(n) * l.z > 0.0;
+        }
+        true
     }
 
     /// The kind of scattering of this BSDF's model.
@@ -248,7 +284,10 @@ impl Bsdf {
     /// f(wo, wi), without the cosine; zero for delta lobes. Reciprocal for
     /// the reflection models: eval(wo, wi) = eval(wi, wo). `mode` only
     /// matters for transmission, which has no non-delta lobe here.
-    pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> Rgb {
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
+        if !self.light_side_ok(wo, wi, mode) {
+            return Rgb::ZERO;
+        }
         match &self.model {
             Model::Diffuse { albedo } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -317,7 +356,7 @@ impl Bsdf {
     /// `pdf(wo, wi)` exactly. Directions depend continuously on `u` (only the
     /// discrete lobe choice by `u_lobe` jumps), which primary-sample-space
     /// Metropolis mutations rely on.
-    // Only the dielectric reads `u_lobe` and `mode`.
+    // Only the dielectric reads `u_lobe`.
     #[cfg_attr(not(feature = "refraction"), allow(unused_variables))]
     pub fn sample(
         &self,
@@ -342,6 +381,9 @@ impl Bsdf {
         }?;
         if flip {
             s.wi = flip_z(s.wi);
+        }
+        if !self.light_side_ok(wo, s.wi, mode) {
+            return None;
         }
         // Last line of defence: a 1/cos θ of a direction a hair above the
         // plane can overflow; such a sample is dropped, never returned as Inf.

@@ -13,10 +13,17 @@ use crate::scene::Distribution;
 // ---------------------------------------------------------------- helpers
 
 fn resolve(kind: MaterialKind, two_sided: bool) -> Bsdf {
-    Bsdf::new(&Material { kind, two_sided }, |t| match t {
-        Texture::Constant(c) => *c,
-        _ => panic!("tests use constant textures"),
-    })
+    Bsdf::new(
+        &Material {
+            kind,
+            two_sided,
+            detail: Default::default(),
+        },
+        |t| match t {
+            Texture::Constant(c) => *c,
+            _ => panic!("tests use constant textures"),
+        },
+    )
 }
 
 fn diffuse(albedo: f32, two_sided: bool) -> Bsdf {

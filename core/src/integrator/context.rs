@@ -7,6 +7,10 @@ use crate::accel::Intersector;
 use crate::bsdf::{Bsdf, BsdfSample, Lobe, TransportMode};
 use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket, offset};
 use crate::math::{Frame, Rgb};
+#[cfg(any(feature = "normal-mapping", feature = "alpha-masks"))]
+use crate::scene::detail;
+#[cfg(feature = "normal-mapping")]
+use crate::scene::detail::Detail;
 use crate::scene::{Analysis, Camera, Effect, Scene, SurfacePoint};
 
 /// One counter per [`Lobe`] kind (index `lobe as usize`).
@@ -187,21 +191,147 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     #[inline]
     pub fn trace(&mut self, ray: &Ray) -> Option<Shading> {
         self.stats.rays += 1;
+        #[cfg(feature = "alpha-masks")]
+        if self.has_masks() {
+            let sp = self.closest_opaque(ray)?;
+            return Some(self.shade(sp));
+        }
         let hit = self.accel.intersect(ray)?;
         let sp = self.scene.hit_point(&hit)?;
         Some(self.shade(sp))
     }
 
-    /// Resolves the BSDF and frame at a surface point.
+    /// Resolves the BSDF and frame at a surface point. A normal or bump
+    /// map (when the analysis has them) replaces the shading frame, and
+    /// `sp.ns` with its normal, so that every estimator's cosines and
+    /// BSDF queries use the perturbed frame, as Mitsuba's wrappers
+    /// evaluate the nested BSDF in it.
     #[inline]
     pub fn shade(&self, sp: SurfacePoint) -> Shading {
         let scene = self.scene;
-        let bsdf = Bsdf::new(scene.material(&sp), |t| t.eval(sp.uv, &scene.bitmaps));
+        let material = scene.material(&sp);
+        let bsdf = Bsdf::new(material, |t| t.eval(sp.uv, &scene.bitmaps));
+        #[cfg(feature = "normal-mapping")]
+        if self.analysis.effects.contains(Effect::NormalMapping)
+            && material.detail.perturbs_frame()
+            && let Some(frame) = self.detail_frame(&sp, &material.detail)
+        {
+            let bsdf = bsdf.with_unperturbed_normal(frame.to_local(sp.ns));
+            let mut sp = sp;
+            sp.ns = frame.n;
+            return Shading { sp, bsdf, frame };
+        }
         Shading {
             sp,
             bsdf,
             frame: Frame::from_normal(sp.ns),
         }
+    }
+
+    /// The shading frame a normal or bump map gives at `sp` (`None` when
+    /// the map encodes no direction there: the surface keeps its own).
+    #[cfg(feature = "normal-mapping")]
+    fn detail_frame(&self, sp: &SurfacePoint, detail: &Detail) -> Option<Frame> {
+        let scene = self.scene;
+        let (dp_du, dp_dv) = scene.uv_tangents(sp);
+        if let Some(nm) = &detail.normal_map {
+            let c = nm.eval(sp.uv, &scene.bitmaps);
+            let base = detail::tangent_frame(sp.ns, dp_du);
+            return detail::normal_mapped(&base, Vec3::new(c.r, c.g, c.b));
+        }
+        let bump = detail.bump_map.as_ref()?;
+        let grad = bump.eval_1_grad(sp.uv, &scene.bitmaps) * detail.bump_scale;
+        detail::bump_mapped(sp.ns, sp.ng, dp_du, dp_dv, grad)
+    }
+
+    /// Whether the analysis has alpha masks: only then do ray queries walk
+    /// through masked surfaces.
+    #[cfg(feature = "alpha-masks")]
+    #[inline]
+    fn has_masks(&self) -> bool {
+        self.analysis.effects.contains(Effect::AlphaMasks)
+    }
+
+    /// Whether `ray`, having hit `sp`, passes through it: a masked surface
+    /// lets it through with probability 1 − opacity ([`detail::mask_passes`]).
+    #[cfg(feature = "alpha-masks")]
+    #[inline]
+    fn passes_mask(&self, ray: &Ray, sp: &SurfacePoint) -> bool {
+        let scene = self.scene;
+        match &scene.material(sp).detail.opacity {
+            None => false,
+            Some(o) => detail::mask_passes(o.eval_1(sp.uv, &scene.bitmaps), ray.o, ray.d, sp.prim),
+        }
+    }
+
+    /// `ray` continued past its hit at `sp` (parameter `t`): the same
+    /// direction from the point offset to the far side of the surface,
+    /// over what is left of its extent.
+    #[cfg(feature = "alpha-masks")]
+    #[inline]
+    fn continued(ray: &Ray, t: f32, sp: &SurfacePoint) -> Ray {
+        Ray {
+            o: offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, ray.d),
+            d: ray.d,
+            t_max: ray.t_max - t,
+        }
+    }
+
+    /// The closest surface along `ray` that stops it: masked surfaces
+    /// whose test passes are walked through (each step one more ray in
+    /// [`Stats::rays`]); after [`MAX_MASK_CROSSINGS`] the next surface
+    /// stops the ray whatever its opacity.
+    #[cfg(feature = "alpha-masks")]
+    fn closest_opaque(&mut self, ray: &Ray) -> Option<SurfacePoint> {
+        let mut r = *ray;
+        for crossing in 0..=MAX_MASK_CROSSINGS {
+            let hit = self.accel.intersect(&r)?;
+            let sp = self.scene.hit_point(&hit)?;
+            if crossing == MAX_MASK_CROSSINGS || !self.passes_mask(&r, &sp) {
+                return Some(sp);
+            }
+            r = Self::continued(&r, hit.t, &sp);
+            self.stats.rays += 1;
+        }
+        None
+    }
+
+    /// Occlusion of one ray (counted by the caller): an any-hit query, and
+    /// with masks in the scene, when that finds something, a walk that
+    /// decides each masked surface on the way (the plain query's "free"
+    /// stays free: masks only ever let more through).
+    #[inline]
+    fn occluded_ray(&mut self, ray: &Ray) -> bool {
+        if !self.accel.occluded(ray) {
+            return false;
+        }
+        #[cfg(feature = "alpha-masks")]
+        if self.has_masks() {
+            return self.occluded_walk(ray);
+        }
+        true
+    }
+
+    /// Whether something opaque lies along `ray`, walking through masked
+    /// surfaces whose test passes.
+    #[cfg(feature = "alpha-masks")]
+    fn occluded_walk(&mut self, ray: &Ray) -> bool {
+        let mut r = *ray;
+        for _ in 0..MAX_MASK_CROSSINGS {
+            let Some(hit) = self.accel.intersect(&r) else {
+                return false;
+            };
+            // A degenerate triangle the any-hit query counted still blocks.
+            let Some(sp) = self.scene.hit_point(&hit) else {
+                return true;
+            };
+            if !self.passes_mask(&r, &sp) {
+                return true;
+            }
+            r = Self::continued(&r, hit.t, &sp);
+            self.stats.shadow_rays += 1;
+        }
+        true
     }
 
     /// Whether the segment between two surface points is blocked.
@@ -232,12 +362,12 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     pub fn occluded_segment(&mut self, seg: Option<offset::SegmentRays>) -> bool {
         let Some(seg) = seg else { return true };
         self.stats.shadow_rays += 1;
-        if self.accel.occluded(&seg.main) {
+        if self.occluded_ray(&seg.main) {
             return true;
         }
         seg.tail.is_some_and(|tail| {
             self.stats.shadow_rays += 1;
-            self.accel.occluded(&tail)
+            self.occluded_ray(&tail)
         })
     }
 
@@ -248,7 +378,8 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// shaded hit of `rays[i]` (`None` for a miss or an inactive lane).
     pub fn trace_bundle(&mut self, rays: &[Option<Ray>], out: &mut [Option<Shading>]) {
         debug_assert_eq!(rays.len(), out.len());
-        if live_lanes(rays) < MIN_PACKET_LANES {
+        // With masks, rays walk through masked surfaces one by one.
+        if live_lanes(rays) < MIN_PACKET_LANES || self.walks_masks() {
             for (r, o) in rays.iter().zip(out.iter_mut()) {
                 *o = r.as_ref().and_then(|r| self.trace(r));
             }
@@ -285,11 +416,11 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// blocked, false for inactive lanes.
     pub fn occluded_bundle(&mut self, rays: &[Option<Ray>], out: &mut [bool]) {
         debug_assert_eq!(rays.len(), out.len());
-        if live_lanes(rays) < MIN_PACKET_LANES {
+        if live_lanes(rays) < MIN_PACKET_LANES || self.walks_masks() {
             for (r, o) in rays.iter().zip(out.iter_mut()) {
                 *o = r.as_ref().is_some_and(|r| {
                     self.stats.shadow_rays += 1;
-                    self.accel.occluded(r)
+                    self.occluded_ray(r)
                 });
             }
             return;
@@ -315,6 +446,16 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         self.accel.occluded_packet(&packet, active)
     }
 
+    /// Whether ray queries walk through alpha masks (then bundles are
+    /// traced ray by ray).
+    #[inline]
+    fn walks_masks(&self) -> bool {
+        #[cfg(feature = "alpha-masks")]
+        return self.has_masks();
+        #[cfg(not(feature = "alpha-masks"))]
+        false
+    }
+
     /// Counts one packet with `active` lanes of closest-hit or occlusion
     /// (`shadow`) rays.
     #[inline]
@@ -329,6 +470,11 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         self.stats.packet_rays += n;
     }
 }
+
+/// Most masked surfaces one ray walks through before the next surface
+/// stops it whatever its opacity (a bound on the work of a ray through a
+/// dense stack of cut-outs, e.g. foliage).
+pub const MAX_MASK_CROSSINGS: usize = 64;
 
 /// Bundles with fewer live rays than this are traced ray by ray: a packet
 /// of 2–4 live lanes is slower than its rays one by one. Measured on

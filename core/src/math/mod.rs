@@ -9,7 +9,7 @@ pub mod spectrum;
 pub mod warp;
 
 pub use frame::Frame;
-pub use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+pub use glam::{Affine2, Affine3A, Mat3, Mat4, Vec2, Vec3};
 pub use spectrum::Rgb;
 
 /// π as f32.

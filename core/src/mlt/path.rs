@@ -52,6 +52,7 @@ use crate::integrator::Tracer;
 use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
 use crate::integrator::context::Shading;
 use crate::math::Rgb;
+use crate::scene::Effect;
 
 /// Longest specular chain a perturbation retraces (longer ones: identity).
 pub const MAX_CHAIN: usize = 32;
@@ -207,7 +208,14 @@ pub enum Applicable {
 
 /// Classifies a complete path x₀ … x_k (see the module docs).
 pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
-    if path.len() < 2 {
+    // With alpha masks a segment's visibility is a stochastic test
+    // decided per ray (a hash of the ray), so the perturbations, which
+    // re-evaluate the same path through different rays, would see another
+    // contribution than level 1 did for the same path at fractional
+    // opacity (a mask's bilinear edges are fractional even for a binary
+    // cut-out). No perturbation is then known to keep the chain unbiased:
+    // every path of such a scene stays at its level-1 state.
+    if path.len() < 2 || tr.analysis.effects.contains(Effect::AlphaMasks) {
         return Applicable::Neither;
     }
     let k = path.len() - 1;

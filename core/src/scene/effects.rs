@@ -30,11 +30,15 @@ pub enum Effect {
     AreaLights = 5,
     /// A thin-lens camera (an aperture to sample).
     DepthOfField = 6,
+    /// Normal or bump maps (a perturbed shading frame).
+    NormalMapping = 7,
+    /// Alpha masks (stochastically transparent surfaces).
+    AlphaMasks = 8,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 9] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -42,6 +46,8 @@ impl Effect {
         Effect::Textures,
         Effect::AreaLights,
         Effect::DepthOfField,
+        Effect::NormalMapping,
+        Effect::AlphaMasks,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -54,6 +60,8 @@ impl Effect {
             Effect::Textures => "textures",
             Effect::AreaLights => "area-lights",
             Effect::DepthOfField => "depth-of-field",
+            Effect::NormalMapping => "normal-mapping",
+            Effect::AlphaMasks => "alpha-masks",
         }
     }
 
@@ -66,6 +74,8 @@ impl Effect {
             Effect::Refraction => Some("refraction"),
             Effect::Textures => Some("textures"),
             Effect::DepthOfField => Some("depth-of-field"),
+            Effect::NormalMapping => Some("normal-mapping"),
+            Effect::AlphaMasks => Some("alpha-masks"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -79,6 +89,8 @@ impl Effect {
             Effect::Refraction => cfg!(feature = "refraction"),
             Effect::Textures => cfg!(feature = "textures"),
             Effect::DepthOfField => cfg!(feature = "depth-of-field"),
+            Effect::NormalMapping => cfg!(feature = "normal-mapping"),
+            Effect::AlphaMasks => cfg!(feature = "alpha-masks"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -93,6 +105,8 @@ impl Effect {
             Effect::Textures => "constant colours only",
             Effect::AreaLights => "no emitter: the image is black",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
+            Effect::NormalMapping => "no normal or bump map",
+            Effect::AlphaMasks => "no alpha mask: plain closest-hit and any-hit rays",
         }
     }
 }
@@ -184,6 +198,16 @@ impl Analysis {
                     }
                 }
             }
+            // Surface detail: its own effects, and textures when it varies.
+            if m.detail.perturbs_frame() {
+                effects = effects.with(Effect::NormalMapping);
+            }
+            if m.detail.opacity.is_some() {
+                effects = effects.with(Effect::AlphaMasks);
+            }
+            if m.detail.textures().any(|t| !t.is_constant()) {
+                effects = effects.with(Effect::Textures);
+            }
             // A dielectric always scatters (it reflects and transmits).
             scatters |= matches!(m.kind, MaterialKind::Dielectric { .. });
         }
@@ -263,6 +287,7 @@ mod tests {
         let glass = Material {
             kind: MaterialKind::Dielectric { eta: 1.5 },
             two_sided: false,
+            detail: Default::default(),
         };
         let a = Analysis::of(&[diffuse(0.5), glass], |i| i == 0, true, 0.0);
         assert_eq!(

@@ -3,6 +3,7 @@
 //! A [`Material`] is resolved at a hit point into a [`crate::bsdf::Bsdf`]
 //! with plain colours; the BSDF code never sees textures.
 
+use super::detail::Detail;
 use super::texture::Texture;
 use crate::math::Rgb;
 
@@ -78,6 +79,8 @@ pub struct Material {
     pub kind: MaterialKind,
     /// Scatter identically from both sides.
     pub two_sided: bool,
+    /// Normal map, bump map and alpha mask ([`Detail::NONE`]: none).
+    pub detail: Detail,
 }
 
 impl Material {
@@ -88,6 +91,7 @@ impl Material {
                 reflectance: Texture::Constant(albedo),
             },
             two_sided: true,
+            detail: Detail::NONE,
         }
     }
 
@@ -102,6 +106,7 @@ impl Material {
 
     /// Checks the parameters a host may hand in; returns what is wrong.
     pub fn validate(&self) -> Result<(), &'static str> {
+        self.detail.validate()?;
         fn tex_ok(t: &Texture) -> bool {
             match t {
                 Texture::Constant(c) => c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0,

@@ -10,6 +10,7 @@
 //! reports that numbering.
 
 pub mod camera;
+pub mod detail;
 pub mod effects;
 #[cfg(feature = "alloc")]
 pub mod light;
@@ -26,6 +27,7 @@ pub use shapes::{SHAPE_PRIM_BIT, ShapeGroup, ShapePoint, ShapeSurface};
 pub use store::*;
 
 pub use camera::{Camera, CameraError, FovAxis};
+pub use detail::Detail;
 pub use effects::{Analysis, Effect, EffectSet};
 pub use material::{ConductorFresnel, Distribution, Material, MaterialId, MaterialKind};
 #[cfg(feature = "alloc")]

@@ -271,7 +271,7 @@ impl SceneBuilder {
                 } => [Some(specular_reflectance), None],
                 super::MaterialKind::Dielectric { .. } => [None, None],
             };
-            for t in tex_refs.into_iter().flatten() {
+            for t in tex_refs.into_iter().flatten().chain(m.detail.textures()) {
                 if let Texture::Bitmap { id, .. } = t
                     && id.0 as usize >= self.bitmaps.len()
                 {
@@ -513,6 +513,39 @@ impl Scene {
             surface: SHAPE_PRIM_BIT | g as u32,
             prim: SHAPE_PRIM_BIT | shape,
         })
+    }
+
+    /// The surface's parameterisation derivatives (∂p/∂u, ∂p/∂v) at `sp`,
+    /// as Mitsuba's mesh computes them: from the triangle's uvs, or its
+    /// edges p1 − p0 and p2 − p0 (the barycentric parameterisation) when
+    /// the mesh has none, or the normal's own basis when the uvs are
+    /// degenerate. Host shapes, which report no derivatives, get the
+    /// geometric normal's basis. Only normal and bump maps need this.
+    pub fn uv_tangents(&self, sp: &SurfacePoint) -> (Vec3, Vec3) {
+        if sp.prim & SHAPE_PRIM_BIT != 0 {
+            let f = crate::math::Frame::from_normal(sp.ng);
+            return (f.s, f.t);
+        }
+        let (mi, ti) = self.locate(sp.prim);
+        let m = &self.meshes[mi];
+        let idx = m.indices[ti].map(|i| i as usize);
+        let [p0, p1, p2] = idx.map(|i| m.positions[i]);
+        let (dp0, dp1) = (p1 - p0, p2 - p0);
+        if m.uvs.is_empty() {
+            return (dp0, dp1);
+        }
+        let [uv0, uv1, uv2] = idx.map(|i| m.uvs[i]);
+        let (duv0, duv1) = (uv1 - uv0, uv2 - uv0);
+        let det = duv0.x * duv1.y - duv0.y * duv1.x;
+        let inv = 1.0 / det;
+        if det == 0.0 || !inv.is_finite() {
+            let f = crate::math::Frame::from_normal(sp.ng);
+            return (f.s, f.t);
+        }
+        (
+            (dp0 * duv1.y - dp1 * duv0.y) * inv,
+            (dp1 * duv0.x - dp0 * duv1.x) * inv,
+        )
     }
 
     /// The surface point of an intersection: on a triangle, or on a host

@@ -76,6 +76,28 @@ impl Bitmap {
         (t00 * (1.0 - fx) + t10 * fx) * (1.0 - fy) + (t01 * (1.0 - fx) + t11 * fx) * fy
     }
 
+    /// The uv gradient of the bilinear interpolant of the texels'
+    /// luminance at `uv` (Mitsuba's `bitmap::eval_1_grad`): the partials
+    /// in texel units, times the resolution.
+    pub fn luminance_grad(&self, uv: Vec2) -> Vec2 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        if !(x.is_finite() && y.is_finite()) {
+            return Vec2::ZERO;
+        }
+        let x0 = libm::floorf(x);
+        let y0 = libm::floorf(y);
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let f00 = self.texel(x0, y0).luminance();
+        let f10 = self.texel(x0 + 1, y0).luminance();
+        let f01 = self.texel(x0, y0 + 1).luminance();
+        let f11 = self.texel(x0 + 1, y0 + 1).luminance();
+        let dx = (1.0 - fy) * (f10 - f00) + fy * (f11 - f01);
+        let dy = (1.0 - fx) * (f01 - f00) + fx * (f11 - f10);
+        Vec2::new(dx * self.width as f32, dy * self.height as f32)
+    }
+
     /// Mean texel value, used to estimate a texture's albedo.
     pub fn mean(&self) -> Rgb {
         let mut s = Rgb::ZERO;
@@ -144,6 +166,38 @@ impl Texture {
         }
     }
 
+    /// The texture as a scalar (Mitsuba's `eval_1`): the luminance of its
+    /// RGB value, which is the value itself for a grey texture.
+    #[cfg(feature = "alloc")]
+    #[inline]
+    pub fn eval_1(&self, uv: Vec2, bitmaps: &[Bitmap]) -> f32 {
+        self.eval(uv, bitmaps).luminance()
+    }
+
+    /// The uv gradient of [`Texture::eval_1`] (Mitsuba's `eval_1_grad`):
+    /// zero for constants and for the piecewise-constant checkerboard,
+    /// through the transform's transpose for a bitmap (as Mitsuba, the
+    /// texel-space partials are scaled by the resolution after the
+    /// transpose).
+    #[cfg(feature = "alloc")]
+    #[cfg_attr(not(feature = "textures"), allow(unused_variables))]
+    pub fn eval_1_grad(&self, uv: Vec2, bitmaps: &[Bitmap]) -> Vec2 {
+        match *self {
+            #[cfg(feature = "textures")]
+            Texture::Bitmap { id, to_uv } => {
+                let b = &bitmaps[id.0 as usize];
+                let g = b.luminance_grad(to_uv.transform_point2(uv));
+                // Undo the resolution scale, apply the transpose, redo it
+                // (Mitsuba: resolution · Mᵀ · ∂f/∂(x, y)).
+                let res = Vec2::new(b.width as f32, b.height as f32);
+                let gxy = g / res;
+                let m = to_uv.matrix2;
+                Vec2::new(m.x_axis.dot(gxy), m.y_axis.dot(gxy)) * res
+            }
+            _ => Vec2::ZERO,
+        }
+    }
+
     /// True when the texture never varies over the surface.
     pub fn is_constant(&self) -> bool {
         matches!(self, Texture::Constant(_))
@@ -175,5 +229,21 @@ mod tests {
         assert!((b.eval(Vec2::new(0.5, 0.5)).r - 0.5).abs() < 1e-6);
         assert!((b.eval(Vec2::new(0.75, 0.5)).r - 1.0).abs() < 1e-6);
         assert!(Bitmap::new(2, 2, vec![Rgb::ZERO]).is_none());
+    }
+
+    #[test]
+    fn luminance_gradient_of_a_ramp() {
+        // Texels 0, 1, 2, 3 along u (width 4): the interpolant rises by one
+        // per texel, i.e. by 4 per unit u, and is flat along v.
+        let b = Bitmap::new(4, 1, (0..4).map(|i| Rgb::splat(i as f32)).collect()).unwrap();
+        let g = b.luminance_grad(Vec2::new(0.45, 0.5));
+        assert!((g.x - 4.0).abs() < 1e-4 && g.y.abs() < 1e-6, "{g}");
+        let t = Texture::Bitmap {
+            id: BitmapId(0),
+            to_uv: Affine2::from_scale(Vec2::new(0.5, 1.0)),
+        };
+        // u' = u/2: half the slope per unit u.
+        let g = t.eval_1_grad(Vec2::new(0.9, 0.5), &[b]);
+        assert!((g.x - 2.0).abs() < 1e-4, "{g}");
     }
 }

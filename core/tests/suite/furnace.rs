@@ -132,6 +132,7 @@ fn mirror_furnace_is_two() {
             specular_reflectance: Texture::Constant(Rgb::splat(0.5)),
         },
         two_sided: true,
+        detail: Default::default(),
     };
     let scene = furnace(mirror, 1.0, 0.0, None);
     for method in [Method::Path, Method::Bdpt] {
@@ -150,6 +151,7 @@ fn glass_in_a_furnace_is_invisible() {
         let glass = Material {
             kind: MaterialKind::Dielectric { eta },
             two_sided: false,
+            detail: Default::default(),
         };
         let scene = furnace(
             Material::diffuse(Rgb::splat(0.5)),

@@ -6,6 +6,7 @@
 //!
 //! - [`bvh`]: the default BVH against brute force, watertightness, spawn
 //!   offsets, packets with any mask;
+//! - [`detail`]: normal maps, bump maps and alpha masks;
 //! - [`furnace`]: white-furnace answers of every estimator;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`renderer`]: the host's frame loop, including that it allocates
@@ -22,6 +23,7 @@ mod common;
 mod intersect;
 
 mod bvh;
+mod detail;
 mod furnace;
 mod mlt;
 mod renderer;

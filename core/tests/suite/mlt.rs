@@ -169,6 +169,7 @@ fn mlt_mirror_furnace_is_two() {
             specular_reflectance: Texture::Constant(Rgb::splat(0.5)),
         },
         two_sided: true,
+        detail: Default::default(),
     };
     let scene = furnace(mirror, 1.0);
     let (img, r) = render(&scene, &mlt_settings(), 3, 32);
@@ -317,6 +318,7 @@ fn mirror_sphere_furnace() -> Scene {
             specular_reflectance: Texture::Constant(Rgb::splat(0.5)),
         },
         two_sided: false,
+        detail: Default::default(),
     });
     b.add_mesh(common::inward_box(wall, 1.0));
     let mut sphere = common::sphere(Vec3::new(0.2, 0.1, 0.3), 0.45, mirror);

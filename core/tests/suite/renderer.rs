@@ -78,6 +78,7 @@ fn room() -> Scene {
             specular_reflectance: Texture::Constant(Rgb::splat(0.9)),
         },
         two_sided: false,
+        detail: Default::default(),
     });
     b.add_mesh(common::inward_box(wall, 0.0));
     b.add_mesh(common::sphere(Vec3::new(0.2, 0.3, 0.3), 0.4, mirror));

@@ -177,6 +177,7 @@ fn lossless_analytic_spheres_keep_the_furnace_at_two() {
     let glass = Material {
         kind: MaterialKind::Dielectric { eta: 1.5 },
         two_sided: true,
+        detail: Default::default(),
     };
     for (what, object) in [("white", Material::diffuse(Rgb::ONE)), ("glass", glass)] {
         let (scene, host) = box_with_sphere(Material::diffuse(Rgb::splat(0.5)), 1.0, object);

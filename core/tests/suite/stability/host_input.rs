@@ -106,6 +106,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
                     },
                 },
                 two_sided: true,
+                detail: Default::default(),
             },
         ),
         (
@@ -113,6 +114,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
             Material {
                 kind: MaterialKind::Dielectric { eta: nan },
                 two_sided: false,
+                detail: Default::default(),
             },
         ),
         (
@@ -120,6 +122,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
             Material {
                 kind: MaterialKind::Dielectric { eta: 0.0 },
                 two_sided: false,
+                detail: Default::default(),
             },
         ),
         (
@@ -127,6 +130,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
             Material {
                 kind: MaterialKind::Dielectric { eta: inf },
                 two_sided: false,
+                detail: Default::default(),
             },
         ),
         (
@@ -139,6 +143,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
                     specular_reflectance: c(Rgb::ONE),
                 },
                 two_sided: true,
+                detail: Default::default(),
             },
         ),
         (
@@ -151,6 +156,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
                     specular_reflectance: c(Rgb::ONE),
                 },
                 two_sided: true,
+                detail: Default::default(),
             },
         ),
         (
@@ -164,6 +170,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
                     specular_reflectance: c(Rgb::ONE),
                 },
                 two_sided: false,
+                detail: Default::default(),
             },
         ),
         (
@@ -176,6 +183,7 @@ fn scene_builder_rejects_non_finite_and_out_of_range_values() {
                     },
                 },
                 two_sided: true,
+                detail: Default::default(),
             },
         ),
     ];

@@ -15,6 +15,7 @@ fn rough(distribution: Distribution, alpha: f32, reflectance: f32) -> Material {
             specular_reflectance: Texture::Constant(Rgb::splat(reflectance)),
         },
         two_sided: true,
+        detail: Default::default(),
     }
 }
 
@@ -71,6 +72,7 @@ fn glass_is_invisible_in_the_furnace_for_any_ior() {
             let glass = b.add_material(Material {
                 kind: MaterialKind::Dielectric { eta },
                 two_sided: false,
+                detail: Default::default(),
             });
             b.add_mesh(common::sphere(Vec3::new(-0.3, 0.0, 0.4), 0.3, glass));
             b.add_mesh(cuboid(

@@ -21,6 +21,7 @@ fn mirror_sphere_furnace() -> Scene {
                 specular_reflectance: Texture::Constant(Rgb::splat(0.5)),
             },
             two_sided: false,
+            detail: Default::default(),
         });
         let mut s = common::sphere(Vec3::new(0.2, 0.1, 0.3), 0.45, mirror);
         s.emission = Some(Rgb::ONE);
