@@ -210,6 +210,13 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
     if path.len() < 2 {
         return Applicable::Neither;
     }
+    // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
+    // coating): the perturbations evaluate such a vertex with `eval`, which
+    // holds only the smooth lobes, so their target would not be the level-1
+    // contribution of this path. The identity kernel is always correct.
+    if path.iter().any(|v| v.mixed_delta) {
+        return Applicable::Neither;
+    }
     let k = path.len() - 1;
     let p_lens = path[0].sp.p;
     // A vertex without shading (a sampled light point) is never specular,

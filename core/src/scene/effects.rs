@@ -30,11 +30,13 @@ pub enum Effect {
     AreaLights = 5,
     /// A thin-lens camera (an aperture to sample).
     DepthOfField = 6,
+    /// Plastics: a dielectric coating over a diffuse base.
+    Coating = 7,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 8] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -42,6 +44,7 @@ impl Effect {
         Effect::Textures,
         Effect::AreaLights,
         Effect::DepthOfField,
+        Effect::Coating,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -54,6 +57,7 @@ impl Effect {
             Effect::Textures => "textures",
             Effect::AreaLights => "area-lights",
             Effect::DepthOfField => "depth-of-field",
+            Effect::Coating => "coating",
         }
     }
 
@@ -66,6 +70,7 @@ impl Effect {
             Effect::Refraction => Some("refraction"),
             Effect::Textures => Some("textures"),
             Effect::DepthOfField => Some("depth-of-field"),
+            Effect::Coating => Some("coating"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -79,6 +84,7 @@ impl Effect {
             Effect::Refraction => cfg!(feature = "refraction"),
             Effect::Textures => cfg!(feature = "textures"),
             Effect::DepthOfField => cfg!(feature = "depth-of-field"),
+            Effect::Coating => cfg!(feature = "coating"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -93,6 +99,7 @@ impl Effect {
             Effect::Textures => "constant colours only",
             Effect::AreaLights => "no emitter: the image is black",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
+            Effect::Coating => "no plastic",
         }
     }
 }
@@ -163,16 +170,47 @@ impl Analysis {
                 continue;
             }
             let (effect, textures) = match &m.kind {
-                MaterialKind::Diffuse { reflectance } => (Effect::Diffuse, [Some(reflectance)]),
+                MaterialKind::Diffuse { reflectance } => {
+                    (Effect::Diffuse, [Some(reflectance), None])
+                }
                 MaterialKind::RoughConductor {
                     specular_reflectance,
                     ..
-                } => (Effect::Glossy, [Some(specular_reflectance)]),
+                } => (Effect::Glossy, [Some(specular_reflectance), None]),
                 MaterialKind::Conductor {
                     specular_reflectance,
                     ..
-                } => (Effect::SpecularReflection, [Some(specular_reflectance)]),
-                MaterialKind::Dielectric { .. } => (Effect::Refraction, [None]),
+                } => (
+                    Effect::SpecularReflection,
+                    [Some(specular_reflectance), None],
+                ),
+                MaterialKind::Dielectric { .. } => (Effect::Refraction, [None, None]),
+                MaterialKind::TintedDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                }
+                | MaterialKind::ThinDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                } => (
+                    Effect::Refraction,
+                    [Some(specular_reflectance), Some(specular_transmittance)],
+                ),
+                MaterialKind::Plastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                }
+                | MaterialKind::RoughPlastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                } => (
+                    Effect::Coating,
+                    [Some(diffuse_reflectance), Some(specular_reflectance)],
+                ),
             };
             effects = effects.with(effect);
             for t in textures.into_iter().flatten() {
@@ -184,8 +222,17 @@ impl Analysis {
                     }
                 }
             }
-            // A dielectric always scatters (it reflects and transmits).
-            scatters |= matches!(m.kind, MaterialKind::Dielectric { .. });
+            // A dielectric always scatters (it reflects and transmits); the
+            // tinted and thin ones and plastics are counted as scattering
+            // too, which only keeps paths that may carry nothing.
+            scatters |= matches!(
+                m.kind,
+                MaterialKind::Dielectric { .. }
+                    | MaterialKind::TintedDielectric { .. }
+                    | MaterialKind::ThinDielectric { .. }
+                    | MaterialKind::Plastic { .. }
+                    | MaterialKind::RoughPlastic { .. }
+            );
         }
         if has_emitters {
             effects = effects.with(Effect::AreaLights);
