@@ -126,7 +126,8 @@ pub struct cmlt_stats {
     /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
     pub effects: u32,
     /// BSDF samples per lobe kind, indexed diffuse, glossy, specular
-    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3).
+    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3); plastics
+    /// are counted in `coating_samples`.
     pub bsdf_samples: [u64; 4],
     /// BSDF evaluations (connections) per lobe kind, indexed as
     /// `bsdf_samples`.

@@ -38,11 +38,15 @@ fn run(u: &mut Unstructured) -> Result<()> {
         .map(|_| u.arbitrary())
         .collect::<Result<_>>()?;
     let material = cmlt_material {
-        type_: u.int_in_range(0..=4)?,
+        type_: u.int_in_range(0..=8)?,
         color: f3(u)?,
         ior: u.arbitrary()?,
         roughness: u.arbitrary()?,
         two_sided: u.arbitrary()?,
+        specular_color: f3(u)?,
+        transmission_color: f3(u)?,
+        distribution: u.int_in_range(0..=2)?,
+        nonlinear: u.arbitrary()?,
     };
     // An array of `count` elements of `size` words at `stride` bytes from
     // word `at`, or NULL / empty.

@@ -95,3 +95,15 @@ fn veach_ajar_pt() {
 fn veach_ajar_bdpt() {
     check_scene("veach-ajar", Method::Bdpt, 32);
 }
+
+// Plastics, rough plastics (GGX; Beckmann nonlinear), a thin glass pane
+// and a tinted glass sphere (tests/scenes/plastics).
+#[test]
+fn plastics_pt() {
+    check_scene("plastics", Method::Path, 64);
+}
+
+#[test]
+fn plastics_bdpt() {
+    check_scene("plastics", Method::Bdpt, 32);
+}

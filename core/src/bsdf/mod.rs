@@ -11,14 +11,23 @@
 //!   uniform throughput update f·|cos θi|/pdf gives the lobe's weight.
 //!
 //! The models follow Mitsuba 3 (`diffuse`, `conductor`, `roughconductor`,
-//! `dielectric`, `twosided`), whose `scalar_rgb` renders are our references.
+//! `dielectric`, `thindielectric`, `plastic`, `roughplastic`, `twosided`),
+//! whose `scalar_rgb` renders are our references.
+//!
+//! Smooth plastic is *mixed*: a Dirac lobe (the coating) beside a smooth one
+//! (the base). It is not [`Bsdf::is_delta`], so connections end on it and
+//! see the smooth part through `eval`/`pdf`; `sample` flags the coating
+//! with `delta: true`, which path tracing (MIS of emitter hits) and BDPT
+//! (the vertex's `delta`) follow, and MLT level 2 leaves paths through that
+//! lobe alone (`PathVertex::mixed_delta`).
+//!
 //! Files: [`fresnel`] (public Fresnel equations), `microfacet`
 //! (distributions, Smith masking, visible-normal sampling), and one file per
 //! material model.
 //!
 //! Models other than the diffuse one are built with their cargo features
-//! (`glossy`, `specular`, `refraction`); a build without one resolves that
-//! material to black, which never renders because
+//! (`glossy`, `specular`, `refraction`, `coating`); a build without one
+//! resolves that material to black, which never renders because
 //! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
 #[cfg(any(feature = "glossy", feature = "specular"))]

@@ -23,6 +23,11 @@
 //! neither (e.g. E S D S L, a caustic seen in a mirror; Veach's multi-chain
 //! perturbation) stay put: their side chain is the identity kernel.
 //!
+//! So do paths through the Dirac lobe of a mixed BSDF (smooth plastic's
+//! coating, [`crate::integrator::bdpt::PathVertex::mixed_delta`]): such a
+//! vertex is not specular by [`crate::bsdf::Bsdf::is_delta`], so a
+//! perturbation would re-evaluate it with `eval`, which lacks that lobe.
+//!
 //! ## Targets in the perturbation's own measure
 //!
 //! The side chain must leave the level-1 chain's stationary distribution
