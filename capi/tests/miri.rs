@@ -71,6 +71,10 @@ fn host_input_paths_under_miri() {
             ior: 1.0,
             roughness: 0.0,
             two_sided: 1,
+            specular_color: [1.0; 3],
+            transmission_color: [1.0; 3],
+            distribution: 0,
+            nonlinear: 0,
         };
         assert_eq!(cmlt_scene_add_material(s, &white, &mut id), CMLT_OK);
         let mesh = cmlt_mesh {
