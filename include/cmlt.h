@@ -63,6 +63,33 @@
 // `roughness` the GGX α in (0, 1].
 #define CMLT_MATERIAL_ROUGH_METAL 3
 
+// Smooth plastic (Mitsuba's `plastic`): `color` is the base's diffuse
+// albedo, `specular_color` the coating's specular reflectance (set it to
+// 1 for an untinted coating), `ior` the coating's index ratio (> 0),
+// `nonlinear` Mitsuba's flag of that name.
+#define CMLT_MATERIAL_PLASTIC 4
+
+// Rough plastic (Mitsuba's `roughplastic`): as `CMLT_MATERIAL_PLASTIC`,
+// plus `roughness` (α in (0, 1]) and `distribution`; `ior` must not be 1.
+#define CMLT_MATERIAL_ROUGH_PLASTIC 5
+
+// Thin glass pane (Mitsuba's `thindielectric`): `ior` is the pane's index
+// ratio, `specular_color` and `transmission_color` tint the reflected and
+// the (unbent) transmitted light.
+#define CMLT_MATERIAL_THIN_GLASS 6
+
+// Tinted smooth glass: `CMLT_MATERIAL_GLASS` whose reflected and
+// transmitted light are tinted by `specular_color` and
+// `transmission_color` (Mitsuba's `dielectric` `specular_reflectance`,
+// `specular_transmittance`).
+#define CMLT_MATERIAL_TINTED_GLASS 7
+
+// `cmlt_material.distribution`: GGX (the default, 0).
+#define CMLT_DISTRIBUTION_GGX 0
+
+// `cmlt_material.distribution`: Beckmann.
+#define CMLT_DISTRIBUTION_BECKMANN 1
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -74,6 +101,8 @@
 // "No texture" in `cmlt_material`'s texture fields: zero, so that a
 // zero-initialised material has none (texture ids start at 1).
 #define CMLT_NO_TEXTURE 0
+
+
 
 
 
@@ -246,13 +275,19 @@ typedef struct cmlt_stats {
   // The `CMLT_EFFECT_*` bits the scene calls for through this camera.
   uint32_t effects;
   // BSDF samples per lobe kind, indexed diffuse, glossy, specular
-  // reflection, refraction (the `CMLT_EFFECT_*` values 0–3).
+  // reflection, refraction (the `CMLT_EFFECT_*` values 0–3); plastics
+  // are counted in `coating_samples`.
   uint64_t bsdf_samples[4];
   // BSDF evaluations (connections) per lobe kind, indexed as
   // `bsdf_samples`.
   uint64_t bsdf_evals[4];
   // Camera rays that sampled the thin lens (0 for a pinhole).
   uint64_t lens_samples;
+  // BSDF samples of plastics (lobe kind 4, `CMLT_EFFECT_COATING`;
+  // appended after the four-entry arrays to keep the layout).
+  uint64_t coating_samples;
+  // BSDF evaluations of plastics.
+  uint64_t coating_evals;
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.
@@ -285,6 +320,16 @@ typedef struct cmlt_material {
   // the surface with probability 1 − opacity (an alpha cut-out with 0
   // and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
   uint32_t opacity_texture;
+  // Plastics: the coating's specular reflectance; thin and tinted
+  // glass: the reflection tint. Each component finite and ≥ 0.
+  float specular_color[3];
+  // Thin and tinted glass: the transmission tint (finite, ≥ 0).
+  float transmission_color[3];
+  // Rough plastic: a `CMLT_DISTRIBUTION_*` value.
+  uint32_t distribution;
+  // Plastics: non-zero for Mitsuba's `nonlinear` (internal reflections
+  // tint the base).
+  uint32_t nonlinear;
 } cmlt_material;
 
 // A triangle mesh, read from the host's arrays during

@@ -46,6 +46,10 @@ const WHITE: cmlt_material = cmlt_material {
     bump_map: CMLT_NO_TEXTURE,
     bump_scale: 1.0,
     opacity_texture: CMLT_NO_TEXTURE,
+    specular_color: [1.0; 3],
+    transmission_color: [1.0; 3],
+    distribution: CMLT_DISTRIBUTION_GGX,
+    nonlinear: 0,
 };
 
 /// A floor quad and a light quad facing it.
@@ -1492,5 +1496,184 @@ fn textures_from_host_memory_feed_colour_normal_bump_and_opacity() {
             f.replace("material", "texture").as_str(),
         );
         cmlt_scene_release(s);
+    }
+}
+
+/// A committed scene: a floor of material `m` under the white light.
+fn floor_of(m: &cmlt_material) -> Result<*mut cmlt_scene, cmlt_status> {
+    let mut s = null_mut();
+    let (mut white, mut id) = (0, 0);
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "cmlt_scene_new");
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut white),
+            CMLT_OK,
+            "white",
+        );
+        let status = cmlt_scene_add_material(s, m, &mut id);
+        if status != CMLT_OK {
+            cmlt_scene_release(s);
+            return Err(status);
+        }
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&FLOOR, id, 0.0), null_mut()),
+            CMLT_OK,
+            "floor",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&LIGHT, white, 5.0), null_mut()),
+            CMLT_OK,
+            "light",
+        );
+        expect(cmlt_scene_commit(s), CMLT_OK, "commit");
+    }
+    Ok(s)
+}
+
+#[test]
+fn coating_and_thin_glass_materials_are_checked_and_rendered() {
+    let plastic = cmlt_material {
+        type_: CMLT_MATERIAL_PLASTIC,
+        color: [0.6, 0.2, 0.1],
+        ior: 1.5,
+        two_sided: 1,
+        ..WHITE
+    };
+    let rough = cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_PLASTIC,
+        roughness: 0.2,
+        distribution: CMLT_DISTRIBUTION_BECKMANN,
+        nonlinear: 1,
+        ..plastic
+    };
+    let thin = cmlt_material {
+        type_: CMLT_MATERIAL_THIN_GLASS,
+        ior: 1.5,
+        transmission_color: [0.9, 0.5, 0.2],
+        ..WHITE
+    };
+    let tinted = cmlt_material {
+        type_: CMLT_MATERIAL_TINTED_GLASS,
+        specular_color: [0.8, 0.8, 0.8],
+        ..thin
+    };
+    for (name, m, effect) in [
+        ("plastic", plastic, CMLT_EFFECT_COATING),
+        ("rough plastic", rough, CMLT_EFFECT_COATING),
+        ("thin glass", thin, CMLT_EFFECT_REFRACTION),
+        ("tinted glass", tinted, CMLT_EFFECT_REFRACTION),
+    ] {
+        let s = floor_of(&m).unwrap_or_else(|e| panic!("{name}: status {e:?}"));
+        let mut fx = 0u32;
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_scene_get_effects(s, &mut fx, null_mut()),
+                CMLT_OK,
+                name,
+            )
+        };
+        assert_eq!(
+            fx & (CMLT_EFFECT_COATING | CMLT_EFFECT_REFRACTION),
+            effect,
+            "{name}"
+        );
+        let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+        let stats = prepare_render_stats(r, 4);
+        assert_eq!(stats.nonfinite, 0, "{name}");
+        let px = image(r);
+        assert!(px.iter().all(|v| v.is_finite() && *v >= 0.0), "{name}");
+        if effect == CMLT_EFFECT_COATING {
+            // The floor is seen and lit: coloured like its base (red > blue)
+            // and its lobes counted as coating work.
+            let (red, blue): (f32, f32) = (
+                px.chunks(3).map(|p| p[0]).sum(),
+                px.chunks(3).map(|p| p[2]).sum(),
+            );
+            assert!(red > 1.1 * blue && blue > 0.0, "{name}: {red} {blue}");
+            assert!(
+                stats.coating_samples > 0 && stats.coating_evals > 0,
+                "{name}"
+            );
+        } else {
+            assert_eq!(stats.coating_samples, 0, "{name}");
+        }
+        // SAFETY: handles from above.
+        unsafe {
+            cmlt_renderer_release(r);
+            cmlt_scene_release(s);
+        }
+    }
+
+    for (name, bad) in [
+        (
+            "plastic ior NaN",
+            cmlt_material {
+                ior: f32::NAN,
+                ..plastic
+            },
+        ),
+        (
+            "plastic albedo > 1",
+            cmlt_material {
+                color: [1.2, 0.2, 0.1],
+                ..plastic
+            },
+        ),
+        (
+            "plastic specular < 0",
+            cmlt_material {
+                specular_color: [-1.0, 1.0, 1.0],
+                ..plastic
+            },
+        ),
+        (
+            "rough plastic α = 0",
+            cmlt_material {
+                roughness: 0.0,
+                ..rough
+            },
+        ),
+        (
+            "rough plastic α NaN",
+            cmlt_material {
+                roughness: f32::NAN,
+                ..rough
+            },
+        ),
+        ("rough plastic ior 1", cmlt_material { ior: 1.0, ..rough }),
+        (
+            "rough plastic distribution",
+            cmlt_material {
+                distribution: 7,
+                ..rough
+            },
+        ),
+        ("thin glass ior 0", cmlt_material { ior: 0.0, ..thin }),
+        (
+            "thin glass tint < 0",
+            cmlt_material {
+                transmission_color: [0.5, -0.1, 0.5],
+                ..thin
+            },
+        ),
+        (
+            "tinted glass tint NaN",
+            cmlt_material {
+                specular_color: [f32::NAN, 1.0, 1.0],
+                ..tinted
+            },
+        ),
+    ] {
+        assert_eq!(
+            floor_of(&bad).err(),
+            Some(CMLT_ERROR_INVALID_ARGUMENT),
+            "{name}"
+        );
+        assert!(
+            last_error().starts_with("cmlt_scene_add_material"),
+            "{name}"
+        );
     }
 }

@@ -9,6 +9,8 @@
 use std::ffi::c_void;
 use std::sync::{Arc, Mutex, RwLock};
 
+use cmlt_core::bsdf::Lobe;
+use cmlt_core::integrator::LobeCounts;
 use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
 use cmlt_core::mlt::{Candidates, MltSettings};
@@ -124,13 +126,25 @@ pub struct cmlt_stats {
     /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
     pub effects: u32,
     /// BSDF samples per lobe kind, indexed diffuse, glossy, specular
-    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3).
+    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3); plastics
+    /// are counted in `coating_samples`.
     pub bsdf_samples: [u64; 4],
     /// BSDF evaluations (connections) per lobe kind, indexed as
     /// `bsdf_samples`.
     pub bsdf_evals: [u64; 4],
     /// Camera rays that sampled the thin lens (0 for a pinhole).
     pub lens_samples: u64,
+    /// BSDF samples of plastics (lobe kind 4, `CMLT_EFFECT_COATING`;
+    /// appended after the four-entry arrays to keep the layout).
+    pub coating_samples: u64,
+    /// BSDF evaluations of plastics.
+    pub coating_evals: u64,
+}
+
+/// The counts of the first four lobe kinds (diffuse … refraction), the
+/// entries `cmlt_stats` has always had.
+fn lobes4(c: &LobeCounts) -> [u64; 4] {
+    [c.0[0], c.0[1], c.0[2], c.0[3]]
 }
 
 /// A renderer handle (opaque to C).
@@ -674,8 +688,10 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
             effects: live.scene.analysis(inner.camera()).effects.0,
-            bsdf_samples: s.tracer.bsdf_samples.0,
-            bsdf_evals: s.tracer.bsdf_evals.0,
+            bsdf_samples: lobes4(&s.tracer.bsdf_samples),
+            bsdf_evals: lobes4(&s.tracer.bsdf_evals),
+            coating_samples: s.tracer.bsdf_samples.get(Lobe::Coating),
+            coating_evals: s.tracer.bsdf_evals.get(Lobe::Coating),
             lens_samples: s.tracer.lens_samples,
         };
         Ok(())

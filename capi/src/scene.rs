@@ -16,7 +16,8 @@ use cmlt_core::math::spectrum::srgb_to_linear;
 use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
     Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Material,
-    MaterialId, MaterialKind, Mesh, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup, Texture,
+    MaterialId, MaterialKind, Mesh, RoughCoating, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup,
+    Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -31,6 +32,28 @@ pub const CMLT_MATERIAL_GLASS: u32 = 2;
 /// Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
 /// `roughness` the GGX α in (0, 1].
 pub const CMLT_MATERIAL_ROUGH_METAL: u32 = 3;
+/// Smooth plastic (Mitsuba's `plastic`): `color` is the base's diffuse
+/// albedo, `specular_color` the coating's specular reflectance (set it to
+/// 1 for an untinted coating), `ior` the coating's index ratio (> 0),
+/// `nonlinear` Mitsuba's flag of that name.
+pub const CMLT_MATERIAL_PLASTIC: u32 = 4;
+/// Rough plastic (Mitsuba's `roughplastic`): as `CMLT_MATERIAL_PLASTIC`,
+/// plus `roughness` (α in (0, 1]) and `distribution`; `ior` must not be 1.
+pub const CMLT_MATERIAL_ROUGH_PLASTIC: u32 = 5;
+/// Thin glass pane (Mitsuba's `thindielectric`): `ior` is the pane's index
+/// ratio, `specular_color` and `transmission_color` tint the reflected and
+/// the (unbent) transmitted light.
+pub const CMLT_MATERIAL_THIN_GLASS: u32 = 6;
+/// Tinted smooth glass: `CMLT_MATERIAL_GLASS` whose reflected and
+/// transmitted light are tinted by `specular_color` and
+/// `transmission_color` (Mitsuba's `dielectric` `specular_reflectance`,
+/// `specular_transmittance`).
+pub const CMLT_MATERIAL_TINTED_GLASS: u32 = 7;
+
+/// `cmlt_material.distribution`: GGX (the default, 0).
+pub const CMLT_DISTRIBUTION_GGX: u32 = 0;
+/// `cmlt_material.distribution`: Beckmann.
+pub const CMLT_DISTRIBUTION_BECKMANN: u32 = 1;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -72,6 +95,16 @@ pub struct cmlt_material {
     /// the surface with probability 1 − opacity (an alpha cut-out with 0
     /// and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
     pub opacity_texture: u32,
+    /// Plastics: the coating's specular reflectance; thin and tinted
+    /// glass: the reflection tint. Each component finite and ≥ 0.
+    pub specular_color: [f32; 3],
+    /// Thin and tinted glass: the transmission tint (finite, ≥ 0).
+    pub transmission_color: [f32; 3],
+    /// Rough plastic: a `CMLT_DISTRIBUTION_*` value.
+    pub distribution: u32,
+    /// Plastics: non-zero for Mitsuba's `nonlinear` (internal reflections
+    /// tint the base).
+    pub nonlinear: u32,
 }
 
 /// "No texture" in `cmlt_material`'s texture fields: zero, so that a
@@ -393,6 +426,16 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
     let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
     let tex = texture_from_c(m.color_texture, textures, "color_texture")?;
     let colour = tex.unwrap_or(Texture::Constant(color));
+    let specular = Rgb::new(
+        m.specular_color[0],
+        m.specular_color[1],
+        m.specular_color[2],
+    );
+    let transmission = Rgb::new(
+        m.transmission_color[0],
+        m.transmission_color[1],
+        m.transmission_color[2],
+    );
     let kind = match m.type_ {
         CMLT_MATERIAL_DIFFUSE => MaterialKind::Diffuse {
             reflectance: colour,
@@ -407,6 +450,51 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             }
             MaterialKind::Dielectric { eta: m.ior }
         }
+        CMLT_MATERIAL_PLASTIC => MaterialKind::Plastic {
+            eta: m.ior,
+            diffuse_reflectance: colour,
+            specular_reflectance: Texture::Constant(specular),
+            nonlinear: m.nonlinear != 0,
+        },
+        CMLT_MATERIAL_ROUGH_PLASTIC => {
+            let distribution = match m.distribution {
+                CMLT_DISTRIBUTION_GGX => Distribution::Ggx,
+                CMLT_DISTRIBUTION_BECKMANN => Distribution::Beckmann,
+                d => {
+                    return Err(Error::invalid(format!(
+                        "material: unknown distribution {d}"
+                    )));
+                }
+            };
+            // Checked before the coating table is integrated from them.
+            if !(m.roughness > 0.0 && m.roughness <= 1.0) {
+                return Err(Error::invalid("material: roughness must be in (0, 1]"));
+            }
+            if !(m.ior.is_finite() && m.ior > 0.0 && m.ior != 1.0) {
+                return Err(Error::invalid(
+                    "material: rough plastic ior must be finite, > 0 and ≠ 1",
+                ));
+            }
+            MaterialKind::RoughPlastic {
+                distribution,
+                alpha: m.roughness,
+                eta: m.ior,
+                diffuse_reflectance: colour,
+                specular_reflectance: Texture::Constant(specular),
+                nonlinear: m.nonlinear != 0,
+                coating: RoughCoating::new(distribution, m.roughness, m.ior),
+            }
+        }
+        CMLT_MATERIAL_THIN_GLASS => MaterialKind::ThinDielectric {
+            eta: m.ior,
+            specular_reflectance: Texture::Constant(specular),
+            specular_transmittance: Texture::Constant(transmission),
+        },
+        CMLT_MATERIAL_TINTED_GLASS => MaterialKind::TintedDielectric {
+            eta: m.ior,
+            specular_reflectance: Texture::Constant(specular),
+            specular_transmittance: Texture::Constant(transmission),
+        },
         CMLT_MATERIAL_ROUGH_METAL => MaterialKind::RoughConductor {
             distribution: Distribution::Ggx,
             alpha: m.roughness,
@@ -431,7 +519,11 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
         .map_err(|e| Error::invalid(format!("material: {e}")))?;
     if matches!(
         m.type_,
-        CMLT_MATERIAL_DIFFUSE | CMLT_MATERIAL_MIRROR | CMLT_MATERIAL_ROUGH_METAL
+        CMLT_MATERIAL_DIFFUSE
+            | CMLT_MATERIAL_MIRROR
+            | CMLT_MATERIAL_ROUGH_METAL
+            | CMLT_MATERIAL_PLASTIC
+            | CMLT_MATERIAL_ROUGH_PLASTIC
     ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
     {
         return Err(Error::invalid(
@@ -1061,6 +1153,8 @@ pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
 pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 1 << Effect::NormalMapping as u32;
 /// Alpha masks (opacity textures).
 pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
+/// Plastics (a dielectric coating over a diffuse base).
+pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

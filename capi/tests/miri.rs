@@ -76,6 +76,10 @@ fn host_input_paths_under_miri() {
             bump_map: CMLT_NO_TEXTURE,
             bump_scale: 1.0,
             opacity_texture: CMLT_NO_TEXTURE,
+            specular_color: [1.0; 3],
+            transmission_color: [1.0; 3],
+            distribution: 0,
+            nonlinear: 0,
         };
         assert_eq!(cmlt_scene_add_material(s, &white, &mut id), CMLT_OK);
         let mesh = cmlt_mesh {

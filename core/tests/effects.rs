@@ -15,7 +15,8 @@ use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Camera, ConductorFresnel, Detail, Distribution, Effect, EffectSet, FovAxis, Material,
-    MaterialKind, Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint, ShapeSurface, Texture,
+    MaterialKind, RoughCoating, Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint,
+    ShapeSurface, Texture,
 };
 
 fn camera(aperture: f32) -> Camera {
@@ -107,6 +108,42 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
                     ..Detail::NONE
                 },
                 ..Material::diffuse(Rgb::splat(0.5))
+            },
+            0.0,
+        ),
+        (
+            Effect::Coating,
+            opaque(MaterialKind::Plastic {
+                eta: 1.5,
+                diffuse_reflectance: tint,
+                specular_reflectance: Texture::Constant(Rgb::ONE),
+                nonlinear: false,
+            }),
+            0.0,
+        ),
+        (
+            Effect::Coating,
+            opaque(MaterialKind::RoughPlastic {
+                distribution: Distribution::Beckmann,
+                alpha: 0.2,
+                eta: 1.5,
+                diffuse_reflectance: tint,
+                specular_reflectance: Texture::Constant(Rgb::ONE),
+                nonlinear: true,
+                coating: RoughCoating::new(Distribution::Beckmann, 0.2, 1.5),
+            }),
+            0.0,
+        ),
+        (
+            Effect::Refraction,
+            Material {
+                kind: MaterialKind::ThinDielectric {
+                    eta: 1.5,
+                    specular_reflectance: tint,
+                    specular_transmittance: tint,
+                },
+                two_sided: false,
+                detail: Detail::NONE,
             },
             0.0,
         ),

@@ -38,7 +38,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         .map(|_| u.arbitrary())
         .collect::<Result<_>>()?;
     let material = cmlt_material {
-        type_: u.int_in_range(0..=4)?,
+        type_: u.int_in_range(0..=8)?,
         color: f3(u)?,
         ior: u.arbitrary()?,
         roughness: u.arbitrary()?,
@@ -48,6 +48,10 @@ fn run(u: &mut Unstructured) -> Result<()> {
         bump_map: CMLT_NO_TEXTURE,
         bump_scale: 1.0,
         opacity_texture: CMLT_NO_TEXTURE,
+        specular_color: f3(u)?,
+        transmission_color: f3(u)?,
+        distribution: u.int_in_range(0..=2)?,
+        nonlinear: u.arbitrary()?,
     };
     // An array of `count` elements of `size` words at `stride` bytes from
     // word `at`, or NULL / empty.

@@ -12,7 +12,8 @@ use std::path::PathBuf;
 use cmlt::math::Rgb;
 use cmlt::math::spectrum::srgb_to_linear;
 use cmlt::scene::{
-    Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, Texture,
+    Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind,
+    RoughCoating, Texture,
 };
 use glam::Affine2;
 use roxmltree::Node;
@@ -134,6 +135,32 @@ impl<'a> Loader<'a> {
                 ..
             } => fix(specular_reflectance),
             MaterialKind::Dielectric { .. } => {}
+            MaterialKind::TintedDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            }
+            | MaterialKind::ThinDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => {
+                fix(specular_reflectance);
+                fix(specular_transmittance);
+            }
+            MaterialKind::Plastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                ..
+            }
+            | MaterialKind::RoughPlastic {
+                diffuse_reflectance,
+                specular_reflectance,
+                ..
+            } => {
+                fix(diffuse_reflectance);
+                fix(specular_reflectance);
+            }
         }
         self.material_origin.push(origin);
         self.builder.add_material(m)
@@ -172,7 +199,10 @@ impl<'a> Loader<'a> {
                     }
                 };
                 let mut m = self.bsdf(inner, depth + 1)?;
-                if let MaterialKind::Dielectric { .. } = m.kind {
+                if let MaterialKind::Dielectric { .. }
+                | MaterialKind::TintedDielectric { .. }
+                | MaterialKind::ThinDielectric { .. } = m.kind
+                {
                     // Mitsuba: "Only materials without a transmission
                     // component can be nested!"
                     return Err(self.xml.err(
@@ -216,20 +246,7 @@ impl<'a> Loader<'a> {
                 }
             }
             "roughconductor" => {
-                let x = &self.xml;
-                let distribution = match props.string(x, "distribution")? {
-                    None => Distribution::Beckmann,
-                    Some((d, n)) => match d.to_ascii_lowercase().as_str() {
-                        "beckmann" => Distribution::Beckmann,
-                        "ggx" => Distribution::Ggx,
-                        _ => {
-                            return Err(x.err(
-                                n,
-                                format!("invalid distribution '{d}' (must be 'beckmann' or 'ggx')"),
-                            ));
-                        }
-                    },
-                };
+                let distribution = self.distribution(&props)?;
                 let alpha = self.roughness(&props)?;
                 let fresnel = self.conductor_fresnel(&props)?;
                 let specular_reflectance =
@@ -247,25 +264,79 @@ impl<'a> Loader<'a> {
                     detail: Default::default(),
                 }
             }
-            "dielectric" => {
-                let x = &self.xml;
+            "dielectric" | "thindielectric" => {
                 let int_ior = self.ior(&props, "int_ior", 1.5046)?;
                 let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
-                for name in ["specular_reflectance", "specular_transmittance"] {
-                    if let Some((c, n)) = props.color(x, name)?
-                        && c != [1.0; 3]
-                    {
-                        return Err(x.err(
-                            n,
-                            format!("dielectric '{name}' other than 1 is not supported"),
-                        ));
-                    }
-                }
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                let specular_transmittance =
+                    self.texture_param(&props, "specular_transmittance", Rgb::ONE)?;
                 // Mitsuba's eta is interior over exterior.
+                let eta = int_ior / ext_ior;
+                let clear = Texture::Constant(Rgb::ONE);
+                let kind = if props.plugin == "thindielectric" {
+                    MaterialKind::ThinDielectric {
+                        eta,
+                        specular_reflectance,
+                        specular_transmittance,
+                    }
+                } else if specular_reflectance == clear && specular_transmittance == clear {
+                    MaterialKind::Dielectric { eta }
+                } else {
+                    MaterialKind::TintedDielectric {
+                        eta,
+                        specular_reflectance,
+                        specular_transmittance,
+                    }
+                };
                 Material {
-                    kind: MaterialKind::Dielectric {
-                        eta: int_ior / ext_ior,
-                    },
+                    kind,
+                    two_sided: false,
+                    detail: Default::default(),
+                }
+            }
+            "plastic" | "roughplastic" => {
+                // Mitsuba's defaults: polypropylene in air, base albedo 0.5.
+                let int_ior = self.ior(&props, "int_ior", 1.49)?;
+                let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
+                let rough = props.plugin == "roughplastic";
+                if rough && int_ior == ext_ior {
+                    let n = props.get("int_ior").map_or(node, |e| e.node);
+                    return Err(self.xml.err(
+                        n,
+                        "roughplastic: the interior and exterior indices of refraction must differ",
+                    ));
+                }
+                let eta = int_ior / ext_ior;
+                let diffuse_reflectance =
+                    self.texture_param(&props, "diffuse_reflectance", Rgb::splat(0.5))?;
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                let nonlinear = props.boolean(&self.xml, "nonlinear")?.unwrap_or(false);
+                let kind = if rough {
+                    let distribution = self.distribution(&props)?;
+                    let alpha = self.roughness(&props)?;
+                    // Visible-normal sampling only changes the variance.
+                    ignored = &["sample_visible"];
+                    MaterialKind::RoughPlastic {
+                        distribution,
+                        alpha,
+                        eta,
+                        diffuse_reflectance,
+                        specular_reflectance,
+                        nonlinear,
+                        coating: RoughCoating::new(distribution, alpha, eta),
+                    }
+                } else {
+                    MaterialKind::Plastic {
+                        eta,
+                        diffuse_reflectance,
+                        specular_reflectance,
+                        nonlinear,
+                    }
+                };
+                Material {
+                    kind,
                     two_sided: false,
                     detail: Default::default(),
                 }
@@ -395,6 +466,24 @@ impl<'a> Loader<'a> {
             m.detail.bump_scale = scale;
         }
         Ok(m)
+    }
+
+    /// A microfacet `distribution` (Mitsuba's default: Beckmann).
+    fn distribution(&self, props: &Props<'a>) -> Result<Distribution, LoadError> {
+        let x = &self.xml;
+        Ok(match props.string(x, "distribution")? {
+            None => Distribution::Beckmann,
+            Some((d, n)) => match d.to_ascii_lowercase().as_str() {
+                "beckmann" => Distribution::Beckmann,
+                "ggx" => Distribution::Ggx,
+                _ => {
+                    return Err(x.err(
+                        n,
+                        format!("invalid distribution '{d}' (must be 'beckmann' or 'ggx')"),
+                    ));
+                }
+            },
+        })
     }
 
     /// `alpha`, or equal `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).

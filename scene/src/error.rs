@@ -7,7 +7,7 @@ use std::fmt;
 /// Every error names the scene file and, when the problem can be pinned to
 /// an element, the 1-based line and column of that element (for a property,
 /// the property's own tag), so that `Display` reads like a compiler
-/// diagnostic: `scene.xml:12:3: unsupported BSDF plugin 'plastic'`.
+/// diagnostic: `scene.xml:12:3: unsupported BSDF plugin 'pplastic'`.
 /// Problems inside a referenced mesh or image file are reported at the
 /// element that names the file, and the message names the file.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -46,7 +46,13 @@ fn shared_scenes_call_for_what_they_contain() {
     names.sort();
     assert_eq!(
         names,
-        ["cornell-box", "veach-ajar", "veach-bidir", "veach-mis"],
+        [
+            "cornell-box",
+            "plastics",
+            "veach-ajar",
+            "veach-bidir",
+            "veach-mis"
+        ],
         "a shared scene was added: state its effects here"
     );
     // Diffuse walls and one area light.
@@ -60,6 +66,13 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("veach-bidir"),
         (set(&[Diffuse, Glossy, Refraction, AreaLights]), true)
+    );
+    // Plastics (smooth and rough), a thin pane and a tinted glass sphere:
+    // the glass makes specular chains, the plastics' coating does not (it
+    // is not an all-delta BSDF).
+    assert_eq!(
+        effects("plastics"),
+        (set(&[Diffuse, Refraction, AreaLights, Coating]), true)
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use cmlt::math::{Rgb, Vec2, Vec3};
 use cmlt::scene::{
-    ConductorFresnel, Distribution, Effect, Material, MaterialKind, Mesh, Scene, Texture,
+    ConductorFresnel, Distribution, Effect, Material, MaterialKind, Mesh, RoughCoating, Scene,
+    Texture,
 };
 use cmlt_cli::scene::{
     BUILTIN_SCENES, LoadError, LoadedScene, builtin_scene, load_scene, load_scene_str,
@@ -994,7 +995,7 @@ const MALFORMED: &[(&str, &str)] = &[
     ("twosided_dielectric.xml", "cannot wrap a transmissive"),
     ("unclosed_tag.xml", "malformed XML"),
     ("undefined_parameter.xml", "undefined parameter '$depth'"),
-    ("unknown_bsdf.xml", "unsupported BSDF plugin 'plastic'"),
+    ("unknown_bsdf.xml", "unsupported BSDF plugin 'pplastic'"),
     ("unknown_emitter.xml", "unsupported emitter plugin 'envmap'"),
     ("unknown_ref.xml", "reference to unknown id 'NoSuchBSDF'"),
     ("unknown_shape.xml", "unsupported shape plugin 'cylinder'"),
@@ -1049,13 +1050,13 @@ fn malformed_corpus_gives_located_errors() {
 
 #[test]
 fn errors_point_at_the_offending_line() {
-    let e = load_body("\n\n<shape type=\"cube\">\n  <bsdf type=\"roughplastic\"/>\n</shape>")
-        .unwrap_err();
+    let e =
+        load_body("\n\n<shape type=\"cube\">\n  <bsdf type=\"pplastic\"/>\n</shape>").unwrap_err();
     // The body starts on line 6 of the generated document.
     assert_eq!((e.line, e.column), (Some(9), Some(3)), "{e}");
     assert_eq!(
         e.to_string(),
-        "inline.xml:9:3: unsupported BSDF plugin 'roughplastic'"
+        "inline.xml:9:3: unsupported BSDF plugin 'pplastic'"
     );
     let e = load_scene_str("<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<float name=\"fov\" value=\"nan\"/>", Path::new("."), "cut.xml", &[])
         .unwrap_err();
@@ -1176,4 +1177,125 @@ fn surface_detail_errors_name_file_and_line() {
         l.scene.materials[0].detail.opacity,
         Some(Texture::Constant(Rgb::splat(0.25)))
     );
+}
+#[test]
+fn coatings_and_thin_glass_follow_mitsuba() {
+    let s = ok(r#"
+      <shape type="rectangle"><bsdf type="plastic"/></shape>
+      <shape type="rectangle"><bsdf type="roughplastic">
+        <string name="int_ior" value="bk7"/><float name="ext_ior" value="1.2"/>
+        <boolean name="nonlinear" value="true"/><boolean name="sample_visible" value="false"/>
+        <rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.3"/><rgb name="specular_reflectance" value="0.5"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="thindielectric"/></shape>
+      <shape type="rectangle"><bsdf type="dielectric"><rgb name="specular_transmittance" value="0.9, 0.5, 0.2"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="dielectric"><float name="specular_reflectance" value="1"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="twosided"><bsdf type="plastic"/></bsdf></shape>"#)
+    .scene;
+    let c = |v: f32| Texture::Constant(Rgb::splat(v));
+    // Mitsuba's defaults: polypropylene (1.49) in air, base 0.5, white
+    // coating, linear; roughplastic: Beckmann, α = 0.1.
+    let plastic = MaterialKind::Plastic {
+        eta: 1.49 / 1.000277,
+        diffuse_reflectance: c(0.5),
+        specular_reflectance: c(1.0),
+        nonlinear: false,
+    };
+    assert_eq!(material(&s, 0).kind, plastic);
+    let eta = 1.5046 / 1.2;
+    assert_eq!(
+        material(&s, 1).kind,
+        MaterialKind::RoughPlastic {
+            distribution: Distribution::Beckmann,
+            alpha: 0.1,
+            eta,
+            diffuse_reflectance: Texture::Constant(Rgb::new(0.1, 0.2, 0.3)),
+            specular_reflectance: c(1.0),
+            nonlinear: true,
+            coating: RoughCoating::new(Distribution::Beckmann, 0.1, eta),
+        }
+    );
+    assert!(matches!(
+        material(&s, 2).kind,
+        MaterialKind::RoughPlastic { distribution: Distribution::Ggx, alpha: 0.3, specular_reflectance, .. }
+            if specular_reflectance == c(0.5)
+    ));
+    assert_eq!(
+        material(&s, 3).kind,
+        MaterialKind::ThinDielectric {
+            eta: 1.5046 / 1.000277,
+            specular_reflectance: c(1.0),
+            specular_transmittance: c(1.0),
+        }
+    );
+    assert_eq!(
+        material(&s, 4).kind,
+        MaterialKind::TintedDielectric {
+            eta: 1.5046 / 1.000277,
+            specular_reflectance: c(1.0),
+            specular_transmittance: Texture::Constant(Rgb::new(0.9, 0.5, 0.2)),
+        }
+    );
+    // Tints of 1 are the plain dielectric.
+    assert!(matches!(
+        material(&s, 5).kind,
+        MaterialKind::Dielectric { .. }
+    ));
+    assert_eq!(
+        *material(&s, 6),
+        Material {
+            kind: plastic,
+            two_sided: true,
+            detail: Default::default(),
+        }
+    );
+}
+
+#[test]
+fn bad_coating_parameters_are_located_errors() {
+    for (body, phrase) in [
+        (
+            r#"<bsdf type="roughplastic"><float name="int_ior" value="1.3"/><float name="ext_ior" value="1.3"/></bsdf>"#,
+            "indices of refraction must differ",
+        ),
+        (
+            r#"<bsdf type="plastic"><float name="int_ior" value="-1.5"/></bsdf>"#,
+            "'int_ior' must be positive",
+        ),
+        (
+            r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.5, -0.1, 0.5"/></bsdf>"#,
+            "'diffuse_reflectance' must be non-negative",
+        ),
+        (
+            r#"<bsdf type="roughplastic"><float name="alpha" value="0"/></bsdf>"#,
+            "roughness alpha must be > 0",
+        ),
+        (
+            r#"<bsdf type="roughplastic"><string name="distribution" value="phong"/></bsdf>"#,
+            "invalid distribution 'phong'",
+        ),
+        (
+            r#"<bsdf type="thindielectric"><rgb name="specular_transmittance" value="-1"/></bsdf>"#,
+            "'specular_transmittance' must be non-negative",
+        ),
+        (
+            r#"<bsdf type="twosided"><bsdf type="thindielectric"/></bsdf>"#,
+            "cannot wrap a transmissive",
+        ),
+        (
+            r#"<bsdf type="plastic"><float name="diffuse_reflectanse" value="0.5"/></bsdf>"#,
+            "unsupported property 'diffuse_reflectanse'",
+        ),
+    ] {
+        let e = load_body(&format!("\n<shape type=\"cube\">\n{body}\n</shape>"))
+            .err()
+            .unwrap_or_else(|| panic!("{body}: loaded"));
+        let text = e.to_string();
+        assert!(text.contains(phrase), "{body}: {text}");
+        assert!(
+            text.starts_with("inline.xml:") && e.line.is_some_and(|l| l >= 8),
+            "{body}: {text}"
+        );
+    }
 }

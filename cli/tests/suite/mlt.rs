@@ -272,3 +272,27 @@ fn cmlt_render_method_mlt_is_deterministic_and_reports_acceptance() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--sigma"));
 }
+
+/// MLT and CMLT converge on the coatings scene: smooth plastic is a mixed
+/// BSDF (a Dirac coating over a diffuse base) whose Dirac paths level 2
+/// must leave alone, and the thin pane transmits without bending.
+#[test]
+fn plastics_mlt_and_cmlt_match_reference() {
+    let mlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    check_reference("plastics", 2, &mlt, 32, 2.5);
+    let cmlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        k: 8,
+        m: 4,
+        lens_sigma: 2.0,
+        ..MltSettings::cmlt()
+    };
+    check_reference("plastics", 2, &cmlt, 32, 2.5);
+}

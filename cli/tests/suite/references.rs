@@ -105,3 +105,15 @@ fn surface_detail_pt() {
 fn surface_detail_bdpt() {
     check_scene("surface-detail", Method::Bdpt, 32);
 }
+
+// Plastics, rough plastics (GGX; Beckmann nonlinear), a thin glass pane
+// and a tinted glass sphere (tests/scenes/plastics).
+#[test]
+fn plastics_pt() {
+    check_scene("plastics", Method::Path, 64);
+}
+
+#[test]
+fn plastics_bdpt() {
+    check_scene("plastics", Method::Bdpt, 32);
+}

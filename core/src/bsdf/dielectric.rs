@@ -7,9 +7,17 @@ use super::{BsdfSample, TransportMode, fresnel};
 use crate::math::Rgb;
 
 /// Samples reflection with probability F and refraction with 1 − F, so the
-/// throughput weight is 1 for either (times 1/η² for refracted radiance).
-/// `eta` = η_inside/η_outside; `wo.z < 0` means `wo` is inside.
-pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Option<BsdfSample> {
+/// throughput weight is the lobe's tint (Mitsuba's `specular_reflectance`
+/// or `specular_transmittance`, 1 for clear glass), times 1/η² for
+/// refracted radiance. `eta` = η_inside/η_outside; `wo.z < 0` means `wo`
+/// is inside.
+pub(super) fn sample(
+    eta: f32,
+    tints: (Rgb, Rgb),
+    wo: Vec3,
+    u_lobe: f32,
+    mode: TransportMode,
+) -> Option<BsdfSample> {
     let cos_o = wo.z;
     // Exactly edge-on, F = 1 and f = F/|cos θ| is infinite; nothing enters.
     if cos_o == 0.0 {
@@ -23,7 +31,7 @@ pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Op
         // f = weight · pdf / |cos θi| with weight 1, pdf F.
         return Some(BsdfSample {
             wi,
-            f: Rgb::splat(f_r / cos_o.abs()),
+            f: tints.0 * (f_r / cos_o.abs()),
             pdf: f_r,
             delta: true,
             eta: 1.0,
@@ -50,7 +58,7 @@ pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Op
     };
     Some(BsdfSample {
         wi,
-        f: Rgb::splat(pdf * scale / wi.z.abs()),
+        f: tints.1 * (pdf * scale / wi.z.abs()),
         pdf,
         delta: true,
         eta: fr.eta_it,

@@ -11,14 +11,23 @@
 //!   uniform throughput update f·|cos θi|/pdf gives the lobe's weight.
 //!
 //! The models follow Mitsuba 3 (`diffuse`, `conductor`, `roughconductor`,
-//! `dielectric`, `twosided`), whose `scalar_rgb` renders are our references.
+//! `dielectric`, `thindielectric`, `plastic`, `roughplastic`, `twosided`),
+//! whose `scalar_rgb` renders are our references.
+//!
+//! Smooth plastic is *mixed*: a Dirac lobe (the coating) beside a smooth one
+//! (the base). It is not [`Bsdf::is_delta`], so connections end on it and
+//! see the smooth part through `eval`/`pdf`; `sample` flags the coating
+//! with `delta: true`, which path tracing (MIS of emitter hits) and BDPT
+//! (the vertex's `delta`) follow, and MLT level 2 leaves paths through that
+//! lobe alone (`PathVertex::mixed_delta`).
+//!
 //! Files: [`fresnel`] (public Fresnel equations), `microfacet`
 //! (distributions, Smith masking, visible-normal sampling), and one file per
 //! material model.
 //!
 //! Models other than the diffuse one are built with their cargo features
-//! (`glossy`, `specular`, `refraction`); a build without one resolves that
-//! material to black, which never renders because
+//! (`glossy`, `specular`, `refraction`, `coating`); a build without one
+//! resolves that material to black, which never renders because
 //! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
 #[cfg(any(feature = "glossy", feature = "specular"))]
@@ -27,12 +36,23 @@ mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-#[cfg(feature = "glossy")]
+#[cfg(any(feature = "glossy", feature = "coating"))]
 mod microfacet;
+#[cfg(feature = "coating")]
+mod plastic;
+#[cfg(feature = "coating")]
+mod roughplastic;
+#[cfg(feature = "refraction")]
+mod thin_dielectric;
+
+#[cfg(feature = "coating")]
+pub(crate) use roughplastic::rough_coating;
 
 // The tests exercise every model.
 #[cfg(all(test, feature = "std", feature = "effects"))]
 mod chi2;
+#[cfg(all(test, feature = "std", feature = "effects"))]
+mod coating_tests;
 #[cfg(all(test, feature = "std", feature = "effects"))]
 mod tests;
 
@@ -44,6 +64,10 @@ use crate::scene::ConductorFresnel;
 use crate::scene::{Material, MaterialKind, Texture};
 #[cfg(feature = "glossy")]
 use microfacet::Microfacet;
+#[cfg(feature = "coating")]
+use plastic::Plastic;
+#[cfg(feature = "coating")]
+use roughplastic::RoughPlastic;
 
 /// Whether a path carries radiance (camera side) or importance (light side);
 /// refraction scales by 1/η² only for radiance.
@@ -66,17 +90,22 @@ pub enum Lobe {
     Glossy = 1,
     /// Smooth conductor: Dirac reflection.
     SpecularReflection = 2,
-    /// Smooth dielectric: Dirac reflection and refraction.
+    /// Smooth dielectric: Dirac reflection and refraction (also the thin
+    /// dielectric's straight transmission).
     Refraction = 3,
+    /// Plastic: a dielectric coating (Dirac or microfacet) over a
+    /// Lambertian base.
+    Coating = 4,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 4] = [
+    pub const ALL: [Lobe; 5] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
         Lobe::Refraction,
+        Lobe::Coating,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -86,6 +115,7 @@ impl Lobe {
             Lobe::Glossy => "glossy",
             Lobe::SpecularReflection => "specular-reflection",
             Lobe::Refraction => "refraction",
+            Lobe::Coating => "coating",
         }
     }
 }
@@ -126,7 +156,19 @@ enum Model {
     #[cfg(feature = "refraction")]
     Dielectric {
         eta: f32,
+        /// (reflection, transmission) tints.
+        tints: (Rgb, Rgb),
     },
+    #[cfg(feature = "refraction")]
+    ThinDielectric {
+        eta: f32,
+        /// (reflection, transmission) tints.
+        tints: (Rgb, Rgb),
+    },
+    #[cfg(feature = "coating")]
+    Plastic(Plastic),
+    #[cfg(feature = "coating")]
+    RoughPlastic(RoughPlastic),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -186,7 +228,73 @@ impl Bsdf {
                 tint: texture(specular_reflectance),
             },
             #[cfg(feature = "refraction")]
-            MaterialKind::Dielectric { eta } => Model::Dielectric { eta: *eta },
+            MaterialKind::Dielectric { eta } => Model::Dielectric {
+                eta: *eta,
+                tints: (Rgb::ONE, Rgb::ONE),
+            },
+            #[cfg(feature = "refraction")]
+            MaterialKind::TintedDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Model::Dielectric {
+                eta: *eta,
+                tints: (
+                    texture(specular_reflectance),
+                    texture(specular_transmittance),
+                ),
+            },
+            #[cfg(feature = "refraction")]
+            MaterialKind::ThinDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Model::ThinDielectric {
+                eta: *eta,
+                tints: (
+                    texture(specular_reflectance),
+                    texture(specular_transmittance),
+                ),
+            },
+            #[cfg(feature = "coating")]
+            MaterialKind::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                nonlinear,
+            } => {
+                let rho = texture(diffuse_reflectance);
+                let specular = texture(specular_reflectance);
+                let r_int = plastic::diffuse_fresnel(1.0 / *eta);
+                Model::Plastic(Plastic {
+                    eta: *eta,
+                    diffuse: plastic::base_factor(rho, r_int, *nonlinear, *eta),
+                    specular,
+                    spec_weight: plastic::spec_weight(rho, specular),
+                })
+            }
+            #[cfg(feature = "coating")]
+            MaterialKind::RoughPlastic {
+                distribution,
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                nonlinear,
+                coating,
+            } => {
+                let rho = texture(diffuse_reflectance);
+                let specular = texture(specular_reflectance);
+                let r_int = coating.internal_reflectance;
+                Model::RoughPlastic(RoughPlastic {
+                    mf: Microfacet::new(*distribution, *alpha),
+                    eta: *eta,
+                    spec_weight: plastic::spec_weight(rho, specular),
+                    diffuse: plastic::base_factor(rho, r_int, *nonlinear, *eta),
+                    specular,
+                    t: coating.transmittance,
+                })
+            }
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -240,11 +348,17 @@ impl Bsdf {
             #[cfg(feature = "specular")]
             Model::Conductor { .. } => Lobe::SpecularReflection,
             #[cfg(feature = "refraction")]
-            Model::Dielectric { .. } => Lobe::Refraction,
+            Model::Dielectric { .. } | Model::ThinDielectric { .. } => Lobe::Refraction,
+            #[cfg(feature = "coating")]
+            Model::Plastic(_) | Model::RoughPlastic(_) => Lobe::Coating,
         }
     }
 
     /// True when every lobe is a Dirac delta (no connection can end here).
+    ///
+    /// A *mixed* BSDF (smooth plastic: a Dirac coating over a diffuse base)
+    /// is not delta: connections may end on it and `eval`/`pdf` give its
+    /// smooth part, while `sample` flags the Dirac lobe with `delta: true`.
     pub fn is_delta(&self) -> bool {
         matches!(self.lobe(), Lobe::SpecularReflection | Lobe::Refraction)
     }
@@ -265,6 +379,9 @@ impl Bsdf {
             Model::Diffuse { .. } => 1.0,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => mf.alpha,
+            // The diffuse base carries connections.
+            #[cfg(feature = "coating")]
+            Model::Plastic(_) | Model::RoughPlastic(_) => 1.0,
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -298,6 +415,16 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::eval_rough(mf, fresnel, *tint, wo, wi)
             }
+            #[cfg(feature = "coating")]
+            Model::Plastic(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.eval(wo, wi)
+            }
+            #[cfg(feature = "coating")]
+            Model::RoughPlastic(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.eval(wo, wi)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -316,6 +443,16 @@ impl Bsdf {
             Model::RoughConductor { mf, .. } => {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::pdf_rough(mf, wo, wi)
+            }
+            #[cfg(feature = "coating")]
+            Model::Plastic(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.pdf(wo, wi)
+            }
+            #[cfg(feature = "coating")]
+            Model::RoughPlastic(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.pdf(wo, wi)
             }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
@@ -356,8 +493,11 @@ impl Bsdf {
     /// `pdf(wo, wi)` exactly. Directions depend continuously on `u` (only the
     /// discrete lobe choice by `u_lobe` jumps), which primary-sample-space
     /// Metropolis mutations rely on.
-    // Only the dielectric reads `u_lobe`.
-    #[cfg_attr(not(feature = "refraction"), allow(unused_variables))]
+    // Only the dielectrics and plastics read `u_lobe`, the dielectric `mode`.
+    #[cfg_attr(
+        not(all(feature = "refraction", feature = "coating")),
+        allow(unused_variables)
+    )]
     pub fn sample(
         &self,
         wo: Vec3,
@@ -377,7 +517,15 @@ impl Bsdf {
             }
             // Never two-sided: both sides are handled by the Fresnel code.
             #[cfg(feature = "refraction")]
-            Model::Dielectric { eta } => dielectric::sample(*eta, wo, u_lobe, mode),
+            Model::Dielectric { eta, tints } => dielectric::sample(*eta, *tints, wo, u_lobe, mode),
+            #[cfg(feature = "refraction")]
+            Model::ThinDielectric { eta, tints } => {
+                thin_dielectric::sample(*eta, tints.0, tints.1, wo, u_lobe)
+            }
+            #[cfg(feature = "coating")]
+            Model::Plastic(p) => p.sample(wo_up, u_lobe, u),
+            #[cfg(feature = "coating")]
+            Model::RoughPlastic(p) => p.sample(wo_up, u_lobe, u),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

@@ -210,6 +210,11 @@ pub struct PathVertex {
     /// BSDF and frame of surface vertices (`None` for x₀ and for a light
     /// point sampled on an emitter).
     pub shading: Option<Shading>,
+    /// The path scatters here through the Dirac lobe of a BSDF that also
+    /// has smooth lobes (smooth plastic's coating): `eval` does not see
+    /// that lobe, so no perturbation may re-evaluate this vertex (see
+    /// [`crate::mlt::path::classify`]).
+    pub mixed_delta: bool,
 }
 
 impl PathVertex {
@@ -229,20 +234,24 @@ pub fn strategy_path(ws: &Workspace, out: &mut Vec<PathVertex>) -> bool {
     let Some((s, t, sampled)) = ws.last else {
         return false;
     };
-    let as_path = |v: &Vertex| PathVertex {
+    // A vertex's `delta` says how its subpath left it; the ends of the
+    // connection (the last vertex of each subpath) did not leave that way
+    // in this path.
+    let as_path = |v: &Vertex, end: bool| PathVertex {
         sp: v.sp,
         shading: v.shading,
+        mixed_delta: !end && v.delta && v.shading.is_some_and(|s| !s.bsdf.is_delta()),
     };
     for (i, v) in ws.camera[..t].iter().enumerate() {
         match (i, t, &sampled) {
-            (0, 1, Some(lens)) => out.push(as_path(lens)),
-            _ => out.push(as_path(v)),
+            (0, 1, Some(lens)) => out.push(as_path(lens, true)),
+            _ => out.push(as_path(v, i + 1 == t)),
         }
     }
     for (i, v) in ws.light[..s].iter().enumerate().rev() {
         match (i, s, &sampled) {
-            (0, 1, Some(light)) => out.push(as_path(light)),
-            _ => out.push(as_path(v)),
+            (0, 1, Some(light)) => out.push(as_path(light, true)),
+            _ => out.push(as_path(v, i + 1 == s)),
         }
     }
     true

@@ -23,6 +23,11 @@
 //! neither (e.g. E S D S L, a caustic seen in a mirror; Veach's multi-chain
 //! perturbation) stay put: their side chain is the identity kernel.
 //!
+//! So do paths through the Dirac lobe of a mixed BSDF (smooth plastic's
+//! coating, [`crate::integrator::bdpt::PathVertex::mixed_delta`]): such a
+//! vertex is not specular by [`crate::bsdf::Bsdf::is_delta`], so a
+//! perturbation would re-evaluate it with `eval`, which lacks that lobe.
+//!
 //! ## Targets in the perturbation's own measure
 //!
 //! The side chain must leave the level-1 chain's stationary distribution
@@ -216,6 +221,13 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
     // cut-out). No perturbation is then known to keep the chain unbiased:
     // every path of such a scene stays at its level-1 state.
     if path.len() < 2 || tr.analysis.effects.contains(Effect::AlphaMasks) {
+        return Applicable::Neither;
+    }
+    // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
+    // coating): the perturbations evaluate such a vertex with `eval`, which
+    // holds only the smooth lobes, so their target would not be the level-1
+    // contribution of this path. The identity kernel is always correct.
+    if path.iter().any(|v| v.mixed_delta) {
         return Applicable::Neither;
     }
     let k = path.len() - 1;

@@ -34,11 +34,13 @@ pub enum Effect {
     NormalMapping = 7,
     /// Alpha masks (stochastically transparent surfaces).
     AlphaMasks = 8,
+    /// Plastics: a dielectric coating over a diffuse base.
+    Coating = 9,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 9] = [
+    pub const ALL: [Effect; 10] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -48,6 +50,7 @@ impl Effect {
         Effect::DepthOfField,
         Effect::NormalMapping,
         Effect::AlphaMasks,
+        Effect::Coating,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -62,6 +65,7 @@ impl Effect {
             Effect::DepthOfField => "depth-of-field",
             Effect::NormalMapping => "normal-mapping",
             Effect::AlphaMasks => "alpha-masks",
+            Effect::Coating => "coating",
         }
     }
 
@@ -76,6 +80,7 @@ impl Effect {
             Effect::DepthOfField => Some("depth-of-field"),
             Effect::NormalMapping => Some("normal-mapping"),
             Effect::AlphaMasks => Some("alpha-masks"),
+            Effect::Coating => Some("coating"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -91,6 +96,7 @@ impl Effect {
             Effect::DepthOfField => cfg!(feature = "depth-of-field"),
             Effect::NormalMapping => cfg!(feature = "normal-mapping"),
             Effect::AlphaMasks => cfg!(feature = "alpha-masks"),
+            Effect::Coating => cfg!(feature = "coating"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -107,6 +113,7 @@ impl Effect {
             Effect::DepthOfField => "pinhole camera: no lens sampling",
             Effect::NormalMapping => "no normal or bump map",
             Effect::AlphaMasks => "no alpha mask: plain closest-hit and any-hit rays",
+            Effect::Coating => "no plastic",
         }
     }
 }
@@ -177,16 +184,47 @@ impl Analysis {
                 continue;
             }
             let (effect, textures) = match &m.kind {
-                MaterialKind::Diffuse { reflectance } => (Effect::Diffuse, [Some(reflectance)]),
+                MaterialKind::Diffuse { reflectance } => {
+                    (Effect::Diffuse, [Some(reflectance), None])
+                }
                 MaterialKind::RoughConductor {
                     specular_reflectance,
                     ..
-                } => (Effect::Glossy, [Some(specular_reflectance)]),
+                } => (Effect::Glossy, [Some(specular_reflectance), None]),
                 MaterialKind::Conductor {
                     specular_reflectance,
                     ..
-                } => (Effect::SpecularReflection, [Some(specular_reflectance)]),
-                MaterialKind::Dielectric { .. } => (Effect::Refraction, [None]),
+                } => (
+                    Effect::SpecularReflection,
+                    [Some(specular_reflectance), None],
+                ),
+                MaterialKind::Dielectric { .. } => (Effect::Refraction, [None, None]),
+                MaterialKind::TintedDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                }
+                | MaterialKind::ThinDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                } => (
+                    Effect::Refraction,
+                    [Some(specular_reflectance), Some(specular_transmittance)],
+                ),
+                MaterialKind::Plastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                }
+                | MaterialKind::RoughPlastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                } => (
+                    Effect::Coating,
+                    [Some(diffuse_reflectance), Some(specular_reflectance)],
+                ),
             };
             effects = effects.with(effect);
             for t in textures.into_iter().flatten() {
@@ -208,8 +246,17 @@ impl Analysis {
             if m.detail.textures().any(|t| !t.is_constant()) {
                 effects = effects.with(Effect::Textures);
             }
-            // A dielectric always scatters (it reflects and transmits).
-            scatters |= matches!(m.kind, MaterialKind::Dielectric { .. });
+            // A dielectric always scatters (it reflects and transmits); the
+            // tinted and thin ones and plastics are counted as scattering
+            // too, which only keeps paths that may carry nothing.
+            scatters |= matches!(
+                m.kind,
+                MaterialKind::Dielectric { .. }
+                    | MaterialKind::TintedDielectric { .. }
+                    | MaterialKind::ThinDielectric { .. }
+                    | MaterialKind::Plastic { .. }
+                    | MaterialKind::RoughPlastic { .. }
+            );
         }
         if has_emitters {
             effects = effects.with(Effect::AreaLights);

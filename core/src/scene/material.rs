@@ -66,6 +66,138 @@ pub enum MaterialKind {
         /// Relative index of refraction, interior over exterior (> 0).
         eta: f32,
     },
+    /// Smooth dielectric whose reflected and transmitted light are tinted
+    /// (Mitsuba's `dielectric` with `specular_reflectance` or
+    /// `specular_transmittance` other than 1); the same Dirac lobes, chosen
+    /// with the same Fresnel probabilities, weighted by the tints.
+    TintedDielectric {
+        /// Relative index of refraction, interior over exterior (> 0).
+        eta: f32,
+        /// Multiplier of the reflected light.
+        specular_reflectance: Texture,
+        /// Multiplier of the transmitted light.
+        specular_transmittance: Texture,
+    },
+    /// Infinitely thin dielectric slab (Mitsuba's `thindielectric`, a
+    /// window pane): Dirac reflection with the slab's total reflectance
+    /// R' = R + T²R/(1 − R²) and straight, unbent transmission 1 − R'.
+    ThinDielectric {
+        /// Relative index of refraction of the slab over its surroundings
+        /// (> 0).
+        eta: f32,
+        /// Multiplier of the reflected light.
+        specular_reflectance: Texture,
+        /// Multiplier of the transmitted light.
+        specular_transmittance: Texture,
+    },
+    /// Smooth plastic (Mitsuba's `plastic`): a smooth dielectric coating
+    /// (Dirac reflection) over a Lambertian base that light reaches and
+    /// leaves through the interface, with internal reflections accounted
+    /// for in closed form.
+    Plastic {
+        /// Relative index of refraction of the coating, interior over
+        /// exterior (> 0).
+        eta: f32,
+        /// Albedo of the base in [0, 1].
+        diffuse_reflectance: Texture,
+        /// Multiplier of the coating's reflection.
+        specular_reflectance: Texture,
+        /// Mitsuba's `nonlinear`: internal reflections tint the base
+        /// (colours get more saturated) instead of just brightening it.
+        nonlinear: bool,
+    },
+    /// Rough plastic (Mitsuba's `roughplastic`): a microfacet coating over
+    /// a Lambertian base, the base's light scaled by the coating's
+    /// precomputed rough transmittance.
+    RoughPlastic {
+        /// Microfacet distribution of the coating.
+        distribution: Distribution,
+        /// Isotropic roughness α (> 0).
+        alpha: f32,
+        /// Relative index of refraction, interior over exterior (> 0, ≠ 1).
+        eta: f32,
+        /// Albedo of the base in [0, 1].
+        diffuse_reflectance: Texture,
+        /// Multiplier of the coating's reflection.
+        specular_reflectance: Texture,
+        /// Mitsuba's `nonlinear` (see [`MaterialKind::Plastic`]).
+        nonlinear: bool,
+        /// The coating's transmittance and internal reflectance, computed
+        /// once from (distribution, α, η) by [`RoughCoating::new`].
+        coating: RoughCoating,
+    },
+}
+
+/// What the diffuse part of a rough plastic needs of its coating, precomputed
+/// per material (Mitsuba's `roughplastic` does the same at load time): the
+/// rough interface's transmittance t(cos θ) into the coating at a few
+/// cosines, and the base's internal reflectance (the hemispherical average
+/// of the interface's reflectance seen from inside).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughCoating {
+    /// t at [`RoughCoating::node`] k, as a 16-bit fraction of 1.
+    pub(crate) transmittance: [u16; RoughCoating::NODES],
+    /// Internal diffuse reflectance in [0, 1].
+    pub(crate) internal_reflectance: f32,
+}
+
+impl RoughCoating {
+    /// Number of tabulated cosines (kept small: the table rides in every
+    /// resolved BSDF, which must stay small).
+    pub const NODES: usize = 8;
+
+    /// The k-th tabulated cosine: quadratically spaced, dense near grazing
+    /// where t changes fastest.
+    #[inline]
+    pub fn node(k: usize) -> f32 {
+        let x = k as f32 / (Self::NODES - 1) as f32;
+        x * x
+    }
+
+    /// Integrates the coating's transmittance and internal reflectance for
+    /// `distribution`, roughness `alpha` and relative index `eta` (see
+    /// `bsdf::roughplastic`). Takes a few milliseconds: call once per
+    /// material. Without the `coating` feature the table is empty (such a
+    /// material is refused by the scene builder anyway).
+    pub fn new(distribution: Distribution, alpha: f32, eta: f32) -> Self {
+        #[cfg(feature = "coating")]
+        {
+            crate::bsdf::rough_coating(distribution, alpha, eta)
+        }
+        #[cfg(not(feature = "coating"))]
+        {
+            let _ = (distribution, alpha, eta);
+            RoughCoating {
+                transmittance: [0; Self::NODES],
+                internal_reflectance: 0.0,
+            }
+        }
+    }
+
+    /// The internal diffuse reflectance.
+    pub fn internal_reflectance(&self) -> f32 {
+        self.internal_reflectance
+    }
+
+    /// Transmittance into the coating at cosine `cos` (linear
+    /// interpolation of the table).
+    #[inline]
+    pub fn transmittance(&self, cos: f32) -> f32 {
+        coating_lerp(&self.transmittance, cos)
+    }
+}
+
+/// Linear interpolation of a [`RoughCoating`] table at cosine `cos`.
+#[inline]
+pub(crate) fn coating_lerp(t: &[u16; RoughCoating::NODES], cos: f32) -> f32 {
+    let c = cos.clamp(0.0, 1.0);
+    // Nodes are (k/(n−1))², so the interval is found from √cos.
+    let x = libm::sqrtf(c) * (RoughCoating::NODES - 1) as f32;
+    let k = (x as usize).min(RoughCoating::NODES - 2);
+    let (a, b) = (RoughCoating::node(k), RoughCoating::node(k + 1));
+    let w = ((c - a) / (b - a)).clamp(0.0, 1.0);
+    let (ta, tb) = (t[k] as f32, t[k + 1] as f32);
+    (ta + w * (tb - ta)) * (1.0 / 65535.0)
 }
 
 /// A material: its scattering model and whether both sides scatter alike.
@@ -100,7 +232,10 @@ impl Material {
     pub fn is_delta(&self) -> bool {
         matches!(
             self.kind,
-            MaterialKind::Conductor { .. } | MaterialKind::Dielectric { .. }
+            MaterialKind::Conductor { .. }
+                | MaterialKind::Dielectric { .. }
+                | MaterialKind::TintedDielectric { .. }
+                | MaterialKind::ThinDielectric { .. }
         )
     }
 
@@ -155,6 +290,58 @@ impl Material {
             MaterialKind::Dielectric { eta } => (eta.is_finite() && *eta > 0.0)
                 .then_some(())
                 .ok_or("dielectric eta must be finite and > 0"),
+            MaterialKind::TintedDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            }
+            | MaterialKind::ThinDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => {
+                if !(eta.is_finite() && *eta > 0.0) {
+                    return Err("dielectric eta must be finite and > 0");
+                }
+                (tex_ok(specular_reflectance) && tex_ok(specular_transmittance))
+                    .then_some(())
+                    .ok_or("dielectric tints must be finite and non-negative")
+            }
+            MaterialKind::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                ..
+            } => {
+                if !(eta.is_finite() && *eta > 0.0) {
+                    return Err("plastic eta must be finite and > 0");
+                }
+                (tex_ok(diffuse_reflectance) && tex_ok(specular_reflectance))
+                    .then_some(())
+                    .ok_or("plastic reflectances must be finite and non-negative")
+            }
+            MaterialKind::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                coating,
+                ..
+            } => {
+                if !(alpha.is_finite() && *alpha > 0.0) {
+                    return Err("roughplastic alpha must be finite and > 0");
+                }
+                if !(eta.is_finite() && *eta > 0.0 && *eta != 1.0) {
+                    return Err("roughplastic eta must be finite, > 0 and ≠ 1");
+                }
+                let r = coating.internal_reflectance;
+                if !(r.is_finite() && (0.0..1.0).contains(&r)) {
+                    return Err("roughplastic coating table is invalid");
+                }
+                (tex_ok(diffuse_reflectance) && tex_ok(specular_reflectance))
+                    .then_some(())
+                    .ok_or("roughplastic reflectances must be finite and non-negative")
+            }
         }
     }
 }

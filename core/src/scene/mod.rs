@@ -29,7 +29,9 @@ pub use store::*;
 pub use camera::{Camera, CameraError, FovAxis};
 pub use detail::Detail;
 pub use effects::{Analysis, Effect, EffectSet};
-pub use material::{ConductorFresnel, Distribution, Material, MaterialId, MaterialKind};
+pub use material::{
+    ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, RoughCoating,
+};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
 pub use texture::{BitmapId, Texture};

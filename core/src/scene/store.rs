@@ -270,6 +270,26 @@ impl SceneBuilder {
                     ..
                 } => [Some(specular_reflectance), None],
                 super::MaterialKind::Dielectric { .. } => [None, None],
+                super::MaterialKind::TintedDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                }
+                | super::MaterialKind::ThinDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                } => [Some(specular_reflectance), Some(specular_transmittance)],
+                super::MaterialKind::Plastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                }
+                | super::MaterialKind::RoughPlastic {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    ..
+                } => [Some(diffuse_reflectance), Some(specular_reflectance)],
             };
             for t in tex_refs.into_iter().flatten().chain(m.detail.textures()) {
                 if let Texture::Bitmap { id, .. } = t
