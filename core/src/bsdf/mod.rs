@@ -27,8 +27,10 @@ mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-#[cfg(feature = "glossy")]
+#[cfg(any(feature = "glossy", feature = "rough-refraction"))]
 mod microfacet;
+#[cfg(feature = "rough-refraction")]
+mod roughdielectric;
 
 // The tests exercise every model.
 #[cfg(all(test, feature = "std", feature = "effects"))]
@@ -42,8 +44,10 @@ use crate::math::Rgb;
 #[cfg(any(feature = "glossy", feature = "specular"))]
 use crate::scene::ConductorFresnel;
 use crate::scene::{Material, MaterialKind, Texture};
-#[cfg(feature = "glossy")]
+#[cfg(any(feature = "glossy", feature = "rough-refraction"))]
 use microfacet::Microfacet;
+#[cfg(feature = "rough-refraction")]
+use roughdielectric::RoughDielectric;
 
 /// Whether a path carries radiance (camera side) or importance (light side);
 /// refraction scales by 1/η² only for radiance.
@@ -68,15 +72,18 @@ pub enum Lobe {
     SpecularReflection = 2,
     /// Smooth dielectric: Dirac reflection and refraction.
     Refraction = 3,
+    /// Rough dielectric: microfacet reflection and refraction.
+    RoughRefraction = 4,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 4] = [
+    pub const ALL: [Lobe; 5] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
         Lobe::Refraction,
+        Lobe::RoughRefraction,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -86,6 +93,7 @@ impl Lobe {
             Lobe::Glossy => "glossy",
             Lobe::SpecularReflection => "specular-reflection",
             Lobe::Refraction => "refraction",
+            Lobe::RoughRefraction => "rough-refraction",
         }
     }
 }
@@ -127,6 +135,8 @@ enum Model {
     Dielectric {
         eta: f32,
     },
+    #[cfg(feature = "rough-refraction")]
+    RoughDielectric(RoughDielectric),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -183,6 +193,19 @@ impl Bsdf {
             },
             #[cfg(feature = "refraction")]
             MaterialKind::Dielectric { eta } => Model::Dielectric { eta: *eta },
+            #[cfg(feature = "rough-refraction")]
+            MaterialKind::RoughDielectric {
+                distribution,
+                alpha,
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Model::RoughDielectric(RoughDielectric {
+                mf: Microfacet::new(*distribution, *alpha),
+                eta: *eta,
+                reflectance: texture(specular_reflectance),
+                transmittance: texture(specular_transmittance),
+            }),
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -190,7 +213,7 @@ impl Bsdf {
             two_sided: material.two_sided,
         };
         // A dielectric is one interface with an inside and an outside.
-        bsdf.two_sided &= bsdf.lobe() != Lobe::Refraction;
+        bsdf.two_sided &= !bsdf.has_transmission();
         bsdf
     }
 
@@ -205,6 +228,8 @@ impl Bsdf {
             Model::Conductor { .. } => Lobe::SpecularReflection,
             #[cfg(feature = "refraction")]
             Model::Dielectric { .. } => Lobe::Refraction,
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(..) => Lobe::RoughRefraction,
         }
     }
 
@@ -214,10 +239,11 @@ impl Bsdf {
     }
 
     /// True when the BSDF can scatter to the other side of the surface
-    /// (only dielectrics); callers use it to pick the side a continuation
-    /// ray starts from.
+    /// (only dielectrics, smooth or rough). Rays leave from the side their
+    /// direction points to (`offset::spawn_ray` picks it from the geometric
+    /// normal), so callers need this only for two-sidedness.
     pub fn has_transmission(&self) -> bool {
-        self.lobe() == Lobe::Refraction
+        matches!(self.lobe(), Lobe::Refraction | Lobe::RoughRefraction)
     }
 
     /// A coarse roughness hint in the microfacet α scale: 0 for Dirac-only
@@ -229,6 +255,8 @@ impl Bsdf {
             Model::Diffuse { .. } => 1.0,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => mf.alpha,
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.mf.alpha,
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -247,8 +275,11 @@ impl Bsdf {
 
     /// f(wo, wi), without the cosine; zero for delta lobes. Reciprocal for
     /// the reflection models: eval(wo, wi) = eval(wi, wo). `mode` only
-    /// matters for transmission, which has no non-delta lobe here.
-    pub fn eval(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> Rgb {
+    /// matters for rough transmission, where refracted radiance carries the
+    /// 1/η² that importance lacks: eval(wo, wi, Importance) =
+    /// eval(wi, wo, Radiance) (the adjoint BSDF).
+    #[cfg_attr(not(feature = "rough-refraction"), allow(unused_variables))]
+    pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         match &self.model {
             Model::Diffuse { albedo } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -259,6 +290,9 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::eval_rough(mf, fresnel, *tint, wo, wi)
             }
+            // Never two-sided, like the smooth dielectric.
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.eval(wo, wi, mode),
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -278,6 +312,8 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::pdf_rough(mf, wo, wi)
             }
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.pdf(wo, wi),
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -317,8 +353,11 @@ impl Bsdf {
     /// `pdf(wo, wi)` exactly. Directions depend continuously on `u` (only the
     /// discrete lobe choice by `u_lobe` jumps), which primary-sample-space
     /// Metropolis mutations rely on.
-    // Only the dielectric reads `u_lobe` and `mode`.
-    #[cfg_attr(not(feature = "refraction"), allow(unused_variables))]
+    // Only the dielectrics read `u_lobe` and `mode`.
+    #[cfg_attr(
+        not(any(feature = "refraction", feature = "rough-refraction")),
+        allow(unused_variables)
+    )]
     pub fn sample(
         &self,
         wo: Vec3,
@@ -339,6 +378,8 @@ impl Bsdf {
             // Never two-sided: both sides are handled by the Fresnel code.
             #[cfg(feature = "refraction")]
             Model::Dielectric { eta } => dielectric::sample(*eta, wo, u_lobe, mode),
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.sample(wo, u_lobe, u, mode),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

@@ -11,7 +11,7 @@ use crate::scene::{Analysis, Camera, Effect, Scene, SurfacePoint};
 
 /// One counter per [`Lobe`] kind (index `lobe as usize`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LobeCounts(pub [u64; 4]);
+pub struct LobeCounts(pub [u64; Lobe::ALL.len()]);
 
 impl LobeCounts {
     /// The count of `lobe`.

@@ -30,11 +30,13 @@ pub enum Effect {
     AreaLights = 5,
     /// A thin-lens camera (an aperture to sample).
     DepthOfField = 6,
+    /// Rough dielectric reflection and refraction (microfacet lobes).
+    RoughRefraction = 7,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 8] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -42,6 +44,7 @@ impl Effect {
         Effect::Textures,
         Effect::AreaLights,
         Effect::DepthOfField,
+        Effect::RoughRefraction,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -54,6 +57,7 @@ impl Effect {
             Effect::Textures => "textures",
             Effect::AreaLights => "area-lights",
             Effect::DepthOfField => "depth-of-field",
+            Effect::RoughRefraction => "rough-refraction",
         }
     }
 
@@ -66,6 +70,7 @@ impl Effect {
             Effect::Refraction => Some("refraction"),
             Effect::Textures => Some("textures"),
             Effect::DepthOfField => Some("depth-of-field"),
+            Effect::RoughRefraction => Some("rough-refraction"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -79,6 +84,7 @@ impl Effect {
             Effect::Refraction => cfg!(feature = "refraction"),
             Effect::Textures => cfg!(feature = "textures"),
             Effect::DepthOfField => cfg!(feature = "depth-of-field"),
+            Effect::RoughRefraction => cfg!(feature = "rough-refraction"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -93,6 +99,7 @@ impl Effect {
             Effect::Textures => "constant colours only",
             Effect::AreaLights => "no emitter: the image is black",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
+            Effect::RoughRefraction => "no rough dielectric",
         }
     }
 }
@@ -173,9 +180,21 @@ impl Analysis {
                     ..
                 } => (Effect::SpecularReflection, [Some(specular_reflectance)]),
                 MaterialKind::Dielectric { .. } => (Effect::Refraction, [None]),
+                MaterialKind::RoughDielectric {
+                    specular_reflectance,
+                    ..
+                } => (Effect::RoughRefraction, [Some(specular_reflectance)]),
+            };
+            // The one model with a second texture.
+            let second = match &m.kind {
+                MaterialKind::RoughDielectric {
+                    specular_transmittance,
+                    ..
+                } => Some(specular_transmittance),
+                _ => None,
             };
             effects = effects.with(effect);
-            for t in textures.into_iter().flatten() {
+            for t in textures.into_iter().flatten().chain(second) {
                 match t {
                     Texture::Constant(c) => scatters |= c.r > 0.0 || c.g > 0.0 || c.b > 0.0,
                     _ => {

@@ -270,6 +270,11 @@ impl SceneBuilder {
                     ..
                 } => [Some(specular_reflectance), None],
                 super::MaterialKind::Dielectric { .. } => [None, None],
+                super::MaterialKind::RoughDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                } => [Some(specular_reflectance), Some(specular_transmittance)],
             };
             for t in tex_refs.into_iter().flatten() {
                 if let Texture::Bitmap { id, .. } = t
