@@ -63,6 +63,12 @@
 // `roughness` the GGX α in (0, 1].
 #define CMLT_MATERIAL_ROUGH_METAL 3
 
+// Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
+// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+// `color` the transmittance in [0, 1] (reflection is untinted). Always
+// one interface with an inside and an outside: `two_sided` is ignored.
+#define CMLT_MATERIAL_ROUGH_GLASS 4
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -70,6 +76,8 @@
 
 // Embree 3 (`CMLT_ERROR_UNSUPPORTED` in builds without it).
 #define CMLT_ACCEL_EMBREE 1
+
+
 
 
 
@@ -245,6 +253,12 @@ typedef struct cmlt_stats {
   uint64_t bsdf_evals[4];
   // Camera rays that sampled the thin lens (0 for a pinhole).
   uint64_t lens_samples;
+  // BSDF samples of the lobe kinds after the first four, from index 4:
+  // rough refraction (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+  uint64_t bsdf_samples_more[4];
+  // BSDF evaluations of the same lobe kinds, indexed as
+  // `bsdf_samples_more`.
+  uint64_t bsdf_evals_more[4];
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.
@@ -253,9 +267,9 @@ typedef struct cmlt_material {
   uint32_t type_;
   // Linear RGB albedo / reflectance, each in [0, 1].
   float color[3];
-  // Glass: index of refraction ratio, > 0.
+  // Glass, rough glass: index of refraction ratio, > 0.
   float ior;
-  // Rough metal: GGX α in (0, 1].
+  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
   float roughness;
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).

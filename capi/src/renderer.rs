@@ -131,6 +131,26 @@ pub struct cmlt_stats {
     pub bsdf_evals: [u64; 4],
     /// Camera rays that sampled the thin lens (0 for a pinhole).
     pub lens_samples: u64,
+    /// BSDF samples of the lobe kinds after the first four, from index 4:
+    /// rough refraction (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+    pub bsdf_samples_more: [u64; 4],
+    /// BSDF evaluations of the same lobe kinds, indexed as
+    /// `bsdf_samples_more`.
+    pub bsdf_evals_more: [u64; 4],
+}
+
+/// The first four lobe counts and the rest (the C struct keeps its first
+/// four fields and appends the others).
+fn split_lobes(c: &cmlt_core::integrator::LobeCounts) -> ([u64; 4], [u64; 4]) {
+    let (mut first, mut more) = ([0; 4], [0; 4]);
+    for (i, n) in c.0.iter().enumerate() {
+        if i < 4 {
+            first[i] = *n;
+        } else if let Some(slot) = more.get_mut(i - 4) {
+            *slot = *n;
+        }
+    }
+    (first, more)
 }
 
 /// A renderer handle (opaque to C).
@@ -674,9 +694,11 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
             effects: live.scene.analysis(inner.camera()).effects.0,
-            bsdf_samples: s.tracer.bsdf_samples.0,
-            bsdf_evals: s.tracer.bsdf_evals.0,
+            bsdf_samples: split_lobes(&s.tracer.bsdf_samples).0,
+            bsdf_evals: split_lobes(&s.tracer.bsdf_evals).0,
             lens_samples: s.tracer.lens_samples,
+            bsdf_samples_more: split_lobes(&s.tracer.bsdf_samples).1,
+            bsdf_evals_more: split_lobes(&s.tracer.bsdf_evals).1,
         };
         Ok(())
     })

@@ -30,6 +30,11 @@ pub const CMLT_MATERIAL_GLASS: u32 = 2;
 /// Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
 /// `roughness` the GGX α in (0, 1].
 pub const CMLT_MATERIAL_ROUGH_METAL: u32 = 3;
+/// Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
+/// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+/// `color` the transmittance in [0, 1] (reflection is untinted). Always
+/// one interface with an inside and an outside: `two_sided` is ignored.
+pub const CMLT_MATERIAL_ROUGH_GLASS: u32 = 4;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -47,9 +52,9 @@ pub struct cmlt_material {
     pub type_: u32,
     /// Linear RGB albedo / reflectance, each in [0, 1].
     pub color: [f32; 3],
-    /// Glass: index of refraction ratio, > 0.
+    /// Glass, rough glass: index of refraction ratio, > 0.
     pub ior: f32,
-    /// Rough metal: GGX α in (0, 1].
+    /// Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
     pub roughness: f32,
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
@@ -365,6 +370,13 @@ fn material_from_c(m: &cmlt_material) -> Result<Material> {
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: Texture::Constant(color),
         },
+        CMLT_MATERIAL_ROUGH_GLASS => MaterialKind::RoughDielectric {
+            distribution: Distribution::Ggx,
+            alpha: m.roughness,
+            eta: m.ior,
+            specular_reflectance: Texture::Constant(Rgb::ONE),
+            specular_transmittance: Texture::Constant(color),
+        },
         t => return Err(Error::invalid(format!("unknown material type {t}"))),
     };
     let material = Material {
@@ -376,7 +388,10 @@ fn material_from_c(m: &cmlt_material) -> Result<Material> {
         .map_err(|e| Error::invalid(format!("material: {e}")))?;
     if matches!(
         m.type_,
-        CMLT_MATERIAL_DIFFUSE | CMLT_MATERIAL_MIRROR | CMLT_MATERIAL_ROUGH_METAL
+        CMLT_MATERIAL_DIFFUSE
+            | CMLT_MATERIAL_MIRROR
+            | CMLT_MATERIAL_ROUGH_METAL
+            | CMLT_MATERIAL_ROUGH_GLASS
     ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
     {
         return Err(Error::invalid(
@@ -921,6 +936,8 @@ pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 1 << Effect::AreaLights as u32;
 /// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
 /// the camera).
 pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
+/// Rough dielectric reflection and refraction (`CMLT_MATERIAL_ROUGH_GLASS`).
+pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

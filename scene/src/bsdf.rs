@@ -123,6 +123,14 @@ impl<'a> Loader<'a> {
                 ..
             } => fix(specular_reflectance),
             MaterialKind::Dielectric { .. } => {}
+            MaterialKind::RoughDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => {
+                fix(specular_reflectance);
+                fix(specular_transmittance);
+            }
         }
         self.material_origin.push(origin);
         self.builder.add_material(m)
@@ -161,12 +169,14 @@ impl<'a> Loader<'a> {
                     }
                 };
                 let mut m = self.bsdf(inner, depth + 1)?;
-                if let MaterialKind::Dielectric { .. } = m.kind {
+                if let MaterialKind::Dielectric { .. } | MaterialKind::RoughDielectric { .. } =
+                    m.kind
+                {
                     // Mitsuba: "Only materials without a transmission
                     // component can be nested!"
                     return Err(self.xml.err(
                         inner,
-                        "'twosided' cannot wrap a transmissive BSDF ('dielectric')",
+                        "'twosided' cannot wrap a transmissive BSDF ('dielectric', 'roughdielectric')",
                     ));
                 }
                 m.two_sided = true;
@@ -192,20 +202,7 @@ impl<'a> Loader<'a> {
                 }
             }
             "roughconductor" => {
-                let x = &self.xml;
-                let distribution = match props.string(x, "distribution")? {
-                    None => Distribution::Beckmann,
-                    Some((d, n)) => match d.to_ascii_lowercase().as_str() {
-                        "beckmann" => Distribution::Beckmann,
-                        "ggx" => Distribution::Ggx,
-                        _ => {
-                            return Err(x.err(
-                                n,
-                                format!("invalid distribution '{d}' (must be 'beckmann' or 'ggx')"),
-                            ));
-                        }
-                    },
-                };
+                let distribution = self.distribution(&props)?;
                 let alpha = self.roughness(&props)?;
                 let fresnel = self.conductor_fresnel(&props)?;
                 let specular_reflectance =
@@ -244,6 +241,38 @@ impl<'a> Loader<'a> {
                     two_sided: false,
                 }
             }
+            "roughdielectric" => {
+                let x = &self.xml;
+                let distribution = self.distribution(&props)?;
+                let alpha = self.roughness(&props)?;
+                let int_ior = self.ior(&props, "int_ior", 1.5046)?;
+                let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
+                if int_ior == ext_ior {
+                    let n = props.get("int_ior").map_or(node, |e| e.node);
+                    return Err(x.err(
+                        n,
+                        format!(
+                            "roughdielectric: int_ior and ext_ior must differ (both {int_ior})"
+                        ),
+                    ));
+                }
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                let specular_transmittance =
+                    self.texture_param(&props, "specular_transmittance", Rgb::ONE)?;
+                // Visible-normal sampling only changes the variance.
+                ignored = &["sample_visible"];
+                Material {
+                    kind: MaterialKind::RoughDielectric {
+                        distribution,
+                        alpha,
+                        eta: int_ior / ext_ior,
+                        specular_reflectance,
+                        specular_transmittance,
+                    },
+                    two_sided: false,
+                }
+            }
             other => {
                 return Err(self
                     .xml
@@ -256,6 +285,24 @@ impl<'a> Loader<'a> {
         }
         self.bsdf_memo.insert(key(node), m);
         Ok(m)
+    }
+
+    /// A microfacet `distribution`: `beckmann` (Mitsuba's default) or `ggx`.
+    fn distribution(&self, props: &Props<'a>) -> Result<Distribution, LoadError> {
+        let x = &self.xml;
+        Ok(match props.string(x, "distribution")? {
+            None => Distribution::Beckmann,
+            Some((d, n)) => match d.to_ascii_lowercase().as_str() {
+                "beckmann" => Distribution::Beckmann,
+                "ggx" => Distribution::Ggx,
+                _ => {
+                    return Err(x.err(
+                        n,
+                        format!("invalid distribution '{d}' (must be 'beckmann' or 'ggx')"),
+                    ));
+                }
+            },
+        })
     }
 
     /// `alpha`, or equal `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).
