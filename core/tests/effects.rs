@@ -71,6 +71,20 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             0.0,
         ),
         (
+            Effect::RoughRefraction,
+            Material {
+                kind: MaterialKind::RoughDielectric {
+                    distribution: Distribution::Beckmann,
+                    alpha: 0.2,
+                    eta: 1.5,
+                    specular_reflectance: tint,
+                    specular_transmittance: tint,
+                },
+                two_sided: false,
+            },
+            0.0,
+        ),
+        (
             Effect::Textures,
             opaque(MaterialKind::Diffuse {
                 reflectance: Texture::Checkerboard {

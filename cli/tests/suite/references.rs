@@ -95,3 +95,16 @@ fn veach_ajar_pt() {
 fn veach_ajar_bdpt() {
     check_scene("veach-ajar", Method::Bdpt, 32);
 }
+
+// The rough-glass scene (issue 37): rough dielectrics, GGX and Beckmann,
+// with refraction through non-delta vertices on every path.
+
+#[test]
+fn rough_glass_pt() {
+    check_scene("rough-glass", Method::Path, 128);
+}
+
+#[test]
+fn rough_glass_bdpt() {
+    check_scene("rough-glass", Method::Bdpt, 64);
+}
