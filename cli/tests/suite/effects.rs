@@ -46,7 +46,13 @@ fn shared_scenes_call_for_what_they_contain() {
     names.sort();
     assert_eq!(
         names,
-        ["cornell-box", "veach-ajar", "veach-bidir", "veach-mis"],
+        [
+            "cornell-box",
+            "rough-glass",
+            "veach-ajar",
+            "veach-bidir",
+            "veach-mis"
+        ],
         "a shared scene was added: state its effects here"
     );
     // Diffuse walls and one area light.
@@ -60,6 +66,12 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("veach-bidir"),
         (set(&[Diffuse, Glossy, Refraction, AreaLights]), true)
+    );
+    // Rough dielectrics on a diffuse floor: no Dirac lobe, so no specular
+    // chains.
+    assert_eq!(
+        effects("rough-glass"),
+        (set(&[Diffuse, AreaLights, RoughRefraction]), false)
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.
