@@ -90,6 +90,12 @@
 // `cmlt_material.distribution`: Beckmann.
 #define CMLT_DISTRIBUTION_BECKMANN 1
 
+// Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
+// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+// `color` the transmittance in [0, 1] (reflection is untinted). Always
+// one interface with an inside and an outside: `two_sided` is ignored.
+#define CMLT_MATERIAL_ROUGH_GLASS 8
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -101,6 +107,8 @@
 // "No texture" in `cmlt_material`'s texture fields: zero, so that a
 // zero-initialised material has none (texture ids start at 1).
 #define CMLT_NO_TEXTURE 0
+
+
 
 
 
@@ -275,19 +283,22 @@ typedef struct cmlt_stats {
   // The `CMLT_EFFECT_*` bits the scene calls for through this camera.
   uint32_t effects;
   // BSDF samples per lobe kind, indexed diffuse, glossy, specular
-  // reflection, refraction (the `CMLT_EFFECT_*` values 0–3); plastics
-  // are counted in `coating_samples`.
+  // reflection, refraction (the `CMLT_EFFECT_*` values 0–3); the later
+  // lobe kinds are in `bsdf_samples_more`.
   uint64_t bsdf_samples[4];
   // BSDF evaluations (connections) per lobe kind, indexed as
   // `bsdf_samples`.
   uint64_t bsdf_evals[4];
   // Camera rays that sampled the thin lens (0 for a pinhole).
   uint64_t lens_samples;
-  // BSDF samples of plastics (lobe kind 4, `CMLT_EFFECT_COATING`;
-  // appended after the four-entry arrays to keep the layout).
-  uint64_t coating_samples;
-  // BSDF evaluations of plastics.
-  uint64_t coating_evals;
+  // BSDF samples of the lobe kinds after the first four (appended to keep
+  // the layout): entry i counts lobe kind 4 + i, that is coating
+  // (plastics, `CMLT_EFFECT_COATING`), rough refraction
+  // (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+  uint64_t bsdf_samples_more[4];
+  // BSDF evaluations of the same lobe kinds, indexed as
+  // `bsdf_samples_more`.
+  uint64_t bsdf_evals_more[4];
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.
@@ -296,9 +307,9 @@ typedef struct cmlt_material {
   uint32_t type_;
   // Linear RGB albedo / reflectance, each in [0, 1].
   float color[3];
-  // Glass: index of refraction ratio, > 0.
+  // Glass, rough glass: index of refraction ratio, > 0.
   float ior;
-  // Rough metal: GGX α in (0, 1].
+  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
   float roughness;
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).

@@ -9,7 +9,6 @@
 use std::ffi::c_void;
 use std::sync::{Arc, Mutex, RwLock};
 
-use cmlt_core::bsdf::Lobe;
 use cmlt_core::integrator::LobeCounts;
 use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
@@ -126,25 +125,36 @@ pub struct cmlt_stats {
     /// The `CMLT_EFFECT_*` bits the scene calls for through this camera.
     pub effects: u32,
     /// BSDF samples per lobe kind, indexed diffuse, glossy, specular
-    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3); plastics
-    /// are counted in `coating_samples`.
+    /// reflection, refraction (the `CMLT_EFFECT_*` values 0–3); the later
+    /// lobe kinds are in `bsdf_samples_more`.
     pub bsdf_samples: [u64; 4],
     /// BSDF evaluations (connections) per lobe kind, indexed as
     /// `bsdf_samples`.
     pub bsdf_evals: [u64; 4],
     /// Camera rays that sampled the thin lens (0 for a pinhole).
     pub lens_samples: u64,
-    /// BSDF samples of plastics (lobe kind 4, `CMLT_EFFECT_COATING`;
-    /// appended after the four-entry arrays to keep the layout).
-    pub coating_samples: u64,
-    /// BSDF evaluations of plastics.
-    pub coating_evals: u64,
+    /// BSDF samples of the lobe kinds after the first four (appended to keep
+    /// the layout): entry i counts lobe kind 4 + i, that is coating
+    /// (plastics, `CMLT_EFFECT_COATING`), rough refraction
+    /// (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+    pub bsdf_samples_more: [u64; 4],
+    /// BSDF evaluations of the same lobe kinds, indexed as
+    /// `bsdf_samples_more`.
+    pub bsdf_evals_more: [u64; 4],
 }
 
-/// The counts of the first four lobe kinds (diffuse … refraction), the
-/// entries `cmlt_stats` has always had.
-fn lobes4(c: &LobeCounts) -> [u64; 4] {
-    [c.0[0], c.0[1], c.0[2], c.0[3]]
+/// The first four lobe counts and the rest (the C struct keeps its first
+/// four fields and appends the others).
+fn split_lobes(c: &LobeCounts) -> ([u64; 4], [u64; 4]) {
+    let (mut first, mut more) = ([0; 4], [0; 4]);
+    for (i, n) in c.0.iter().enumerate() {
+        if i < 4 {
+            first[i] = *n;
+        } else if let Some(slot) = more.get_mut(i - 4) {
+            *slot = *n;
+        }
+    }
+    (first, more)
 }
 
 /// A renderer handle (opaque to C).
@@ -688,11 +698,11 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             rejected_host_surfaces: r.scene.rejected_surfaces(),
             b: s.b,
             effects: live.scene.analysis(inner.camera()).effects.0,
-            bsdf_samples: lobes4(&s.tracer.bsdf_samples),
-            bsdf_evals: lobes4(&s.tracer.bsdf_evals),
-            coating_samples: s.tracer.bsdf_samples.get(Lobe::Coating),
-            coating_evals: s.tracer.bsdf_evals.get(Lobe::Coating),
+            bsdf_samples: split_lobes(&s.tracer.bsdf_samples).0,
+            bsdf_evals: split_lobes(&s.tracer.bsdf_evals).0,
             lens_samples: s.tracer.lens_samples,
+            bsdf_samples_more: split_lobes(&s.tracer.bsdf_samples).1,
+            bsdf_evals_more: split_lobes(&s.tracer.bsdf_evals).1,
         };
         Ok(())
     })

@@ -55,6 +55,12 @@ pub const CMLT_DISTRIBUTION_GGX: u32 = 0;
 /// `cmlt_material.distribution`: Beckmann.
 pub const CMLT_DISTRIBUTION_BECKMANN: u32 = 1;
 
+/// Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
+/// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+/// `color` the transmittance in [0, 1] (reflection is untinted). Always
+/// one interface with an inside and an outside: `two_sided` is ignored.
+pub const CMLT_MATERIAL_ROUGH_GLASS: u32 = 8;
+
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
 /// with a host intersector uses that instead.
@@ -71,9 +77,9 @@ pub struct cmlt_material {
     pub type_: u32,
     /// Linear RGB albedo / reflectance, each in [0, 1].
     pub color: [f32; 3],
-    /// Glass: index of refraction ratio, > 0.
+    /// Glass, rough glass: index of refraction ratio, > 0.
     pub ior: f32,
-    /// Rough metal: GGX α in (0, 1].
+    /// Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
     pub roughness: f32,
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
@@ -501,6 +507,13 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: colour,
         },
+        CMLT_MATERIAL_ROUGH_GLASS => MaterialKind::RoughDielectric {
+            distribution: Distribution::Ggx,
+            alpha: m.roughness,
+            eta: m.ior,
+            specular_reflectance: Texture::Constant(Rgb::ONE),
+            specular_transmittance: Texture::Constant(color),
+        },
         t => return Err(Error::invalid(format!("unknown material type {t}"))),
     };
     let detail = Detail {
@@ -524,6 +537,7 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             | CMLT_MATERIAL_ROUGH_METAL
             | CMLT_MATERIAL_PLASTIC
             | CMLT_MATERIAL_ROUGH_PLASTIC
+            | CMLT_MATERIAL_ROUGH_GLASS
     ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
     {
         return Err(Error::invalid(
@@ -1155,6 +1169,8 @@ pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 1 << Effect::NormalMapping as u32;
 pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
 /// Plastics (a dielectric coating over a diffuse base).
 pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
+/// Rough dielectric reflection and refraction (`CMLT_MATERIAL_ROUGH_GLASS`).
+pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

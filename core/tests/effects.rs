@@ -74,6 +74,21 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             0.0,
         ),
         (
+            Effect::RoughRefraction,
+            Material {
+                kind: MaterialKind::RoughDielectric {
+                    distribution: Distribution::Beckmann,
+                    alpha: 0.2,
+                    eta: 1.5,
+                    specular_reflectance: tint,
+                    specular_transmittance: tint,
+                },
+                two_sided: false,
+                detail: Detail::NONE,
+            },
+            0.0,
+        ),
+        (
             Effect::Textures,
             opaque(MaterialKind::Diffuse {
                 reflectance: Texture::Checkerboard {

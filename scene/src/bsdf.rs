@@ -144,6 +144,11 @@ impl<'a> Loader<'a> {
                 specular_reflectance,
                 specular_transmittance,
                 ..
+            }
+            | MaterialKind::RoughDielectric {
+                specular_reflectance,
+                specular_transmittance,
+                ..
             } => {
                 fix(specular_reflectance);
                 fix(specular_transmittance);
@@ -201,13 +206,14 @@ impl<'a> Loader<'a> {
                 let mut m = self.bsdf(inner, depth + 1)?;
                 if let MaterialKind::Dielectric { .. }
                 | MaterialKind::TintedDielectric { .. }
-                | MaterialKind::ThinDielectric { .. } = m.kind
+                | MaterialKind::ThinDielectric { .. }
+                | MaterialKind::RoughDielectric { .. } = m.kind
                 {
                     // Mitsuba: "Only materials without a transmission
                     // component can be nested!"
                     return Err(self.xml.err(
                         inner,
-                        "'twosided' cannot wrap a transmissive BSDF ('dielectric')",
+                        "'twosided' cannot wrap a transmissive BSDF ('dielectric', 'roughdielectric')",
                     ));
                 }
                 if m.detail.perturbs_frame() {
@@ -341,6 +347,39 @@ impl<'a> Loader<'a> {
                     detail: Default::default(),
                 }
             }
+            "roughdielectric" => {
+                let x = &self.xml;
+                let distribution = self.distribution(&props)?;
+                let alpha = self.roughness(&props)?;
+                let int_ior = self.ior(&props, "int_ior", 1.5046)?;
+                let ext_ior = self.ior(&props, "ext_ior", 1.000277)?;
+                if int_ior == ext_ior {
+                    let n = props.get("int_ior").map_or(node, |e| e.node);
+                    return Err(x.err(
+                        n,
+                        format!(
+                            "roughdielectric: int_ior and ext_ior must differ (both {int_ior})"
+                        ),
+                    ));
+                }
+                let specular_reflectance =
+                    self.texture_param(&props, "specular_reflectance", Rgb::ONE)?;
+                let specular_transmittance =
+                    self.texture_param(&props, "specular_transmittance", Rgb::ONE)?;
+                // Visible-normal sampling only changes the variance.
+                ignored = &["sample_visible"];
+                Material {
+                    kind: MaterialKind::RoughDielectric {
+                        distribution,
+                        alpha,
+                        eta: int_ior / ext_ior,
+                        specular_reflectance,
+                        specular_transmittance,
+                    },
+                    two_sided: false,
+                    detail: Default::default(),
+                }
+            }
             other => {
                 return Err(self
                     .xml
@@ -468,7 +507,7 @@ impl<'a> Loader<'a> {
         Ok(m)
     }
 
-    /// A microfacet `distribution` (Mitsuba's default: Beckmann).
+    /// A microfacet `distribution`: `beckmann` (Mitsuba's default) or `ggx`.
     fn distribution(&self, props: &Props<'a>) -> Result<Distribution, LoadError> {
         let x = &self.xml;
         Ok(match props.string(x, "distribution")? {

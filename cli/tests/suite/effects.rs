@@ -49,6 +49,7 @@ fn shared_scenes_call_for_what_they_contain() {
         [
             "cornell-box",
             "plastics",
+            "rough-glass",
             "veach-ajar",
             "veach-bidir",
             "veach-mis"
@@ -73,6 +74,12 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("plastics"),
         (set(&[Diffuse, Refraction, AreaLights, Coating]), true)
+    );
+    // Rough dielectrics on a diffuse floor: no Dirac lobe, so no specular
+    // chains.
+    assert_eq!(
+        effects("rough-glass"),
+        (set(&[Diffuse, AreaLights, RoughRefraction]), false)
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.

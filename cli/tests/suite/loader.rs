@@ -1299,3 +1299,94 @@ fn bad_coating_parameters_are_located_errors() {
         );
     }
 }
+
+#[test]
+fn roughdielectric_parameters_and_defaults() {
+    let s = ok(r#"
+      <shape type="rectangle"><bsdf type="roughdielectric"/></shape>
+      <shape type="rectangle"><bsdf type="roughdielectric">
+        <string name="distribution" value="ggx"/><float name="alpha" value="0.3"/>
+        <float name="int_ior" value="1.33"/><string name="ext_ior" value="vacuum"/>
+        <rgb name="specular_reflectance" value="0.5 0.6 0.7"/>
+        <rgb name="specular_transmittance" value="0.9 0.8 0.1"/>
+        <boolean name="sample_visible" value="false"/></bsdf></shape>"#)
+    .scene;
+    // Mitsuba's defaults: Beckmann, α = 0.1, bk7 inside, air outside, white.
+    assert_eq!(
+        *material(&s, 0),
+        Material {
+            kind: MaterialKind::RoughDielectric {
+                distribution: Distribution::Beckmann,
+                alpha: 0.1,
+                eta: 1.5046 / 1.000277,
+                specular_reflectance: Texture::Constant(Rgb::ONE),
+                specular_transmittance: Texture::Constant(Rgb::ONE),
+            },
+            two_sided: false,
+            detail: Default::default(),
+        }
+    );
+    assert_eq!(
+        material(&s, 1).kind,
+        MaterialKind::RoughDielectric {
+            distribution: Distribution::Ggx,
+            alpha: 0.3,
+            eta: 1.33,
+            specular_reflectance: Texture::Constant(Rgb::new(0.5, 0.6, 0.7)),
+            specular_transmittance: Texture::Constant(Rgb::new(0.9, 0.8, 0.1)),
+        }
+    );
+    // Bad values: refused with the line of the offending element.
+    for (body, line, phrase) in [
+        (
+            r#"<bsdf type="roughdielectric"><float name="alpha" value="nan"/></bsdf>"#,
+            9,
+            "not a finite number",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><float name="alpha" value="-0.2"/></bsdf>"#,
+            9,
+            "alpha must be > 0",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><float name="int_ior" value="-1.5"/></bsdf>"#,
+            9,
+            "'int_ior' must be positive",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><float name="int_ior" value="1"/><float name="ext_ior" value="1"/></bsdf>"#,
+            9,
+            "must differ",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><rgb name="specular_transmittance" value="0.5 -1 0.5"/></bsdf>"#,
+            9,
+            "must be non-negative",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><string name="distribution" value="phong"/></bsdf>"#,
+            9,
+            "invalid distribution",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            9,
+            "anisotropic roughness",
+        ),
+        (
+            r#"<bsdf type="twosided"><bsdf type="roughdielectric"/></bsdf>"#,
+            9,
+            "cannot wrap a transmissive BSDF",
+        ),
+    ] {
+        let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {body}"));
+        let text = e.to_string();
+        assert!(text.contains(phrase), "{body}: {text}");
+        assert!(
+            text.starts_with(&format!("inline.xml:{line}:")),
+            "{body}: {text}"
+        );
+    }
+}

@@ -117,3 +117,15 @@ fn plastics_pt() {
 fn plastics_bdpt() {
     check_scene("plastics", Method::Bdpt, 32);
 }
+
+// The rough-glass scene: rough dielectrics, GGX and Beckmann, with
+// refraction through non-delta vertices on every path.
+#[test]
+fn rough_glass_pt() {
+    check_scene("rough-glass", Method::Path, 128);
+}
+
+#[test]
+fn rough_glass_bdpt() {
+    check_scene("rough-glass", Method::Bdpt, 64);
+}

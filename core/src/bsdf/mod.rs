@@ -36,10 +36,12 @@ mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-#[cfg(any(feature = "glossy", feature = "coating"))]
+#[cfg(any(feature = "glossy", feature = "coating", feature = "rough-refraction"))]
 mod microfacet;
 #[cfg(feature = "coating")]
 mod plastic;
+#[cfg(feature = "rough-refraction")]
+mod roughdielectric;
 #[cfg(feature = "coating")]
 mod roughplastic;
 #[cfg(feature = "refraction")]
@@ -62,10 +64,12 @@ use crate::math::Rgb;
 #[cfg(any(feature = "glossy", feature = "specular"))]
 use crate::scene::ConductorFresnel;
 use crate::scene::{Material, MaterialKind, Texture};
-#[cfg(feature = "glossy")]
+#[cfg(any(feature = "glossy", feature = "coating", feature = "rough-refraction"))]
 use microfacet::Microfacet;
 #[cfg(feature = "coating")]
 use plastic::Plastic;
+#[cfg(feature = "rough-refraction")]
+use roughdielectric::RoughDielectric;
 #[cfg(feature = "coating")]
 use roughplastic::RoughPlastic;
 
@@ -96,16 +100,19 @@ pub enum Lobe {
     /// Plastic: a dielectric coating (Dirac or microfacet) over a
     /// Lambertian base.
     Coating = 4,
+    /// Rough dielectric: microfacet reflection and refraction.
+    RoughRefraction = 5,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 5] = [
+    pub const ALL: [Lobe; 6] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
         Lobe::Refraction,
         Lobe::Coating,
+        Lobe::RoughRefraction,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -116,6 +123,7 @@ impl Lobe {
             Lobe::SpecularReflection => "specular-reflection",
             Lobe::Refraction => "refraction",
             Lobe::Coating => "coating",
+            Lobe::RoughRefraction => "rough-refraction",
         }
     }
 }
@@ -169,6 +177,8 @@ enum Model {
     Plastic(Plastic),
     #[cfg(feature = "coating")]
     RoughPlastic(RoughPlastic),
+    #[cfg(feature = "rough-refraction")]
+    RoughDielectric(RoughDielectric),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -295,6 +305,19 @@ impl Bsdf {
                     t: coating.transmittance,
                 })
             }
+            #[cfg(feature = "rough-refraction")]
+            MaterialKind::RoughDielectric {
+                distribution,
+                alpha,
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Model::RoughDielectric(RoughDielectric {
+                mf: Microfacet::new(*distribution, *alpha),
+                eta: *eta,
+                reflectance: texture(specular_reflectance),
+                transmittance: texture(specular_transmittance),
+            }),
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -304,7 +327,7 @@ impl Bsdf {
             unperturbed: None,
         };
         // A dielectric is one interface with an inside and an outside.
-        bsdf.two_sided &= bsdf.lobe() != Lobe::Refraction;
+        bsdf.two_sided &= !bsdf.has_transmission();
         bsdf
     }
 
@@ -351,6 +374,8 @@ impl Bsdf {
             Model::Dielectric { .. } | Model::ThinDielectric { .. } => Lobe::Refraction,
             #[cfg(feature = "coating")]
             Model::Plastic(_) | Model::RoughPlastic(_) => Lobe::Coating,
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(..) => Lobe::RoughRefraction,
         }
     }
 
@@ -364,10 +389,11 @@ impl Bsdf {
     }
 
     /// True when the BSDF can scatter to the other side of the surface
-    /// (only dielectrics); callers use it to pick the side a continuation
-    /// ray starts from.
+    /// (only dielectrics, smooth, thin or rough). Rays leave from the side
+    /// their direction points to (`offset::spawn_ray` picks it from the
+    /// geometric normal), so callers need this only for two-sidedness.
     pub fn has_transmission(&self) -> bool {
-        self.lobe() == Lobe::Refraction
+        matches!(self.lobe(), Lobe::Refraction | Lobe::RoughRefraction)
     }
 
     /// A coarse roughness hint in the microfacet α scale: 0 for Dirac-only
@@ -382,6 +408,8 @@ impl Bsdf {
             // The diffuse base carries connections.
             #[cfg(feature = "coating")]
             Model::Plastic(_) | Model::RoughPlastic(_) => 1.0,
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.mf.alpha,
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -400,7 +428,9 @@ impl Bsdf {
 
     /// f(wo, wi), without the cosine; zero for delta lobes. Reciprocal for
     /// the reflection models: eval(wo, wi) = eval(wi, wo). `mode` only
-    /// matters for transmission, which has no non-delta lobe here.
+    /// matters for rough transmission, where refracted radiance carries the
+    /// 1/η² that importance lacks: eval(wo, wi, Importance) =
+    /// eval(wi, wo, Radiance) (the adjoint BSDF).
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         if !self.light_side_ok(wo, wi, mode) {
             return Rgb::ZERO;
@@ -425,6 +455,9 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 p.eval(wo, wi)
             }
+            // Never two-sided, like the smooth dielectric.
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.eval(wo, wi, mode),
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -454,6 +487,8 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 p.pdf(wo, wi)
             }
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.pdf(wo, wi),
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -526,6 +561,8 @@ impl Bsdf {
             Model::Plastic(p) => p.sample(wo_up, u_lobe, u),
             #[cfg(feature = "coating")]
             Model::RoughPlastic(p) => p.sample(wo_up, u_lobe, u),
+            #[cfg(feature = "rough-refraction")]
+            Model::RoughDielectric(rd) => rd.sample(wo, u_lobe, u, mode),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

@@ -800,3 +800,7 @@ fn bsdf_stays_small() {
         core::mem::size_of::<Bsdf>()
     );
 }
+
+// The rough dielectric's tests live in their own file.
+#[cfg(feature = "rough-refraction")]
+mod rough_dielectric;

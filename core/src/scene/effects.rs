@@ -36,11 +36,13 @@ pub enum Effect {
     AlphaMasks = 8,
     /// Plastics: a dielectric coating over a diffuse base.
     Coating = 9,
+    /// Rough dielectric reflection and refraction (microfacet lobes).
+    RoughRefraction = 10,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 10] = [
+    pub const ALL: [Effect; 11] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -51,6 +53,7 @@ impl Effect {
         Effect::NormalMapping,
         Effect::AlphaMasks,
         Effect::Coating,
+        Effect::RoughRefraction,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -66,6 +69,7 @@ impl Effect {
             Effect::NormalMapping => "normal-mapping",
             Effect::AlphaMasks => "alpha-masks",
             Effect::Coating => "coating",
+            Effect::RoughRefraction => "rough-refraction",
         }
     }
 
@@ -81,6 +85,7 @@ impl Effect {
             Effect::NormalMapping => Some("normal-mapping"),
             Effect::AlphaMasks => Some("alpha-masks"),
             Effect::Coating => Some("coating"),
+            Effect::RoughRefraction => Some("rough-refraction"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -97,6 +102,7 @@ impl Effect {
             Effect::NormalMapping => cfg!(feature = "normal-mapping"),
             Effect::AlphaMasks => cfg!(feature = "alpha-masks"),
             Effect::Coating => cfg!(feature = "coating"),
+            Effect::RoughRefraction => cfg!(feature = "rough-refraction"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -114,6 +120,7 @@ impl Effect {
             Effect::NormalMapping => "no normal or bump map",
             Effect::AlphaMasks => "no alpha mask: plain closest-hit and any-hit rays",
             Effect::Coating => "no plastic",
+            Effect::RoughRefraction => "no rough dielectric",
         }
     }
 }
@@ -225,6 +232,14 @@ impl Analysis {
                     Effect::Coating,
                     [Some(diffuse_reflectance), Some(specular_reflectance)],
                 ),
+                MaterialKind::RoughDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
+                } => (
+                    Effect::RoughRefraction,
+                    [Some(specular_reflectance), Some(specular_transmittance)],
+                ),
             };
             effects = effects.with(effect);
             for t in textures.into_iter().flatten() {
@@ -254,6 +269,7 @@ impl Analysis {
                 MaterialKind::Dielectric { .. }
                     | MaterialKind::TintedDielectric { .. }
                     | MaterialKind::ThinDielectric { .. }
+                    | MaterialKind::RoughDielectric { .. }
                     | MaterialKind::Plastic { .. }
                     | MaterialKind::RoughPlastic { .. }
             );

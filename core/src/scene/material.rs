@@ -66,6 +66,20 @@ pub enum MaterialKind {
         /// Relative index of refraction, interior over exterior (> 0).
         eta: f32,
     },
+    /// Rough dielectric interface (Mitsuba's `roughdielectric`): microfacet
+    /// reflection and refraction (Walter et al. 2007).
+    RoughDielectric {
+        /// Normal distribution.
+        distribution: Distribution,
+        /// Isotropic roughness α (> 0).
+        alpha: f32,
+        /// Relative index of refraction, interior over exterior (> 0, ≠ 1).
+        eta: f32,
+        /// Multiplier of the reflected lobe.
+        specular_reflectance: Texture,
+        /// Multiplier of the refracted lobe.
+        specular_transmittance: Texture,
+    },
     /// Smooth dielectric whose reflected and transmitted light are tinted
     /// (Mitsuba's `dielectric` with `specular_reflectance` or
     /// `specular_transmittance` other than 1); the same Dirac lobes, chosen
@@ -290,6 +304,26 @@ impl Material {
             MaterialKind::Dielectric { eta } => (eta.is_finite() && *eta > 0.0)
                 .then_some(())
                 .ok_or("dielectric eta must be finite and > 0"),
+            MaterialKind::RoughDielectric {
+                alpha,
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+                ..
+            } => {
+                if !(alpha.is_finite() && *alpha > 0.0) {
+                    return Err("roughdielectric alpha must be finite and > 0");
+                }
+                // Index-matched, the refraction half vector wo + η wi
+                // vanishes for the straight-through direction (Mitsuba
+                // refuses it too).
+                if !(eta.is_finite() && *eta > 0.0 && *eta != 1.0) {
+                    return Err("roughdielectric eta must be finite, > 0 and != 1");
+                }
+                (tex_ok(specular_reflectance) && tex_ok(specular_transmittance))
+                    .then_some(())
+                    .ok_or("roughdielectric reflectance and transmittance must be finite and non-negative")
+            }
             MaterialKind::TintedDielectric {
                 eta,
                 specular_reflectance,

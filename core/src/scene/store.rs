@@ -279,6 +279,11 @@ impl SceneBuilder {
                     specular_reflectance,
                     specular_transmittance,
                     ..
+                }
+                | super::MaterialKind::RoughDielectric {
+                    specular_reflectance,
+                    specular_transmittance,
+                    ..
                 } => [Some(specular_reflectance), Some(specular_transmittance)],
                 super::MaterialKind::Plastic {
                     diffuse_reflectance,
