@@ -226,6 +226,15 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         ))
     }
 
+    /// Whether anything lies along unit direction `d` from a surface point
+    /// (the shadow ray towards a light at infinity).
+    #[inline]
+    pub fn occluded_towards(&mut self, a: &SurfacePoint, d: Vec3) -> bool {
+        self.stats.shadow_rays += 1;
+        self.accel
+            .occluded(&offset::spawn_ray(a.p, a.p_error, a.ng, d))
+    }
+
     /// Whether a segment spawned by [`offset::spawn_rays_between`] is
     /// blocked (a segment it refused is: it is tangent to a surface).
     #[inline]

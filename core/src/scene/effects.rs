@@ -30,11 +30,15 @@ pub enum Effect {
     AreaLights = 5,
     /// A thin-lens camera (an aperture to sample).
     DepthOfField = 6,
+    /// Point, spot and directional lights (delta positions or directions).
+    PointLights = 7,
+    /// A constant environment around the scene.
+    Environment = 8,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 9] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -42,6 +46,8 @@ impl Effect {
         Effect::Textures,
         Effect::AreaLights,
         Effect::DepthOfField,
+        Effect::PointLights,
+        Effect::Environment,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -54,6 +60,8 @@ impl Effect {
             Effect::Textures => "textures",
             Effect::AreaLights => "area-lights",
             Effect::DepthOfField => "depth-of-field",
+            Effect::PointLights => "point-lights",
+            Effect::Environment => "environment",
         }
     }
 
@@ -66,6 +74,8 @@ impl Effect {
             Effect::Refraction => Some("refraction"),
             Effect::Textures => Some("textures"),
             Effect::DepthOfField => Some("depth-of-field"),
+            Effect::PointLights => Some("delta-lights"),
+            Effect::Environment => Some("environment"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -79,6 +89,8 @@ impl Effect {
             Effect::Refraction => cfg!(feature = "refraction"),
             Effect::Textures => cfg!(feature = "textures"),
             Effect::DepthOfField => cfg!(feature = "depth-of-field"),
+            Effect::PointLights => cfg!(feature = "delta-lights"),
+            Effect::Environment => cfg!(feature = "environment"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -93,6 +105,8 @@ impl Effect {
             Effect::Textures => "constant colours only",
             Effect::AreaLights => "no emitter: the image is black",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
+            Effect::PointLights => "no point, spot or directional light",
+            Effect::Environment => "no environment: escaping rays carry nothing",
         }
     }
 }

@@ -27,6 +27,8 @@ pub use store::*;
 
 pub use camera::{Camera, CameraError, FovAxis};
 pub use effects::{Analysis, Effect, EffectSet};
+#[cfg(feature = "alloc")]
+pub use light::Light;
 pub use material::{ConductorFresnel, Distribution, Material, MaterialId, MaterialKind};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;

@@ -7,6 +7,8 @@
 //! - [`bvh`]: the default BVH against brute force, watertightness, spawn
 //!   offsets, packets with any mask;
 //! - [`furnace`]: white-furnace answers of every estimator;
+//! - [`lights`]: point, spot, directional and environment lights with
+//!   analytic answers;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
@@ -23,6 +25,7 @@ mod intersect;
 
 mod bvh;
 mod furnace;
+mod lights;
 mod mlt;
 mod renderer;
 mod shapes;
