@@ -748,3 +748,94 @@ impl LightSet {
         1.0 / (PI * self.radius * self.radius)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spot(cutoff: f32, beam: f32) -> Light {
+        Light::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::new(0.3, -0.5, 0.8),
+            intensity: Rgb::splat(2.0),
+            cutoff_angle: cutoff,
+            beam_width: beam,
+        }
+    }
+
+    /// The spot's power formula is the integral of its falloff over the
+    /// sphere (midpoint rule in θ), and its emission samples stay in the
+    /// cone with the density [`Prepared::pdf_emit_dir`] states (which
+    /// integrates to 1 over the sphere).
+    #[test]
+    fn spot_power_and_emission_density() {
+        for (cutoff, beam) in [(20.0, 15.0), (45.0, 10.0), (60.0, 60.0)] {
+            let p = Prepared::new(spot(cutoff, beam));
+            let n = 200_000;
+            let mut integral = 0.0f64;
+            let mut pdf_integral = 0.0f64;
+            for i in 0..n {
+                let theta = (i as f64 + 0.5) / n as f64 * core::f64::consts::PI;
+                let w = p.frame.to_world(Vec3::new(
+                    libm::sin(theta) as f32,
+                    0.0,
+                    libm::cos(theta) as f32,
+                ));
+                let dw = 2.0 * core::f64::consts::PI * libm::sin(theta) * core::f64::consts::PI
+                    / n as f64;
+                integral += p.intensity(w).luminance() as f64 * dw;
+                pdf_integral += p.pdf_emit_dir(w) as f64 * dw;
+            }
+            let phi = p.power(1.0);
+            assert!(
+                (integral - phi).abs() < 2e-3 * phi,
+                "{cutoff}/{beam}: {integral} vs {phi}"
+            );
+            assert!((pdf_integral - 1.0).abs() < 2e-3, "{pdf_integral}");
+        }
+        let set = LightSet::new(&[], &[spot(30.0, 20.0)]);
+        let cos_cutoff = libm::cosf(30f32.to_radians());
+        for i in 0..64 {
+            let u = Vec2::new((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.01);
+            let e = set.sample_emission(0, u, Vec2::new(u.y, u.x)).unwrap();
+            let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
+            assert!(e.dir.dot(axis) >= cos_cutoff - 1e-5);
+            assert_eq!(e.pdf_dir, set.pdf_emit_dir(0, e.dir));
+        }
+    }
+
+    /// Lights are chosen in proportion to their power, area lights first;
+    /// an infinite light's power uses the bounding sphere.
+    #[test]
+    fn selection_follows_power() {
+        let point = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::splat(1.0),
+        };
+        let env = Light::Constant {
+            radiance: Rgb::splat(1.0),
+        };
+        let black = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::ZERO,
+        };
+        let set = LightSet::new(&[], &[point, black, env]);
+        // No geometry: radius 1, so Φ_env = π · 4π and Φ_point = 4π.
+        assert_eq!(set.len(), 2, "a black light is left out");
+        let want = 1.0 / (1.0 + PI);
+        assert!((set.pmf_other(0) - want).abs() < 1e-6);
+        assert!((set.pmf_other(1) - (1.0 - want)).abs() < 1e-6);
+        assert!(set.has_environment() && set.is_delta(0) && !set.is_delta(1));
+        match set.choose(0.5 * want, Vec2::ZERO) {
+            Some(Chosen::Other { index: 0, pmf }) => assert_eq!(pmf, set.pmf_other(0)),
+            other => panic!("{other:?}"),
+        }
+        match set.choose(0.99, Vec2::ZERO) {
+            Some(Chosen::Other { index: 1, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        // pdf_environment is the selection times the uniform sphere.
+        let pdf = set.pdf_environment(Vec3::Z);
+        assert!((pdf - (1.0 - want) / (4.0 * PI)).abs() < 1e-7);
+    }
+}

@@ -387,3 +387,96 @@ fn lights_call_for_their_effects() {
     assert!(a.effects.contains(Effect::PointLights));
     assert!(!a.effects.contains(Effect::Environment));
 }
+
+/// Mitsuba's spot falloff: full inside the beam width, linear in angle to
+/// zero at the cutoff.
+fn spot_falloff(cos: f32, cutoff_deg: f32, beam_deg: f32) -> f32 {
+    let theta = cos.clamp(-1.0, 1.0).acos();
+    let (cutoff, beam) = (cutoff_deg.to_radians(), beam_deg.to_radians());
+    if theta >= cutoff {
+        0.0
+    } else if theta <= beam {
+        1.0
+    } else {
+        (cutoff - theta) / (cutoff - beam)
+    }
+}
+
+#[test]
+fn spot_and_directional_lights_over_a_plane() {
+    let rho = 0.5;
+    let inv_pi = std::f32::consts::FRAC_1_PI;
+    // A spot 1 above the plane, tilted: its falloff edge crosses the view.
+    let pos = Vec3::new(-0.2, 0.1, PLANE_Z - 1.0);
+    let axis = Vec3::new(0.2, 0.1, 1.0).normalize();
+    let (cutoff, beam, intensity) = (30.0, 20.0, 3.0);
+    let spot = lit_plane(
+        rho,
+        Light::Spot {
+            position: pos,
+            direction: axis * 2.0,
+            intensity: Rgb::splat(intensity),
+            cutoff_angle: cutoff,
+            beam_width: beam,
+        },
+    );
+    let spot_expected = expected_on_plane(&spot, |p| {
+        let to = p - pos;
+        let d2 = to.length_squared();
+        let w = to / d2.sqrt();
+        rho * inv_pi * intensity * spot_falloff(w.dot(axis), cutoff, beam) * w.z / d2
+    });
+    // The sun: every point of the plane receives E cos θ.
+    let dir = Vec3::new(0.3, -0.2, 1.0);
+    let e = 2.0;
+    let sun = lit_plane(
+        rho,
+        Light::Directional {
+            direction: dir,
+            irradiance: Rgb::splat(e),
+        },
+    );
+    let cos = dir.normalize().z;
+    let sun_expected = vec![rho * inv_pi * e * cos; 192];
+    for (what, scene, expected) in [
+        ("spot", &spot, &spot_expected),
+        ("sun", &sun, &sun_expected),
+    ] {
+        // Off-cone pixels are black: compare them absolutely.
+        let img = render(scene, Method::Path, Settings::default(), 256);
+        assert_image_abs(&format!("{what} PT"), &img, expected, 0.005, 0.04);
+        let img = render(scene, Method::Bdpt, Settings::default(), 256);
+        assert_image_abs(&format!("{what} BDPT"), &img, expected, 0.01, 0.08);
+    }
+    let (img, _) = render_mlt(&sun, &mlt_settings(0, 0), 512);
+    assert_quadrants("sun MLT", &img, &sun_expected, 0.01, 0.03);
+    let (img, _) = render_mlt(&spot, &mlt_settings(4, 2), 256);
+    let n = img.len() as f32;
+    let mean: f32 = img.iter().map(|p| p.g).sum::<f32>() / n;
+    let want: f32 = spot_expected.iter().sum::<f32>() / n;
+    assert!(
+        (mean - want).abs() < 0.01 * want,
+        "spot CMLT {mean} vs {want}"
+    );
+}
+
+/// [`assert_image`] with the per-pixel tolerance relative to the image's
+/// largest expected value (for images with black regions).
+fn assert_image_abs(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, pixel_tol: f32) {
+    let n = img.len() as f32;
+    let mean: f32 = img.iter().map(|p| p.g).sum::<f32>() / n;
+    let want: f32 = expected.iter().sum::<f32>() / n;
+    let max = expected.iter().cloned().fold(0.0, f32::max);
+    eprintln!("{what}: mean {mean}, expected {want}");
+    assert!(
+        (mean - want).abs() <= mean_tol * want,
+        "{what}: mean {mean} vs {want}"
+    );
+    for (i, (p, e)) in img.iter().zip(expected).enumerate() {
+        assert!(
+            (p.g - e).abs() <= pixel_tol * max,
+            "{what}: pixel {i}: {} vs {e}",
+            p.g
+        );
+    }
+}
