@@ -95,3 +95,14 @@ fn veach_ajar_pt() {
 fn veach_ajar_bdpt() {
     check_scene("veach-ajar", Method::Bdpt, 32);
 }
+
+/// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
+#[test]
+fn lights_punctual_pt() {
+    check_scene("lights-punctual", Method::Path, 64);
+}
+
+#[test]
+fn lights_punctual_bdpt() {
+    check_scene("lights-punctual", Method::Bdpt, 32);
+}
