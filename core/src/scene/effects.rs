@@ -103,7 +103,7 @@ impl Effect {
             Effect::SpecularReflection => "no smooth conductor",
             Effect::Refraction => "no dielectric",
             Effect::Textures => "constant colours only",
-            Effect::AreaLights => "no emitter: the image is black",
+            Effect::AreaLights => "no emitting mesh",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
             Effect::PointLights => "no point, spot or directional light",
             Effect::Environment => "no environment: escaping rays carry nothing",
