@@ -46,8 +46,19 @@ fn shared_scenes_call_for_what_they_contain() {
     names.sort();
     assert_eq!(
         names,
-        ["cornell-box", "veach-ajar", "veach-bidir", "veach-mis"],
+        [
+            "cornell-box",
+            "lights-punctual",
+            "veach-ajar",
+            "veach-bidir",
+            "veach-mis"
+        ],
         "a shared scene was added: state its effects here"
+    );
+    // Point, spot, sun and sky over diffuse and rough-metal objects.
+    assert_eq!(
+        effects("lights-punctual"),
+        (set(&[Diffuse, Glossy, PointLights, Environment]), false)
     );
     // Diffuse walls and one area light.
     assert_eq!(effects("cornell-box"), (set(&[Diffuse, AreaLights]), false));
