@@ -108,6 +108,28 @@
 // zero-initialised material has none (texture ids start at 1).
 #define CMLT_NO_TEXTURE 0
 
+// A point light (Mitsuba's `point`): `color` is the radiant intensity
+// (W/sr), `position` its place.
+#define CMLT_LIGHT_POINT 0
+
+// A spot light (Mitsuba's `spot`): `color` is the intensity on the axis,
+// `position` the apex, `direction` the axis; full intensity up to
+// `beam_width` degrees off the axis, falling linearly in angle to zero at
+// `cutoff_angle` degrees (Mitsuba's defaults are 20 and 15).
+#define CMLT_LIGHT_SPOT 1
+
+// A sun (Mitsuba's `directional`): `color` is the irradiance on a surface
+// facing it, `direction` the direction the light travels in.
+#define CMLT_LIGHT_DIRECTIONAL 2
+
+// A uniform environment (Mitsuba's `constant`): `color` is the radiance
+// arriving from every direction.
+#define CMLT_LIGHT_CONSTANT 3
+
+
+
+
+
 
 
 
@@ -342,6 +364,25 @@ typedef struct cmlt_material {
   // tint the base).
   uint32_t nonlinear;
 } cmlt_material;
+
+// A light that is not an emitting mesh. Fields a type does not use are
+// ignored (but must be finite).
+typedef struct cmlt_light {
+  // One of the `CMLT_LIGHT_*` values.
+  uint32_t type_;
+  // Linear RGB intensity, irradiance or radiance (see the type), each
+  // finite and ≥ 0.
+  float color[3];
+  // Point and spot: position.
+  float position[3];
+  // Spot: the axis; directional: the direction of travel. Non-zero.
+  float direction[3];
+  // Spot: half-angle of the cone in degrees, in (0, 180].
+  float cutoff_angle;
+  // Spot: half-angle of the full-intensity beam in degrees, in
+  // [0, `cutoff_angle`].
+  float beam_width;
+} cmlt_light;
 
 // A triangle mesh, read from the host's arrays during
 // `cmlt_scene_add_mesh` (copied; the arrays may be freed afterwards).
@@ -706,6 +747,20 @@ enum cmlt_status cmlt_scene_add_texture(struct cmlt_scene *scene,
                                         size_t stride,
                                         uint32_t srgb,
                                         uint32_t *out_id);
+
+// Adds a light that is not an emitting mesh (point, spot, directional,
+// constant environment); every field is checked first, and on failure
+// the scene is unchanged. `*out_index` (may be NULL) receives its index
+// among the scene's lights. A scene with lights at infinity (directional,
+// constant) cannot also have host shapes: commit refuses it (their light
+// paths need the scene's bounds).
+//
+// # Safety
+// `scene` is a valid handle; `light` is NULL or valid; `out_index` is NULL
+// or valid.
+enum cmlt_status cmlt_scene_add_light(struct cmlt_scene *scene,
+                                      const struct cmlt_light *light,
+                                      uint32_t *out_index);
 
 // Copies a mesh into the scene. Everything is checked first (pointers,
 // strides, finite values, indices in range, a known material, a finite

@@ -1783,3 +1783,112 @@ fn rough_glass_renders_through_every_estimator() {
         cmlt_scene_release(s);
     }
 }
+
+#[test]
+fn lights_are_checked_added_and_rendered() {
+    let point = cmlt_light {
+        type_: CMLT_LIGHT_POINT,
+        color: [2.0, 2.0, 2.0],
+        position: [0.0, 1.0, 0.0],
+        direction: [0.0, 0.0, 0.0],
+        cutoff_angle: 0.0,
+        beam_width: 0.0,
+    };
+    let f = "cmlt_scene_add_light";
+    let s = floor_and_light();
+    // SAFETY: valid pointers, or deliberately NULL / bad values.
+    unsafe {
+        expect(
+            cmlt_scene_add_light(s, null(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_scene_add_light(null_mut(), &point, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        let bad = [
+            cmlt_light {
+                color: [-1.0, 0.0, 0.0],
+                ..point
+            },
+            cmlt_light {
+                position: [f32::NAN, 0.0, 0.0],
+                ..point
+            },
+            cmlt_light { type_: 9, ..point },
+            cmlt_light {
+                type_: CMLT_LIGHT_DIRECTIONAL,
+                ..point
+            },
+            cmlt_light {
+                type_: CMLT_LIGHT_SPOT,
+                direction: [0.0, -1.0, 0.0],
+                cutoff_angle: 10.0,
+                beam_width: 20.0,
+                ..point
+            },
+        ];
+        for l in bad {
+            expect(
+                cmlt_scene_add_light(s, &l, null_mut()),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                f,
+            );
+        }
+        let mut index = 7;
+        expect(cmlt_scene_add_light(s, &point, &mut index), CMLT_OK, f);
+        assert_eq!(index, 0);
+        let sun = cmlt_light {
+            type_: CMLT_LIGHT_DIRECTIONAL,
+            direction: [0.2, -1.0, 0.1],
+            ..point
+        };
+        expect(cmlt_scene_add_light(s, &sun, &mut index), CMLT_OK, f);
+        assert_eq!(index, 1);
+        expect(cmlt_scene_commit(s), CMLT_OK, "commit");
+        let mut effects = 0;
+        expect(
+            cmlt_scene_get_effects(s, &mut effects, null_mut()),
+            CMLT_OK,
+            "effects",
+        );
+        assert_ne!(effects & CMLT_EFFECT_POINT_LIGHTS, 0);
+        assert_eq!(effects & CMLT_EFFECT_ENVIRONMENT, 0);
+        // A committed scene takes no more lights.
+        expect(
+            cmlt_scene_add_light(s, &point, null_mut()),
+            CMLT_ERROR_INVALID_OPERATION,
+            f,
+        );
+    }
+    // The lights add to the area light's image.
+    let with = {
+        let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+        prepare_render_stats(r, 8);
+        let px = image(r);
+        unsafe { cmlt_renderer_release(r) };
+        px
+    };
+    let plain = scene(None);
+    let without = {
+        let r = renderer(plain, &config(CMLT_ESTIMATOR_PT, 1));
+        prepare_render_stats(r, 8);
+        let px = image(r);
+        unsafe { cmlt_renderer_release(r) };
+        px
+    };
+    let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
+    assert!(with.iter().all(|v| v.is_finite()));
+    assert!(
+        sum(&with) > 1.2 * sum(&without),
+        "{} vs {}",
+        sum(&with),
+        sum(&without)
+    );
+    unsafe {
+        cmlt_scene_release(s);
+        cmlt_scene_release(plain);
+    }
+}

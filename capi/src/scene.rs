@@ -15,9 +15,9 @@ use cmlt_core::integrator::Settings;
 use cmlt_core::math::spectrum::srgb_to_linear;
 use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
-    Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Material,
-    MaterialId, MaterialKind, Mesh, RoughCoating, SHAPE_PRIM_BIT, Scene, SceneBuilder, ShapeGroup,
-    Texture,
+    Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Light,
+    Material, MaterialId, MaterialKind, Mesh, RoughCoating, SHAPE_PRIM_BIT, Scene, SceneBuilder,
+    ShapeGroup, Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -657,6 +657,111 @@ pub unsafe extern "C" fn cmlt_scene_add_texture(
     })
 }
 
+/// A point light (Mitsuba's `point`): `color` is the radiant intensity
+/// (W/sr), `position` its place.
+pub const CMLT_LIGHT_POINT: u32 = 0;
+/// A spot light (Mitsuba's `spot`): `color` is the intensity on the axis,
+/// `position` the apex, `direction` the axis; full intensity up to
+/// `beam_width` degrees off the axis, falling linearly in angle to zero at
+/// `cutoff_angle` degrees (Mitsuba's defaults are 20 and 15).
+pub const CMLT_LIGHT_SPOT: u32 = 1;
+/// A sun (Mitsuba's `directional`): `color` is the irradiance on a surface
+/// facing it, `direction` the direction the light travels in.
+pub const CMLT_LIGHT_DIRECTIONAL: u32 = 2;
+/// A uniform environment (Mitsuba's `constant`): `color` is the radiance
+/// arriving from every direction.
+pub const CMLT_LIGHT_CONSTANT: u32 = 3;
+
+/// A light that is not an emitting mesh. Fields a type does not use are
+/// ignored (but must be finite).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_light {
+    /// One of the `CMLT_LIGHT_*` values.
+    pub type_: u32,
+    /// Linear RGB intensity, irradiance or radiance (see the type), each
+    /// finite and ≥ 0.
+    pub color: [f32; 3],
+    /// Point and spot: position.
+    pub position: [f32; 3],
+    /// Spot: the axis; directional: the direction of travel. Non-zero.
+    pub direction: [f32; 3],
+    /// Spot: half-angle of the cone in degrees, in (0, 180].
+    pub cutoff_angle: f32,
+    /// Spot: half-angle of the full-intensity beam in degrees, in
+    /// [0, `cutoff_angle`].
+    pub beam_width: f32,
+}
+
+/// Checks a C light and converts it.
+fn light_from_c(l: &cmlt_light) -> Result<Light> {
+    let finite = l.color.iter().all(|v| v.is_finite())
+        && l.position.iter().all(|v| v.is_finite())
+        && l.direction.iter().all(|v| v.is_finite())
+        && l.cutoff_angle.is_finite()
+        && l.beam_width.is_finite();
+    if !finite {
+        return Err(Error::invalid("light: every field must be finite"));
+    }
+    let color = Rgb::new(l.color[0], l.color[1], l.color[2]);
+    let (position, direction) = (Vec3::from(l.position), Vec3::from(l.direction));
+    let light = match l.type_ {
+        CMLT_LIGHT_POINT => Light::Point {
+            position,
+            intensity: color,
+        },
+        CMLT_LIGHT_SPOT => Light::Spot {
+            position,
+            direction,
+            intensity: color,
+            cutoff_angle: l.cutoff_angle,
+            beam_width: l.beam_width,
+        },
+        CMLT_LIGHT_DIRECTIONAL => Light::Directional {
+            direction,
+            irradiance: color,
+        },
+        CMLT_LIGHT_CONSTANT => Light::Constant { radiance: color },
+        t => return Err(Error::invalid(format!("light: unknown type {t}"))),
+    };
+    light
+        .validate()
+        .map_err(|reason| Error::invalid(format!("light: {reason}")))?;
+    Ok(light)
+}
+
+/// Adds a light that is not an emitting mesh (point, spot, directional,
+/// constant environment); every field is checked first, and on failure
+/// the scene is unchanged. `*out_index` (may be NULL) receives its index
+/// among the scene's lights. A scene with lights at infinity (directional,
+/// constant) cannot also have host shapes: commit refuses it (their light
+/// paths need the scene's bounds).
+///
+/// # Safety
+/// `scene` is a valid handle; `light` is NULL or valid; `out_index` is NULL
+/// or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_add_light(
+    scene: *mut cmlt_scene,
+    light: *const cmlt_light,
+    out_index: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_add_light", || {
+        // SAFETY: the caller's contract.
+        let (scene, l) = unsafe { (read(scene, "scene")?, read(light, "light")?) };
+        let light = light_from_c(l)?;
+        scene.building(|b| {
+            let i = b.builder.add_light(light);
+            if !out_index.is_null() {
+                // SAFETY: non-NULL, so valid by the caller's contract.
+                unsafe { *out_index = i as u32 };
+            }
+            Ok(())
+        })
+    })
+}
+
 /// Reads `count` elements of `N` floats (or u32) from `ptr` with `stride`
 /// bytes between elements (0 = packed).
 ///
@@ -1171,6 +1276,10 @@ pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
 pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
 /// Rough dielectric reflection and refraction (`CMLT_MATERIAL_ROUGH_GLASS`).
 pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
+/// Point, spot and directional lights.
+pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
+/// A constant environment.
+pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

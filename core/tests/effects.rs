@@ -314,3 +314,37 @@ fn surfaces_that_do_not_scatter_cap_paths_at_one_segment_with_the_same_image() {
         );
     }
 }
+
+/// A point light needs `delta-lights`, a constant environment
+/// `environment`: without the feature the scene is refused by name.
+#[test]
+fn lights_need_their_features_built() {
+    use cmlt::scene::Light;
+    let lights = [
+        (
+            Effect::PointLights,
+            Light::Point {
+                position: glam::Vec3::ZERO,
+                intensity: Rgb::ONE,
+            },
+        ),
+        (Effect::Environment, Light::Constant { radiance: Rgb::ONE }),
+    ];
+    for (effect, light) in lights {
+        let mut b = SceneBuilder::new();
+        let m = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+        b.add_mesh(common::inward_box(m, 0.0));
+        b.add_light(light);
+        b.set_camera(camera(0.0));
+        match b.build() {
+            Ok(scene) => {
+                assert!(effect.is_built(), "{}", effect.name());
+                assert!(scene.analysis(&scene.camera).effects.contains(effect));
+            }
+            Err(e) => {
+                assert!(!effect.is_built(), "{e}");
+                assert_eq!(e, SceneError::EffectNotBuilt { effect });
+            }
+        }
+    }
+}

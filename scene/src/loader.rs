@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use cmlt::integrator::Settings;
 use cmlt::math::Rgb;
-use cmlt::scene::{Camera, FovAxis, Material, MaterialId, Mesh, SceneBuilder, SceneError, Texture};
+use cmlt::scene::{
+    Camera, FovAxis, Light, Material, MaterialId, Mesh, SceneBuilder, SceneError, Texture,
+};
 use glam::{DMat4, DVec3};
 use roxmltree::{Document, Node, NodeId, ParsingOptions};
 
@@ -152,14 +154,13 @@ impl<'a> Loader<'a> {
                 "shape" => self.shape(child)?,
                 "emitter" => {
                     let ty = self.xml.attr(child, "type")?.unwrap_or_default();
-                    let msg = if ty == "area" {
-                        "an 'area' emitter must be nested inside a <shape>".to_string()
-                    } else {
-                        format!(
-                            "unsupported emitter plugin '{ty}' (cmlt supports area emitters on shapes only)"
-                        )
-                    };
-                    return Err(self.xml.err(child, msg));
+                    if ty == "area" {
+                        return Err(self
+                            .xml
+                            .err(child, "an 'area' emitter must be nested inside a <shape>"));
+                    }
+                    let light = self.scene_emitter(child)?;
+                    self.builder.add_light(light);
                 }
                 "medium" | "phase" | "volume" => {
                     return Err(self.xml.err(
@@ -522,6 +523,107 @@ impl<'a> Loader<'a> {
             self.warnings.push(w);
         }
         Ok(spp)
+    }
+
+    /// A colour property of an emitter (`default` when absent), refused
+    /// when negative or not finite.
+    fn emitter_power(&self, props: &Props<'a>, name: &str, default: f64) -> Result<Rgb, LoadError> {
+        let x = &self.xml;
+        if let Some(e) = props.get(name)
+            && let Item::Object(_) = e.item
+        {
+            return Err(x.err(
+                e.node,
+                format!("a textured '{name}' is not supported (give an <rgb> value)"),
+            ));
+        }
+        let Some((c, n)) = props.color(x, name)? else {
+            return Ok(Rgb::splat(default as f32));
+        };
+        let v = Rgb::new(c[0] as f32, c[1] as f32, c[2] as f32);
+        if c.iter().any(|v| *v < 0.0) || !v.is_finite() {
+            return Err(x.err(
+                n,
+                format!("{name} must be finite and non-negative, got {c:?}"),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// A scene-level `<emitter>`: Mitsuba 3's `point`, `spot`,
+    /// `directional` or `constant`, with Mitsuba's defaults (power 1, a
+    /// spot's cutoff 20° and beam width 3/4 of it; `to_world` places a
+    /// point light at its origin and aims a spot or sun along its +z).
+    fn scene_emitter(&mut self, node: Node<'a, 'a>) -> Result<Light, LoadError> {
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        let to_world = props.transform(x, "to_world")?;
+        let origin = to_world
+            .map(|(m, _)| m.transform_point3(DVec3::ZERO))
+            .unwrap_or(DVec3::ZERO);
+        let axis = to_world
+            .map(|(m, _)| m.transform_vector3(DVec3::Z))
+            .unwrap_or(DVec3::Z);
+        let v3 = |v: DVec3| glam::Vec3::new(v.x as f32, v.y as f32, v.z as f32);
+        let exclusive = |a: &str, b: &str| -> Result<(), LoadError> {
+            match (props.get(a), props.get(b)) {
+                (Some(e), Some(_)) => {
+                    Err(x.err(e.node, format!("give either '{a}' or '{b}', not both")))
+                }
+                _ => Ok(()),
+            }
+        };
+        let light = match props.plugin.as_str() {
+            "point" => {
+                exclusive("position", "to_world")?;
+                let position = props
+                    .vector(x, "position")?
+                    .map(DVec3::from)
+                    .unwrap_or(origin);
+                Light::Point {
+                    position: v3(position),
+                    intensity: self.emitter_power(&props, "intensity", 1.0)?,
+                }
+            }
+            "spot" => {
+                let cutoff = props.float(x, "cutoff_angle")?.map_or(20.0, |(v, _)| v);
+                let beam = props
+                    .float(x, "beam_width")?
+                    .map_or(cutoff * 0.75, |(v, _)| v);
+                Light::Spot {
+                    position: v3(origin),
+                    direction: v3(axis),
+                    intensity: self.emitter_power(&props, "intensity", 1.0)?,
+                    cutoff_angle: cutoff as f32,
+                    beam_width: beam as f32,
+                }
+            }
+            "directional" => {
+                exclusive("direction", "to_world")?;
+                let direction = props
+                    .vector(x, "direction")?
+                    .map(DVec3::from)
+                    .unwrap_or(axis);
+                Light::Directional {
+                    direction: v3(direction),
+                    irradiance: self.emitter_power(&props, "irradiance", 1.0)?,
+                }
+            }
+            "constant" => Light::Constant {
+                radiance: self.emitter_power(&props, "radiance", 1.0)?,
+            },
+            other => {
+                return Err(x.err(
+                    node,
+                    format!(
+                        "unsupported emitter plugin '{other}' (cmlt supports point, spot, directional and constant, and area emitters on shapes)"
+                    ),
+                ));
+            }
+        };
+        light.validate().map_err(|reason| x.err(node, reason))?;
+        props.finish(x, &[])?;
+        Ok(light)
     }
 
     /// `<emitter type="area">` inside a shape: its radiance, `None` if black.

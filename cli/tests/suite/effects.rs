@@ -50,11 +50,17 @@ fn shared_scenes_call_for_what_they_contain() {
             "cornell-box",
             "plastics",
             "rough-glass",
+            "lights-punctual",
             "veach-ajar",
             "veach-bidir",
             "veach-mis"
         ],
         "a shared scene was added: state its effects here"
+    );
+    // Point, spot, sun and sky over diffuse and rough-metal objects.
+    assert_eq!(
+        effects("lights-punctual"),
+        (set(&[Diffuse, Glossy, PointLights, Environment]), false)
     );
     // Diffuse walls and one area light.
     assert_eq!(effects("cornell-box"), (set(&[Diffuse, AreaLights]), false));

@@ -1390,3 +1390,105 @@ fn roughdielectric_parameters_and_defaults() {
         );
     }
 }
+
+// ---------------------------------------------------------------- lights
+
+#[test]
+fn scene_level_emitters_follow_mitsuba() {
+    use cmlt::scene::Light;
+    let s = ok(r#"<emitter type="point">
+        <point name="position" x="1" y="2" z="3"/>
+        <rgb name="intensity" value="4, 5, 6"/>
+    </emitter>
+    <emitter type="spot">
+        <transform name="to_world"><lookat origin="0, 1, 0" target="0, 1, 5" up="0, 1, 0"/></transform>
+        <float name="cutoff_angle" value="40"/>
+    </emitter>
+    <emitter type="directional">
+        <vector name="direction" x="0" y="-2" z="0"/>
+        <float name="irradiance" value="3"/>
+    </emitter>
+    <emitter type="point">
+        <transform name="to_world"><translate x="7" y="8" z="9"/></transform>
+    </emitter>
+    <emitter type="constant"/>"#)
+    .scene;
+    let lights: Vec<Light> = s.lights.others().copied().collect();
+    assert_eq!(s.lights.len(), 5);
+    assert_eq!(
+        lights[0],
+        Light::Point {
+            position: Vec3::new(1.0, 2.0, 3.0),
+            intensity: Rgb::new(4.0, 5.0, 6.0)
+        }
+    );
+    // Mitsuba's spot: to_world's +z, beam width 3/4 of the cutoff, intensity 1.
+    match lights[1] {
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cutoff_angle,
+            beam_width,
+        } => {
+            assert!(close(position, Vec3::new(0.0, 1.0, 0.0), 1e-6));
+            assert!(close(direction.normalize(), Vec3::Z, 1e-6));
+            assert_eq!(
+                (intensity, cutoff_angle, beam_width),
+                (Rgb::ONE, 40.0, 30.0)
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        lights[2],
+        Light::Directional {
+            direction: Vec3::new(0.0, -2.0, 0.0),
+            irradiance: Rgb::splat(3.0)
+        }
+    );
+    assert!(
+        matches!(lights[3], Light::Point { position, .. } if position == Vec3::new(7.0, 8.0, 9.0))
+    );
+    assert_eq!(lights[4], Light::Constant { radiance: Rgb::ONE });
+}
+
+#[test]
+fn bad_scene_level_emitters_are_located() {
+    for (body, want) in [
+        (
+            r#"<emitter type="point"><float name="intensity" value="-1"/></emitter>"#,
+            "intensity must be finite and non-negative",
+        ),
+        (
+            r#"<emitter type="directional"><vector name="direction" x="0" y="0" z="0"/></emitter>"#,
+            "direction must be finite and non-zero",
+        ),
+        (
+            r#"<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="20"/></emitter>"#,
+            "beam_width",
+        ),
+        (
+            r#"<emitter type="point"><point name="position" x="0" y="0" z="0"/><transform name="to_world"><translate x="1"/></transform></emitter>"#,
+            "not both",
+        ),
+        (
+            r#"<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>"#,
+            "unsupported emitter plugin 'envmap'",
+        ),
+        (
+            r#"<emitter type="constant"><rgb name="radiance" value="1, 1"/></emitter>"#,
+            "",
+        ),
+        (
+            r#"<emitter type="constant"><float name="power" value="1"/></emitter>"#,
+            "power",
+        ),
+    ] {
+        let e = load_body(body).map(|_| ()).unwrap_err();
+        let text = e.to_string();
+        assert_eq!(e.line, Some(6), "{text}");
+        assert!(text.starts_with("inline.xml:6:"), "{text}");
+        assert!(text.contains(want), "{body}: {text}");
+    }
+}

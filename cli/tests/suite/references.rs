@@ -129,3 +129,14 @@ fn rough_glass_pt() {
 fn rough_glass_bdpt() {
     check_scene("rough-glass", Method::Bdpt, 64);
 }
+
+/// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
+#[test]
+fn lights_punctual_pt() {
+    check_scene("lights-punctual", Method::Path, 64);
+}
+
+#[test]
+fn lights_punctual_bdpt() {
+    check_scene("lights-punctual", Method::Bdpt, 32);
+}

@@ -15,6 +15,15 @@
 //! follows from products of their ratios (Veach 1997, §10.2.1), with the
 //! connection vertices' reverse densities recomputed per strategy.
 //!
+//! Lights that are not meshes follow pbrt-v4's BDPT: a point or spot light
+//! is a vertex at a delta position (`Kind::PointLight`), a light at
+//! infinity a vertex at infinity (`Kind::Directional`, `Kind::Environment`)
+//! whose `sp.ng` is the unit direction from the scene towards it and whose
+//! densities are in solid angle: the vertex after it is placed through a
+//! disk of the scene's bounding sphere (density 1/(π r²) · |cos|), and a
+//! camera subpath that escapes the scene ends on an environment vertex
+//! (s = 0). Delta lights are never reached by s = 0.
+//!
 //! Both entry points are generic over [`Sampler`]: [`sample`] renders one
 //! pixel sample with every strategy (the BDPT estimator), and
 //! [`sample_strategy`] evaluates a single strategy of a fixed path depth
@@ -35,7 +44,7 @@ use crate::film::Film;
 use crate::geometry::{Ray, offset};
 use crate::math::{Frame, INV_PI, Rgb, warp};
 use crate::sampler::{CAMERA_STREAM, CONNECTION_STREAM, LIGHT_STREAM, Sampler};
-use crate::scene::{Camera, SurfacePoint};
+use crate::scene::{Camera, EmitterSample, Light, Scene, SurfacePoint};
 
 /// Hard cap on subpath length when `max_depth` is unbounded; Russian
 /// roulette ends paths long before this in any scene that absorbs light.
@@ -44,8 +53,16 @@ const UNBOUNDED_DEPTH: u32 = 1024;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
     Camera,
+    /// A point on an area light.
     Light,
     Surface,
+    /// Point or spot light `i` of the scene's other lights (a delta
+    /// position).
+    PointLight(u32),
+    /// Directional light `i` (at infinity, a delta direction).
+    Directional(u32),
+    /// The environment (every non-delta light at infinity).
+    Environment,
 }
 
 /// One vertex of a subpath.
@@ -68,7 +85,42 @@ struct Vertex {
 
 impl Vertex {
     fn on_surface(&self) -> bool {
-        self.kind != Kind::Camera
+        matches!(self.kind, Kind::Light | Kind::Surface)
+    }
+
+    /// A vertex at infinity: `sp.ng` is the direction towards it.
+    #[inline]
+    fn is_infinite(&self) -> bool {
+        matches!(self.kind, Kind::Directional(_) | Kind::Environment)
+    }
+
+    /// A light no ray can hit (s = 0 cannot sample it).
+    #[inline]
+    fn is_delta_light(&self) -> bool {
+        matches!(self.kind, Kind::PointLight(_) | Kind::Directional(_))
+    }
+
+    /// Unit direction from `self` towards `other`.
+    #[inline]
+    fn dir_to(&self, other: &Vertex) -> Vec3 {
+        if other.is_infinite() {
+            other.sp.ng
+        } else if self.is_infinite() {
+            -self.sp.ng
+        } else {
+            (other.sp.p - self.sp.p).normalize()
+        }
+    }
+
+    /// A point that lies from `self` in the direction of `other` (`other`
+    /// itself unless it is at infinity), for [`Vertex::f`].
+    #[inline]
+    fn pos_towards(&self, other: &Vertex) -> Vec3 {
+        if other.is_infinite() {
+            self.sp.p + other.sp.ng
+        } else {
+            other.sp.p
+        }
     }
 
     fn connectible(&self) -> bool {
@@ -81,6 +133,11 @@ impl Vertex {
     /// Converts a solid-angle density at `self` towards `next` into an area
     /// density at `next` (Veach eq. 8.10).
     fn area_density_at(&self, pdf_sa: f32, next: &Vertex) -> f32 {
+        // Densities of vertices at infinity stay in solid angle (pbrt's
+        // `ConvertDensity`).
+        if next.is_infinite() {
+            return pdf_sa;
+        }
         let w = next.sp.p - self.sp.p;
         let d2 = w.length_squared();
         if d2 == 0.0 {
@@ -113,16 +170,18 @@ impl Vertex {
     ) -> f32 {
         match self.kind {
             Kind::Camera => {
-                let w = (next.sp.p - self.sp.p).normalize();
+                let w = self.dir_to(next);
                 self.area_density_at(camera.pdf_ray(self.sp.p, w).1, next)
             }
-            Kind::Light => lights_pdf(self, next),
+            Kind::Light | Kind::PointLight(_) | Kind::Directional(_) | Kind::Environment => {
+                lights_pdf(self, next)
+            }
             Kind::Surface => {
                 let (Some(sh), Some(prev)) = (&self.shading, prev) else {
                     return 0.0;
                 };
-                let wp = sh.frame.to_local((prev.sp.p - self.sp.p).normalize());
-                let wn = sh.frame.to_local((next.sp.p - self.sp.p).normalize());
+                let wp = sh.frame.to_local(self.dir_to(prev));
+                let wn = sh.frame.to_local(self.dir_to(next));
                 self.area_density_at(sh.bsdf.pdf(wp, wn), next)
             }
         }
@@ -168,8 +227,35 @@ pub fn shading_correction(sp: &SurfacePoint, wo: Vec3, wi: Vec3) -> f32 {
 }
 
 /// Density per unit area at `to` of light vertex `light` emitting towards
-/// it: cosine-weighted emission around the shading normal.
-fn light_emission_pdf(light: &Vertex, to: &Vertex) -> f32 {
+/// it: cosine-weighted emission around the shading normal of an area
+/// light, the direction density over d² of a point light, uniform on the
+/// bounding sphere's disk for a light at infinity (pbrt-v4's `PdfLight`).
+fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
+    match light.kind {
+        // An area light's point, or the emitting surface vertex a camera
+        // subpath reached (s = 0): below.
+        Kind::Light | Kind::Surface | Kind::Camera => {}
+        Kind::PointLight(i) => {
+            let w = to.sp.p - light.sp.p;
+            let d2 = w.length_squared();
+            if d2 == 0.0 {
+                return 0.0;
+            }
+            let w = w / libm::sqrtf(d2);
+            let mut pdf = scene.lights.pdf_emit_dir(i as usize, w) / d2;
+            if to.on_surface() {
+                pdf *= to.sp.ng.dot(w).abs();
+            }
+            return pdf;
+        }
+        Kind::Directional(_) | Kind::Environment => {
+            let mut pdf = scene.lights.pdf_disk();
+            if to.on_surface() {
+                pdf *= to.sp.ng.dot(light.sp.ng).abs();
+            }
+            return pdf;
+        }
+    }
     let w = to.sp.p - light.sp.p;
     let d2 = w.length_squared();
     if d2 == 0.0 {
@@ -309,9 +395,21 @@ fn random_walk<I: Intersector, S: Sampler>(
 ) {
     let beta0 = beta.max_component();
     let camera = t.camera;
-    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(l, to);
+    let scene = t.scene;
+    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(scene, l, to);
     while path.len() < max_vertices {
-        let Some(hit) = t.trace(&ray) else { break };
+        let Some(hit) = t.trace(&ray) else {
+            // A camera subpath leaving the scene ends on the environment
+            // (pbrt's escaped-ray light vertex), with its density in solid
+            // angle.
+            if cfg!(feature = "environment")
+                && mode == TransportMode::Radiance
+                && scene.lights.has_environment()
+            {
+                escape(scene, &camera, path, ray.d.normalize(), beta);
+            }
+            break;
+        };
         let n = path.len();
         let prev = path[n - 1];
         // Connections evaluate the BSDF here with the direction towards
@@ -379,6 +477,70 @@ fn random_walk<I: Intersector, S: Sampler>(
             break;
         }
         ray = offset::spawn_ray(hit.sp.p, hit.sp.p_error, hit.sp.ng, wi_world);
+    }
+}
+
+/// Appends the environment vertex a camera subpath reaches along unit `d`
+/// with throughput `beta`, with its forward density and its predecessor's
+/// reverse one.
+#[inline(never)]
+fn escape(scene: &Scene, camera: &Camera, path: &mut Vec<Vertex>, d: Vec3, beta: Rgb) {
+    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(scene, l, to);
+    let n = path.len();
+    let prev = path[n - 1];
+    let (center, r) = scene.lights.bounding_sphere();
+    let mut v = at_infinity(Kind::Environment, prev.sp.p, d, center, r);
+    v.beta = beta;
+    let before = n.checked_sub(2).map(|i| path[i]);
+    if !prev.delta {
+        v.pdf_fwd = prev.pdf(camera, lights_pdf, before.as_ref(), &v);
+        if let Some(before) = before {
+            path[n - 2].pdf_rev = prev.pdf(camera, lights_pdf, Some(&v), &before);
+        }
+    }
+    path.push(v);
+}
+
+/// A vertex of kind `kind` at infinity in unit direction `d` seen from
+/// `from`, placed (for the rare use of its position) outside the bounding
+/// sphere (`center`, `r`).
+fn at_infinity(kind: Kind, from: Vec3, d: Vec3, center: Vec3, r: f32) -> Vertex {
+    let far = 2.0 * r + (from - center).length();
+    let sp = SurfacePoint {
+        p: from + d * far,
+        p_error: Vec3::ZERO,
+        ng: d,
+        ns: d,
+        uv: Vec2::ZERO,
+        surface: u32::MAX,
+        prim: u32::MAX,
+    };
+    Vertex {
+        kind,
+        sp,
+        shading: None,
+        beta: Rgb::ZERO,
+        pdf_fwd: 0.0,
+        pdf_rev: 0.0,
+        delta: false,
+    }
+}
+
+/// The light vertex of non-area light `index` (kind by light type):
+/// `p` its position for a point or spot light, `d` the unit direction
+/// towards it from `from` for a light at infinity.
+fn other_light_vertex(scene: &Scene, index: usize, p: Vec3, from: Vec3, d: Vec3) -> Vertex {
+    let (center, r) = scene.lights.bounding_sphere();
+    match scene.lights.others().nth(index) {
+        Some(Light::Directional { .. }) => {
+            at_infinity(Kind::Directional(index as u32), from, d, center, r)
+        }
+        Some(Light::Constant { .. }) => at_infinity(Kind::Environment, from, d, center, r),
+        _ => {
+            let mut v = at_infinity(Kind::PointLight(index as u32), p, d, p, 0.0);
+            v.sp.p = p;
+            v
+        }
     }
 }
 
@@ -528,8 +690,13 @@ fn light_subpath<I: Intersector, S: Sampler>(
     if max_vertices == 0 {
         return;
     }
-    let Some((lp, pdf_area)) = scene.sample_light(u_sel, u_pos) else {
-        return;
+    let (lp, pdf_area) = match scene.sample_emitter(u_sel, u_pos) {
+        Some(EmitterSample::Area { sp, pdf_area }) => (sp, pdf_area),
+        Some(EmitterSample::Other { index, pmf }) => {
+            other_light_subpath(t, ws, index, pmf, u_pos, u_dir, max_vertices, rr_depth, rng);
+            return;
+        }
+        None => return,
     };
     let frame = Frame::from_normal(lp.ns);
     let local = warp::square_to_cosine_hemisphere(u_dir);
@@ -554,6 +721,56 @@ fn light_subpath<I: Intersector, S: Sampler>(
         t,
         &mut ws.light,
         ray,
+        beta,
+        max_vertices,
+        TransportMode::Importance,
+        rr_depth,
+        rng,
+    );
+}
+
+/// [`light_subpath`] from non-area light `index`, chosen with
+/// probability `pmf` (pbrt-v4's `GenerateLightSubpath` with `SampleLe`).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn other_light_subpath<I: Intersector, S: Sampler>(
+    t: &mut Tracer<'_, I>,
+    ws: &mut Workspace,
+    index: usize,
+    pmf: f32,
+    u_pos: Vec2,
+    u_dir: Vec2,
+    max_vertices: usize,
+    rr_depth: u32,
+    rng: &mut S,
+) {
+    let scene = t.scene;
+    let lights = &scene.lights;
+    let Some(e) = lights.sample_emission(index, u_pos, u_dir) else {
+        return;
+    };
+    let pdf = pmf * e.pdf_pos * e.pdf_dir;
+    if !(pdf > 0.0) {
+        return;
+    }
+    let mut v = other_light_vertex(scene, index, e.origin, e.origin, -e.dir);
+    v.sp.p = e.origin;
+    v.beta = e.le;
+    // The origin's density: the selection for a point light (its position
+    // is certain); for a light at infinity the density of its direction,
+    // in solid angle, as the escaped camera ray's origin density
+    // (`InfiniteLightDensity`; zero for a delta direction).
+    v.pdf_fwd = match v.kind {
+        Kind::PointLight(_) => pmf * e.pdf_pos,
+        Kind::Environment => lights.pdf_environment(-e.dir),
+        _ => 0.0,
+    };
+    ws.light.push(v);
+    let beta = e.le * (1.0 / pdf);
+    random_walk(
+        t,
+        &mut ws.light,
+        Ray::new(e.origin, e.dir),
         beta,
         max_vertices,
         TransportMode::Importance,
@@ -694,11 +911,15 @@ fn connect<I: Intersector, S: Sampler>(
     let l = if s == 0 {
         // The camera subpath itself hit an emitter.
         let pt = &ws.camera[t - 1];
-        if pt.kind != Kind::Surface {
-            return None;
+        if pt.kind == Kind::Environment {
+            pt.beta * scene.lights.environment_radiance(pt.sp.ng)
+        } else {
+            if pt.kind != Kind::Surface {
+                return None;
+            }
+            let wo = (ws.camera[t - 2].sp.p - pt.sp.p).normalize();
+            pt.beta * scene.emitted(&pt.sp, wo)
         }
-        let wo = (ws.camera[t - 2].sp.p - pt.sp.p).normalize();
-        pt.beta * scene.emitted(&pt.sp, wo)
     } else if t == 1 {
         // Light tracing: connect y_{s−1} to the lens.
         let qs = ws.light[s - 1];
@@ -709,7 +930,7 @@ fn connect<I: Intersector, S: Sampler>(
         let to_cam = conn.p_lens - qs.sp.p;
         let d2 = to_cam.length_squared();
         let w = to_cam / libm::sqrtf(d2);
-        let prev = ws.light[s - 2].sp.p;
+        let prev = qs.pos_towards(&ws.light[s - 2]);
         let f = qs.f(prev, conn.p_lens, TransportMode::Importance);
         count_eval(tr, &qs);
         if f.is_black() {
@@ -732,7 +953,14 @@ fn connect<I: Intersector, S: Sampler>(
         if !pt.connectible() || pt.kind != Kind::Surface {
             return None;
         }
-        let (lp, pdf_area) = scene.sample_light(u_sel, u)?;
+        let (lp, pdf_area) = match scene.sample_emitter(u_sel, u)? {
+            EmitterSample::Area { sp, pdf_area } => (sp, pdf_area),
+            EmitterSample::Other { index, pmf } => {
+                let (l, v) = connect_other(tr, ws, t, index, pmf, u)?;
+                sampled = Some(v);
+                return finish(scene, camera, ws, sampled, s, t, l, raster);
+            }
+        };
         let to = lp.p - pt.sp.p;
         let d2 = to.length_squared();
         if !(d2 > 0.0 && pdf_area > 0.0) {
@@ -777,7 +1005,11 @@ fn connect<I: Intersector, S: Sampler>(
             return None;
         }
         let dn = d / libm::sqrtf(d2);
-        let fq = qs.f(ws.light[s - 2].sp.p, pt.sp.p, TransportMode::Importance);
+        let fq = qs.f(
+            qs.pos_towards(&ws.light[s - 2]),
+            pt.sp.p,
+            TransportMode::Importance,
+        );
         let fp = pt.f(ws.camera[t - 2].sp.p, qs.sp.p, TransportMode::Radiance);
         count_eval(tr, &qs);
         count_eval(tr, &pt);
@@ -788,6 +1020,23 @@ fn connect<I: Intersector, S: Sampler>(
         }
         l
     };
+    finish(scene, camera, ws, sampled, s, t, l, raster)
+}
+
+/// The MIS-weighted result of strategy (s, t) with unweighted
+/// contribution `l` (see [`connect`]).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn finish(
+    scene: &Scene,
+    camera: &Camera,
+    ws: &mut Workspace,
+    sampled: Option<Vertex>,
+    s: usize,
+    t: usize,
+    l: Rgb,
+    raster: Option<Vec2>,
+) -> Option<(Rgb, Option<Vec2>, Option<Vertex>)> {
     if l.is_black() {
         return None;
     }
@@ -797,6 +1046,55 @@ fn connect<I: Intersector, S: Sampler>(
         mis_weight(scene, camera, ws, sampled, s, t)
     };
     Some((l * w, raster, sampled))
+}
+
+/// Next-event estimation (s = 1) towards non-area light `index`, chosen
+/// with probability `pmf`: the unweighted contribution and the light
+/// vertex it sampled (pbrt-v4's `SampleLi` in `ConnectBDPT`).
+#[inline(never)]
+fn connect_other<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    ws: &Workspace,
+    t: usize,
+    index: usize,
+    pmf: f32,
+    u: Vec2,
+) -> Option<(Rgb, Vertex)> {
+    let scene = tr.scene;
+    let pt = ws.camera[t - 1];
+    let inc = scene.lights.sample_incident(index, pt.sp.p, u)?;
+    let pdf = pmf * inc.pdf;
+    if !(pdf > 0.0) {
+        return None;
+    }
+    let dir = inc.wi;
+    let f = pt.f(
+        ws.camera[t - 2].sp.p,
+        inc.position.unwrap_or(pt.sp.p + dir),
+        TransportMode::Radiance,
+    );
+    count_eval(tr, &pt);
+    let l = pt.beta * f * inc.li * (pt.sp.ns.dot(dir).abs() / pdf);
+    if l.is_black() {
+        return None;
+    }
+    let occluded = match inc.position {
+        Some(p) => tr.occluded_to_point(&pt.sp, p),
+        None => tr.occluded_towards(&pt.sp, dir),
+    };
+    if occluded {
+        return None;
+    }
+    let mut v = other_light_vertex(scene, index, inc.position.unwrap_or(pt.sp.p), pt.sp.p, dir);
+    v.beta = inc.li * (1.0 / pdf);
+    // As in `other_light_subpath`; unused for delta lights, which s = 0
+    // never samples.
+    v.pdf_fwd = match v.kind {
+        Kind::PointLight(_) => pmf,
+        Kind::Environment => scene.lights.pdf_environment(dir),
+        _ => 0.0,
+    };
+    Some((l, v))
 }
 
 /// Power-heuristic weight of strategy (s, t) against every other strategy
@@ -812,8 +1110,17 @@ fn mis_weight(
     if s + t == 2 {
         return 1.0;
     }
-    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(l, to);
-    let origin_pdf = |v: &Vertex| scene.lights.pdf_area(v.sp.surface as usize);
+    let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(scene, l, to);
+    // Density of light sampling producing the emitter vertex v that a
+    // camera subpath reached: per unit area on an area light, per unit
+    // solid angle on the environment.
+    let origin_pdf = |v: &Vertex| {
+        if v.kind == Kind::Environment {
+            scene.lights.pdf_environment(v.sp.ng)
+        } else {
+            scene.lights.pdf_area(v.sp.surface as usize)
+        }
+    };
 
     // Work on copies of the at most six vertices the strategy changes, then
     // restore them, so the subpaths stay valid for the next strategy.
@@ -877,7 +1184,12 @@ fn mis_weight(
     for i in (0..s).rev() {
         let r = remap(ws.light[i].pdf_rev) / remap(ws.light[i].pdf_fwd);
         ri *= r * r;
-        let prev_delta = if i > 0 { ws.light[i - 1].delta } else { false };
+        // y₀ of a delta light cannot be hit: no strategy s = 0.
+        let prev_delta = if i > 0 {
+            ws.light[i - 1].delta
+        } else {
+            ws.light[0].is_delta_light()
+        };
         if !ws.light[i].delta && !prev_delta {
             sum += ri;
         }

@@ -356,6 +356,16 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         ))
     }
 
+    /// Whether anything lies along unit direction `d` from a surface point
+    /// (the shadow ray towards a light at infinity).
+    #[inline]
+    pub fn occluded_towards(&mut self, a: &SurfacePoint, d: Vec3) -> bool {
+        self.stats.shadow_rays += 1;
+        // Through `occluded_ray`, so alpha masks let light at infinity
+        // through as they do any other shadow ray.
+        self.occluded_ray(&offset::spawn_ray(a.p, a.p_error, a.ng, d))
+    }
+
     /// Whether a segment spawned by [`offset::spawn_rays_between`] is
     /// blocked (a segment it refused is: it is tangent to a surface).
     #[inline]

@@ -7,16 +7,24 @@
 //! the references: a path of `max_depth` segments is the longest allowed,
 //! and from `rr_depth` segments on a path survives with probability
 //! min(0.95, max(throughput) · η²).
+//!
+//! Lights other than emissive meshes (see [`crate::scene::Light`]) enter
+//! in two places only, so a scene of area lights runs none of their code:
+//! next-event estimation samples them when the light selection picks one
+//! (delta lights with weight 1: no BSDF sample can reach them), and a ray
+//! that leaves the scene gathers the environment's radiance, MIS-weighted
+//! against next-event estimation's solid-angle density of that direction.
 
 use glam::Vec2;
 
 use super::Settings;
-use super::context::Tracer;
+use super::context::{Shading, Tracer};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::math::{Rgb, power_heuristic};
 use crate::sampler::SampleStream;
+use crate::scene::EmitterSample;
 
 /// Radiance arriving at the camera along `ray` (the primary ray).
 pub fn radiance<I: Intersector>(
@@ -37,7 +45,18 @@ pub fn radiance<I: Intersector>(
     let mut eta_scale = 1.0f32;
     let mut depth = 0u32;
     while depth < max_depth {
-        let Some(hit) = t.trace(&ray) else { break };
+        let Some(hit) = t.trace(&ray) else {
+            // The ray left the scene (segment depth + 1 ≤ max_depth): the
+            // environment it sees, hidden from the camera with the other
+            // emitters (Mitsuba's `hide_emitters`).
+            if cfg!(feature = "environment")
+                && t.scene.lights.has_environment()
+                && (depth > 0 || !settings.hide_emitters)
+            {
+                l += beta * escaped(t, ray.d.normalize(), prev_pdf, prev_delta);
+            }
+            break;
+        };
         depth += 1;
         let wo_world = (-ray.d).normalize();
         let sp = hit.sp;
@@ -65,9 +84,15 @@ pub fn radiance<I: Intersector>(
         // BSDF's density of the same direction.
         let u_sel = rng.next_f32();
         let u_light = rng.next_2d();
-        if !hit.bsdf.is_delta()
-            && let Some((lp, pdf_area)) = t.scene.sample_light(u_sel, u_light)
-        {
+        let emitter = if hit.bsdf.is_delta() {
+            None
+        } else {
+            t.scene.sample_emitter(u_sel, u_light)
+        };
+        if let Some(EmitterSample::Other { index, pmf }) = emitter {
+            l += beta * direct_other(t, &hit, wo, index, pmf, u_light);
+        }
+        if let Some(EmitterSample::Area { sp: lp, pdf_area }) = emitter {
             let to = lp.p - sp.p;
             let d2 = to.length_squared();
             if d2 > 0.0 && pdf_area > 0.0 {
@@ -117,4 +142,71 @@ pub fn radiance<I: Intersector>(
         }
     }
     l
+}
+
+/// Radiance of the environment arriving along unit `d` from the scene,
+/// reached by a BSDF sample of solid-angle density `prev_pdf` (or a delta
+/// lobe / the camera ray, `prev_delta`): each environment light weighted
+/// against next-event estimation's density of `d` (power heuristic).
+fn escaped<I: Intersector>(
+    t: &Tracer<'_, I>,
+    d: glam::Vec3,
+    prev_pdf: f32,
+    prev_delta: bool,
+) -> Rgb {
+    let lights = &t.scene.lights;
+    let mut l = Rgb::ZERO;
+    for i in lights.environment() {
+        let le = lights.radiance(i, d);
+        if le.is_black() {
+            continue;
+        }
+        let w = if prev_delta {
+            1.0
+        } else {
+            power_heuristic(prev_pdf, lights.pmf_other(i) * lights.pdf_incident(i, d))
+        };
+        l += le * w;
+    }
+    l
+}
+
+/// Next-event estimation towards light `index` of the scene's non-area
+/// lights, chosen with probability `pmf` (`u` places a direction on an
+/// environment): f · Li · |cos| / p, MIS-weighted against the BSDF for an
+/// environment, unweighted for a delta light (the only strategy that
+/// reaches it).
+fn direct_other<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    hit: &Shading,
+    wo: glam::Vec3,
+    index: usize,
+    pmf: f32,
+    u: Vec2,
+) -> Rgb {
+    let Some(inc) = t.scene.lights.sample_incident(index, hit.sp.p, u) else {
+        return Rgb::ZERO;
+    };
+    let pdf_light = pmf * inc.pdf;
+    if !(pdf_light > 0.0) {
+        return Rgb::ZERO;
+    }
+    let wi = hit.frame.to_local(inc.wi);
+    let f = t.eval_bsdf(&hit.bsdf, wo, wi, TransportMode::Radiance);
+    if f.is_black() {
+        return Rgb::ZERO;
+    }
+    let occluded = match inc.position {
+        Some(p) => t.occluded_to_point(&hit.sp, p),
+        None => t.occluded_towards(&hit.sp, inc.wi),
+    };
+    if occluded {
+        return Rgb::ZERO;
+    }
+    let w = if inc.delta {
+        1.0
+    } else {
+        power_heuristic(pdf_light, hit.bsdf.pdf(wo, wi))
+    };
+    f * inc.li * (wi.z.abs() * w / pdf_light)
 }

@@ -231,6 +231,15 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
         return Applicable::Neither;
     }
     let k = path.len() - 1;
+    // A path ending on a light that is not a mesh — a point or spot light
+    // (a delta position: moving x_{k−1} would need a delta connection), a
+    // directional light or the environment (a vertex at infinity, no
+    // surface to connect to) — fits neither perturbation's assumptions:
+    // "none" keeps CMLT unbiased. Such an end is the only vertex on no
+    // surface (`u32::MAX`) besides the lens.
+    if tr.scene.lights.has_others() && path[k].sp.surface == u32::MAX {
+        return Applicable::Neither;
+    }
     let p_lens = path[0].sp.p;
     // A vertex without shading (a sampled light point) is never specular,
     // and without specular chains in the scene none is: no vertex is

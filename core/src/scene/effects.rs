@@ -38,11 +38,15 @@ pub enum Effect {
     Coating = 9,
     /// Rough dielectric reflection and refraction (microfacet lobes).
     RoughRefraction = 10,
+    /// Point, spot and directional lights (delta positions or directions).
+    PointLights = 11,
+    /// A constant environment around the scene.
+    Environment = 12,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 11] = [
+    pub const ALL: [Effect; 13] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -54,6 +58,8 @@ impl Effect {
         Effect::AlphaMasks,
         Effect::Coating,
         Effect::RoughRefraction,
+        Effect::PointLights,
+        Effect::Environment,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -70,6 +76,8 @@ impl Effect {
             Effect::AlphaMasks => "alpha-masks",
             Effect::Coating => "coating",
             Effect::RoughRefraction => "rough-refraction",
+            Effect::PointLights => "point-lights",
+            Effect::Environment => "environment",
         }
     }
 
@@ -86,6 +94,8 @@ impl Effect {
             Effect::AlphaMasks => Some("alpha-masks"),
             Effect::Coating => Some("coating"),
             Effect::RoughRefraction => Some("rough-refraction"),
+            Effect::PointLights => Some("delta-lights"),
+            Effect::Environment => Some("environment"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -103,6 +113,8 @@ impl Effect {
             Effect::AlphaMasks => cfg!(feature = "alpha-masks"),
             Effect::Coating => cfg!(feature = "coating"),
             Effect::RoughRefraction => cfg!(feature = "rough-refraction"),
+            Effect::PointLights => cfg!(feature = "delta-lights"),
+            Effect::Environment => cfg!(feature = "environment"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -115,12 +127,14 @@ impl Effect {
             Effect::SpecularReflection => "no smooth conductor",
             Effect::Refraction => "no dielectric",
             Effect::Textures => "constant colours only",
-            Effect::AreaLights => "no emitter: the image is black",
+            Effect::AreaLights => "no emitting mesh",
             Effect::DepthOfField => "pinhole camera: no lens sampling",
             Effect::NormalMapping => "no normal or bump map",
             Effect::AlphaMasks => "no alpha mask: plain closest-hit and any-hit rays",
             Effect::Coating => "no plastic",
             Effect::RoughRefraction => "no rough dielectric",
+            Effect::PointLights => "no point, spot or directional light",
+            Effect::Environment => "no environment: escaping rays carry nothing",
         }
     }
 }

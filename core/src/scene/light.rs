@@ -1,17 +1,341 @@
-//! Area emitters and their sampling.
+//! Emitters and their sampling.
 //!
-//! Every emissive mesh is one light. A light is chosen with probability
-//! proportional to its power Φ = π · A · Y(Le) (luminance, since p(x̄) is
-//! luminance), then a triangle in proportion to its area, then a uniform
-//! point on it. The resulting density is uniform in area measure over each
-//! light: p_A = P(light) / A(light). Zero-area triangles are never chosen.
+//! Every emissive mesh is one area light. Lights that are not meshes —
+//! Mitsuba 3's `point`, `spot`, `directional` and `constant` emitters —
+//! are [`Light`]s added to the scene by the host. All of them share one
+//! power distribution: a light is chosen with probability proportional to
+//! its power (luminance, since p(x̄) is luminance):
+//! - an area light Φ = π · A · Y(Le); then a triangle in proportion to its
+//!   area, then a uniform point on it, so the density is uniform in area
+//!   measure over each light: p_A = P(light) / A(light). Zero-area
+//!   triangles are never chosen;
+//! - a point light 4π · Y(I); a spot 2π · Y(I) · (1 − (sin α − sin β)/(α −
+//!   β)), the exact integral of Mitsuba's linear falloff in angle from the
+//!   beam width β to the cutoff α;
+//! - infinite lights use the scene's bounding sphere of radius r, as
+//!   pbrt-v4 does: a directional light π r² · Y(E), a constant environment
+//!   π r² · 4π · Y(L).
+//!
+//! Area lights come first in the distribution, so a scene of area lights
+//! only chooses exactly as it always did.
 
 use alloc::vec::Vec;
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
+use super::effects::Effect;
 use super::store::Mesh;
-use crate::math::{PI, warp};
+use crate::math::{Frame, PI, Rgb, warp};
+
+/// A light that is not an emissive mesh, with Mitsuba 3's semantics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Mitsuba's `point`: radiant intensity `intensity` (W/sr) in every
+    /// direction from `position`.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Radiant intensity (W/sr).
+        intensity: Rgb,
+    },
+    /// Mitsuba's `spot`: intensity `intensity` inside a cone around
+    /// `direction` (the `to_world` image of +z), full up to `beam_width`
+    /// degrees off the axis, falling linearly in angle to zero at
+    /// `cutoff_angle` degrees (Mitsuba's defaults: 20° and 3/4 of it).
+    Spot {
+        /// Apex of the cone.
+        position: Vec3,
+        /// Axis of the cone (any length but zero).
+        direction: Vec3,
+        /// Radiant intensity on the axis (W/sr).
+        intensity: Rgb,
+        /// Half-angle of the cone in degrees, in (0, 180].
+        cutoff_angle: f32,
+        /// Half-angle of the full-intensity beam in degrees, in
+        /// [0, `cutoff_angle`].
+        beam_width: f32,
+    },
+    /// Mitsuba's `directional`: a sun at infinity, irradiance `irradiance`
+    /// (W/m²) on a surface facing it, light travelling along `direction`.
+    Directional {
+        /// Direction the light travels in (any length but zero).
+        direction: Vec3,
+        /// Irradiance on a surface perpendicular to `direction`.
+        irradiance: Rgb,
+    },
+    /// Mitsuba's `constant`: radiance `radiance` arriving from every
+    /// direction at infinity.
+    Constant {
+        /// Radiance.
+        radiance: Rgb,
+    },
+}
+
+fn valid_rgb(c: Rgb) -> bool {
+    c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0
+}
+
+fn valid_dir(d: Vec3) -> bool {
+    d.is_finite() && d.length_squared() > 0.0 && d.length_squared().is_finite()
+}
+
+impl Light {
+    /// A spot light with Mitsuba's default angles (cutoff 20°, beam width
+    /// 15°).
+    pub fn spot(position: Vec3, direction: Vec3, intensity: Rgb) -> Light {
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cutoff_angle: 20.0,
+            beam_width: 15.0,
+        }
+    }
+
+    /// Checks the parameters: finite non-negative powers, finite
+    /// positions, non-zero finite directions, angles in range. The error
+    /// says what is wrong.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        match *self {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                if !position.is_finite() {
+                    return Err("point light: position must be finite");
+                }
+                if !valid_rgb(intensity) {
+                    return Err("point light: intensity must be finite and non-negative");
+                }
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cutoff_angle,
+                beam_width,
+            } => {
+                if !position.is_finite() {
+                    return Err("spot light: position must be finite");
+                }
+                if !valid_dir(direction) {
+                    return Err("spot light: direction must be finite and non-zero");
+                }
+                if !valid_rgb(intensity) {
+                    return Err("spot light: intensity must be finite and non-negative");
+                }
+                if !(cutoff_angle > 0.0 && cutoff_angle <= 180.0) {
+                    return Err("spot light: cutoff_angle must be in (0, 180] degrees");
+                }
+                if !(beam_width >= 0.0 && beam_width <= cutoff_angle) {
+                    return Err("spot light: beam_width must be in [0, cutoff_angle] degrees");
+                }
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                if !valid_dir(direction) {
+                    return Err("directional light: direction must be finite and non-zero");
+                }
+                if !valid_rgb(irradiance) {
+                    return Err("directional light: irradiance must be finite and non-negative");
+                }
+            }
+            Light::Constant { radiance } => {
+                if !valid_rgb(radiance) {
+                    return Err("constant environment: radiance must be finite and non-negative");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// True for lights at a single point or from a single direction
+    /// (point, spot, directional): no ray can hit them, only next-event
+    /// estimation reaches them.
+    pub fn is_delta(&self) -> bool {
+        !matches!(self, Light::Constant { .. })
+    }
+
+    /// True for lights at infinity (directional, constant).
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Directional { .. } | Light::Constant { .. })
+    }
+
+    /// The effect the light calls for.
+    pub fn effect(&self) -> Effect {
+        match self {
+            Light::Constant { .. } => Effect::Environment,
+            _ => Effect::PointLights,
+        }
+    }
+}
+
+/// A [`Light`] with what sampling it needs precomputed.
+#[derive(Clone, Copy, Debug)]
+struct Prepared {
+    light: Light,
+    /// Frame around the unit spot axis or the unit direction towards a
+    /// directional light.
+    frame: Frame,
+    /// cos of the spot's cutoff angle.
+    cos_cutoff: f32,
+    /// cos of the spot's beam width.
+    cos_beam: f32,
+    /// The spot's cutoff angle in radians.
+    cutoff: f32,
+    /// 1 / (cutoff − beam width) in radians (Mitsuba's transition slope).
+    inv_transition: f32,
+}
+
+impl Prepared {
+    fn new(light: Light) -> Self {
+        let mut p = Prepared {
+            light,
+            frame: Frame::from_normal(Vec3::Z),
+            cos_cutoff: -1.0,
+            cos_beam: -1.0,
+            cutoff: PI,
+            inv_transition: 0.0,
+        };
+        match light {
+            Light::Spot {
+                direction,
+                cutoff_angle,
+                beam_width,
+                ..
+            } => {
+                p.frame = Frame::from_normal(direction.normalize());
+                p.cutoff = cutoff_angle.to_radians();
+                let beam = beam_width.to_radians();
+                p.cos_cutoff = libm::cosf(p.cutoff);
+                p.cos_beam = libm::cosf(beam);
+                p.inv_transition = 1.0 / (p.cutoff - beam);
+            }
+            Light::Directional { direction, .. } => {
+                p.frame = Frame::from_normal(-direction.normalize());
+            }
+            _ => {}
+        }
+        p
+    }
+
+    /// Luminance power, with the infinite lights' through a disk of radius
+    /// `radius` (pbrt-v4's `Phi`).
+    fn power(&self, radius: f32) -> f64 {
+        let disk = PI as f64 * radius as f64 * radius as f64;
+        match self.light {
+            Light::Point { intensity, .. } => 4.0 * PI as f64 * intensity.luminance() as f64,
+            Light::Spot {
+                intensity,
+                cutoff_angle,
+                beam_width,
+                ..
+            } => {
+                let (a, b) = (
+                    (cutoff_angle as f64).to_radians(),
+                    (beam_width as f64).to_radians(),
+                );
+                // ∫ falloff dω = 2π (1 − (sin α − sin β)/(α − β)); the limit
+                // β → α is a hard cone, 2π (1 − cos α).
+                let cone = if a - b > 1e-6 {
+                    1.0 - (libm::sin(a) - libm::sin(b)) / (a - b)
+                } else {
+                    1.0 - libm::cos(a)
+                };
+                2.0 * PI as f64 * intensity.luminance() as f64 * cone
+            }
+            Light::Directional { irradiance, .. } => disk * irradiance.luminance() as f64,
+            Light::Constant { radiance } => disk * 4.0 * PI as f64 * radiance.luminance() as f64,
+        }
+    }
+
+    /// Mitsuba's spot falloff times the intensity towards unit `w`; the
+    /// plain intensity of a point light.
+    fn intensity(&self, w: Vec3) -> Rgb {
+        match self.light {
+            Light::Point { intensity, .. } => intensity,
+            Light::Spot { intensity, .. } => {
+                let cos = w.dot(self.frame.n);
+                if cos <= self.cos_cutoff {
+                    Rgb::ZERO
+                } else if cos >= self.cos_beam {
+                    intensity
+                } else {
+                    let theta = libm::acosf(cos.min(1.0));
+                    intensity * ((self.cutoff - theta) * self.inv_transition).clamp(0.0, 1.0)
+                }
+            }
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// Solid-angle density of the direction `w` (unit) a point or spot
+    /// light emits its sampled ray along.
+    fn pdf_emit_dir(&self, w: Vec3) -> f32 {
+        match self.light {
+            Light::Point { .. } => 1.0 / (4.0 * PI),
+            Light::Spot { .. } if w.dot(self.frame.n) > self.cos_cutoff => {
+                1.0 / (2.0 * PI * (1.0 - self.cos_cutoff))
+            }
+            _ => 0.0,
+        }
+    }
+}
+
+/// Where a light selection landed: a point on an area light, or one of
+/// the other lights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Chosen {
+    /// A point on an emissive mesh.
+    Area(LightPointSample),
+    /// Light `index` of [`LightSet::others`], chosen with probability
+    /// `pmf`.
+    Other {
+        /// Index into [`LightSet::others`].
+        index: usize,
+        /// Selection probability.
+        pmf: f32,
+    },
+}
+
+/// Light arriving at a point from one non-area light
+/// ([`LightSet::sample_incident`]): the estimate of its reflection is
+/// f · `li` · |cos| / (`pdf` · selection probability).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Incident {
+    /// Unit direction from the receiving point towards the light.
+    pub wi: Vec3,
+    /// The light's position; `None` at infinity.
+    pub position: Option<Vec3>,
+    /// Radiance arriving along `wi` (a point light's I / d²).
+    pub li: Rgb,
+    /// Solid-angle density of `wi`; 1 for a delta light, whose sample is a
+    /// certain outcome.
+    pub pdf: f32,
+    /// A point, spot or directional light.
+    pub delta: bool,
+}
+
+/// A ray leaving a non-area light (pbrt-v4's `SampleLe`), to start a light
+/// subpath from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emission {
+    /// Ray origin: the light's position, or a point on a disk outside the
+    /// scene's bounding sphere for infinite lights.
+    pub origin: Vec3,
+    /// Unit direction the light travels in.
+    pub dir: Vec3,
+    /// Intensity (point, spot), irradiance (directional) or radiance
+    /// (environment) carried along `dir`.
+    pub le: Rgb,
+    /// Density of `origin`: 1 for a point light (a certain position),
+    /// 1/(π r²) on the disk of an infinite light.
+    pub pdf_pos: f32,
+    /// Solid-angle density of `dir`; 1 for a directional light.
+    pub pdf_dir: f32,
+}
 
 /// One emissive mesh.
 #[derive(Clone, Debug)]
@@ -28,12 +352,21 @@ pub struct AreaLight {
 #[derive(Clone, Debug, Default)]
 pub struct LightSet {
     lights: Vec<AreaLight>,
+    /// Lights that are not meshes, after the area lights in `cdf`/`pmf`.
+    others: Vec<Prepared>,
     /// Cumulative selection probabilities, ending at 1.
     cdf: Vec<f32>,
     /// Selection probability of each light.
     pmf: Vec<f32>,
     /// Light index of each mesh, or `u32::MAX` for non-emissive meshes.
     mesh_light: Vec<u32>,
+    /// Indices into `others` of the environment (non-delta infinite)
+    /// lights: those a ray escaping the scene sees.
+    environment: Vec<u32>,
+    /// Centre of the scene's bounding sphere.
+    center: Vec3,
+    /// Radius of the scene's bounding sphere (positive).
+    radius: f32,
 }
 
 /// Where a light sample landed, before any geometry is evaluated.
@@ -57,10 +390,26 @@ fn sample_cdf(cdf: &[f32], u: f32) -> usize {
 }
 
 impl LightSet {
-    /// Builds the light set of the emissive meshes among `meshes`.
-    pub fn new(meshes: &[Mesh]) -> Self {
+    /// Builds the light set of the emissive meshes among `meshes` and the
+    /// lights `others` (validated by the caller), with infinite lights
+    /// around the bounding sphere of the meshes.
+    pub fn new(meshes: &[Mesh], others: &[Light]) -> Self {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        if others.iter().any(Light::is_infinite) {
+            for p in meshes.iter().flat_map(|m| m.positions.iter()) {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        let (center, radius) = if lo.x <= hi.x {
+            ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3))
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
         let mut set = LightSet {
             mesh_light: alloc::vec![u32::MAX; meshes.len()],
+            center,
+            radius,
             ..Default::default()
         };
         let mut power = Vec::new();
@@ -86,6 +435,19 @@ impl LightSet {
             });
             power.push(phi);
         }
+        for l in others {
+            let p = Prepared::new(*l);
+            let phi = p.power(radius);
+            // A light that emits nothing is left out, as black meshes are.
+            if !(phi > 0.0 && phi.is_finite()) {
+                continue;
+            }
+            if matches!(l, Light::Constant { .. }) {
+                set.environment.push(set.others.len() as u32);
+            }
+            set.others.push(p);
+            power.push(phi);
+        }
         let total: f64 = power.iter().sum();
         let mut acc = 0.0;
         for p in &power {
@@ -104,30 +466,75 @@ impl LightSet {
         set
     }
 
-    /// Number of lights that can be sampled.
+    /// Number of lights that can be sampled (area lights and others).
     pub fn len(&self) -> usize {
-        self.lights.len()
+        self.lights.len() + self.others.len()
     }
 
     /// True when nothing emits: every estimate of such a scene is black.
     pub fn is_empty(&self) -> bool {
-        self.lights.is_empty()
+        self.len() == 0
     }
 
-    /// The lights.
+    /// The area lights.
     pub fn lights(&self) -> &[AreaLight] {
         &self.lights
     }
 
-    /// Samples a light by power and a uniform point on it. `u_select` picks
-    /// the light and then, rescaled, the triangle; `u` places the point.
-    pub fn sample(&self, u_select: f32, u: Vec2) -> Option<LightPointSample> {
-        if self.lights.is_empty() {
+    /// The lights that are not meshes, in [`Chosen::Other`]'s numbering.
+    pub fn others(&self) -> impl ExactSizeIterator<Item = &Light> {
+        self.others.iter().map(|p| &p.light)
+    }
+
+    /// True when some light is not an area light: only then do the
+    /// estimators run any code of the other kinds.
+    #[inline]
+    pub fn has_others(&self) -> bool {
+        !self.others.is_empty()
+    }
+
+    /// True when an environment (a non-delta light at infinity) surrounds
+    /// the scene: only then do escaping rays carry radiance.
+    #[inline]
+    pub fn has_environment(&self) -> bool {
+        !self.environment.is_empty()
+    }
+
+    /// Centre and radius of the scene's bounding sphere, through which
+    /// infinite lights emit their light subpaths.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        (self.center, self.radius)
+    }
+
+    /// Whether other light `index` is a point, spot or directional light.
+    #[inline]
+    pub fn is_delta(&self, index: usize) -> bool {
+        self.others[index].light.is_delta()
+    }
+
+    /// Whether other light `index` lies at infinity.
+    #[inline]
+    pub fn is_infinite(&self, index: usize) -> bool {
+        self.others[index].light.is_infinite()
+    }
+
+    /// Chooses a light by power; for an area light also a uniform point on
+    /// it. `u_select` picks the light and then, rescaled, the triangle; `u`
+    /// places the point.
+    #[inline]
+    pub fn choose(&self, u_select: f32, u: Vec2) -> Option<Chosen> {
+        if self.cdf.is_empty() {
             return None;
         }
         let li = sample_cdf(&self.cdf, u_select);
-        let lo = if li == 0 { 0.0 } else { self.cdf[li - 1] };
         let pmf = self.pmf[li];
+        if li >= self.lights.len() {
+            return Some(Chosen::Other {
+                index: li - self.lights.len(),
+                pmf,
+            });
+        }
+        let lo = if li == 0 { 0.0 } else { self.cdf[li - 1] };
         // Reuse the leftover of u_select for the triangle choice.
         let u_tri = if pmf > 0.0 {
             ((u_select - lo) / pmf).clamp(0.0, 1.0 - f32::EPSILON)
@@ -136,12 +543,21 @@ impl LightSet {
         };
         let light = &self.lights[li];
         let ti = sample_cdf(&light.tri_cdf, u_tri);
-        Some(LightPointSample {
+        Some(Chosen::Area(LightPointSample {
             triangle: ti,
             mesh: light.mesh as usize,
             b: warp::square_to_uniform_triangle(u),
             pdf_area: pmf / light.area,
-        })
+        }))
+    }
+
+    /// Samples a light by power and a uniform point on it; `None` when the
+    /// chosen light is not an area light (see [`LightSet::choose`]).
+    pub fn sample(&self, u_select: f32, u: Vec2) -> Option<LightPointSample> {
+        match self.choose(u_select, u)? {
+            Chosen::Area(s) => Some(s),
+            Chosen::Other { .. } => None,
+        }
     }
 
     /// Density per unit area with which [`LightSet::sample`] picks a point
@@ -153,5 +569,273 @@ impl LightSet {
             Some(&li) if li != u32::MAX => self.pmf[li as usize] / self.lights[li as usize].area,
             _ => 0.0,
         }
+    }
+
+    /// Selection probability of other light `index`.
+    #[inline]
+    pub fn pmf_other(&self, index: usize) -> f32 {
+        self.pmf[self.lights.len() + index]
+    }
+
+    /// Samples the light arriving at `p` from other light `index` (`u`
+    /// places a direction on an environment). `None` when nothing arrives
+    /// (outside a spot's cone, `p` at a point light).
+    pub fn sample_incident(&self, index: usize, p: Vec3, u: Vec2) -> Option<Incident> {
+        let l = &self.others[index];
+        match l.light {
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
+                let to = position - p;
+                let d2 = to.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                let wi = to / libm::sqrtf(d2);
+                let li = l.intensity(-wi) * (1.0 / d2);
+                if li.is_black() {
+                    return None;
+                }
+                Some(Incident {
+                    wi,
+                    position: Some(position),
+                    li,
+                    pdf: 1.0,
+                    delta: true,
+                })
+            }
+            Light::Directional { irradiance, .. } => Some(Incident {
+                wi: l.frame.n,
+                position: None,
+                li: irradiance,
+                pdf: 1.0,
+                delta: true,
+            }),
+            Light::Constant { radiance } => {
+                let wi = warp::square_to_uniform_sphere(u);
+                Some(Incident {
+                    wi,
+                    position: None,
+                    li: radiance,
+                    pdf: 1.0 / (4.0 * PI),
+                    delta: false,
+                })
+            }
+        }
+    }
+
+    /// Solid-angle density with which [`LightSet::sample_incident`] of
+    /// environment light `index` picks the unit direction `wi` (towards
+    /// the light); zero for delta lights.
+    #[inline]
+    pub fn pdf_incident(&self, index: usize, wi: Vec3) -> f32 {
+        let _ = wi;
+        match self.others[index].light {
+            Light::Constant { .. } => 1.0 / (4.0 * PI),
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance of environment light `index` arriving from unit direction
+    /// `wi` (towards the light); zero for delta lights.
+    #[inline]
+    pub fn radiance(&self, index: usize, wi: Vec3) -> Rgb {
+        let _ = wi;
+        match self.others[index].light {
+            Light::Constant { radiance } => radiance,
+            _ => Rgb::ZERO,
+        }
+    }
+
+    /// The environment lights' indices (see [`LightSet::has_environment`]).
+    #[inline]
+    pub fn environment(&self) -> impl Iterator<Item = usize> + '_ {
+        self.environment.iter().map(|&i| i as usize)
+    }
+
+    /// Total radiance of the environment from unit direction `wi`.
+    pub fn environment_radiance(&self, wi: Vec3) -> Rgb {
+        let mut l = Rgb::ZERO;
+        for i in self.environment() {
+            l += self.radiance(i, wi);
+        }
+        l
+    }
+
+    /// Solid-angle density with which light selection and
+    /// [`LightSet::sample_incident`] together pick direction `wi` on the
+    /// environment (pbrt-v4's `InfiniteLightDensity`).
+    pub fn pdf_environment(&self, wi: Vec3) -> f32 {
+        let mut pdf = 0.0;
+        for i in self.environment() {
+            pdf += self.pmf_other(i) * self.pdf_incident(i, wi);
+        }
+        pdf
+    }
+
+    /// Samples a ray leaving other light `index` (pbrt-v4's `SampleLe`):
+    /// `u_pos` places the origin on an infinite light's disk, `u_dir` the
+    /// direction.
+    pub fn sample_emission(&self, index: usize, u_pos: Vec2, u_dir: Vec2) -> Option<Emission> {
+        let l = &self.others[index];
+        let (origin, dir, pdf_pos, pdf_dir) = match l.light {
+            Light::Point { position, .. } => (
+                position,
+                warp::square_to_uniform_sphere(u_dir),
+                1.0,
+                1.0 / (4.0 * PI),
+            ),
+            Light::Spot { position, .. } => {
+                // Uniform in the cone of the cutoff angle, as Mitsuba.
+                let cos = 1.0 - u_dir.x * (1.0 - l.cos_cutoff);
+                let sin = crate::math::safe_sqrt(1.0 - cos * cos);
+                let phi = 2.0 * PI * u_dir.y;
+                let local = Vec3::new(sin * libm::cosf(phi), sin * libm::sinf(phi), cos);
+                (
+                    position,
+                    l.frame.to_world(local),
+                    1.0,
+                    l.pdf_emit_dir(l.frame.n),
+                )
+            }
+            Light::Directional { .. } | Light::Constant { .. } => {
+                let (wi, pdf_dir) = match l.light {
+                    Light::Directional { .. } => (l.frame.n, 1.0),
+                    _ => (warp::square_to_uniform_sphere(u_dir), 1.0 / (4.0 * PI)),
+                };
+                // A disk of the bounding sphere's radius facing wi, pushed
+                // out of the sphere: every ray through the scene crosses it.
+                let f = Frame::from_normal(wi);
+                let d = warp::square_to_uniform_disk_concentric(u_pos);
+                let origin = self.center + (f.s * d.x + f.t * d.y + wi) * self.radius;
+                (origin, -wi, 1.0 / (PI * self.radius * self.radius), pdf_dir)
+            }
+        };
+        let le = match l.light {
+            Light::Point { .. } | Light::Spot { .. } => l.intensity(dir),
+            Light::Directional { irradiance, .. } => irradiance,
+            Light::Constant { radiance } => radiance,
+        };
+        if le.is_black() || !(pdf_dir > 0.0) {
+            return None;
+        }
+        Some(Emission {
+            origin,
+            dir,
+            le,
+            pdf_pos,
+            pdf_dir,
+        })
+    }
+
+    /// Intensity of point or spot light `index` along unit `w` (away from
+    /// the light).
+    #[inline]
+    pub fn intensity(&self, index: usize, w: Vec3) -> Rgb {
+        self.others[index].intensity(w)
+    }
+
+    /// Solid-angle density of a point or spot light `index` emitting its
+    /// sampled ray along unit `w`.
+    #[inline]
+    pub fn pdf_emit_dir(&self, index: usize, w: Vec3) -> f32 {
+        self.others[index].pdf_emit_dir(w)
+    }
+
+    /// Density per unit area perpendicular to the direction of an infinite
+    /// light's emitted ray: uniform on its disk, 1/(π r²) (pbrt-v4's
+    /// `PdfLight` for infinite lights).
+    #[inline]
+    pub fn pdf_disk(&self) -> f32 {
+        1.0 / (PI * self.radius * self.radius)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spot(cutoff: f32, beam: f32) -> Light {
+        Light::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::new(0.3, -0.5, 0.8),
+            intensity: Rgb::splat(2.0),
+            cutoff_angle: cutoff,
+            beam_width: beam,
+        }
+    }
+
+    /// The spot's power formula is the integral of its falloff over the
+    /// sphere (midpoint rule in θ), and its emission samples stay in the
+    /// cone with the density [`Prepared::pdf_emit_dir`] states (which
+    /// integrates to 1 over the sphere).
+    #[test]
+    fn spot_power_and_emission_density() {
+        for (cutoff, beam) in [(20.0, 15.0), (45.0, 10.0), (60.0, 60.0)] {
+            let p = Prepared::new(spot(cutoff, beam));
+            let n = 200_000;
+            let mut integral = 0.0f64;
+            let mut pdf_integral = 0.0f64;
+            for i in 0..n {
+                let theta = (i as f64 + 0.5) / n as f64 * core::f64::consts::PI;
+                let w = p.frame.to_world(Vec3::new(
+                    libm::sin(theta) as f32,
+                    0.0,
+                    libm::cos(theta) as f32,
+                ));
+                let dw = 2.0 * core::f64::consts::PI * libm::sin(theta) * core::f64::consts::PI
+                    / n as f64;
+                integral += p.intensity(w).luminance() as f64 * dw;
+                pdf_integral += p.pdf_emit_dir(w) as f64 * dw;
+            }
+            let phi = p.power(1.0);
+            assert!(
+                (integral - phi).abs() < 2e-3 * phi,
+                "{cutoff}/{beam}: {integral} vs {phi}"
+            );
+            assert!((pdf_integral - 1.0).abs() < 2e-3, "{pdf_integral}");
+        }
+        let set = LightSet::new(&[], &[spot(30.0, 20.0)]);
+        let cos_cutoff = libm::cosf(30f32.to_radians());
+        for i in 0..64 {
+            let u = Vec2::new((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.01);
+            let e = set.sample_emission(0, u, Vec2::new(u.y, u.x)).unwrap();
+            let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
+            assert!(e.dir.dot(axis) >= cos_cutoff - 1e-5);
+            assert_eq!(e.pdf_dir, set.pdf_emit_dir(0, e.dir));
+        }
+    }
+
+    /// Lights are chosen in proportion to their power, area lights first;
+    /// an infinite light's power uses the bounding sphere.
+    #[test]
+    fn selection_follows_power() {
+        let point = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::splat(1.0),
+        };
+        let env = Light::Constant {
+            radiance: Rgb::splat(1.0),
+        };
+        let black = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::ZERO,
+        };
+        let set = LightSet::new(&[], &[point, black, env]);
+        // No geometry: radius 1, so Φ_env = π · 4π and Φ_point = 4π.
+        assert_eq!(set.len(), 2, "a black light is left out");
+        let want = 1.0 / (1.0 + PI);
+        assert!((set.pmf_other(0) - want).abs() < 1e-6);
+        assert!((set.pmf_other(1) - (1.0 - want)).abs() < 1e-6);
+        assert!(set.has_environment() && set.is_delta(0) && !set.is_delta(1));
+        match set.choose(0.5 * want, Vec2::ZERO) {
+            Some(Chosen::Other { index: 0, pmf }) => assert_eq!(pmf, set.pmf_other(0)),
+            other => panic!("{other:?}"),
+        }
+        match set.choose(0.99, Vec2::ZERO) {
+            Some(Chosen::Other { index: 1, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        // pdf_environment is the selection times the uniform sphere.
+        let pdf = set.pdf_environment(Vec3::Z);
+        assert!((pdf - (1.0 - want) / (4.0 * PI)).abs() < 1e-7);
     }
 }

@@ -29,6 +29,8 @@ pub use store::*;
 pub use camera::{Camera, CameraError, FovAxis};
 pub use detail::Detail;
 pub use effects::{Analysis, Effect, EffectSet};
+#[cfg(feature = "alloc")]
+pub use light::Light;
 pub use material::{
     ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, RoughCoating,
 };

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
 use super::effects::{Analysis, Effect};
-use super::light::LightSet;
+use super::light::{Chosen, Light, LightSet};
 use super::material::{Material, MaterialId};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
 use super::texture::{Bitmap, BitmapId, Texture};
@@ -139,6 +139,13 @@ pub enum SceneError {
     TooManyShapes,
     /// No camera was set.
     MissingCamera,
+    /// A light's parameter is out of range.
+    InvalidLight {
+        /// Light index (in [`SceneBuilder::add_light`] order).
+        light: usize,
+        /// What is wrong.
+        reason: &'static str,
+    },
     /// The scene needs an effect whose code this build of the core left
     /// out (its cargo feature is off).
     EffectNotBuilt {
@@ -190,6 +197,7 @@ impl fmt::Display for SceneError {
             }
             SceneError::TooManyShapes => write!(f, "scene has more than 2^31 - 1 host shapes"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
+            SceneError::InvalidLight { light, reason } => write!(f, "light {light}: {reason}"),
             SceneError::EffectNotBuilt { effect } => write!(
                 f,
                 "the scene needs {}, which this build of cmlt leaves out (enable the `{}` feature)",
@@ -211,6 +219,7 @@ pub struct SceneBuilder {
     materials: Vec<Material>,
     bitmaps: Vec<Bitmap>,
     shapes: Vec<ShapeGroup>,
+    lights: Vec<Light>,
     camera: Option<Camera>,
 }
 
@@ -245,6 +254,14 @@ impl SceneBuilder {
         let first = self.shapes.iter().map(|g| g.count).sum();
         self.shapes.push(group);
         first
+    }
+
+    /// Adds a light that is not an emissive mesh (a point, spot,
+    /// directional light or an environment); returns its index.
+    /// Validation happens in `build`.
+    pub fn add_light(&mut self, light: Light) -> usize {
+        self.lights.push(light);
+        self.lights.len() - 1
     }
 
     /// Sets the camera.
@@ -325,6 +342,18 @@ impl SceneBuilder {
         if shapes >= SHAPE_PRIM_BIT as u64 {
             return Err(SceneError::TooManyShapes);
         }
+        for (li, l) in self.lights.iter().enumerate() {
+            l.validate()
+                .map_err(|reason| SceneError::InvalidLight { light: li, reason })?;
+            // Infinite lights emit light subpaths through the scene's
+            // bounding sphere, which host shapes do not report.
+            if l.is_infinite() && !self.shapes.is_empty() {
+                return Err(SceneError::InvalidLight {
+                    light: li,
+                    reason: "lights at infinity need the scene's bounds, which host shapes do not give",
+                });
+            }
+        }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
         let mut first_tri = Vec::with_capacity(self.meshes.len());
@@ -332,8 +361,9 @@ impl SceneBuilder {
             first_tri.push(tri_mesh.len() as u32);
             tri_mesh.extend(core::iter::repeat_n(mi as u32, m.indices.len()));
         }
-        let lights = LightSet::new(&self.meshes);
+        let lights = LightSet::new(&self.meshes, &self.lights);
         let scene = Scene {
+            light_list: self.lights,
             meshes: self.meshes,
             materials: self.materials,
             bitmaps: self.bitmaps,
@@ -375,9 +405,32 @@ pub struct Scene {
     first_shape: Vec<u32>,
     /// Emitters, with the power distribution used to pick one.
     pub lights: LightSet,
+    /// The lights added with [`SceneBuilder::add_light`].
+    light_list: Vec<Light>,
     /// Bumped by every [`Scene::update_mesh`]: renderers compare it to
     /// notice that the scene changed under them.
     revision: u64,
+}
+
+/// A light chosen by [`Scene::sample_emitter`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EmitterSample {
+    /// A point on an emissive mesh and its density per unit area,
+    /// selection included.
+    Area {
+        /// The point.
+        sp: SurfacePoint,
+        /// Density per unit area.
+        pdf_area: f32,
+    },
+    /// Light `index` of [`LightSet::others`], chosen with probability
+    /// `pmf`.
+    Other {
+        /// Index into [`LightSet::others`].
+        index: usize,
+        /// Selection probability.
+        pmf: f32,
+    },
 }
 
 /// A point on a surface with everything shading needs.
@@ -419,7 +472,11 @@ impl Scene {
             .meshes
             .iter()
             .any(|m| m.emission.is_some() && !m.indices.is_empty());
-        Analysis::of(&self.materials, used, emitters, camera.aperture_radius())
+        let mut a = Analysis::of(&self.materials, used, emitters, camera.aperture_radius());
+        for l in self.lights.others() {
+            a.effects = a.effects.with(l.effect());
+        }
+        a
     }
 
     /// Number of triangles in the scene.
@@ -625,8 +682,9 @@ impl Scene {
             m.normals.clear();
             m.normals.extend_from_slice(ns);
         }
-        if m.emission.is_some() {
-            self.lights = LightSet::new(&self.meshes);
+        // Infinite lights depend on the scene's bounds.
+        if m.emission.is_some() || self.light_list.iter().any(Light::is_infinite) {
+            self.lights = LightSet::new(&self.meshes, &self.light_list);
         }
         self.revision += 1;
         Ok(())
@@ -653,9 +711,29 @@ impl Scene {
     /// point is degenerate.
     #[inline]
     pub fn sample_light(&self, u_select: f32, u: Vec2) -> Option<(SurfacePoint, f32)> {
-        let ls = self.lights.sample(u_select, u)?;
-        let sp = self.surface_point(self.global_prim(ls.mesh, ls.triangle), ls.b.x, ls.b.y)?;
-        Some((sp, ls.pdf_area))
+        match self.sample_emitter(u_select, u)? {
+            EmitterSample::Area { sp, pdf_area } => Some((sp, pdf_area)),
+            EmitterSample::Other { .. } => None,
+        }
+    }
+
+    /// Chooses a light by power: a point on an area light with its density
+    /// per unit area, or one of the other lights ([`LightSet::others`]),
+    /// which the caller samples further. `None` when nothing emits or the
+    /// chosen point is degenerate.
+    #[inline]
+    pub fn sample_emitter(&self, u_select: f32, u: Vec2) -> Option<EmitterSample> {
+        match self.lights.choose(u_select, u)? {
+            Chosen::Area(ls) => {
+                let sp =
+                    self.surface_point(self.global_prim(ls.mesh, ls.triangle), ls.b.x, ls.b.y)?;
+                Some(EmitterSample::Area {
+                    sp,
+                    pdf_area: ls.pdf_area,
+                })
+            }
+            Chosen::Other { index, pmf } => Some(EmitterSample::Other { index, pmf }),
+        }
     }
 
     /// The material of a surface point.

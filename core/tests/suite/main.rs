@@ -8,6 +8,8 @@
 //!   offsets, packets with any mask;
 //! - [`detail`]: normal maps, bump maps and alpha masks;
 //! - [`furnace`]: white-furnace answers of every estimator;
+//! - [`lights`]: point, spot, directional and environment lights with
+//!   analytic answers;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
@@ -25,6 +27,7 @@ mod intersect;
 mod bvh;
 mod detail;
 mod furnace;
+mod lights;
 mod mlt;
 mod renderer;
 mod shapes;
