@@ -46,7 +46,13 @@ fn shared_scenes_call_for_what_they_contain() {
     names.sort();
     assert_eq!(
         names,
-        ["cornell-box", "veach-ajar", "veach-bidir", "veach-mis"],
+        [
+            "cornell-box",
+            "surface-detail",
+            "veach-ajar",
+            "veach-bidir",
+            "veach-mis"
+        ],
         "a shared scene was added: state its effects here"
     );
     // Diffuse walls and one area light.
@@ -60,6 +66,14 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("veach-bidir"),
         (set(&[Diffuse, Glossy, Refraction, AreaLights]), true)
+    );
+    // Normal and bump maps and an alpha mask, all bitmaps.
+    assert_eq!(
+        effects("surface-detail"),
+        (
+            set(&[Diffuse, Textures, AreaLights, NormalMapping, AlphaMasks]),
+            false
+        )
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.
