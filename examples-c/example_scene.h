@@ -102,8 +102,8 @@ static uint32_t parse_estimator(const char *method) {
  * host vertex array, ready for further meshes over it. */
 static cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mirror, cmlt_mesh *mesh) {
     cmlt_scene *scene = NULL;
-    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0};
-    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0};
+    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0, CMLT_NO_TEXTURE, CMLT_NO_TEXTURE, CMLT_NO_TEXTURE, 1.0f, CMLT_NO_TEXTURE};
+    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0, CMLT_NO_TEXTURE, CMLT_NO_TEXTURE, CMLT_NO_TEXTURE, 1.0f, CMLT_NO_TEXTURE};
     check(cmlt_scene_new(&scene), "cmlt_scene_new");
     check(cmlt_scene_add_material(scene, &white, m_white), "add_material");
     check(cmlt_scene_add_material(scene, &mirror, m_mirror), "add_material");
