@@ -102,10 +102,14 @@ static uint32_t parse_estimator(const char *method) {
  * host vertex array, ready for further meshes over it. */
 static cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mirror, cmlt_mesh *mesh) {
     cmlt_scene *scene = NULL;
-    cmlt_material white = {CMLT_MATERIAL_DIFFUSE, {0.7f, 0.7f, 0.7f}, 1.0f, 0.0f, 0,
-                           {1.0f, 1.0f, 1.0f}, {1.0f, 1.0f, 1.0f}, CMLT_DISTRIBUTION_GGX, 0};
-    cmlt_material mirror = {CMLT_MATERIAL_MIRROR, {0.9f, 0.9f, 0.9f}, 1.0f, 0.0f, 0,
-                            {1.0f, 1.0f, 1.0f}, {1.0f, 1.0f, 1.0f}, CMLT_DISTRIBUTION_GGX, 0};
+    /* Designated initialisers: the fields not named are zero, which is
+       CMLT_NO_TEXTURE for the texture fields. */
+    cmlt_material white = {.type_ = CMLT_MATERIAL_DIFFUSE, .color = {0.7f, 0.7f, 0.7f}, .ior = 1.0f,
+                           .bump_scale = 1.0f, .specular_color = {1.0f, 1.0f, 1.0f},
+                           .transmission_color = {1.0f, 1.0f, 1.0f}, .distribution = CMLT_DISTRIBUTION_GGX};
+    cmlt_material mirror = white;
+    mirror.type_ = CMLT_MATERIAL_MIRROR;
+    mirror.color[0] = mirror.color[1] = mirror.color[2] = 0.9f;
     check(cmlt_scene_new(&scene), "cmlt_scene_new");
     check(cmlt_scene_add_material(scene, &white, m_white), "add_material");
     check(cmlt_scene_add_material(scene, &mirror, m_mirror), "add_material");

@@ -51,6 +51,7 @@ fn shared_scenes_call_for_what_they_contain() {
             "plastics",
             "rough-glass",
             "lights-punctual",
+            "surface-detail",
             "veach-ajar",
             "veach-bidir",
             "veach-mis"
@@ -86,6 +87,14 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("rough-glass"),
         (set(&[Diffuse, AreaLights, RoughRefraction]), false)
+    );
+    // Normal and bump maps and an alpha mask, all bitmaps.
+    assert_eq!(
+        effects("surface-detail"),
+        (
+            set(&[Diffuse, Textures, AreaLights, NormalMapping, AlphaMasks]),
+            false
+        )
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.

@@ -190,9 +190,10 @@ pub struct Bsdf {
     /// evaluated with both directions mirrored to the upper hemisphere.
     two_sided: bool,
     /// Under a normal or bump map: the surface's own shading normal in
-    /// this (perturbed) frame (see [`Bsdf::with_unperturbed_normal`]).
+    /// this (perturbed) frame (see [`Bsdf::with_unperturbed_normal`]);
+    /// zero without one (a `Vec3`, not an `Option`, to keep `Bsdf` small).
     #[cfg(feature = "normal-mapping")]
-    unperturbed: Option<Vec3>,
+    unperturbed: Vec3,
 }
 
 /// Mirrors a direction through the tangent plane (Mitsuba's `twosided`
@@ -324,7 +325,7 @@ impl Bsdf {
             model,
             two_sided: material.two_sided,
             #[cfg(feature = "normal-mapping")]
-            unperturbed: None,
+            unperturbed: Vec3::ZERO,
         };
         // A dielectric is one interface with an inside and an outside.
         bsdf.two_sided &= !bsdf.has_transmission();
@@ -340,7 +341,7 @@ impl Bsdf {
     /// estimator weighs the same function.
     #[cfg(feature = "normal-mapping")]
     pub fn with_unperturbed_normal(mut self, n: Vec3) -> Self {
-        self.unperturbed = Some(n);
+        self.unperturbed = n;
         self
     }
 
@@ -350,7 +351,8 @@ impl Bsdf {
     #[cfg_attr(not(feature = "normal-mapping"), allow(unused_variables))]
     fn light_side_ok(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> bool {
         #[cfg(feature = "normal-mapping")]
-        if let Some(n) = self.unperturbed {
+        if self.unperturbed != Vec3::ZERO {
+            let n = self.unperturbed;
             let l = if mode == TransportMode::Radiance {
                 wi
             } else {

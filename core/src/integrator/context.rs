@@ -114,6 +114,10 @@ pub struct Tracer<'a, I: Intersector> {
     /// [`Tracer::with_analysis`]; it must describe `scene` seen through
     /// `camera` (or be a superset), or images come out wrong.
     pub analysis: Analysis,
+    /// The analysis has alpha masks and a material of the scene has an
+    /// opacity: only then do ray queries walk (an [`Analysis::all`] of a
+    /// scene without masks keeps the plain queries and packets).
+    masks: bool,
 }
 
 /// A surface point with its resolved BSDF and shading frame.
@@ -136,13 +140,27 @@ impl<'a, I: Intersector> Tracer<'a, I> {
             camera: scene.camera,
             stats: Stats::default(),
             analysis: Analysis::all(),
+            masks: Self::scene_has_masks(scene),
         }
+    }
+
+    fn scene_has_masks(scene: &Scene) -> bool {
+        scene.materials.iter().any(|m| m.detail.opacity.is_some())
     }
 
     /// The same tracer specialised to `analysis` (see [`Tracer::analysis`]).
     pub fn with_analysis(mut self, analysis: Analysis) -> Self {
         self.analysis = analysis;
+        self.masks =
+            analysis.effects.contains(Effect::AlphaMasks) && Self::scene_has_masks(self.scene);
         self
+    }
+
+    /// Whether ray queries walk through alpha masks (see
+    /// [`Tracer::analysis`]): the scene has masks and the analysis them.
+    #[inline]
+    pub fn has_alpha_masks(&self) -> bool {
+        self.masks
     }
 
     /// The primary ray through `raster` (lens point from `u_lens`): without
@@ -249,7 +267,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     #[cfg(feature = "alpha-masks")]
     #[inline]
     fn has_masks(&self) -> bool {
-        self.analysis.effects.contains(Effect::AlphaMasks)
+        self.masks
     }
 
     /// Whether `ray`, having hit `sp`, passes through it: a masked surface

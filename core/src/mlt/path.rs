@@ -57,7 +57,6 @@ use crate::integrator::Tracer;
 use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
 use crate::integrator::context::Shading;
 use crate::math::Rgb;
-use crate::scene::Effect;
 
 /// Longest specular chain a perturbation retraces (longer ones: identity).
 pub const MAX_CHAIN: usize = 32;
@@ -220,7 +219,7 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
     // opacity (a mask's bilinear edges are fractional even for a binary
     // cut-out). No perturbation is then known to keep the chain unbiased:
     // every path of such a scene stays at its level-1 state.
-    if path.len() < 2 || tr.analysis.effects.contains(Effect::AlphaMasks) {
+    if path.len() < 2 || tr.has_alpha_masks() {
         return Applicable::Neither;
     }
     // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
