@@ -48,9 +48,9 @@ fn shared_scenes_call_for_what_they_contain() {
         names,
         [
             "cornell-box",
+            "lights-punctual",
             "plastics",
             "rough-glass",
-            "lights-punctual",
             "surface-detail",
             "veach-ajar",
             "veach-bidir",

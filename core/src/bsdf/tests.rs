@@ -794,8 +794,12 @@ fn one_sided_models_are_black_from_below() {
 fn bsdf_stays_small() {
     fn is_copy<T: Copy>() {}
     is_copy::<Bsdf>();
+    // Every path vertex holds one. The largest model is the rough plastic
+    // (colours, weights and its 8-entry coating table, 60 bytes); a
+    // normal-mapped frame adds the unperturbed normal for Mitsuba's side
+    // test.
     assert!(
-        core::mem::size_of::<Bsdf>() <= 64,
+        core::mem::size_of::<Bsdf>() <= 72,
         "{}",
         core::mem::size_of::<Bsdf>()
     );
