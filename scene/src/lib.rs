@@ -25,8 +25,11 @@
 //!   disks tessellated with exact area), `to_world`, `flip_normals`,
 //!   `face_normals`, `flip_tex_coords`; one `area` emitter per shape;
 //! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic),
-//!   `dielectric`, `twosided`; textures `bitmap` (JPEG/PNG) and
-//!   `checkerboard`.
+//!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
+//!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
+//!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
+//!   `bitmap` (JPEG/PNG) and `checkerboard`;
+//! - scene-level emitters `point`, `spot`, `directional`, `constant`.
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
