@@ -37,7 +37,8 @@ fn embree_render_matches_bvh_render() {
             2,
             3,
             &|| {},
-        );
+        )
+        .expect("render");
         let theirs = render(
             &loaded.scene,
             &embree,
@@ -48,7 +49,8 @@ fn embree_render_matches_bvh_render() {
             2,
             3,
             &|| {},
-        );
+        )
+        .expect("render");
         let (a, b) = (image(ours.film), image(theirs.film));
         let (ma, mb) = (a.mean(), b.mean());
         for (x, y) in [(ma.r, mb.r), (ma.g, mb.g), (ma.b, mb.b)] {

@@ -79,7 +79,10 @@ const EXPECTED: &[(&str, Expect)] = &[
     ("material-testball", Unavailable),
     ("spaceship", PluginsOk),
     ("staircase", PluginsOk),
-    ("staircase2", Blocked("<medium type=\"homogeneous\"> inside <shape")),
+    (
+        "staircase2",
+        Blocked("<medium type=\"homogeneous\"> inside <shape"),
+    ),
     ("teapot", Blocked("emitter plugin 'envmap'")),
     ("teapot-full", Blocked("<medium type=\"homogeneous\">")),
     ("veach-ajar", Renders),
