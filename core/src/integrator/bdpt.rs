@@ -1122,21 +1122,26 @@ fn mis_weight(
         }
     };
 
-    // Work on copies of the at most six vertices the strategy changes, then
-    // restore them, so the subpaths stay valid for the next strategy.
-    let save_cam: [Option<Vertex>; 2] = [
-        t.checked_sub(1).map(|i| ws.camera[i]),
-        t.checked_sub(2).map(|i| ws.camera[i]),
+    // The strategy changes the reverse density and the delta flag of at
+    // most two vertices on each side (and replaces an endpoint by the one
+    // its connection sampled): those fields are saved and restored, so the
+    // subpaths stay valid for the next strategy. Saving fields, not whole
+    // vertices, keeps this per-strategy step free of large copies.
+    let fields = |v: &Vertex| (v.pdf_rev, v.delta);
+    let save_cam: [Option<(f32, bool)>; 2] = [
+        t.checked_sub(1).map(|i| fields(&ws.camera[i])),
+        t.checked_sub(2).map(|i| fields(&ws.camera[i])),
     ];
-    let save_light: [Option<Vertex>; 2] = [
-        s.checked_sub(1).map(|i| ws.light[i]),
-        s.checked_sub(2).map(|i| ws.light[i]),
+    let save_light: [Option<(f32, bool)>; 2] = [
+        s.checked_sub(1).map(|i| fields(&ws.light[i])),
+        s.checked_sub(2).map(|i| fields(&ws.light[i])),
     ];
+    let mut save_endpoint: Option<(bool, Vertex)> = None;
     if let Some(v) = sampled {
         if s == 1 {
-            ws.light[0] = v;
+            save_endpoint = Some((true, core::mem::replace(&mut ws.light[0], v)));
         } else if t == 1 {
-            ws.camera[0] = v;
+            save_endpoint = Some((false, core::mem::replace(&mut ws.camera[0], v)));
         }
     }
     // Ends of the connection are not delta for this strategy.
@@ -1146,28 +1151,38 @@ fn mis_weight(
     if s > 0 {
         ws.light[s - 1].delta = false;
     }
-    // Reverse densities at the connection's ends and their neighbours.
-    {
-        let pt = ws.camera[t - 1];
-        let pt_minus = if t > 1 { Some(ws.camera[t - 2]) } else { None };
-        let qs = if s > 0 { Some(ws.light[s - 1]) } else { None };
-        let qs_minus = if s > 1 { Some(ws.light[s - 2]) } else { None };
-        ws.camera[t - 1].pdf_rev = match (qs, qs_minus) {
-            (Some(q), qm) => q.pdf(camera, lights_pdf, qm.as_ref(), &pt),
-            (None, _) => origin_pdf(&pt),
+    // Reverse densities at the connection's ends and their neighbours,
+    // computed from the vertices in place (`Vertex::pdf` reads no
+    // `pdf_rev`), then stored.
+    let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = {
+        let pt = &ws.camera[t - 1];
+        let pt_minus = if t > 1 { Some(&ws.camera[t - 2]) } else { None };
+        let qs = if s > 0 { Some(&ws.light[s - 1]) } else { None };
+        let qs_minus = if s > 1 { Some(&ws.light[s - 2]) } else { None };
+        let pt_rev = match (qs, qs_minus) {
+            (Some(q), qm) => q.pdf(camera, lights_pdf, qm, pt),
+            (None, _) => origin_pdf(pt),
         };
-        if let Some(pm) = pt_minus {
-            ws.camera[t - 2].pdf_rev = match qs {
-                Some(q) => pt.pdf(camera, lights_pdf, Some(&q), &pm),
-                None => lights_pdf(&pt, &pm),
-            };
-        }
-        if let Some(q) = qs {
-            ws.light[s - 1].pdf_rev = pt.pdf(camera, lights_pdf, pt_minus.as_ref(), &q);
-            if let Some(qm) = qs_minus {
-                ws.light[s - 2].pdf_rev = q.pdf(camera, lights_pdf, Some(&pt), &qm);
-            }
-        }
+        let pt_minus_rev = pt_minus.map(|pm| match qs {
+            Some(q) => pt.pdf(camera, lights_pdf, Some(q), pm),
+            None => lights_pdf(pt, pm),
+        });
+        let qs_rev = qs.map(|q| pt.pdf(camera, lights_pdf, pt_minus, q));
+        let qs_minus_rev = match (qs, qs_minus) {
+            (Some(q), Some(qm)) => Some(q.pdf(camera, lights_pdf, Some(pt), qm)),
+            _ => None,
+        };
+        (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev)
+    };
+    ws.camera[t - 1].pdf_rev = pt_rev;
+    if let Some(r) = pt_minus_rev {
+        ws.camera[t - 2].pdf_rev = r;
+    }
+    if let Some(r) = qs_rev {
+        ws.light[s - 1].pdf_rev = r;
+    }
+    if let Some(r) = qs_minus_rev {
+        ws.light[s - 2].pdf_rev = r;
     }
 
     let remap = |x: f32| if x != 0.0 { x } else { 1.0 };
@@ -1195,15 +1210,22 @@ fn mis_weight(
         }
     }
 
-    for (k, v) in save_cam.into_iter().enumerate() {
-        if let Some(v) = v {
-            ws.camera[t - 1 - k] = v;
+    for (k, f) in save_cam.into_iter().enumerate() {
+        if let Some((pdf_rev, delta)) = f {
+            let v = &mut ws.camera[t - 1 - k];
+            (v.pdf_rev, v.delta) = (pdf_rev, delta);
         }
     }
-    for (k, v) in save_light.into_iter().enumerate() {
-        if let Some(v) = v {
-            ws.light[s - 1 - k] = v;
+    for (k, f) in save_light.into_iter().enumerate() {
+        if let Some((pdf_rev, delta)) = f {
+            let v = &mut ws.light[s - 1 - k];
+            (v.pdf_rev, v.delta) = (pdf_rev, delta);
         }
+    }
+    match save_endpoint {
+        Some((true, v)) => ws.light[0] = v,
+        Some((false, v)) => ws.camera[0] = v,
+        None => {}
     }
     let w = 1.0 / (1.0 + sum);
     if w.is_finite() { w } else { 0.0 }
