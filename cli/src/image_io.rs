@@ -139,12 +139,7 @@ fn temporary_path(path: &Path) -> Result<PathBuf, String> {
 /// Writes `bytes` to `path` through a temporary file, flushed to disk and
 /// renamed over `path` only when every step succeeded.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    if path.exists() && !path.is_file() {
-        return Err(format!(
-            "{}: exists and is not a regular file",
-            path.display()
-        ));
-    }
+    refuse_non_regular(path)?;
     let tmp = temporary_path(path)?;
     let written = (|| {
         let mut f = std::fs::File::create(&tmp)?;
@@ -158,6 +153,18 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), String> {
         let _ = std::fs::remove_file(&tmp);
         format!("{}: cannot write: {e}", path.display())
     })
+}
+
+/// Refuses a `path` that exists and is not a regular file: renaming over a
+/// device (`/dev/full`) or a directory would replace it, not write into it.
+fn refuse_non_regular(path: &Path) -> Result<(), String> {
+    if path.exists() && !path.is_file() {
+        return Err(format!(
+            "{}: exists and is not a regular file",
+            path.display()
+        ));
+    }
+    Ok(())
 }
 
 /// True when `path` ends in `.png` (any case).
@@ -182,14 +189,7 @@ pub fn check_output(path: &Path) -> Result<(), String> {
             path.display()
         ));
     }
-    // Renaming over a device (`/dev/full`) or a directory would replace
-    // it, not write into it.
-    if path.exists() && !path.is_file() {
-        return Err(format!(
-            "{}: exists and is not a regular file",
-            path.display()
-        ));
-    }
+    refuse_non_regular(path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),

@@ -17,15 +17,20 @@ fn tmp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-fn render(args: &[&str], out: &PathBuf) -> std::process::Output {
-    let o = cmlt()
+/// Runs `cmlt render ARGS --quiet -o OUT`, whatever its outcome.
+fn run_render(args: &[&str], out: &PathBuf) -> std::process::Output {
+    cmlt()
         .arg("render")
         .args(args)
         .arg("--quiet")
         .arg("-o")
         .arg(out)
         .output()
-        .expect("cmlt runs");
+        .expect("cmlt runs")
+}
+
+fn render(args: &[&str], out: &PathBuf) -> std::process::Output {
+    let o = run_render(args, out);
     assert!(
         o.status.success(),
         "cmlt failed: {}",
@@ -283,14 +288,7 @@ fn refused(args: &[&str], out: &PathBuf, phrase: &str) {
     // Only regular files are read back (`/dev/full` reads forever).
     let contents = |p: &PathBuf| p.is_file().then(|| std::fs::read(p).unwrap());
     let before = contents(out);
-    let o = cmlt()
-        .arg("render")
-        .args(args)
-        .arg("--quiet")
-        .arg("-o")
-        .arg(out)
-        .output()
-        .expect("cmlt runs");
+    let o = run_render(args, out);
     let stderr = String::from_utf8_lossy(&o.stderr);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(!o.status.success(), "{args:?} was accepted: {stdout}");

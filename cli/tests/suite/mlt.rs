@@ -316,7 +316,7 @@ fn plastics_mlt_and_cmlt_match_reference() {
     check_reference("plastics", 2, &cmlt, 32, 2.5);
 }
 
-/// Level-1 MLT and CMLT converge on the rough-glass scene (issue 37): paths
+/// Level-1 MLT and CMLT converge on the rough-glass scene: paths
 /// refract through rough dielectrics, which the perturbations treat as
 /// non-delta vertices and reconnect through.
 #[test]
