@@ -3,8 +3,8 @@
 //! builder. Each is collapsed into 8-wide nodes by the SAH-optimal
 //! collapse, and the tree of lower SAH cost is kept.
 //!
-//! Neither builder wins everywhere (callgrind instructions of our kernels,
-//! `docs/rays.md`): PLOC's tree needs 13% fewer on veach-mis's diffuse
+//! Neither builder wins everywhere (callgrind instructions of our
+//! kernels): PLOC's tree needs 13% fewer on veach-mis's diffuse
 //! bounces and 19% fewer on its primary packets, the binned SAH tree 3–5%
 //! fewer on the benchmark mesh's diffuse and primary rays. The SAH cost
 //! picks the better of the two there; on veach-ajar it picks PLOC's, whose
@@ -34,7 +34,7 @@ use collapse::{Costs, Wide};
 /// costs of 0.5, 1 and 2 and triangle costs of 0.1 and 0.3, our kernels'
 /// instructions moved by under 1% on the mesh, and for leaf costs of 1–3
 /// the choice between the two trees was the same on every benchmark scene.
-/// Rechecked with 8-wide nodes (stop 24): leaf costs of 0.5 and 2 moved
+/// Rechecked with 8-wide nodes: leaf costs of 0.5 and 2 moved
 /// eight cells (single rays and packets, 8k-triangle mesh and three room
 /// scenes) by −2.1% to +0.6%.
 const COSTS: Costs = Costs {

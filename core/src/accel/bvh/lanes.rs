@@ -138,7 +138,7 @@ pub(super) fn child_lanes_simd<V: LaneVec, const N: usize>(
 /// The portable loops over `[bool; N]` were compiled (AVX-512, 16 lanes)
 /// to about 150 mask-register moves, shifts and permutes per call, in
 /// place of the three masked moves they stand for: 13% of the samples of
-/// packets of 16 on the 260k-triangle mesh's MTM bundles (Zen 4, stop 35).
+/// packets of 16 on the 260k-triangle mesh's MTM bundles (Zen 4).
 #[inline(always)]
 pub(super) fn apply_hits_simd<V: LaneVec, const N: usize>(
     m: u32,

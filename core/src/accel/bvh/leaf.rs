@@ -10,8 +10,7 @@
 //! group) and to pass them through the stack to apply the ray's axis
 //! permutation. Embree's `Triangle4` leaves are the same idea.
 //!
-//! Measured in one process against the per-triangle layout (stop 23,
-//! `docs/rays.md`): single rays 1.06–1.20× as fast on the four shared
+//! Measured in one process against the per-triangle layout: single rays 1.06–1.20× as fast on the four shared
 //! scenes, 1.03–1.07× on the 260k-triangle mesh. The cost is memory:
 //! 160 bytes per block, so a leaf of one triangle takes what four would
 //! (the benchmark mesh, 2.8 triangles per leaf, needs 56 bytes per

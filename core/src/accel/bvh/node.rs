@@ -18,7 +18,7 @@ pub const EMPTY_CHILD: u32 = u32::MAX;
 /// register per plane (two SSE registers on the SSE2 kernel), so a visit
 /// costs about what a 4-wide one did, and the tree has half the nodes
 /// (the benchmark mesh: 16,247 against 32,658 at four wide; single-ray
-/// diffuse bounces 12% fewer instructions, `docs/rays.md`, stop 24).
+/// diffuse bounces 12% fewer instructions).
 pub const WIDTH: usize = 8;
 
 /// Maximum depth (levels of [`Node`], root = level 1) of a valid layout.

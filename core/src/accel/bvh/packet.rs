@@ -188,7 +188,7 @@ pub(super) fn prepare_lanes_portable<const N: usize>(
 ///
 /// A frustum is traversed as one ray, so every lane is tested against
 /// every triangle any part of the frustum reaches: two MTM bundles far
-/// apart in one packet span the whole scene between them (stop 24 measured
+/// apart in one packet span the whole scene between them (measured at
 /// 0.06 Mrays/s for such packets traversed as a frustum). Pinhole tiles of
 /// 4×4 pixels and bundles of ±1-pixel perturbations are far below it.
 const FRUSTUM_SPREAD: f32 = 0.05;
@@ -285,8 +285,8 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 /// Packets with distinct origins (shadow rays, bounces) have no cheap
 /// exact frustum: an interval bound over the lanes' origins and
 /// reciprocal directions, as a culling step before this test or as the
-/// whole node test, was measured slower at stops 20, 24 and 25
-/// (`docs/rays.md`). Shared origins make the bound as cheap as one ray's
+/// whole node test, was measured slower in three separate trials.
+/// Shared origins make the bound as cheap as one ray's
 /// test ([`traverse_frustum`]).
 #[inline(always)]
 fn boxes_lanes<B: BoxTest, const N: usize>(
@@ -562,7 +562,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
 /// the frustum test is one register per plane for all eight children;
 /// on pinhole tiles and MTM bundles it meets few boxes the lanes miss
 /// (on the mesh's MTM bundles of 8, 0.5% of the inner nodes and 4% of the
-/// leaves it meets; `docs/rays.md`, stop 26).
+/// leaves it meets).
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
@@ -593,7 +593,7 @@ fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
             // 260k-triangle mesh, stalls on the first load of a block took
             // 8% of the time of packets of 8 on MTM bundles (perf
             // samples) when only deferred children were prefetched. Timed
-            // against that (stop 27, `docs/rays.md`), 1.12 on the mesh's
+            // against that, 1.12 on the mesh's
             // mtm8 in packets of 8 and 1.09 on its mtm16 in packets of
             // 16; prefetching the leaves before their lane tests (and so
             // also those no lane meets) cost veach-mis's packets of 16
@@ -779,7 +779,7 @@ pub(super) fn apply_hits<const N: usize>(
     // one register right after them (not observable without hardware
     // counters): callgrind counts 0.8% more instructions
     // for the split loops, yet timed in alternating runs against Embree's
-    // packets of 8 (stop 27, `docs/rays.md`) the split loops gave 1.04–1.10
+    // packets of 8 the split loops gave 1.04–1.10
     // on the mesh's and 1.00–1.10 on veach-mis's primary rays and bundles.
     // Fewer lanes keep the single loop (one register or less).
     if N >= 8 {

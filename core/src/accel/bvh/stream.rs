@@ -5,8 +5,7 @@
 //! the core's caches each link waits for memory, and one ray leaves the
 //! core idle for much of that wait (the 260k-triangle benchmark mesh's
 //! diffuse bounces run about 1.2 instructions per cycle, where
-//! veach-mis' 3.4 MiB tree runs its bounces at about two; `docs/rays.md`,
-//! stop 31). Here [`LANES`] rays take turns, one
+//! veach-mis' 3.4 MiB tree runs its bounces at about two). Here [`LANES`] rays take turns, one
 //! [`Walk::step`] each: a step prefetches the entry its ray visits next,
 //! and the other rays' steps run while that load is under way. It is the
 //! overlap a core's hardware threads would give, done in software, and
