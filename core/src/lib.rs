@@ -37,7 +37,7 @@
 //! Without default features the crate is `no_std` and allocation-free: math,
 //! geometry, BSDFs and traversal over borrowed slices. `alloc` adds owned
 //! scenes and films; `std` adds BVH construction (obvhs' PLOC and our binned
-//! SAH builder, collapsed into the 4-wide layout).
+//! SAH builder, collapsed into 8-wide nodes).
 
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]

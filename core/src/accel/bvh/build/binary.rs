@@ -1,4 +1,4 @@
-//! The binary BVH both builders produce, before the 4-wide collapse.
+//! The binary BVH both builders produce, before the collapse to 8-wide nodes.
 
 use std::vec::Vec;
 
