@@ -212,6 +212,7 @@ impl Bsdf {
     ///
     /// A model left out of the build (see the module docs) resolves to
     /// black diffuse.
+    #[inline]
     pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
         // With every model built the fallback arm is unreachable.
         #[allow(unreachable_patterns)]
@@ -433,6 +434,7 @@ impl Bsdf {
     /// matters for rough transmission, where refracted radiance carries the
     /// 1/η² that importance lacks: eval(wo, wi, Importance) =
     /// eval(wi, wo, Radiance) (the adjoint BSDF).
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         if !self.light_side_ok(wo, wi, mode) {
             return Rgb::ZERO;
@@ -468,6 +470,7 @@ impl Bsdf {
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi` given
     /// `wo`; zero for deltas. It integrates to 1 for the diffuse model and
     /// to 1 minus the probability that `sample` fails for rough conductors.
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match &self.model {
             Model::Diffuse { .. } => {
