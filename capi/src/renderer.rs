@@ -283,7 +283,9 @@ fn render_error(e: RenderError) -> Error {
         | RenderError::Resolution
         | RenderError::Worker
         | RenderError::EffectNotBuilt(_) => Error::invalid(e.to_string()),
-        RenderError::NotPrepared => Error::operation(e.to_string()),
+        RenderError::NotPrepared | RenderError::BootstrapIncomplete => {
+            Error::operation(e.to_string())
+        }
     }
 }
 
