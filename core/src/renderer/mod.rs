@@ -137,7 +137,7 @@ pub const MAX_B_WINDOW: u32 = 64;
 
 /// How consecutive frames (accumulations started by
 /// [`Renderer::set_camera`]) relate. Each switch on its own lowers flicker;
-/// `cmlt bench flicker` measures each.
+/// `cmlt-bench flicker` measures each.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Temporal {
     /// MLT: keep every chain across frames. With an unchanged camera the
@@ -174,6 +174,23 @@ impl Default for RendererConfig {
             workers: 1,
             temporal: Temporal::default(),
             all_effects: false,
+        }
+    }
+}
+
+impl RendererConfig {
+    /// The defaults ([`RendererConfig::default`]) with `estimator`, whose
+    /// Metropolis settings are [`MltSettings::cmlt`] for CMLT and
+    /// [`MltSettings::default`] (no side chains) otherwise.
+    pub fn for_estimator(estimator: Estimator) -> Self {
+        RendererConfig {
+            estimator,
+            mlt: if estimator == Estimator::Cmlt {
+                MltSettings::cmlt()
+            } else {
+                MltSettings::default()
+            },
+            ..RendererConfig::default()
         }
     }
 }
@@ -399,6 +416,12 @@ impl Renderer {
     /// the b window; 0 otherwise).
     pub fn b(&self) -> f64 {
         self.b_used
+    }
+
+    /// The bootstrap of the current frame (MLT, CMLT, after `prepare`:
+    /// b by depth and the chains' seed samples; empty otherwise).
+    pub fn bootstrap(&self) -> &Bootstrap {
+        &self.bootstrap
     }
 
     /// Index of the current frame: the number of `set_camera` calls.
