@@ -1907,12 +1907,12 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
         let (one, split) = (renderer(s, &c), renderer(s, &c));
         // SAFETY: valid renderers and out pointers; workers in range.
         unsafe {
-            expect(cmlt_renderer_prepare(one), CMLT_OK, "prepare");
+            expect(cmlt_renderer_prepare(one), CMLT_OK, "cmlt_renderer_prepare");
             let mut pending = 7u32;
             expect(
                 cmlt_renderer_prepare_begin(split, &mut pending),
                 CMLT_OK,
-                "prepare_begin",
+                "cmlt_renderer_prepare_begin",
             );
             assert_eq!(pending, (estimator != CMLT_ESTIMATOR_PT) as u32);
             if pending == 1 {
@@ -1921,18 +1921,18 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
                     expect(
                         cmlt_renderer_prepare_worker(split, w),
                         CMLT_OK,
-                        "prepare_worker",
+                        "cmlt_renderer_prepare_worker",
                     );
                 }
                 expect(
                     cmlt_renderer_prepare_finish(split),
                     CMLT_ERROR_INVALID_OPERATION,
-                    "prepare_finish",
+                    "cmlt_renderer_prepare_finish",
                 );
                 expect(
                     cmlt_renderer_render(split, 0, 1, null_mut()),
                     CMLT_ERROR_INVALID_OPERATION,
-                    "render",
+                    "cmlt_renderer_render",
                 );
             }
             // Each worker's share on its own thread.
@@ -1944,7 +1944,7 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
                         expect(
                             cmlt_renderer_prepare_worker(r, w),
                             CMLT_OK,
-                            "prepare_worker",
+                            "cmlt_renderer_prepare_worker",
                         );
                     });
                 }
@@ -1952,12 +1952,12 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
             expect(
                 cmlt_renderer_prepare_finish(split),
                 CMLT_OK,
-                "prepare_finish",
+                "cmlt_renderer_prepare_finish",
             );
             expect(
                 cmlt_renderer_prepare_worker(split, 3),
                 CMLT_ERROR_INVALID_ARGUMENT,
-                "prepare_worker",
+                "cmlt_renderer_prepare_worker",
             );
             let mut total = [0u64; 2];
             for w in 0..3 {
@@ -1965,13 +1965,13 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
                 expect(
                     cmlt_renderer_render_per_pixel(one, w, 5, &mut done),
                     CMLT_OK,
-                    "render_per_pixel",
+                    "cmlt_renderer_render_per_pixel",
                 );
                 total[0] += done;
                 expect(
                     cmlt_renderer_render_per_pixel(split, w, 5, &mut done),
                     CMLT_OK,
-                    "render_per_pixel",
+                    "cmlt_renderer_render_per_pixel",
                 );
                 total[1] += done;
             }

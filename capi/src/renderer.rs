@@ -28,15 +28,24 @@ use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::scene::{Accel, Committed, cmlt_camera, cmlt_scene};
 
 /// Path tracing with next-event estimation and MIS (`Estimator::Path`).
-pub const CMLT_ESTIMATOR_PT: u32 = Estimator::Path as u32;
+pub const CMLT_ESTIMATOR_PT: u32 = 0;
 /// Bidirectional path tracing with MIS (`Estimator::Bdpt`).
-pub const CMLT_ESTIMATOR_BDPT: u32 = Estimator::Bdpt as u32;
+pub const CMLT_ESTIMATOR_BDPT: u32 = 1;
 /// Metropolis light transport: Kelemen mutations over BDPT
 /// (`Estimator::Mlt`).
-pub const CMLT_ESTIMATOR_MLT: u32 = Estimator::Mlt as u32;
+pub const CMLT_ESTIMATOR_MLT: u32 = 2;
 /// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
 /// (`Estimator::Cmlt`).
-pub const CMLT_ESTIMATOR_CMLT: u32 = Estimator::Cmlt as u32;
+pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
+
+// The constants are the core's `Estimator` discriminants (literals here so
+// that cbindgen writes them into the header).
+const _: () = assert!(
+    CMLT_ESTIMATOR_PT == Estimator::Path as u32
+        && CMLT_ESTIMATOR_BDPT == Estimator::Bdpt as u32
+        && CMLT_ESTIMATOR_MLT == Estimator::Mlt as u32
+        && CMLT_ESTIMATOR_CMLT == Estimator::Cmlt as u32
+);
 
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
@@ -542,16 +551,15 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_finish(renderer: *mut cmlt_render
             .renderer
             .try_write()
             .map_err(|_| Error::busy("workers are rendering"))?;
-        let guards = r
-            .workers
-            .iter()
-            .map(|slot| {
-                slot.try_lock()
-                    .map_err(|_| Error::busy("a worker is being prepared or rendered"))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let refs: Vec<&RenderWorker> = guards.iter().map(|g| &**g).collect();
-        inner.finish_prepare(&refs).map_err(render_error)
+        // One worker at a time (no list of guards: a frame allocates
+        // nothing).
+        for slot in r.workers.iter() {
+            let w = slot
+                .try_lock()
+                .map_err(|_| Error::busy("a worker is being prepared or rendered"))?;
+            inner.gather_prepared(&w).map_err(render_error)?;
+        }
+        inner.finish_gathered().map_err(render_error)
     })
 }
 

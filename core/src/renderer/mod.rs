@@ -274,6 +274,12 @@ pub struct Renderer {
     /// The Metropolis settings of the pending bootstrap (fewer seed
     /// samples for kept chains, see `prepare`).
     boot_mlt: MltSettings,
+    /// The workers' normalisation-pass sums gathered by
+    /// `gather_prepared`, pass `p` at `p · D` (added in pass order by
+    /// `finish_gathered`).
+    boot_passes: Vec<f64>,
+    /// Per worker, the generation whose share `gather_prepared` took.
+    gathered: Vec<Option<u64>>,
     /// Identifies this renderer's workers.
     id: usize,
     /// Frames (accumulations) started so far, minus one: 0 for the first.
@@ -376,6 +382,13 @@ impl Renderer {
             scratch: BootstrapScratch::new(&config.settings, &config.mlt),
             pending: None,
             boot_mlt: config.mlt,
+            boot_passes: Vec::with_capacity(if config.estimator.is_metropolis() {
+                config.mlt.b_passes as usize
+                    * mlt::path_depth(&config.settings, &config.mlt) as usize
+            } else {
+                0
+            }),
+            gathered: alloc::vec![None; config.workers as usize],
             config,
             camera,
             generation: 0,
@@ -534,6 +547,15 @@ impl Renderer {
         } else {
             c.mlt
         };
+        // Room for the shares `gather_prepared` copies (within the
+        // capacity sized at creation: the first frame's is the largest).
+        let depths = mlt::path_depth(&self.settings, &self.boot_mlt) as usize;
+        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
+        self.scratch.values.clear();
+        self.scratch.values.resize(n, 0.0);
+        self.boot_passes.clear();
+        self.boot_passes
+            .resize(self.boot_mlt.b_passes as usize * depths, 0.0);
         self.pending = Some(self.generation);
         true
     }
@@ -605,38 +627,74 @@ impl Renderer {
     /// [`Renderer::prepare_worker`] for this frame) in index order: seed
     /// samples by index, pass sums in pass order, exactly as `prepare`
     /// combines them. Then the renderer is ready for `render`. Does nothing
-    /// when no bootstrap is pending. Allocates nothing.
+    /// when no bootstrap is pending. Allocates nothing. The same as
+    /// [`Renderer::gather_prepared`] for each worker, then
+    /// [`Renderer::finish_gathered`].
     pub fn finish_prepare(&mut self, workers: &[&RenderWorker]) -> Result<(), RenderError> {
         if self.pending != Some(self.generation) {
             return Ok(());
         }
-        let count = self.config.workers as usize;
         if workers.iter().any(|w| w.renderer != self.id) {
             return Err(RenderError::Worker);
         }
-        let share = |i: usize| {
-            workers
-                .iter()
-                .find(|w| w.index as usize == i)
-                .and_then(|w| w.boot.as_ref())
-                .filter(|b| b.generation == Some(self.generation))
+        for w in workers {
+            self.gather_prepared(w)?;
+        }
+        self.finish_gathered()
+    }
+
+    /// Copies one worker's share of the bootstrap (after its
+    /// [`Renderer::prepare_worker`] for this frame) into the renderer: for
+    /// hosts that hold one worker at a time. Does nothing when no
+    /// bootstrap is pending. Allocates nothing.
+    pub fn gather_prepared(&mut self, worker: &RenderWorker) -> Result<(), RenderError> {
+        if worker.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        let Some(share) = worker
+            .boot
+            .as_ref()
+            .filter(|b| b.generation == Some(self.generation))
+        else {
+            return Err(RenderError::BootstrapIncomplete);
         };
-        if (0..count).any(|i| share(i).is_none()) {
+        let (i, w) = (worker.index as usize, self.config.workers as usize);
+        let mlt = &self.boot_mlt;
+        let depths = mlt::path_depth(&self.settings, mlt) as usize;
+        let n = Bootstrap::seed_count(&self.settings, mlt) as usize;
+        let start = (i * n.div_ceil(w)).min(n);
+        let values = &mut self.scratch.values;
+        values[start..start + share.values.len()].copy_from_slice(&share.values);
+        for (j, sums) in share.passes.chunks_exact(depths.max(1)).enumerate() {
+            let p = i + w * j;
+            self.boot_passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
+        }
+        self.gathered[i] = Some(self.generation);
+        Ok(())
+    }
+
+    /// Completes the bootstrap from the shares [`Renderer::gather_prepared`]
+    /// took from every worker: seed samples by index, pass sums added in
+    /// pass order (as `prepare` does). A share missing is
+    /// [`RenderError::BootstrapIncomplete`] and changes nothing. Does
+    /// nothing when no bootstrap is pending. Allocates nothing.
+    pub fn finish_gathered(&mut self) -> Result<(), RenderError> {
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        if self.gathered.iter().any(|g| *g != Some(self.generation)) {
             return Err(RenderError::BootstrapIncomplete);
         }
         let mlt = self.boot_mlt;
         let depths = mlt::path_depth(&self.settings, &mlt) as usize;
-        let BootstrapScratch { values, sums, .. } = &mut self.scratch;
-        values.clear();
-        for i in 0..count {
-            values.extend_from_slice(&share(i).expect("checked above").values);
-        }
+        let sums = &mut self.scratch.sums;
         sums.clear();
         sums.resize(depths, 0.0);
-        for pass in 0..mlt.b_passes as usize {
-            let (i, j) = (pass % count, pass / count);
-            let b = share(i).expect("checked above");
-            bootstrap::add_pass(sums, &b.passes[j * depths..(j + 1) * depths]);
+        for pass in self.boot_passes.chunks_exact(depths.max(1)) {
+            bootstrap::add_pass(sums, pass);
         }
         let pixels = self.pixels();
         let seed = self.frame_seed();
