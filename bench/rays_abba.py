@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Time two builds of `cmlt` against each other on `bench rays`.
+"""Time two builds of `cmlt-bench` against each other on `cmlt-bench rays`.
 
     python3 bench/rays_abba.py OLD NEW CYCLES SCENES SETS KERNELS [THREADS] [SECONDS] [BASE] [ROUNDS]
-    python3 bench/rays_abba.py /tmp/cmlt-old target/release/cmlt 2 mesh,veach-mis \\
+    python3 bench/rays_abba.py /tmp/cmlt-old target/release/cmlt-bench 2 mesh,veach-mis \\
         primary,mtm8,mtm16,shadow,diffuse ours-packet8,ours-packet16
 
 The two binaries run in turns, A B B A then B A A B, CYCLES times, so a
@@ -39,7 +39,7 @@ def main():
     def run(which):
         binary = (old, new)[which]
         out = subprocess.run(
-            [binary, "bench", "rays", "--scenes", scenes, "--sets", sets,
+            [binary, "rays", "--scenes", scenes, "--sets", sets,
              "--kernels", kernels + "," + base_kernel, "--threads", threads,
              "--time", seconds, "--rounds", rounds, "--clock", "cpu"],
             capture_output=True, text=True, check=True).stdout

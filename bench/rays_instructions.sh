@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Instructions and mispredicted conditional branches spent tracing one ray
-# set of `cmlt bench rays`, per kernel, counted by callgrind: the same
+# set of `cmlt-bench rays`, per kernel, counted by callgrind: the same
 # counts on every run of the same binary, unlike throughput on a shared
 # machine, so a kernel change can be compared by counts where timings are
 # noise.
@@ -28,14 +28,14 @@ kernels=(); while [ $# -gt 0 ] && [ "$1" != "--" ]; do kernels+=("$1"); shift; d
 [ "${1:-}" = "--" ] && shift
 features=()
 for k in "${kernels[@]}"; do [[ $k == embree-* ]] && features=(--features embree); done
-cargo build --release -q -p cmlt-cli "${features[@]}"
+cargo build --release -q -p cmlt-bench "${features[@]}"
 first=""; first_m=""
 for k in "${kernels[@]}"; do
   # One pass (`--time 0`), one thread; only `trace` (the timed loop) counts.
   # Callgrind's summary: Ir Bc Bcm Bi Bim.
   read -r n m < <(valgrind --tool=callgrind --branch-sim=yes --callgrind-out-file=/dev/null \
         --toggle-collect='cmlt_cli::bench::rays::trace*' \
-        ./target/release/cmlt bench rays --scenes "$scene" --sets "$set" --kernels "$k" \
+        ./target/release/cmlt-bench rays --scenes "$scene" --sets "$set" --kernels "$k" \
         --threads 1 --time 0 "$@" 2>&1 >/dev/null \
         | sed -n 's/.*Collected : \([0-9]*\) [0-9]* \([0-9]*\) .*/\1 \2/p')
   [ -n "${n:-}" ] || { echo "no count for $k" >&2; exit 1; }

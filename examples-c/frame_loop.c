@@ -4,11 +4,12 @@
  * Shows: the host's allocator handed to cmlt (cmlt_set_allocator), all
  * setup first (scene, renderer, two workers), then frames of a camera
  * orbiting the scene with a fixed per-frame budget (chains kept from frame
- * to frame), each worker rendered
- * on its own host thread, the image resolved into the host's RGBA8
+ * to frame), each worker prepared (its share of the MLT bootstrap) and
+ * rendered on its own host thread, the image resolved into the host's RGBA8
  * buffer. After setup the allocator aborts on any allocation: the frames
- * must not allocate. Prints one line per frame (mean luminance) and the
- * number of allocations made during the frames (0).
+ * must not allocate. Prints one line per frame (mean luminance and the
+ * frame's wall time in milliseconds) and the number of allocations made
+ * during the frames (0).
  *
  * Usage: frame_loop [FRAMES] [pt|bdpt|mlt|cmlt]
  */
@@ -20,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "cmlt.h"
 
@@ -66,10 +68,37 @@ typedef struct job {
     cmlt_status status;
 } job;
 
+static void *prepare_job(void *arg) {
+    job *j = (job *)arg;
+    j->status = cmlt_renderer_prepare_worker(j->renderer, j->worker);
+    return NULL;
+}
+
 static void *render_job(void *arg) {
     job *j = (job *)arg;
     j->status = cmlt_renderer_render(j->renderer, j->worker, j->budget, NULL);
     return NULL;
+}
+
+/* Runs `fn` for every worker, one host thread each; returns the first
+ * failure. */
+static cmlt_status on_workers(void *(*fn)(void *), job *jobs, int workers) {
+    pthread_t threads[16];
+    cmlt_status status = CMLT_OK;
+    int w;
+    for (w = 0; w < workers; ++w)
+        if (pthread_create(&threads[w], NULL, fn, &jobs[w]) != 0) exit(1);
+    for (w = 0; w < workers; ++w) {
+        pthread_join(threads[w], NULL);
+        if (status == CMLT_OK) status = jobs[w].status;
+    }
+    return status;
+}
+
+static double now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec * 1e3 + (double)t.tv_nsec * 1e-6;
 }
 
 int main(int argc, char **argv) {
@@ -127,31 +156,33 @@ int main(int argc, char **argv) {
         height = start.position[1];
         camera = start;
         for (frame = 0; frame < frames; ++frame) {
-            pthread_t threads[WORKERS];
             job jobs[WORKERS];
-            double sum = 0.0;
+            double sum = 0.0, t0 = now_ms();
             size_t i;
+            uint32_t pending = 0;
             float angle = 0.05f * (float)frame;
             camera.position[0] = start.target[0] + radius * sinf(angle);
             camera.position[1] = height;
             camera.position[2] = start.target[2] + radius * cosf(angle) * (dz < 0.0f ? -1.0f : 1.0f);
             check(cmlt_renderer_set_camera(renderer, &camera), "cmlt_renderer_set_camera");
-            check(cmlt_renderer_prepare(renderer), "cmlt_renderer_prepare");
             for (w = 0; w < WORKERS; ++w) {
                 jobs[w].renderer = renderer;
                 jobs[w].worker = (uint32_t)w;
                 jobs[w].budget = (uint64_t)2 * SIZE * SIZE;
                 jobs[w].status = CMLT_OK;
-                if (pthread_create(&threads[w], NULL, render_job, &jobs[w]) != 0) return 1;
             }
-            for (w = 0; w < WORKERS; ++w) {
-                pthread_join(threads[w], NULL);
-                check(jobs[w].status, "cmlt_renderer_render");
+            /* The MLT bootstrap on the workers' threads (cmlt_renderer_prepare
+             * would run it on this one). */
+            check(cmlt_renderer_prepare_begin(renderer, &pending), "cmlt_renderer_prepare_begin");
+            if (pending) {
+                check(on_workers(prepare_job, jobs, WORKERS), "cmlt_renderer_prepare_worker");
+                check(cmlt_renderer_prepare_finish(renderer), "cmlt_renderer_prepare_finish");
             }
+            check(on_workers(render_job, jobs, WORKERS), "cmlt_renderer_render");
             check(cmlt_renderer_resolve(renderer, CMLT_FORMAT_RGBA8_SRGB, image, 0, (size_t)4 * SIZE * SIZE),
                   "cmlt_renderer_resolve");
             for (i = 0; i < (size_t)SIZE * SIZE; ++i) sum += image[4 * i] + image[4 * i + 1] + image[4 * i + 2];
-            printf("frame %d mean %.3f\n", frame, sum / (3.0 * SIZE * SIZE));
+            printf("frame %d mean %.3f ms %.2f\n", frame, sum / (3.0 * SIZE * SIZE), now_ms() - t0);
         }
         printf("allocations during frames %lu\n", heap.allocations - before);
     }

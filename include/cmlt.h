@@ -32,16 +32,18 @@
 // from 0 across all `cmlt_scene_add_shapes` calls, in order).
 #define CMLT_SHAPE_BIT 2147483648
 
-// Path tracing with next-event estimation and MIS.
+// Path tracing with next-event estimation and MIS (`Estimator::Path`).
 #define CMLT_ESTIMATOR_PT 0
 
-// Bidirectional path tracing with MIS.
+// Bidirectional path tracing with MIS (`Estimator::Bdpt`).
 #define CMLT_ESTIMATOR_BDPT 1
 
-// Metropolis light transport (Kelemen mutations over BDPT).
+// Metropolis light transport: Kelemen mutations over BDPT
+// (`Estimator::Mlt`).
 #define CMLT_ESTIMATOR_MLT 2
 
-// Coherent MLT: MLT plus multiple-try lens and caustic perturbations.
+// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
+// (`Estimator::Cmlt`).
 #define CMLT_ESTIMATOR_CMLT 3
 
 // Linear RGB, 3 × `float` per pixel.
@@ -651,6 +653,55 @@ enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
 // # Safety
 // `renderer` is NULL or valid.
 enum cmlt_status cmlt_renderer_prepare(struct cmlt_renderer *renderer);
+
+// The first of three calls that run `cmlt_renderer_prepare`'s work on
+// the host's own threads: starts the frame's preparation and sets
+// `*out_pending` (may be NULL) to 1 when the workers have bootstrap work
+// (MLT, CMLT after creation or a camera change) — then call
+// `cmlt_renderer_prepare_worker` once for every worker (concurrently, from
+// different threads if the host likes) and `cmlt_renderer_prepare_finish`
+// once — or 0 when the renderer is ready (the other two calls then return
+// at once). The image is bit for bit the one `cmlt_renderer_prepare`
+// gives. `CMLT_ERROR_BUSY` while a worker renders.
+//
+// # Safety
+// `renderer` is NULL or valid; `out_pending` is NULL or valid.
+enum cmlt_status cmlt_renderer_prepare_begin(struct cmlt_renderer *renderer, uint32_t *out_pending);
+
+// Worker `worker`'s share of the bootstrap begun by
+// `cmlt_renderer_prepare_begin`: its contiguous share of the seed samples
+// and every W-th normalisation pass. Same thread rules as
+// `cmlt_renderer_render` (different workers at the same time from
+// different threads). Returns at once when nothing is pending.
+//
+// # Safety
+// `renderer` is NULL or valid.
+enum cmlt_status cmlt_renderer_prepare_worker(const struct cmlt_renderer *renderer,
+                                              uint32_t worker);
+
+// Joins the workers' shares of the bootstrap (after
+// `cmlt_renderer_prepare_worker` for every worker): the renderer is then
+// ready for `cmlt_renderer_render`. A share missing is
+// `CMLT_ERROR_INVALID_OPERATION` (nothing changes; run the missing
+// workers and call again). `CMLT_ERROR_BUSY` while a worker renders.
+//
+// # Safety
+// `renderer` is NULL or valid.
+enum cmlt_status cmlt_renderer_prepare_finish(struct cmlt_renderer *renderer);
+
+// `Budget::PerPixel` in C: renders worker `worker`'s share of `per_pixel` samples (PT, BDPT) or
+// level-1 mutations (MLT, CMLT) per pixel over all workers: passes
+// `worker, worker + W, …` below `per_pixel`, or the same whole rounds on
+// every worker — what the CLI's `--spp` and `--mutations-per-pixel` do.
+// `*out_done` (may be NULL) receives the units rendered. Same thread
+// rules as `cmlt_renderer_render`.
+//
+// # Safety
+// `renderer` is NULL or valid; `out_done` is NULL or valid.
+enum cmlt_status cmlt_renderer_render_per_pixel(const struct cmlt_renderer *renderer,
+                                                uint32_t worker,
+                                                uint64_t per_pixel,
+                                                uint64_t *out_done);
 
 // Renders `budget` units into worker `worker`: camera samples for PT and
 // BDPT (rounded up to whole passes over the image), level-1 mutations for

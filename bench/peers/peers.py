@@ -26,7 +26,7 @@ imported into one process):
       The conversion check: converts the scene, renders it --seeds times
       with LuxCore PATHCPU and an unbiased sampler (seeds 0..n-1, each in a
       process of its own), then `check-stats` compares the image means with
-      the reference's (box-filtered to W x H, as `cmlt bench score` does)
+      the reference's (box-filtered to W x H, as `cmlt-bench score` does)
       and prints mean/ref per channel with standard errors and whether it
       is within --tolerance (0.02).
   check-stats IMG... --reference REF.exr
@@ -536,7 +536,7 @@ def load_exr(path):
 
 def box_down(img, w, h):
     """The reference box-filtered to w x h (integer factor), as
-    `cmlt bench score` does (Image::downsample)."""
+    `cmlt-bench score` does (Image::downsample)."""
     H, W, _ = img.shape
     f = W // w
     if f * w != W or f * h != H:

@@ -2,9 +2,9 @@
 # Peer renderers' curves next to ours: Mitsuba 3 (scalar_rgb, path) and
 # LuxCoreRender 2.11.2 (PATHCPU + METROPOLIS; BIDIRCPU + METROPOLIS, which is
 # biased, see docs/accuracy.md) render the shared scenes at the same
-# resolution, budgets and thread count as `cmlt bench convergence`; every
-# render is scored by `cmlt bench score` against the same reference and
-# appended to the same CSV, then `cmlt bench plot` redraws the plot and
+# resolution, budgets and thread count as `cmlt-bench convergence`; every
+# render is scored by `cmlt-bench score` against the same reference and
+# appended to the same CSV, then `cmlt-bench plot` redraws the plot and
 # prints how long each method takes to reach LuxCore METROPOLIS's error at
 # 30 s.
 #
@@ -40,15 +40,15 @@ if [ ! -x "$PY" ]; then
   python3 -m venv "$VENV"
   "$VENV/bin/pip" install -q pyluxcore==2.11.2 mitsuba==3.9.1 numpy
 fi
-cargo build --release -q -p cmlt-cli
-BIN=target/release/cmlt
+cargo build --release -q -p cmlt-bench
+BIN=target/release/cmlt-bench
 mkdir -p "$WORK" "$OUT"
 
 # score SCENE METHOD BUDGET IMAGE "RESULT wall spp" CSV
 score() {
   local scene=$1 method=$2 budget=$3 img=$4 result=$5 csv=$6
   read -r _ wall spp <<<"$result"
-  "$BIN" bench score "$img" --reference "tests/scenes/$scene/reference.exr" --method "$method" \
+  "$BIN" score "$img" --reference "tests/scenes/$scene/reference.exr" --method "$method" \
     --budget-s "$budget" --wall-s "$wall" --samples "$spp" --csv "$csv"
 }
 
@@ -90,6 +90,6 @@ for spec in $SCENES; do
   done
   versus=()
   if [ -n "$VERSUS_AT" ]; then versus=(--versus luxcore-metropolis-path --at "$VERSUS_AT"); fi
-  "$BIN" bench plot --csv "$csv" --plot "$OUT/$scene" --title "$scene (${w}x$h, $THREADS threads)" \
+  "$BIN" plot --csv "$csv" --plot "$OUT/$scene" --title "$scene (${w}x$h, $THREADS threads)" \
     --reference "tests/scenes/$scene/reference.exr" "${versus[@]}" | tee "$OUT/$scene-summary.txt"
 done

@@ -1892,3 +1892,102 @@ fn lights_are_checked_added_and_rendered() {
         cmlt_scene_release(plain);
     }
 }
+
+/// The bootstrap spread over the host's threads (`prepare_begin`, one
+/// `prepare_worker` per worker, `prepare_finish`) gives `prepare`'s image
+/// bit for bit; a missing share is refused and leaves the renderer
+/// unprepared; `render_per_pixel` renders each worker's share of a
+/// per-pixel budget.
+#[test]
+fn bootstrap_on_the_hosts_threads_equals_prepare() {
+    let s = scene(None);
+    for estimator in [CMLT_ESTIMATOR_PT, CMLT_ESTIMATOR_MLT, CMLT_ESTIMATOR_CMLT] {
+        let mut c = config(estimator, 3);
+        c.normalisation_passes = 4;
+        let (one, split) = (renderer(s, &c), renderer(s, &c));
+        // SAFETY: valid renderers and out pointers; workers in range.
+        unsafe {
+            expect(cmlt_renderer_prepare(one), CMLT_OK, "cmlt_renderer_prepare");
+            let mut pending = 7u32;
+            expect(
+                cmlt_renderer_prepare_begin(split, &mut pending),
+                CMLT_OK,
+                "cmlt_renderer_prepare_begin",
+            );
+            assert_eq!(pending, (estimator != CMLT_ESTIMATOR_PT) as u32);
+            if pending == 1 {
+                // Two of three shares: refused, and rendering is refused.
+                for w in 0..2 {
+                    expect(
+                        cmlt_renderer_prepare_worker(split, w),
+                        CMLT_OK,
+                        "cmlt_renderer_prepare_worker",
+                    );
+                }
+                expect(
+                    cmlt_renderer_prepare_finish(split),
+                    CMLT_ERROR_INVALID_OPERATION,
+                    "cmlt_renderer_prepare_finish",
+                );
+                expect(
+                    cmlt_renderer_render(split, 0, 1, null_mut()),
+                    CMLT_ERROR_INVALID_OPERATION,
+                    "cmlt_renderer_render",
+                );
+            }
+            // Each worker's share on its own thread.
+            let addr = split as usize;
+            std::thread::scope(|sc| {
+                for w in 0..3 {
+                    sc.spawn(move || {
+                        let r = addr as *const cmlt_renderer;
+                        expect(
+                            cmlt_renderer_prepare_worker(r, w),
+                            CMLT_OK,
+                            "cmlt_renderer_prepare_worker",
+                        );
+                    });
+                }
+            });
+            expect(
+                cmlt_renderer_prepare_finish(split),
+                CMLT_OK,
+                "cmlt_renderer_prepare_finish",
+            );
+            expect(
+                cmlt_renderer_prepare_worker(split, 3),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_prepare_worker",
+            );
+            let mut total = [0u64; 2];
+            for w in 0..3 {
+                let mut done = 0;
+                expect(
+                    cmlt_renderer_render_per_pixel(one, w, 5, &mut done),
+                    CMLT_OK,
+                    "cmlt_renderer_render_per_pixel",
+                );
+                total[0] += done;
+                expect(
+                    cmlt_renderer_render_per_pixel(split, w, 5, &mut done),
+                    CMLT_OK,
+                    "cmlt_renderer_render_per_pixel",
+                );
+                total[1] += done;
+            }
+            assert_eq!(total[0], total[1]);
+            // At least 5 per pixel over the workers.
+            assert!(total[0] >= 5 * 16 * 12, "{total:?}");
+            if estimator == CMLT_ESTIMATOR_PT {
+                assert_eq!(total[0], 5 * 16 * 12, "passes 0..5 over 3 workers");
+            }
+            let (a, b) = (image(one), image(split));
+            assert!(a.iter().any(|&v| v > 0.0));
+            assert_eq!(a, b, "estimator {estimator}");
+            cmlt_renderer_release(one);
+            cmlt_renderer_release(split);
+        }
+    }
+    // SAFETY: a valid scene.
+    unsafe { cmlt_scene_release(s) };
+}

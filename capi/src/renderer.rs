@@ -1,10 +1,15 @@
 //! The frame loop: a renderer over a committed scene with a fixed
 //! resolution and a number of workers (one per host thread or job — the
 //! library starts no threads). Per frame: optionally `set_camera`, then
-//! `prepare`, then `render` each worker (concurrently from different
-//! threads if the host likes), then `resolve` into the host's buffer.
-//! Everything is allocated by `cmlt_renderer_new`; the frame calls allocate
-//! nothing.
+//! `prepare` (or, to run the MLT bootstrap on the host's threads,
+//! `prepare_begin`, `prepare_worker` for each worker concurrently, and
+//! `prepare_finish`), then `render` each worker (concurrently from
+//! different threads if the host likes), then `resolve` into the host's
+//! buffer. Everything is allocated by `cmlt_renderer_new`; the frame calls
+//! allocate nothing. The estimators and budgets are the core's
+//! ([`Estimator`]: `CMLT_ESTIMATOR_*` are its discriminants;
+//! `cmlt_core::renderer::Budget`: `cmlt_renderer_render_per_pixel`, and
+//! `cmlt_renderer_render_while` with the host's clock for seconds).
 
 use std::ffi::c_void;
 use std::sync::{Arc, Mutex, RwLock};
@@ -22,14 +27,25 @@ use crate::alloc::measure_allocations;
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::scene::{Accel, Committed, cmlt_camera, cmlt_scene};
 
-/// Path tracing with next-event estimation and MIS.
+/// Path tracing with next-event estimation and MIS (`Estimator::Path`).
 pub const CMLT_ESTIMATOR_PT: u32 = 0;
-/// Bidirectional path tracing with MIS.
+/// Bidirectional path tracing with MIS (`Estimator::Bdpt`).
 pub const CMLT_ESTIMATOR_BDPT: u32 = 1;
-/// Metropolis light transport (Kelemen mutations over BDPT).
+/// Metropolis light transport: Kelemen mutations over BDPT
+/// (`Estimator::Mlt`).
 pub const CMLT_ESTIMATOR_MLT: u32 = 2;
-/// Coherent MLT: MLT plus multiple-try lens and caustic perturbations.
+/// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
+/// (`Estimator::Cmlt`).
 pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
+
+// The constants are the core's `Estimator` discriminants (literals here so
+// that cbindgen writes them into the header).
+const _: () = assert!(
+    CMLT_ESTIMATOR_PT == Estimator::Path as u32
+        && CMLT_ESTIMATOR_BDPT == Estimator::Bdpt as u32
+        && CMLT_ESTIMATOR_MLT == Estimator::Mlt as u32
+        && CMLT_ESTIMATOR_CMLT == Estimator::Cmlt as u32
+);
 
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
@@ -186,11 +202,9 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
     guard("cmlt_renderer_config_default", || {
         // SAFETY: the caller's contract.
         let out = unsafe { write(out, "out") }?;
-        let mlt = match estimator {
-            CMLT_ESTIMATOR_PT | CMLT_ESTIMATOR_BDPT | CMLT_ESTIMATOR_MLT => MltSettings::default(),
-            CMLT_ESTIMATOR_CMLT => MltSettings::cmlt(),
-            e => return Err(Error::invalid(format!("unknown estimator {e}"))),
-        };
+        let e = Estimator::from_u32(estimator)
+            .ok_or_else(|| Error::invalid(format!("unknown estimator {estimator}")))?;
+        let mlt = RendererConfig::for_estimator(e).mlt;
         *out = cmlt_renderer_config {
             width: 0,
             height: 0,
@@ -221,13 +235,9 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
     if c.width == 0 || c.height == 0 || c.width > 1 << 14 || c.height > 1 << 14 {
         return Err(Error::invalid("width and height must be in 1 ..= 16384"));
     }
-    let estimator = match c.estimator {
-        CMLT_ESTIMATOR_PT => Estimator::Path,
-        CMLT_ESTIMATOR_BDPT => Estimator::Bdpt,
-        CMLT_ESTIMATOR_MLT | CMLT_ESTIMATOR_CMLT => Estimator::Mlt,
-        e => return Err(Error::invalid(format!("unknown estimator {e}"))),
-    };
-    if c.estimator == CMLT_ESTIMATOR_CMLT && c.m == 0 {
+    let estimator = Estimator::from_u32(c.estimator)
+        .ok_or_else(|| Error::invalid(format!("unknown estimator {}", c.estimator)))?;
+    if estimator == Estimator::Cmlt && c.m == 0 {
         return Err(Error::invalid("CMLT needs m ≥ 1 side-chain steps"));
     }
     if c.max_depth > 1024 {
@@ -243,11 +253,7 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
         n_chains: c.chains,
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
-        m: if c.estimator == CMLT_ESTIMATOR_CMLT {
-            c.m
-        } else {
-            0
-        },
+        m: if estimator == Estimator::Cmlt { c.m } else { 0 },
         k: c.k,
         lens_sigma: c.lens_sigma,
         candidates: if c.stratified != 0 {
@@ -257,7 +263,7 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
         },
         ..MltSettings::default()
     };
-    if estimator == Estimator::Mlt && mlt.n_bootstrap == 0 {
+    if estimator.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(
             "MLT needs at least one bootstrap sample per depth",
         ));
@@ -283,7 +289,9 @@ fn render_error(e: RenderError) -> Error {
         | RenderError::Resolution
         | RenderError::Worker
         | RenderError::EffectNotBuilt(_) => Error::invalid(e.to_string()),
-        RenderError::NotPrepared => Error::operation(e.to_string()),
+        RenderError::NotPrepared | RenderError::BootstrapIncomplete => {
+            Error::operation(e.to_string())
+        }
     }
 }
 
@@ -464,6 +472,125 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
             .map_err(|_| Error::busy("workers are rendering"))?;
         let live = r.scene.live()?;
         inner.prepare(&live.scene, &live.accel);
+        Ok(())
+    })
+}
+
+/// The first of three calls that run `cmlt_renderer_prepare`'s work on
+/// the host's own threads: starts the frame's preparation and sets
+/// `*out_pending` (may be NULL) to 1 when the workers have bootstrap work
+/// (MLT, CMLT after creation or a camera change) — then call
+/// `cmlt_renderer_prepare_worker` once for every worker (concurrently, from
+/// different threads if the host likes) and `cmlt_renderer_prepare_finish`
+/// once — or 0 when the renderer is ready (the other two calls then return
+/// at once). The image is bit for bit the one `cmlt_renderer_prepare`
+/// gives. `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `out_pending` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_prepare_begin(
+    renderer: *mut cmlt_renderer,
+    out_pending: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_renderer_prepare_begin", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|_| Error::busy("workers are rendering"))?;
+        let live = r.scene.live()?;
+        let pending = inner.begin_prepare(&live.scene);
+        if !out_pending.is_null() {
+            // SAFETY: the caller's contract.
+            unsafe { *out_pending = pending as u32 };
+        }
+        Ok(())
+    })
+}
+
+/// Worker `worker`'s share of the bootstrap begun by
+/// `cmlt_renderer_prepare_begin`: its contiguous share of the seed samples
+/// and every W-th normalisation pass. Same thread rules as
+/// `cmlt_renderer_render` (different workers at the same time from
+/// different threads). Returns at once when nothing is pending.
+///
+/// # Safety
+/// `renderer` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_prepare_worker(
+    renderer: *const cmlt_renderer,
+    worker: u32,
+) -> cmlt_status {
+    guard("cmlt_renderer_prepare_worker", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let c = r.scene.live()?;
+        with_worker(r, worker, |inner, w| {
+            inner.prepare_worker(w, &c.scene, &c.accel).map(|()| 0)
+        })?;
+        Ok(())
+    })
+}
+
+/// Joins the workers' shares of the bootstrap (after
+/// `cmlt_renderer_prepare_worker` for every worker): the renderer is then
+/// ready for `cmlt_renderer_render`. A share missing is
+/// `CMLT_ERROR_INVALID_OPERATION` (nothing changes; run the missing
+/// workers and call again). `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_prepare_finish(renderer: *mut cmlt_renderer) -> cmlt_status {
+    guard("cmlt_renderer_prepare_finish", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|_| Error::busy("workers are rendering"))?;
+        // One worker at a time (no list of guards: a frame allocates
+        // nothing).
+        for slot in r.workers.iter() {
+            let w = slot
+                .try_lock()
+                .map_err(|_| Error::busy("a worker is being prepared or rendered"))?;
+            inner.gather_prepared(&w).map_err(render_error)?;
+        }
+        inner.finish_gathered().map_err(render_error)
+    })
+}
+
+/// `Budget::PerPixel` in C: renders worker `worker`'s share of `per_pixel` samples (PT, BDPT) or
+/// level-1 mutations (MLT, CMLT) per pixel over all workers: passes
+/// `worker, worker + W, …` below `per_pixel`, or the same whole rounds on
+/// every worker — what the CLI's `--spp` and `--mutations-per-pixel` do.
+/// `*out_done` (may be NULL) receives the units rendered. Same thread
+/// rules as `cmlt_renderer_render`.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `out_done` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_render_per_pixel(
+    renderer: *const cmlt_renderer,
+    worker: u32,
+    per_pixel: u64,
+    out_done: *mut u64,
+) -> cmlt_status {
+    guard("cmlt_renderer_render_per_pixel", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let c = r.scene.live()?;
+        let done = with_worker(r, worker, |inner, w| {
+            let steps = inner.steps_for(w.index(), per_pixel);
+            inner.render_steps(w, &c.scene, &c.accel, steps)
+        })?;
+        if !out_done.is_null() {
+            // SAFETY: the caller's contract.
+            unsafe { *out_done = done };
+        }
         Ok(())
     })
 }

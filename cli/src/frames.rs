@@ -54,14 +54,16 @@ pub struct FrameResult {
 }
 
 /// Renders `frames` frames with `cfg` (one worker per `cfg.workers`
-/// thread), each of `budget` units per worker, the camera of frame `f`
-/// given by `camera_at(f)`, handing each finished frame to `on_frame`.
+/// thread, the bootstrap spread over them), each of `per_pixel` samples or
+/// mutations per pixel over all workers ([`Renderer::steps_for`]), the
+/// camera of frame `f` given by `camera_at(f)`, handing each finished
+/// frame to `on_frame`.
 pub fn render_frames<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
     cfg: RendererConfig,
     frames: usize,
-    budget: u64,
+    per_pixel: u64,
     camera_at: impl Fn(usize) -> Camera,
     mut on_frame: impl FnMut(usize, FrameResult) -> Result<(), String>,
 ) -> Result<(), String> {
@@ -83,12 +85,17 @@ pub fn render_frames<I: Intersector + Sync>(
         renderer
             .set_camera(camera_at(f))
             .map_err(|e| e.to_string())?;
-        renderer.prepare(scene, accel);
+        crate::render::prepare(&mut renderer, &mut workers, scene, accel)?;
         let r = &renderer;
         std::thread::scope(|s| {
             let handles: Vec<_> = workers
                 .iter_mut()
-                .map(|worker| s.spawn(move || r.render(worker, scene, accel, budget)))
+                .map(|worker| {
+                    s.spawn(move || {
+                        let steps = r.steps_for(worker.index(), per_pixel);
+                        r.render_steps(worker, scene, accel, steps)
+                    })
+                })
                 .collect();
             handles
                 .into_iter()

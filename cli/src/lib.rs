@@ -1,16 +1,37 @@
-//! The cmlt front end as a library: image files, error metrics, the
-//! multi-threaded render driver and the benchmarks, over the scene loading
-//! (Mitsuba 3 XML) and run-time backend choice of `cmlt-scene`, which it
-//! re-exports as [`scene`] and [`accel`]. The `cmlt` binary is a thin
-//! command-line layer over it; tests use it directly.
+//! The cmlt front end as a library: the command line's options
+//! ([`args`]), image files, error metrics, the multi-threaded drivers over
+//! the core's renderer ([`render`], [`frames`]) and what `cmlt render`
+//! writes ([`output`]), over the scene loading (Mitsuba 3 XML) and
+//! run-time backend choice of `cmlt-scene`, which it re-exports as
+//! [`scene`] and [`accel`]. The `cmlt` binary is a thin command-line layer
+//! over it; the benchmarks (crate `cmlt-bench`) and the tests use it
+//! directly.
 
-pub mod bench;
+pub mod args;
 pub mod frames;
 pub mod image_io;
 pub mod metrics;
+pub mod output;
 pub mod render;
+
+use std::path::Path;
 
 /// The Mitsuba 3 loader (crate `cmlt-scene`, re-exported).
 pub use cmlt_scene as scene;
 /// The run-time choice of backend (crate `cmlt-scene`, re-exported).
 pub use cmlt_scene::accel;
+
+use scene::{LoadedScene, builtin_scene, load_scene};
+
+/// Loads `name`: a built-in scene name (`cornell-box`) unless a file of
+/// that name exists, else a Mitsuba 3 XML file; `defines` override the
+/// scene's `<default>`s (`-D resx=64`).
+pub fn load_scene_or_builtin(
+    name: &str,
+    defines: &[(String, String)],
+) -> Result<LoadedScene, String> {
+    match builtin_scene(name, defines) {
+        Some(r) if !Path::new(name).exists() => r.map_err(|e| e.to_string()),
+        _ => load_scene(Path::new(name), defines).map_err(|e| e.to_string()),
+    }
+}

@@ -1,49 +1,88 @@
-//! Multi-threaded rendering on top of the core's pass renderer.
+//! Multi-threaded rendering of one image: a thin driver over the core's
+//! frame loop ([`cmlt::renderer`]).
 //!
-//! Threads are the host's business, not the core's: this module spawns
-//! `threads` scoped std threads; thread `i` renders passes `i, i + T, …`
-//! into its own film and the films are merged in thread order. The image is
-//! therefore bit-identical for a fixed seed, sample count and thread count.
-//! [`render_mlt`] does the same for Metropolis light transport: one shared
-//! bootstrap, then per-thread chains and films merged in thread order.
+//! Threads are the host's business, not the core's: this module spawns one
+//! scoped std thread per [`RenderWorker`]. The Metropolis bootstrap is
+//! spread over them ([`Renderer::begin_prepare`], `prepare_worker`,
+//! `finish_prepare`), then each renders its share of the budget
+//! ([`Renderer::steps_for`]) and the films are merged in worker order by
+//! [`Renderer::resolve`]. For a fixed seed, per-pixel budget and thread
+//! count the image is bit-identical from run to run; the C API and
+//! `--frames` drive the same calls.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cmlt::accel::Intersector;
 use cmlt::film::Film;
-use cmlt::integrator::{Method, Settings, Stats, Tracer, Worker, render_pass};
-use cmlt::mlt::{Bootstrap, MltSettings, MltStats, MltWorker, bootstrap, image_scale, rounds_for};
-use cmlt::scene::{Analysis, Scene};
+use cmlt::integrator::Stats;
+use cmlt::math::Rgb;
+use cmlt::mlt::{Bootstrap, MltSettings, MltStats};
+pub use cmlt::renderer::Budget;
+use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
+use cmlt::scene::Scene;
 
-/// When to stop rendering.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Budget {
-    /// A fixed number of samples per pixel (deterministic).
-    Spp(u64),
-    /// Wall-clock seconds; whole passes only, so at least one pass is done.
-    Time(f64),
+use crate::image_io::Image;
+
+/// The Metropolis estimator of `mlt`: CMLT when it runs side chains
+/// (m ≥ 1), MLT otherwise.
+pub fn metropolis(mlt: &MltSettings) -> Estimator {
+    if mlt.m > 0 {
+        Estimator::Cmlt
+    } else {
+        Estimator::Mlt
+    }
 }
 
 /// What a render produced and what it cost.
 pub struct RenderOutput {
-    /// Merged film of all threads.
-    pub film: Film,
-    /// Merged counters of all threads.
-    pub stats: Stats,
-    /// Wall-clock time of the rendering proper.
+    /// The image (all workers merged).
+    pub image: Image,
+    /// Counters summed over the workers (bootstrap rays included), and b.
+    pub stats: RenderStats,
+    /// The bootstrap (MLT, CMLT).
+    pub bootstrap: Option<Bootstrap>,
+    /// Wall-clock time of the bootstrap (zero for PT and BDPT).
+    pub bootstrap_wall: Duration,
+    /// Wall-clock time of everything (bootstrap included).
     pub wall: Duration,
 }
 
 impl RenderOutput {
-    /// Camera samples per second.
-    pub fn samples_per_sec(&self) -> f64 {
-        self.stats.samples as f64 / self.wall.as_secs_f64().max(1e-9)
+    /// Samples (PT, BDPT) or level-1 mutations (MLT, CMLT) per pixel.
+    pub fn per_pixel(&self) -> f64 {
+        let pixels = (self.image.width * self.image.height).max(1) as f64;
+        if self.bootstrap.is_some() {
+            self.stats.mlt.mutations as f64 / pixels
+        } else {
+            self.stats.passes as f64
+        }
     }
 
-    /// Millions of rays (closest-hit and occlusion) per second.
+    /// The tracer's counters (rays, samples, packets, BSDF work).
+    pub fn tracer(&self) -> &Stats {
+        &self.stats.tracer
+    }
+
+    /// The chains' counters (zero for PT and BDPT).
+    pub fn mlt(&self) -> &MltStats {
+        &self.stats.mlt
+    }
+
+    /// Camera samples per second.
+    pub fn samples_per_sec(&self) -> f64 {
+        self.stats.tracer.samples as f64 / self.wall.as_secs_f64().max(1e-9)
+    }
+
+    /// Mutations per second of the chain phase.
+    pub fn mutations_per_sec(&self) -> f64 {
+        let t = (self.wall - self.bootstrap_wall).as_secs_f64().max(1e-9);
+        self.stats.mlt.mutations as f64 / t
+    }
+
+    /// Millions of rays (closest-hit and occlusion) per second, overall.
     pub fn mrays_per_sec(&self) -> f64 {
-        self.stats.total_rays() as f64 / self.wall.as_secs_f64().max(1e-9) * 1e-6
+        self.stats.tracer.total_rays() as f64 / self.wall.as_secs_f64().max(1e-9) * 1e-6
     }
 }
 
@@ -65,26 +104,11 @@ fn deadline_after(start: Instant, seconds: f64) -> Result<Instant, String> {
         .ok_or_else(|| format!("invalid time budget: {seconds} s"))
 }
 
-/// `count` black films of `w × h`, allocated before any thread starts so
-/// that a resolution the heap cannot hold is a clear error, not an abort
-/// half-way through a render.
-/// The films are also checked against the memory the machine has
-/// available (Linux: `MemAvailable`), because an over-committing kernel
-/// grants an allocation it cannot back and kills the process later.
-fn films(w: u32, h: u32, count: usize) -> Result<Vec<Film>, String> {
-    check_film_memory(w, h, count)?;
-    let mut out = Vec::new();
-    out.try_reserve_exact(count)
-        .map_err(|_| format!("out of memory: {count} films"))?;
-    for _ in 0..count {
-        out.push(Film::try_new(w, h).map_err(|e| format!("{w}x{h} image: {e}"))?);
-    }
-    Ok(out)
-}
-
 /// Refuses `count` films of `w × h` that need more memory than the machine
-/// has available (see [`films`]); other drivers (the frame loop) call it
-/// before they allocate theirs.
+/// has available (Linux: `MemAvailable`), before anything is allocated: an
+/// over-committing kernel grants an allocation it cannot back and kills
+/// the process later, and a resolution the heap cannot hold must be a
+/// clear error, not an abort half-way through a render.
 pub fn check_film_memory(w: u32, h: u32, count: usize) -> Result<(), String> {
     let bytes = (w as u64 * h as u64)
         .saturating_mul(Film::BYTES_PER_PIXEL)
@@ -98,92 +122,133 @@ pub fn check_film_memory(w: u32, h: u32, count: usize) -> Result<(), String> {
             available as f64 * 1e-9
         ));
     }
+    if Film::try_new(w, h).is_err() {
+        return Err(format!("out of memory: a {w}x{h} image"));
+    }
     Ok(())
 }
 
-/// Renders `scene` with `method` under `budget` on `threads` threads,
-/// specialised to `analysis` (the scene's, or [`Analysis::all`] for
-/// `--all-effects`; [`Settings::specialised`] and
-/// [`Tracer::with_analysis`]). `on_pass` is called after every finished
-/// pass (progress reporting).
-#[allow(clippy::too_many_arguments)]
+/// Readies `renderer` for its frame with the bootstrap (MLT, CMLT) spread
+/// over one thread per worker: [`Renderer::begin_prepare`] here, each
+/// worker's [`Renderer::prepare_worker`] on its thread,
+/// [`Renderer::finish_prepare`] here.
+pub fn prepare<I: Intersector + Sync>(
+    renderer: &mut Renderer,
+    workers: &mut [RenderWorker],
+    scene: &Scene,
+    accel: &I,
+) -> Result<(), String> {
+    if !renderer.begin_prepare(scene) {
+        return Ok(());
+    }
+    let r = &*renderer;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = workers
+            .iter_mut()
+            .map(|worker| s.spawn(move || r.prepare_worker(worker, scene, accel)))
+            .collect();
+        handles
+            .into_iter()
+            .try_for_each(|h| h.join().expect("bootstrap thread panicked"))
+    })
+    .map_err(|e| e.to_string())?;
+    let refs: Vec<&RenderWorker> = workers.iter().collect();
+    renderer.finish_prepare(&refs).map_err(|e| e.to_string())
+}
+
+/// Renders `scene` with `config` (one thread per `config.workers`) under
+/// `budget`. `progress(n)` reports `n` more passes (PT, BDPT) or mutations
+/// (MLT, CMLT) done.
 pub fn render<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
-    settings: &Settings,
-    analysis: &Analysis,
-    method: Method,
+    config: RendererConfig,
     budget: Budget,
-    threads: usize,
-    seed: u64,
-    on_pass: &(dyn Fn() + Sync),
+    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
-    let threads = threads.max(1);
-    // One film per thread and the merged one.
-    let mut films = films(scene.camera.width(), scene.camera.height(), threads + 1)?;
-    let mut merged = films.pop().expect("threads + 1 films");
-    let settings = &settings.specialised(analysis);
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    // One film per thread and the merged image.
+    check_film_memory(w, h, config.workers as usize + 1)?;
     let start = Instant::now();
     let deadline = match budget {
-        Budget::Time(s) => Some(deadline_after(start, s)?),
-        Budget::Spp(_) => None,
+        Budget::Seconds(s) => Some(deadline_after(start, s)?),
+        Budget::PerPixel(_) => None,
+    };
+    let mut renderer = Renderer::new(config, scene.camera).map_err(|e| e.to_string())?;
+    let mut workers: Vec<RenderWorker> = (0..config.workers)
+        .map(|i| RenderWorker::new(&renderer, i))
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
+
+    prepare(&mut renderer, &mut workers, scene, accel)?;
+    let bootstrap_wall = start.elapsed();
+
+    let metropolis = config.estimator.is_metropolis();
+    // Steps between progress reports and clock checks: one pass, or
+    // batches of rounds small enough for both and large enough to make
+    // them negligible.
+    let batch = if metropolis {
+        (4096 / config.mlt.n_chains.max(1) as u64).max(1)
+    } else {
+        1
     };
     let stop = AtomicBool::new(false);
-    let results: Vec<(Film, Stats)> = std::thread::scope(|sc| {
-        let handles: Vec<_> = films
-            .into_iter()
-            .enumerate()
-            .map(|(i, mut film)| {
+    let r = &renderer;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = workers
+            .iter_mut()
+            .map(|worker| {
                 let stop = &stop;
-                sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
-                    let mut worker = Worker::new();
-                    let mut pass = i as u64;
-                    loop {
-                        match budget {
-                            Budget::Spp(n) if pass >= n => break,
-                            // Time budgets always finish one pass per thread
-                            // so the image is never empty.
-                            Budget::Time(_)
-                                if pass >= threads as u64
-                                    && (stop.load(Ordering::Relaxed)
-                                        || deadline.is_some_and(|d| Instant::now() >= d)) =>
-                            {
-                                stop.store(true, Ordering::Relaxed);
-                                break;
-                            }
-                            _ => {}
+                s.spawn(move || {
+                    let mut left = match budget {
+                        Budget::PerPixel(n) => r.steps_for(worker.index(), n),
+                        Budget::Seconds(_) => u64::MAX,
+                    };
+                    // A worker with no steps still starts its frame (its
+                    // film is cleared, its chains started).
+                    let mut first = true;
+                    while left > 0 || first {
+                        let k = left.min(batch);
+                        let done = r.render_steps(worker, scene, accel, k)?;
+                        first = false;
+                        if done == 0 {
+                            break;
                         }
-                        render_pass(
-                            &mut tracer,
-                            settings,
-                            method,
-                            &mut worker,
-                            seed,
-                            pass,
-                            &mut film,
-                        );
-                        on_pass();
-                        pass += threads as u64;
+                        progress(if metropolis { done } else { k });
+                        left -= k;
+                        // Time budgets: every worker renders at least one
+                        // step, so the image is never empty.
+                        if let Some(d) = deadline
+                            && (stop.load(Ordering::Relaxed) || Instant::now() >= d)
+                        {
+                            stop.store(true, Ordering::Relaxed);
+                            break;
+                        }
                     }
-                    (film, tracer.stats)
+                    Ok(())
                 })
             })
             .collect();
         handles
             .into_iter()
-            .map(|h| h.join().expect("render thread panicked"))
-            .collect()
-    });
+            .try_for_each(|h| h.join().expect("render thread panicked"))
+    })
+    .map_err(|e: cmlt::renderer::RenderError| e.to_string())?;
     let wall = start.elapsed();
-    let mut stats = Stats::default();
-    for (f, s) in &results {
-        merged.merge(f);
-        stats.merge(s);
-    }
+    let refs: Vec<&RenderWorker> = workers.iter().collect();
+    let mut pixels = vec![Rgb::ZERO; w as usize * h as usize];
+    renderer
+        .resolve(&refs, |i, c| pixels[i] = c)
+        .map_err(|e| e.to_string())?;
     Ok(RenderOutput {
-        film: merged,
-        stats,
+        image: Image {
+            width: w as usize,
+            height: h as usize,
+            pixels,
+        },
+        stats: renderer.stats(&refs),
+        bootstrap: metropolis.then(|| renderer.bootstrap().clone()),
+        bootstrap_wall,
         wall,
     })
 }
@@ -210,220 +275,4 @@ pub fn work_line(stats: &Stats, mlt: Option<&MltStats>) -> String {
         );
     }
     line
-}
-
-/// When an MLT render stops.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MltBudget {
-    /// Mutations per pixel in total over all threads, rounded up to whole
-    /// rounds of all chains (deterministic).
-    MutationsPerPixel(u64),
-    /// Wall-clock seconds including the bootstrap; every thread runs at
-    /// least one batch of mutations.
-    Time(f64),
-}
-
-/// What an MLT render produced and what it cost.
-pub struct MltOutput {
-    /// Merged film of all threads: unit-luminance splats, resolve with
-    /// [`MltOutput::scale`].
-    pub film: Film,
-    /// b · pixels / records ([`cmlt::mlt::image_scale`]).
-    pub scale: f64,
-    /// The bootstrap (b and its split over depths).
-    pub bootstrap: Bootstrap,
-    /// Merged ray counters (bootstrap and chains).
-    pub stats: Stats,
-    /// Merged chain counters.
-    pub mlt: MltStats,
-    /// Wall-clock time of the bootstrap.
-    pub bootstrap_wall: Duration,
-    /// Wall-clock time of everything (bootstrap included).
-    pub wall: Duration,
-}
-
-impl MltOutput {
-    /// The image.
-    pub fn image(&self) -> Vec<cmlt::math::Rgb> {
-        self.film.resolve_scaled(self.scale)
-    }
-
-    /// Mutations per second of the chain phase.
-    pub fn mutations_per_sec(&self) -> f64 {
-        let t = (self.wall - self.bootstrap_wall).as_secs_f64().max(1e-9);
-        self.mlt.mutations as f64 / t
-    }
-
-    /// Millions of rays (closest-hit and occlusion) per second, overall.
-    pub fn mrays_per_sec(&self) -> f64 {
-        self.stats.total_rays() as f64 / self.wall.as_secs_f64().max(1e-9) * 1e-6
-    }
-}
-
-/// Renders `scene` with level-1 MLT on `threads` threads.
-///
-/// The bootstrap is computed once and shared: its seed samples are split
-/// into contiguous index ranges, its normalisation passes dealt
-/// round-robin, and both are combined in index order, so b and the chains'
-/// starting distribution do not depend on the thread count. Then thread
-/// `i` runs `mlt.n_chains` chains (global chains i, i + T, …) seeded by
-/// `(seed, i)` into its own film, in whole rounds: a mutation budget
-/// becomes the same number of rounds on every thread (rounded up, see
-/// [`rounds_for`]); a time budget runs batches of rounds until the deadline.
-/// Films are merged in thread order: the image is bit-identical for a fixed
-/// seed, mutation budget and thread count. `on_progress(n)` reports `n`
-/// more mutations done. `analysis` specialises the render as in
-/// [`render`].
-#[allow(clippy::too_many_arguments)]
-pub fn render_mlt<I: Intersector + Sync>(
-    scene: &Scene,
-    accel: &I,
-    settings: &Settings,
-    analysis: &Analysis,
-    mlt: &MltSettings,
-    budget: MltBudget,
-    threads: usize,
-    seed: u64,
-    on_progress: &(dyn Fn(u64) + Sync),
-) -> Result<MltOutput, String> {
-    let threads = threads.max(1);
-    let settings = &settings.specialised(analysis);
-    let start = Instant::now();
-    let deadline = match budget {
-        MltBudget::Time(s) => Some(deadline_after(start, s)?),
-        MltBudget::MutationsPerPixel(_) => None,
-    };
-    let (w, h) = (scene.camera.width(), scene.camera.height());
-    let pixels = w as u64 * h as u64;
-    // One film per thread and the merged one, before the bootstrap's work.
-    let mut films = films(w, h, threads + 1)?;
-    let mut merged = films.pop().expect("threads + 1 films");
-
-    // Bootstrap: seed samples split into contiguous index ranges,
-    // normalisation passes dealt round-robin; both combined in index order.
-    let n = Bootstrap::seed_count(settings, mlt);
-    let depths = cmlt::mlt::path_depth(settings, mlt) as usize;
-    let chunk = n.div_ceil(threads as u64);
-    type Part = (Vec<f32>, Vec<(u64, Vec<f64>)>, Stats);
-    let parts: Vec<Part> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads as u64)
-            .map(|i| {
-                sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
-                    let mut ys = Vec::new();
-                    let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
-                    bootstrap::evaluate_seeds(&mut tracer, settings, mlt, seed, range, &mut ys);
-                    let mut ws = cmlt::integrator::bdpt::Workspace::new();
-                    let mut passes = Vec::new();
-                    for pass in (i..mlt.b_passes as u64).step_by(threads) {
-                        let mut sums = vec![0.0f64; depths];
-                        bootstrap::evaluate_pass(
-                            &mut tracer,
-                            settings,
-                            mlt,
-                            &mut ws,
-                            seed,
-                            pass,
-                            &mut sums,
-                        );
-                        passes.push((pass, sums));
-                    }
-                    (ys, passes, tracer.stats)
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("bootstrap thread panicked"))
-            .collect()
-    });
-    let mut stats = Stats::default();
-    let mut values = Vec::with_capacity(n as usize);
-    let mut passes: Vec<&(u64, Vec<f64>)> = Vec::new();
-    for (ys, ps, s) in &parts {
-        values.extend_from_slice(ys);
-        passes.extend(ps);
-        stats.merge(s);
-    }
-    passes.sort_by_key(|p| p.0);
-    let mut sums = vec![0.0f64; depths];
-    for (_, p) in passes {
-        for (a, b) in sums.iter_mut().zip(p) {
-            *a += b;
-        }
-    }
-    let boot = Bootstrap::from_parts(settings, mlt, seed, &values, &sums, pixels);
-    drop(values);
-    let bootstrap_wall = start.elapsed();
-
-    let rounds = match budget {
-        MltBudget::MutationsPerPixel(0) => 0,
-        MltBudget::MutationsPerPixel(m) => {
-            rounds_for(m, pixels, threads as u64, mlt.n_chains as u64)
-        }
-        MltBudget::Time(_) => 0,
-    };
-    let stop = AtomicBool::new(false);
-    let results: Vec<(Film, Stats, MltStats)> = std::thread::scope(|sc| {
-        let handles: Vec<_> = films
-            .into_iter()
-            .zip(0..threads as u64)
-            .map(|(mut film, i)| {
-                let (stop, boot) = (&stop, &boot);
-                sc.spawn(move || {
-                    let mut tracer = Tracer::new(scene, accel).with_analysis(*analysis);
-                    let mut worker =
-                        MltWorker::new(&mut tracer, settings, mlt, boot, seed, i, threads as u64);
-                    // Batches of whole rounds, small enough for progress and
-                    // deadline checks, large enough to make both negligible.
-                    let batch = (4096 / worker.chain_count().max(1) as u64).max(1);
-                    match deadline {
-                        None => {
-                            let mut left = rounds;
-                            while left > 0 {
-                                let k = left.min(batch);
-                                let done = worker.run(&mut tracer, settings, &mut film, k);
-                                if done == 0 {
-                                    break;
-                                }
-                                on_progress(done);
-                                left -= k;
-                            }
-                        }
-                        Some(d) => loop {
-                            let done = worker.run(&mut tracer, settings, &mut film, batch);
-                            if done == 0 {
-                                break;
-                            }
-                            on_progress(done);
-                            if stop.load(Ordering::Relaxed) || Instant::now() >= d {
-                                stop.store(true, Ordering::Relaxed);
-                                break;
-                            }
-                        },
-                    }
-                    (film, tracer.stats, *worker.stats())
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("render thread panicked"))
-            .collect()
-    });
-    let mut mstats = MltStats::default();
-    for (f, s, m) in &results {
-        merged.merge(f);
-        stats.merge(s);
-        mstats.merge(m);
-    }
-    Ok(MltOutput {
-        scale: image_scale(boot.b(), pixels, mstats.records),
-        film: merged,
-        bootstrap: boot,
-        stats,
-        mlt: mstats,
-        bootstrap_wall,
-        wall: start.elapsed(),
-    })
 }

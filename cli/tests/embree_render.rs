@@ -11,7 +11,7 @@ mod common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::accel::embree::EmbreeScene;
 use cmlt::integrator::Method;
-use cmlt_cli::image_io::Image;
+use cmlt::renderer::RendererConfig;
 use cmlt_cli::render::{Budget, render};
 
 #[test]
@@ -20,38 +20,25 @@ fn embree_render_matches_bvh_render() {
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
     let embree = EmbreeScene::new(&tris).expect("Embree device");
-    let cam = &loaded.scene.camera;
-    let image = |film: cmlt::film::Film| Image {
-        width: cam.width() as usize,
-        height: cam.height() as usize,
-        pixels: film.resolve(),
-    };
     for method in [Method::Path, Method::Bdpt] {
-        let ours = render(
-            &loaded.scene,
-            &bvh,
-            &loaded.settings,
-            &loaded.scene.analysis(&loaded.scene.camera),
-            method,
-            Budget::Spp(16),
-            2,
-            3,
-            &|| {},
-        )
-        .expect("render");
+        let config = RendererConfig {
+            estimator: method,
+            settings: loaded.settings,
+            seed: 3,
+            workers: 2,
+            ..RendererConfig::default()
+        };
+        let ours =
+            render(&loaded.scene, &bvh, config, Budget::PerPixel(16), &|_| {}).expect("render");
         let theirs = render(
             &loaded.scene,
             &embree,
-            &loaded.settings,
-            &loaded.scene.analysis(&loaded.scene.camera),
-            method,
-            Budget::Spp(16),
-            2,
-            3,
-            &|| {},
+            config,
+            Budget::PerPixel(16),
+            &|_| {},
         )
         .expect("render");
-        let (a, b) = (image(ours.film), image(theirs.film));
+        let (a, b) = (ours.image, theirs.image);
         let (ma, mb) = (a.mean(), b.mean());
         for (x, y) in [(ma.r, mb.r), (ma.g, mb.g), (ma.b, mb.b)] {
             assert!(

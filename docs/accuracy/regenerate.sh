@@ -10,17 +10,17 @@
 #     METROPOLIS's error at 30 s).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-cargo build --release -q -p cmlt-cli
-BIN=target/release/cmlt
+cargo build --release -q -p cmlt-bench
+BIN=target/release/cmlt-bench
 OUT=docs/accuracy
 BUDGETS=${BUDGETS:-1,2,4,8,15,30}
 for spec in "veach-bidir 128 128" "veach-ajar 160 90"; do
   set -- $spec
-  $BIN bench convergence tests/scenes/$1/scene.xml --reference tests/scenes/$1/reference.exr \
+  $BIN convergence tests/scenes/$1/scene.xml --reference tests/scenes/$1/reference.exr \
     -D resx=$2 -D resy=$3 --methods pt,bdpt,mlt,cmlt --budgets "$BUDGETS" \
     --threads 2 --seeds 2 --seeds-up-to 2 --csv $OUT/$1.csv --plot $OUT/$1 | tee $OUT/$1.log
 done
-$BIN bench params tests/scenes/veach-bidir/scene.xml --reference tests/scenes/veach-bidir/reference.exr \
+$BIN params tests/scenes/veach-bidir/scene.xml --reference tests/scenes/veach-bidir/reference.exr \
   -D resx=128 -D resy=128 --time 8 --lens-sigmas 1,2,8 --ks 1,4,16 --ms 1,4 \
   --threads 2 --csv $OUT/params-veach-bidir.csv --plot $OUT/params-veach-bidir | tee $OUT/params-veach-bidir.log
 BIDIR_BUDGETS=${BIDIR_BUDGETS:-4,30} bench/peers/run_peers.sh $OUT

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Method;
+use cmlt::renderer::RendererConfig;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::render::{Budget, RenderOutput, render};
 use cmlt_cli::scene::{LoadedScene, load_scene};
@@ -51,23 +52,14 @@ pub fn render_scene(
 ) -> (Image, RenderOutput) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
-    let out = render(
-        &loaded.scene,
-        &bvh,
-        &loaded.settings,
-        &loaded.scene.analysis(&loaded.scene.camera),
-        method,
-        Budget::Spp(spp),
-        2,
+    let config = RendererConfig {
+        estimator: method,
+        settings: loaded.settings,
         seed,
-        &|| {},
-    )
-    .expect("render");
-    let cam = &loaded.scene.camera;
-    let img = Image {
-        width: cam.width() as usize,
-        height: cam.height() as usize,
-        pixels: out.film.resolve(),
+        workers: 2,
+        ..RendererConfig::default()
     };
+    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(spp), &|_| {}).expect("render");
+    let img = out.image.clone();
     (img, out)
 }

@@ -13,8 +13,9 @@ use cmlt::bsdf::Lobe;
 use cmlt::integrator::{Method, Stats};
 use cmlt::math::Rgb;
 use cmlt::mlt::MltSettings;
-use cmlt::scene::{Analysis, Effect, EffectSet};
-use cmlt_cli::render::{Budget, MltBudget, render, render_mlt};
+use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt::scene::{Effect, EffectSet};
+use cmlt_cli::render::{Budget, render};
 use cmlt_cli::scene::{LoadedScene, load_scene};
 
 fn effects(scene: &str) -> (EffectSet, bool) {
@@ -110,56 +111,47 @@ fn small(scene: &str, res: u32) -> LoadedScene {
     load_scene(&path, &[d("resx"), d("resy")]).unwrap()
 }
 
-/// Mean colour and counters of a PT/BDPT render with `analysis`.
+/// Mean colour and counters of a PT/BDPT render, the scene analysis on or
+/// off (`all_effects`).
 fn render_mean(
     loaded: &LoadedScene,
-    analysis: &Analysis,
+    all_effects: bool,
     method: Method,
     spp: u64,
     seed: u64,
 ) -> (Rgb, Stats) {
     let bvh = Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
-    let out = render(
-        &loaded.scene,
-        &bvh,
-        &loaded.settings,
-        analysis,
-        method,
-        Budget::Spp(spp),
-        2,
+    let config = RendererConfig {
+        estimator: method,
+        settings: loaded.settings,
         seed,
-        &|| {},
-    )
-    .expect("render");
-    (mean(&out.film.resolve()), out.stats)
+        workers: 2,
+        all_effects,
+        ..RendererConfig::default()
+    };
+    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(spp), &|_| {}).expect("render");
+    (mean(&out.image.pixels), out.stats.tracer)
 }
 
-/// Mean colour and counters of a CMLT render with `analysis`.
-fn render_mean_cmlt(
-    loaded: &LoadedScene,
-    analysis: &Analysis,
-    mpp: u64,
-    seed: u64,
-) -> (Rgb, Stats) {
+/// Mean colour and counters of a CMLT render, the scene analysis on or off.
+fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64) -> (Rgb, Stats) {
     let bvh = Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
     let mlt = MltSettings {
         n_bootstrap: 500,
         n_chains: 64,
         ..MltSettings::cmlt()
     };
-    let out = render_mlt(
-        &loaded.scene,
-        &bvh,
-        &loaded.settings,
-        analysis,
-        &mlt,
-        MltBudget::MutationsPerPixel(mpp),
-        2,
+    let config = RendererConfig {
+        estimator: Estimator::Cmlt,
+        settings: loaded.settings,
+        mlt,
         seed,
-        &|_| {},
-    )
-    .expect("render");
-    (mean(&out.image()), out.stats)
+        workers: 2,
+        all_effects,
+        ..RendererConfig::default()
+    };
+    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(mpp), &|_| {}).expect("render");
+    (mean(&out.image.pixels), out.stats.tracer)
 }
 
 fn mean(pixels: &[Rgb]) -> Rgb {
@@ -182,14 +174,13 @@ fn all_effects_changes_no_image_beyond_noise() {
     // analysis skips work (classification), hence a noise tolerance.
     for scene in ["cornell-box", "veach-mis", "veach-bidir"] {
         let loaded = small(scene, 24);
-        let a = loaded.scene.analysis(&loaded.scene.camera);
         for method in [Method::Path, Method::Bdpt] {
-            let (on, _) = render_mean(&loaded, &a, method, 8, 1);
-            let (off, _) = render_mean(&loaded, &Analysis::all(), method, 8, 1);
+            let (on, _) = render_mean(&loaded, false, method, 8, 1);
+            let (off, _) = render_mean(&loaded, true, method, 8, 1);
             assert_close(on, off, 1e-4, &format!("{scene} {method:?}"));
         }
-        let (on, _) = render_mean_cmlt(&loaded, &a, 8, 2);
-        let (off, _) = render_mean_cmlt(&loaded, &Analysis::all(), 8, 2);
+        let (on, _) = render_mean_cmlt(&loaded, false, 8, 2);
+        let (off, _) = render_mean_cmlt(&loaded, true, 8, 2);
         assert_close(on, off, 0.05, &format!("{scene} CMLT"));
     }
 }
@@ -197,11 +188,10 @@ fn all_effects_changes_no_image_beyond_noise() {
 #[test]
 fn diffuse_scenes_do_no_specular_work() {
     let loaded = small("cornell-box", 16);
-    let a = loaded.scene.analysis(&loaded.scene.camera);
     let runs = [
-        render_mean(&loaded, &a, Method::Path, 2, 3).1,
-        render_mean(&loaded, &a, Method::Bdpt, 2, 3).1,
-        render_mean_cmlt(&loaded, &a, 2, 3).1,
+        render_mean(&loaded, false, Method::Path, 2, 3).1,
+        render_mean(&loaded, false, Method::Bdpt, 2, 3).1,
+        render_mean_cmlt(&loaded, false, 2, 3).1,
     ];
     for (i, s) in runs.iter().enumerate() {
         for lobe in [Lobe::Glossy, Lobe::SpecularReflection, Lobe::Refraction] {
@@ -215,8 +205,7 @@ fn diffuse_scenes_do_no_specular_work() {
     }
     // The counters do count the other lobes where the scene has them.
     let glass = small("veach-bidir", 16);
-    let g = glass.scene.analysis(&glass.scene.camera);
-    let s = render_mean(&glass, &g, Method::Bdpt, 2, 3).1;
+    let s = render_mean(&glass, false, Method::Bdpt, 2, 3).1;
     assert!(s.bsdf_samples.get(Lobe::Refraction) > 0);
     assert!(s.bsdf_evals.get(Lobe::Glossy) > 0);
 }

@@ -3,8 +3,6 @@
 //! instantiates the generic renderer again). Run one part with a filter,
 //! e.g. `cargo test -p cmlt-cli --test suite references::`.
 //!
-//! - [`bench_convergence`]: `cmlt bench convergence`, `plot` and `score`
-//!   end to end;
 //! - [`bvh_scenes`]: the default BVH against brute force on the shared
 //!   scenes;
 //! - [`cli`]: the `cmlt` binary end to end, bad input included;
@@ -14,13 +12,12 @@
 //! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
 //! - [`references`]: PT and BDPT against Mitsuba 3's references.
 //!
-//! `bench_rays` and `embree_render` stay separate binaries: CI builds them
-//! with the `embree` feature.
+//! `embree_render` stays a separate binary: CI builds it with the `embree`
+//! feature. The benchmarks' tests are the `cmlt-bench` crate's (`bench/`).
 
 #[path = "../common/mod.rs"]
 mod common;
 
-mod bench_convergence;
 mod bvh_scenes;
 mod cli;
 mod corpus;

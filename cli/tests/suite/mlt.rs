@@ -13,9 +13,10 @@ use std::process::Command;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::MltSettings;
+use cmlt::renderer::RendererConfig;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
-use cmlt_cli::render::{MltBudget, MltOutput, render_mlt};
+use cmlt_cli::render::{Budget, RenderOutput, metropolis, render as drive};
 use cmlt_cli::scene::LoadedScene;
 use common::load_reduced;
 
@@ -25,27 +26,19 @@ fn render(
     mpp: u64,
     threads: usize,
     seed: u64,
-) -> (Image, MltOutput) {
+) -> (Image, RenderOutput) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
-    let out = render_mlt(
-        &loaded.scene,
-        &bvh,
-        &loaded.settings,
-        &loaded.scene.analysis(&loaded.scene.camera),
-        mlt,
-        MltBudget::MutationsPerPixel(mpp),
-        threads,
+    let config = RendererConfig {
+        estimator: metropolis(mlt),
+        settings: loaded.settings,
+        mlt: *mlt,
         seed,
-        &|_| {},
-    )
-    .expect("render");
-    let cam = &loaded.scene.camera;
-    let img = Image {
-        width: cam.width() as usize,
-        height: cam.height() as usize,
-        pixels: out.image(),
+        workers: threads as u32,
+        ..RendererConfig::default()
     };
+    let out = drive(&loaded.scene, &bvh, config, Budget::PerPixel(mpp), &|_| {}).expect("render");
+    let img = out.image.clone();
     (img, out)
 }
 
@@ -61,12 +54,12 @@ fn check_reference(scene: &str, factor: u32, mlt: &MltSettings, mpp: u64, min_ra
     let mut errs = Vec::new();
     for seed in 0..4u64 {
         let (img, out) = render(&loaded, mlt, mpp, 2, 500 + seed);
-        assert_eq!(out.film.nonfinite(), 0, "{scene}: non-finite samples");
+        assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
         means.push(img.mean());
         errs.push(rel_mse(&img, &reference));
     }
     let (big, out) = render(&loaded, mlt, 4 * mpp, 2, 77);
-    assert_eq!(out.film.nonfinite(), 0, "{scene}: non-finite samples");
+    assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
     let rm = reference.mean();
     for c in 0..3 {
         let xs: Vec<f64> = means.iter().map(|m| m[c] as f64).collect();
@@ -91,7 +84,7 @@ fn check_reference(scene: &str, factor: u32, mlt: &MltSettings, mpp: u64, min_ra
         mlt.k,
         mlt.m,
         4 * mpp,
-        out.mlt
+        out.stats.mlt
     );
     // Converging like 1/N: the error is the chains' noise, not a bias.
     assert!(
@@ -212,7 +205,7 @@ fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
         oa.bootstrap, oc.bootstrap,
         "b independent of the thread count"
     );
-    assert_eq!(oa.mlt, ob.mlt);
+    assert_eq!(oa.stats.mlt, ob.stats.mlt);
     let bits = |i: &Image| -> Vec<[u32; 3]> {
         i.pixels
             .iter()
@@ -221,7 +214,7 @@ fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
     };
     assert_eq!(bits(&a), bits(&b));
     // 4·256 mutations over 2 threads of 8 chains: 64 whole rounds each.
-    assert_eq!(oa.mlt.mutations, 4 * 16 * 16);
+    assert_eq!(oa.stats.mlt.mutations, 4 * 16 * 16);
 }
 
 fn tmp(name: &str) -> PathBuf {

@@ -22,7 +22,7 @@ fn check_scene(name: &str, method: Method, spp: u64) {
     let mut errs = Vec::new();
     for seed in 0..4u64 {
         let (img, out) = render_scene(&loaded, method, spp, 1000 + seed);
-        assert_eq!(out.film.nonfinite(), 0, "{name}: non-finite samples");
+        assert_eq!(out.stats.nonfinite, 0, "{name}: non-finite samples");
         means.push(img.mean());
         errs.push(rel_mse(&img, &reference));
     }

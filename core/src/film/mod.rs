@@ -119,6 +119,13 @@ impl Film {
         self.nonfinite = 0;
     }
 
+    /// Pixel `index`'s camera-sample sum and splat sum, apart: a merge of
+    /// several films that adds each layer on its own and the two at the
+    /// end (as [`Film::merge`] then [`Film::resolve`] do) rounds the same.
+    pub fn pixel_parts(&self, index: usize) -> ([f64; 3], [f64; 3]) {
+        (self.sum[index], self.splat[index])
+    }
+
     /// The unscaled total (samples + splats) of pixel `index` (row-major),
     /// in f64: what a host merging several films without a copy sums.
     ///

@@ -164,12 +164,23 @@ pub fn evaluate_pass<I: Intersector>(
     }
 }
 
+/// Adds one normalisation pass's per-depth sums to the running `sums`.
+/// Passes evaluated apart (one per worker) and added in pass order give
+/// the bootstrap bit for bit whatever the split.
+pub fn add_pass(sums: &mut [f64], pass: &[f64]) {
+    for (a, b) in sums.iter_mut().zip(pass) {
+        *a += b;
+    }
+}
+
 /// Storage the bootstrap evaluates with, kept across re-runs: the seed
-/// samples' values, the passes' per-depth sums, a BDPT workspace and a
-/// primary sampler, each sized for the deepest path.
+/// samples' values, the passes' per-depth sums (all passes', and one
+/// pass's), a BDPT workspace and a primary sampler, each sized for the
+/// deepest path.
 pub struct BootstrapScratch {
-    values: Vec<f32>,
-    sums: Vec<f64>,
+    pub(crate) values: Vec<f32>,
+    pub(crate) sums: Vec<f64>,
+    pass: Vec<f64>,
     ws: bdpt::Workspace,
     sampler: PrimarySampler,
 }
@@ -181,6 +192,7 @@ impl BootstrapScratch {
         BootstrapScratch {
             values: Vec::with_capacity(Bootstrap::seed_count(settings, mlt) as usize),
             sums: Vec::with_capacity(depth as usize),
+            pass: Vec::with_capacity(depth as usize),
             ws: bdpt::Workspace::with_capacity(depth),
             sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
         }
@@ -257,16 +269,23 @@ impl Bootstrap {
         let BootstrapScratch {
             values,
             sums,
+            pass: one,
             ws,
             sampler,
         } = scratch;
         values.clear();
         let n = Self::seed_count(settings, mlt);
         evaluate_seeds_with(tracer, settings, mlt, seed, 0..n, ws, sampler, values);
+        let depths = path_depth(settings, mlt) as usize;
         sums.clear();
-        sums.resize(path_depth(settings, mlt) as usize, 0.0);
+        sums.resize(depths, 0.0);
+        // Each pass sums on its own and the passes are added in pass order,
+        // as a split across workers adds them: the same b either way.
         for pass in 0..mlt.b_passes as u64 {
-            evaluate_pass(tracer, settings, mlt, ws, seed, pass, sums);
+            one.clear();
+            one.resize(depths, 0.0);
+            evaluate_pass(tracer, settings, mlt, ws, seed, pass, one);
+            add_pass(sums, one);
         }
         let camera = tracer.camera;
         let pixels = camera.width() as u64 * camera.height() as u64;

@@ -124,7 +124,7 @@ impl Default for MltSettings {
 
 impl MltSettings {
     /// The CMLT defaults: these settings with level 2 on. k, m and σ come
-    /// from equal-time studies (`cmlt bench params`, σ ∈ {2, 8} px × k ∈
+    /// from equal-time studies (`cmlt-bench params`, σ ∈ {2, 8} px × k ∈
     /// {1, 4, 8, 16} × m ∈ {1, 4}, 8 s on 2 threads; `docs/accuracy.md`):
     /// relMSE rises with k on veach-bidir and veach-ajar because a step
     /// costs 2k − 1 path evaluations while k candidates around one image

@@ -12,6 +12,21 @@
 //!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
 //! ```
 //!
+//! `prepare` runs the Metropolis bootstrap on the calling thread. A host
+//! with threads spreads it over its workers instead, in three steps:
+//!
+//! ```text
+//!     if renderer.begin_prepare(scene)? {            (one thread)
+//!         renderer.prepare_worker(&mut worker_i, scene, accel)   (each worker, any thread)
+//!         renderer.finish_prepare(&[&worker_0, …])   (one thread)
+//!     }
+//! ```
+//!
+//! Worker `i` of `W` evaluates the `i`-th contiguous share of the seed
+//! samples and the normalisation passes `i, i + W, …`; `finish_prepare`
+//! joins them in index order, so the bootstrap (and the image) is bit for
+//! bit the one `prepare` computes, whatever the number of workers.
+//!
 //! ## Allocation
 //!
 //! Everything a frame touches is sized when the renderer and its workers
@@ -23,7 +38,14 @@
 //!
 //! ## Budgets and determinism
 //!
-//! A budget is a number of *units*: camera samples for PT and BDPT (rounded
+//! A host states a [`Budget`]: samples or mutations per pixel over all
+//! workers, or seconds. [`Renderer::steps_for`] turns a per-pixel budget
+//! into each worker's steps: whole passes (PT, BDPT: passes `i, i + W, …`
+//! below n) or whole rounds (MLT, CMLT: [`mlt::rounds_for`] on every
+//! worker); a time budget is a clock the host asks between steps
+//! ([`Renderer::render_while`]; the core never reads time).
+//!
+//! At the lowest level a budget is a number of *units*: camera samples for PT and BDPT (rounded
 //! up to whole passes, one sample per pixel), level-1 mutations for MLT and
 //! CMLT (rounded up to whole rounds, one mutation of every chain). Worker
 //! `i` of `W` renders global passes `i, i + W, …` and holds the global
@@ -54,8 +76,8 @@ use crate::accel::Intersector;
 use crate::film::Film;
 use crate::integrator::{self, Settings, Stats, Tracer, Worker, bdpt};
 use crate::math::Rgb;
-use crate::mlt::bootstrap::BootstrapScratch;
-use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker};
+use crate::mlt::bootstrap::{self, BootstrapScratch};
+use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker, PrimarySampler};
 use crate::sampler::mix64;
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
@@ -63,16 +85,21 @@ use crate::scene::{Analysis, Camera, Effect, Scene};
 /// the depth cap: every worker's storage is sized for it at creation.
 pub const MAX_DEPTH: u32 = 1024;
 
-/// Which estimator renders.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Estimator {
-    /// Path tracing with next-event estimation and MIS.
-    Path,
-    /// Bidirectional path tracing with MIS.
-    Bdpt,
-    /// Metropolis light transport over BDPT; with `MltSettings::m > 0`
-    /// level 2 (CMLT's multiple-try perturbations) runs as well.
-    Mlt,
+pub use crate::integrator::Estimator;
+
+/// How much a render may do: the one budget of the core, the CLI, the
+/// benchmarks and the C API (`cmlt_renderer_render_per_pixel`, and
+/// `cmlt_renderer_render_while` with the host's clock).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// Samples per pixel (PT, BDPT) or level-1 mutations per pixel (MLT,
+    /// CMLT), over all workers, rounded up to whole steps
+    /// ([`Renderer::steps_for`]): the image is a function of the seed.
+    PerPixel(u64),
+    /// Wall-clock seconds, the bootstrap included; every worker renders at
+    /// least one step. The host keeps the time ([`Renderer::render_while`]),
+    /// so the image depends on how many steps fitted.
+    Seconds(f64),
 }
 
 /// Everything that fixes a render apart from the camera.
@@ -82,8 +109,10 @@ pub struct RendererConfig {
     pub estimator: Estimator,
     /// Path-depth and emitter settings.
     pub settings: Settings,
-    /// Metropolis settings (used by [`Estimator::Mlt`]; its `depth_cap`
-    /// also caps unbounded depth for the other estimators).
+    /// Metropolis settings (used by [`Estimator::Mlt`] and
+    /// [`Estimator::Cmlt`], whose level 2 runs when `m` ≥ 1 — CMLT refuses
+    /// m = 0, and MLT given m ≥ 1 renders as CMLT; its `depth_cap` also
+    /// caps unbounded depth for the other estimators).
     pub mlt: MltSettings,
     /// Seed of every random stream.
     pub seed: u64,
@@ -108,7 +137,7 @@ pub const MAX_B_WINDOW: u32 = 64;
 
 /// How consecutive frames (accumulations started by
 /// [`Renderer::set_camera`]) relate. Each switch on its own lowers flicker;
-/// `cmlt bench flicker` measures each.
+/// `cmlt-bench flicker` measures each.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Temporal {
     /// MLT: keep every chain across frames. With an unchanged camera the
@@ -149,6 +178,23 @@ impl Default for RendererConfig {
     }
 }
 
+impl RendererConfig {
+    /// The defaults ([`RendererConfig::default`]) with `estimator`, whose
+    /// Metropolis settings are [`MltSettings::cmlt`] for CMLT and
+    /// [`MltSettings::default`] (no side chains) otherwise.
+    pub fn for_estimator(estimator: Estimator) -> Self {
+        RendererConfig {
+            estimator,
+            mlt: if estimator == Estimator::Cmlt {
+                MltSettings::cmlt()
+            } else {
+                MltSettings::default()
+            },
+            ..RendererConfig::default()
+        }
+    }
+}
+
 /// Why a renderer call was refused. Nothing changed when one is returned.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RenderError {
@@ -161,6 +207,9 @@ pub enum RenderError {
     /// `render` before `prepare` (after creation, a camera change or a
     /// scene update).
     NotPrepared,
+    /// `finish_prepare` without every worker's `prepare_worker` for this
+    /// frame.
+    BootstrapIncomplete,
     /// The camera needs an effect this build of the core left out (a
     /// thin lens without the `depth-of-field` feature).
     EffectNotBuilt(Effect),
@@ -176,6 +225,9 @@ impl core::fmt::Display for RenderError {
             RenderError::Worker => f.write_str("the worker does not belong to this renderer"),
             RenderError::NotPrepared => f.write_str(
                 "prepare the renderer (after creating it, changing the camera or updating the scene) before rendering",
+            ),
+            RenderError::BootstrapIncomplete => f.write_str(
+                "every worker must run prepare_worker for this frame before finish_prepare",
             ),
             RenderError::EffectNotBuilt(e) => write!(
                 f,
@@ -216,6 +268,18 @@ pub struct Renderer {
     prepared: Option<u64>,
     bootstrap: Bootstrap,
     scratch: BootstrapScratch,
+    /// The generation whose bootstrap the workers are evaluating between
+    /// `begin_prepare` and `finish_prepare`.
+    pending: Option<u64>,
+    /// The Metropolis settings of the pending bootstrap (fewer seed
+    /// samples for kept chains, see `prepare`).
+    boot_mlt: MltSettings,
+    /// The workers' normalisation-pass sums gathered by
+    /// `gather_prepared`, pass `p` at `p · D` (added in pass order by
+    /// `finish_gathered`).
+    boot_passes: Vec<f64>,
+    /// Per worker, the generation whose share `gather_prepared` took.
+    gathered: Vec<Option<u64>>,
     /// Identifies this renderer's workers.
     id: usize,
     /// Frames (accumulations) started so far, minus one: 0 for the first.
@@ -254,9 +318,26 @@ pub struct RenderWorker {
     film: Film,
     bdpt: Worker,
     mlt: Option<MltWorker>,
+    /// This worker's share of a split bootstrap (MLT, CMLT).
+    boot: Option<WorkerBootstrap>,
     /// Passes this worker has rendered since the last reset.
     passes: u64,
     stats: Stats,
+}
+
+/// One worker's share of a bootstrap spread over the workers
+/// ([`Renderer::prepare_worker`]): its seed samples' values, its
+/// normalisation passes' per-depth sums (pass `i + W·j` at `j · D`), the
+/// rays it traced, and the storage it evaluates with — all sized when the
+/// worker is made.
+struct WorkerBootstrap {
+    /// The generation these values are for.
+    generation: Option<u64>,
+    values: Vec<f32>,
+    passes: Vec<f64>,
+    stats: Stats,
+    ws: bdpt::Workspace,
+    sampler: PrimarySampler,
 }
 
 /// Distinguishes renderers so a worker cannot be used with another one.
@@ -276,8 +357,11 @@ impl Renderer {
             return Err(RenderError::Config("at least one worker is needed"));
         }
         check_lens(&camera)?;
-        if config.estimator == Estimator::Mlt {
+        if config.estimator.is_metropolis() {
             config.mlt.validate().map_err(RenderError::Config)?;
+        }
+        if config.estimator == Estimator::Cmlt && config.mlt.m == 0 {
+            return Err(RenderError::Config("CMLT needs m ≥ 1 side-chain steps"));
         }
         if config.temporal.b_window > MAX_B_WINDOW {
             return Err(RenderError::Config("the b window is at most 64 frames"));
@@ -296,6 +380,15 @@ impl Renderer {
         Ok(Renderer {
             bootstrap: Bootstrap::with_capacity(&config.settings, &config.mlt),
             scratch: BootstrapScratch::new(&config.settings, &config.mlt),
+            pending: None,
+            boot_mlt: config.mlt,
+            boot_passes: Vec::with_capacity(if config.estimator.is_metropolis() {
+                config.mlt.b_passes as usize
+                    * mlt::path_depth(&config.settings, &config.mlt) as usize
+            } else {
+                0
+            }),
+            gathered: alloc::vec![None; config.workers as usize],
             config,
             camera,
             generation: 0,
@@ -336,6 +429,12 @@ impl Renderer {
     /// the b window; 0 otherwise).
     pub fn b(&self) -> f64 {
         self.b_used
+    }
+
+    /// The bootstrap of the current frame (MLT, CMLT, after `prepare`:
+    /// b by depth and the chains' seed samples; empty otherwise).
+    pub fn bootstrap(&self) -> &Bootstrap {
+        &self.bootstrap
     }
 
     /// Index of the current frame: the number of `set_camera` calls.
@@ -382,8 +481,34 @@ impl Renderer {
     /// [`Scene::revision`] differs from the one the frame was prepared for
     /// (meshes moved) starts a new frame here, as `set_camera` does.
     /// Does nothing when already prepared. `scene` and `accel` must be the
-    /// ones every `render` uses.
+    /// ones every `render` uses. [`Renderer::begin_prepare`] and its two
+    /// companions compute the same on the workers' threads.
     pub fn prepare<I: Intersector>(&mut self, scene: &Scene, accel: &I) {
+        if !self.begin_prepare(scene) {
+            return;
+        }
+        let mut tracer = self.tracer(scene, accel);
+        let seed = self.frame_seed();
+        self.bootstrap.rerun(
+            &mut tracer,
+            &self.settings,
+            &self.boot_mlt,
+            seed,
+            &mut self.scratch,
+        );
+        self.pending = None;
+        self.push_b(self.bootstrap.b());
+        self.prepared = Some(self.generation);
+    }
+
+    /// The first of the three steps that spread `prepare` over the
+    /// workers (see the module docs): starts a new frame if the scene
+    /// changed, finds what the scene calls for, and returns whether the
+    /// workers have bootstrap work to do — then every worker runs
+    /// [`Renderer::prepare_worker`] and one thread
+    /// [`Renderer::finish_prepare`]. `false` (already prepared, or PT and
+    /// BDPT, which need no bootstrap): the renderer is ready.
+    pub fn begin_prepare(&mut self, scene: &Scene) -> bool {
         let revision = Some(scene.revision());
         if self.scene_revision.is_some() && self.scene_revision != revision {
             self.view_changed = true;
@@ -391,7 +516,10 @@ impl Renderer {
         }
         self.scene_revision = revision;
         if self.prepared == Some(self.generation) {
-            return;
+            return false;
+        }
+        if self.pending == Some(self.generation) {
+            return true;
         }
         // The camera (its lens) may have changed with the frame; the
         // scene's materials never do while it is borrowed.
@@ -401,28 +529,182 @@ impl Renderer {
             scene.analysis(&self.camera)
         };
         self.settings = self.config.settings.specialised(&self.analysis);
-        if self.config.estimator == Estimator::Mlt {
-            let seed = self.frame_seed();
-            let mut tracer = self.tracer(scene, accel);
-            let c = &self.config;
-            // Kept chains need seed samples only to restart the few the
-            // new view leaves at zero (and those search further when none
-            // of theirs contributes: `MltWorker::reevaluate`), so a frame
-            // after the first draws a share of them. b comes from the
-            // normalisation passes then, not from the seed samples.
-            let mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
-                MltSettings {
-                    n_bootstrap: (c.mlt.n_bootstrap / KEPT_SEED_SHARE).max(1),
-                    ..c.mlt
-                }
-            } else {
-                c.mlt
-            };
-            self.bootstrap
-                .rerun(&mut tracer, &self.settings, &mlt, seed, &mut self.scratch);
-            self.push_b(self.bootstrap.b());
+        if !self.config.estimator.is_metropolis() {
+            self.prepared = Some(self.generation);
+            return false;
         }
+        let c = &self.config;
+        // Kept chains need seed samples only to restart the few the new
+        // view leaves at zero (and those search further when none of
+        // theirs contributes: `MltWorker::reevaluate`), so a frame after
+        // the first draws a share of them. b comes from the normalisation
+        // passes then, not from the seed samples.
+        self.boot_mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
+            MltSettings {
+                n_bootstrap: (c.mlt.n_bootstrap / KEPT_SEED_SHARE).max(1),
+                ..c.mlt
+            }
+        } else {
+            c.mlt
+        };
+        // Room for the shares `gather_prepared` copies (within the
+        // capacity sized at creation: the first frame's is the largest).
+        let depths = mlt::path_depth(&self.settings, &self.boot_mlt) as usize;
+        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
+        self.scratch.values.clear();
+        self.scratch.values.resize(n, 0.0);
+        self.boot_passes.clear();
+        self.boot_passes
+            .resize(self.boot_mlt.b_passes as usize * depths, 0.0);
+        self.pending = Some(self.generation);
+        true
+    }
+
+    /// Worker `worker`'s share of the bootstrap begun by
+    /// [`Renderer::begin_prepare`]: the `i`-th of `W` contiguous ranges of
+    /// seed samples and the normalisation passes `i, i + W, …`, into the
+    /// worker's own storage. Workers may run it at the same time on
+    /// different threads. Does nothing when no bootstrap is pending.
+    /// Allocates nothing.
+    pub fn prepare_worker<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &Scene,
+        accel: &I,
+    ) -> Result<(), RenderError> {
+        if worker.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        if self.scene_revision != Some(scene.revision()) {
+            return Err(RenderError::NotPrepared);
+        }
+        let Some(boot) = &mut worker.boot else {
+            return Err(RenderError::Worker);
+        };
+        let (i, w) = (worker.index as u64, self.config.workers as u64);
+        let mlt = &self.boot_mlt;
+        let seed = self.frame_seed();
+        let mut tracer = self.tracer(scene, accel);
+        let n = Bootstrap::seed_count(&self.settings, mlt);
+        let chunk = n.div_ceil(w);
+        let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
+        boot.values.clear();
+        bootstrap::evaluate_seeds_with(
+            &mut tracer,
+            &self.settings,
+            mlt,
+            seed,
+            range,
+            &mut boot.ws,
+            &mut boot.sampler,
+            &mut boot.values,
+        );
+        let depths = mlt::path_depth(&self.settings, mlt) as usize;
+        boot.passes.clear();
+        for pass in (i..mlt.b_passes as u64).step_by(w as usize) {
+            let at = boot.passes.len();
+            boot.passes.resize(at + depths, 0.0);
+            bootstrap::evaluate_pass(
+                &mut tracer,
+                &self.settings,
+                mlt,
+                &mut boot.ws,
+                seed,
+                pass,
+                &mut boot.passes[at..],
+            );
+        }
+        boot.stats = tracer.stats;
+        boot.generation = Some(self.generation);
+        Ok(())
+    }
+
+    /// Joins the workers' shares of the bootstrap (`workers`: all of the
+    /// renderer's, in any order, each after its
+    /// [`Renderer::prepare_worker`] for this frame) in index order: seed
+    /// samples by index, pass sums in pass order, exactly as `prepare`
+    /// combines them. Then the renderer is ready for `render`. Does nothing
+    /// when no bootstrap is pending. Allocates nothing. The same as
+    /// [`Renderer::gather_prepared`] for each worker, then
+    /// [`Renderer::finish_gathered`].
+    pub fn finish_prepare(&mut self, workers: &[&RenderWorker]) -> Result<(), RenderError> {
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        if workers.iter().any(|w| w.renderer != self.id) {
+            return Err(RenderError::Worker);
+        }
+        for w in workers {
+            self.gather_prepared(w)?;
+        }
+        self.finish_gathered()
+    }
+
+    /// Copies one worker's share of the bootstrap (after its
+    /// [`Renderer::prepare_worker`] for this frame) into the renderer: for
+    /// hosts that hold one worker at a time. Does nothing when no
+    /// bootstrap is pending. Allocates nothing.
+    pub fn gather_prepared(&mut self, worker: &RenderWorker) -> Result<(), RenderError> {
+        if worker.renderer != self.id {
+            return Err(RenderError::Worker);
+        }
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        let Some(share) = worker
+            .boot
+            .as_ref()
+            .filter(|b| b.generation == Some(self.generation))
+        else {
+            return Err(RenderError::BootstrapIncomplete);
+        };
+        let (i, w) = (worker.index as usize, self.config.workers as usize);
+        let mlt = &self.boot_mlt;
+        let depths = mlt::path_depth(&self.settings, mlt) as usize;
+        let n = Bootstrap::seed_count(&self.settings, mlt) as usize;
+        let start = (i * n.div_ceil(w)).min(n);
+        let values = &mut self.scratch.values;
+        values[start..start + share.values.len()].copy_from_slice(&share.values);
+        for (j, sums) in share.passes.chunks_exact(depths.max(1)).enumerate() {
+            let p = i + w * j;
+            self.boot_passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
+        }
+        self.gathered[i] = Some(self.generation);
+        Ok(())
+    }
+
+    /// Completes the bootstrap from the shares [`Renderer::gather_prepared`]
+    /// took from every worker: seed samples by index, pass sums added in
+    /// pass order (as `prepare` does). A share missing is
+    /// [`RenderError::BootstrapIncomplete`] and changes nothing. Does
+    /// nothing when no bootstrap is pending. Allocates nothing.
+    pub fn finish_gathered(&mut self) -> Result<(), RenderError> {
+        if self.pending != Some(self.generation) {
+            return Ok(());
+        }
+        if self.gathered.iter().any(|g| *g != Some(self.generation)) {
+            return Err(RenderError::BootstrapIncomplete);
+        }
+        let mlt = self.boot_mlt;
+        let depths = mlt::path_depth(&self.settings, &mlt) as usize;
+        let sums = &mut self.scratch.sums;
+        sums.clear();
+        sums.resize(depths, 0.0);
+        for pass in self.boot_passes.chunks_exact(depths.max(1)) {
+            bootstrap::add_pass(sums, pass);
+        }
+        let pixels = self.pixels();
+        let seed = self.frame_seed();
+        let (values, sums) = (&self.scratch.values, &self.scratch.sums);
+        self.bootstrap
+            .fill(&self.settings, &mlt, seed, values, sums, pixels);
+        self.pending = None;
+        self.push_b(self.bootstrap.b());
         self.prepared = Some(self.generation);
+        Ok(())
     }
 
     /// Adds this frame's bootstrap estimate to the b window (restarted when
@@ -450,6 +732,71 @@ impl Renderer {
         accel: &I,
         budget: u64,
     ) -> Result<u64, RenderError> {
+        let mut tracer = self.begin_render(worker, scene, accel)?;
+        let steps = if budget == 0 {
+            0
+        } else {
+            match &worker.mlt {
+                Some(m) if self.config.estimator.is_metropolis() => {
+                    let chains = m.chain_count() as u64;
+                    if chains == 0 {
+                        0
+                    } else {
+                        budget.div_ceil(chains)
+                    }
+                }
+                _ => budget.div_ceil(self.pixels()),
+            }
+        };
+        let done = self.run_steps(worker, &mut tracer, steps);
+        worker.stats.merge(&tracer.stats);
+        Ok(done)
+    }
+
+    /// The steps worker `index` renders for its share of
+    /// [`Budget::PerPixel`]`(per_pixel)` over all workers: passes `index,
+    /// index + W, …` below `per_pixel` (PT, BDPT), or
+    /// [`mlt::rounds_for`]`(per_pixel, pixels, W, chains)` rounds on every
+    /// worker (MLT, CMLT; at least one, none for 0).
+    pub fn steps_for(&self, index: u32, per_pixel: u64) -> u64 {
+        let w = self.config.workers as u64;
+        if self.config.estimator.is_metropolis() {
+            if per_pixel == 0 {
+                return 0;
+            }
+            mlt::rounds_for(per_pixel, self.pixels(), w, self.config.mlt.n_chains as u64)
+        } else {
+            per_pixel.saturating_sub(index as u64).div_ceil(w)
+        }
+    }
+
+    /// Renders `steps` steps into `worker` — whole passes (PT, BDPT) or
+    /// whole rounds of every chain (MLT, CMLT) — after clearing it if the
+    /// camera changed since its last call. Returns the units rendered, as
+    /// [`Renderer::render`] does; `render_steps(worker, …, n)` then
+    /// `render_steps(worker, …, m)` equals `render_steps(worker, …, n + m)`.
+    pub fn render_steps<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &Scene,
+        accel: &I,
+        steps: u64,
+    ) -> Result<u64, RenderError> {
+        let mut tracer = self.begin_render(worker, scene, accel)?;
+        let done = self.run_steps(worker, &mut tracer, steps);
+        worker.stats.merge(&tracer.stats);
+        Ok(done)
+    }
+
+    /// Checks a `render` call and, at a worker's first call of a frame,
+    /// clears its film and (MLT) restarts, re-evaluates or keeps its
+    /// chains. Returns the tracer the steps run with.
+    fn begin_render<'a, I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &'a Scene,
+        accel: &'a I,
+    ) -> Result<Tracer<'a, I>, RenderError> {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
@@ -462,7 +809,12 @@ impl Renderer {
         if worker.generation != Some(self.generation) {
             worker.film.clear();
             worker.passes = 0;
-            worker.stats = Stats::default();
+            // The rays of this worker's share of the bootstrap count
+            // towards the frame.
+            worker.stats = match &worker.boot {
+                Some(b) if b.generation == Some(self.generation) => b.stats,
+                _ => Stats::default(),
+            };
             let seed = self.frame_seed();
             if let Some(m) = &mut worker.mlt {
                 let kept =
@@ -489,33 +841,30 @@ impl Renderer {
             worker.camera = Some(self.camera);
             worker.scene_revision = self.scene_revision;
         }
-        if budget == 0 {
-            worker.stats.merge(&tracer.stats);
-            return Ok(0);
-        }
-        let pixels = self.camera.width() as u64 * self.camera.height() as u64;
-        let done = match (c.estimator, &mut worker.mlt) {
-            (Estimator::Mlt, Some(m)) => {
-                let chains = m.chain_count() as u64;
-                let rounds = if chains == 0 {
-                    0
-                } else {
-                    budget.div_ceil(chains)
-                };
-                m.run(&mut tracer, settings, &mut worker.film, rounds)
+        Ok(tracer)
+    }
+
+    /// Runs `steps` passes or rounds into a worker `begin_render` readied;
+    /// returns the units rendered.
+    fn run_steps<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        tracer: &mut Tracer<'_, I>,
+        steps: u64,
+    ) -> u64 {
+        let c = &self.config;
+        let settings = &self.settings;
+        match &mut worker.mlt {
+            Some(m) if c.estimator.is_metropolis() => {
+                m.run(tracer, settings, &mut worker.film, steps)
             }
-            (estimator, _) => {
-                let method = match estimator {
-                    Estimator::Path => integrator::Method::Path,
-                    _ => integrator::Method::Bdpt,
-                };
-                let passes = budget.div_ceil(pixels);
-                for _ in 0..passes {
+            _ => {
+                for _ in 0..steps {
                     let pass = worker.index as u64 + c.workers as u64 * worker.passes;
                     integrator::render_pass(
-                        &mut tracer,
+                        tracer,
                         settings,
-                        method,
+                        c.estimator,
                         &mut worker.bdpt,
                         self.frame_seed(),
                         pass,
@@ -523,11 +872,9 @@ impl Renderer {
                     );
                     worker.passes += 1;
                 }
-                passes * pixels
+                steps * self.pixels()
             }
-        };
-        worker.stats.merge(&tracer.stats);
-        Ok(done)
+        }
     }
 
     /// [`Renderer::render`] in steps — one round of mutations (MLT) or one
@@ -545,14 +892,12 @@ impl Renderer {
         budget: u64,
         mut keep_going: impl FnMut(u64) -> bool,
     ) -> Result<u64, RenderError> {
-        // A step of 1 unit renders exactly one round or one pass (budgets
-        // round up to whole steps).
         let mut done = 0;
         while done < budget {
             if done > 0 && !keep_going(done) {
                 break;
             }
-            let step = self.render(worker, scene, accel, 1)?;
+            let step = self.render_steps(worker, scene, accel, 1)?;
             if step == 0 {
                 break;
             }
@@ -579,24 +924,21 @@ impl Renderer {
         }
         let scale = self.scale(&totals);
         for i in 0..self.pixels() as usize {
-            let mut total = [0.0f64; 3];
+            let mut sum = Layers::default();
             for w in workers.iter().filter(|w| self.is_current(w)) {
-                let t = w.film.pixel_total(i);
-                for c in 0..3 {
-                    total[c] += t[c];
-                }
+                sum.add(&w.film, i);
             }
-            out(i, scaled(total, scale));
+            out(i, scaled(sum.total(), scale));
         }
         Ok(())
     }
 
-    /// Storage for [`Renderer::accumulate`]: the merged image in f64
-    /// (24 bytes per pixel).
+    /// Storage for [`Renderer::accumulate`]: the merged image in f64, its
+    /// sample and splat layers apart (48 bytes per pixel).
     pub fn accumulator(&self) -> Accumulator {
         Accumulator {
             renderer: self.id,
-            sums: alloc::vec![[0.0; 3]; self.pixels() as usize],
+            sums: alloc::vec![Layers::default(); self.pixels() as usize],
             totals: Totals::default(),
         }
     }
@@ -614,10 +956,7 @@ impl Renderer {
         }
         if self.is_current(worker) {
             for (i, s) in acc.sums.iter_mut().enumerate() {
-                let t = worker.film.pixel_total(i);
-                for c in 0..3 {
-                    s[c] += t[c];
-                }
+                s.add(&worker.film, i);
             }
         }
         acc.totals.add(self, worker);
@@ -636,8 +975,8 @@ impl Renderer {
         }
         let scale = self.scale(&acc.totals);
         for (i, s) in acc.sums.iter_mut().enumerate() {
-            out(i, scaled(*s, scale));
-            *s = [0.0; 3];
+            out(i, scaled(s.total(), scale));
+            *s = Layers::default();
         }
         acc.totals = Totals::default();
         Ok(())
@@ -657,7 +996,7 @@ impl Renderer {
     /// `b` is the renderer's.
     pub fn worker_stats(&self, w: &RenderWorker) -> RenderStats {
         let mut s = RenderStats {
-            b: if self.config.estimator == Estimator::Mlt {
+            b: if self.config.estimator.is_metropolis() {
                 self.b_used
             } else {
                 0.0
@@ -696,7 +1035,9 @@ impl Renderer {
     /// b · pixels / records (MLT); 0 before anything was rendered.
     fn scale(&self, t: &Totals) -> f64 {
         match self.config.estimator {
-            Estimator::Mlt => mlt::image_scale(self.b_used, self.pixels(), t.records),
+            Estimator::Mlt | Estimator::Cmlt => {
+                mlt::image_scale(self.b_used, self.pixels(), t.records)
+            }
             _ if t.passes == 0 => 0.0,
             _ => 1.0 / t.passes as f64,
         }
@@ -736,10 +1077,35 @@ fn scaled(total: [f64; 3], scale: f64) -> Rgb {
     )
 }
 
+/// One pixel of several films merged: the camera-sample and splat sums
+/// added layer by layer and the two only at the end, as merging films and
+/// resolving the result does ([`Film::merge`], [`Film::resolve`]), so a
+/// host merging films itself gets the same image bit for bit.
+#[derive(Clone, Copy, Debug, Default)]
+struct Layers {
+    samples: [f64; 3],
+    splats: [f64; 3],
+}
+
+impl Layers {
+    fn add(&mut self, film: &Film, pixel: usize) {
+        let (s, p) = film.pixel_parts(pixel);
+        for c in 0..3 {
+            self.samples[c] += s[c];
+            self.splats[c] += p[c];
+        }
+    }
+
+    fn total(&self) -> [f64; 3] {
+        let (s, p) = (self.samples, self.splats);
+        [s[0] + p[0], s[1] + p[1], s[2] + p[2]]
+    }
+}
+
 /// The merged image of a worker-major resolve ([`Renderer::accumulate`]).
 pub struct Accumulator {
     renderer: usize,
-    sums: Vec<[f64; 3]>,
+    sums: Vec<Layers>,
     totals: Totals,
 }
 
@@ -764,6 +1130,7 @@ impl RenderWorker {
         }
         let depth = mlt::path_depth(&c.settings, &c.mlt);
         let camera = &renderer.camera;
+        let metropolis = c.estimator.is_metropolis();
         Ok(RenderWorker {
             renderer: renderer.id,
             index,
@@ -772,8 +1139,27 @@ impl RenderWorker {
             scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
             bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
-            mlt: (c.estimator == Estimator::Mlt)
-                .then(|| MltWorker::with_capacity(&c.settings, &c.mlt, camera)),
+            mlt: metropolis.then(|| MltWorker::with_capacity(&c.settings, &c.mlt, camera)),
+            boot: metropolis.then(|| {
+                // The largest share of a bootstrap: the seed samples of a
+                // first frame, and every W-th pass.
+                let w = c.workers as u64;
+                let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);
+                let passes = (c.mlt.b_passes as u64).div_ceil(w) * depth as u64;
+                WorkerBootstrap {
+                    generation: None,
+                    values: Vec::with_capacity(seeds as usize),
+                    passes: Vec::with_capacity(passes as usize),
+                    stats: Stats::default(),
+                    ws: bdpt::Workspace::with_capacity(depth),
+                    sampler: PrimarySampler::with_capacity(
+                        0,
+                        c.mlt.sigma,
+                        c.mlt.large_step_prob,
+                        depth,
+                    ),
+                }
+            }),
             passes: 0,
             stats: Stats::default(),
         })

@@ -610,3 +610,145 @@ fn scene_update_starts_a_frame_and_matches_a_fresh_renderer() {
     assert_eq!(scene.revision(), 0);
     bvh.refit(|p| scene.triangle(p));
 }
+
+/// Renders `frames` frames of `cfg` (camera yawing by 0.05 per frame, each
+/// worker `per_pixel` mutations per pixel), the bootstrap spread over the
+/// workers' threads (`begin_prepare`, `prepare_worker`, `finish_prepare`)
+/// or run by `prepare` on this thread; returns each frame's image and b.
+fn split_frames(scene: &Scene, cfg: RendererConfig, split: bool) -> Vec<(Vec<Rgb>, f64)> {
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let mut r = Renderer::new(cfg, camera(0.0)).unwrap();
+    let mut ws: Vec<RenderWorker> = (0..cfg.workers)
+        .map(|i| RenderWorker::new(&r, i).unwrap())
+        .collect();
+    let mut out = Vec::new();
+    for f in 0..3 {
+        r.set_camera(camera(0.05 * f as f32)).unwrap();
+        if split {
+            assert_eq!(r.begin_prepare(scene), cfg.estimator.is_metropolis());
+            std::thread::scope(|s| {
+                for w in ws.iter_mut() {
+                    let (r, bvh) = (&r, &bvh);
+                    s.spawn(move || r.prepare_worker(w, scene, bvh).unwrap());
+                }
+            });
+            let refs: Vec<&RenderWorker> = ws.iter().rev().collect();
+            r.finish_prepare(&refs).unwrap();
+        } else {
+            r.prepare(scene, &bvh);
+        }
+        for w in ws.iter_mut() {
+            let steps = r.steps_for(w.index(), 2);
+            r.render_steps(w, scene, &bvh, steps).unwrap();
+        }
+        let refs: Vec<&RenderWorker> = ws.iter().collect();
+        out.push((resolve(&r, &refs), r.b()));
+    }
+    out
+}
+
+#[test]
+fn bootstrap_spread_over_workers_equals_prepare_bit_for_bit() {
+    let scene = room();
+    // An odd number of passes and of seed samples per worker: uneven
+    // shares.
+    let mlt = MltSettings {
+        n_bootstrap: 333,
+        b_passes: 5,
+        ..mlt_settings(2, 1)
+    };
+    for workers in [1, 2, 3] {
+        for temporal in [
+            Temporal::default(),
+            Temporal {
+                keep_chains: true,
+                b_window: 2,
+                fixed_sequence: false,
+            },
+        ] {
+            let cfg = RendererConfig {
+                temporal,
+                ..config(Estimator::Cmlt, mlt, workers)
+            };
+            let spread = split_frames(&scene, cfg, true);
+            let one = split_frames(&scene, cfg, false);
+            assert!(spread.iter().all(|(_, b)| *b > 0.0));
+            assert_eq!(spread, one, "{workers} workers, {temporal:?}");
+        }
+    }
+    // PT has no bootstrap: `begin_prepare` readies the renderer at once.
+    let cfg = config(Estimator::Path, mlt, 2);
+    assert_eq!(
+        split_frames(&scene, cfg, true),
+        split_frames(&scene, cfg, false)
+    );
+}
+
+#[test]
+fn bootstrap_shares_allocate_nothing_and_all_are_needed() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = config(Estimator::Mlt, mlt_settings(1, 0), 2);
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut w0 = RenderWorker::new(&r, 0).unwrap();
+    let mut w1 = RenderWorker::new(&r, 1).unwrap();
+    // One share missing: refused, and the renderer is not ready.
+    assert!(r.begin_prepare(&scene));
+    r.prepare_worker(&mut w0, &scene, &bvh).unwrap();
+    assert_eq!(
+        r.finish_prepare(&[&w0]),
+        Err(RenderError::BootstrapIncomplete)
+    );
+    assert_eq!(
+        r.render(&mut w0, &scene, &bvh, 1),
+        Err(RenderError::NotPrepared)
+    );
+    // A worker of another renderer is refused.
+    let other = Renderer::new(cfg, scene.camera).unwrap();
+    let mut stranger = RenderWorker::new(&other, 1).unwrap();
+    assert_eq!(
+        r.prepare_worker(&mut stranger, &scene, &bvh),
+        Err(RenderError::Worker)
+    );
+    let (_, n) = allocations(|| {
+        for frame in 0..3 {
+            if frame > 0 {
+                r.set_camera(camera(0.1 * frame as f32)).unwrap();
+                assert!(r.begin_prepare(&scene));
+                r.prepare_worker(&mut w0, &scene, &bvh).unwrap();
+            }
+            r.prepare_worker(&mut w1, &scene, &bvh).unwrap();
+            r.finish_prepare(&[&w0, &w1]).unwrap();
+            // Ready: nothing more to do until the next frame.
+            assert!(!r.begin_prepare(&scene));
+            r.render(&mut w0, &scene, &bvh, 16 * 12).unwrap();
+            r.render(&mut w1, &scene, &bvh, 16 * 12).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations");
+    assert!(r.b() > 0.0);
+    // The bootstrap's rays count towards the frame's.
+    assert!(r.worker_stats(&w0).tracer.total_rays() > r.worker_stats(&w0).mlt.mutations);
+}
+
+#[test]
+fn per_pixel_budgets_split_into_each_workers_steps() {
+    let scene = room();
+    let pixels = 16 * 12;
+    // PT and BDPT: passes i, i + W, … below n.
+    let r = Renderer::new(config(Estimator::Bdpt, mlt_settings(1, 0), 3), scene.camera).unwrap();
+    let steps: Vec<u64> = (0..3).map(|i| r.steps_for(i, 5)).collect();
+    assert_eq!(steps, [2, 2, 1]);
+    assert_eq!(r.steps_for(2, 2), 0);
+    // MLT: the same number of rounds on every worker, enough for n
+    // mutations per pixel over all chains (24 per worker).
+    let r = Renderer::new(config(Estimator::Mlt, mlt_settings(1, 0), 2), scene.camera).unwrap();
+    assert_eq!(r.steps_for(0, 3), (3 * pixels as u64).div_ceil(48));
+    assert_eq!(r.steps_for(1, 3), r.steps_for(0, 3));
+    assert_eq!(r.steps_for(0, 0), 0);
+    // CMLT without side chains is refused.
+    assert!(matches!(
+        Renderer::new(config(Estimator::Cmlt, mlt_settings(1, 0), 1), scene.camera),
+        Err(RenderError::Config(_))
+    ));
+}

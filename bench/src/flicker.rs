@@ -1,4 +1,4 @@
-//! `cmlt bench flicker`: what the frame-to-frame switches
+//! `cmlt-bench flicker`: what the frame-to-frame switches
 //! ([`cmlt::renderer::Temporal`]) do to flicker, at equal per-frame budget.
 //!
 //! Static camera: F frames of the same view, each a fresh accumulation of
@@ -23,7 +23,7 @@ use cmlt::accel::Intersector;
 use cmlt::renderer::{Estimator, RendererConfig, Temporal};
 use cmlt::scene::{Camera, Scene};
 
-use crate::frames::{self, FrameResult};
+use cmlt_cli::frames::{self, FrameResult};
 
 /// One configuration's figures.
 #[derive(Clone, Debug)]
@@ -86,7 +86,7 @@ pub fn measure<I: Intersector + Sync>(
     accel: &I,
     cfg: RendererConfig,
     frames: usize,
-    budget: u64,
+    per_pixel: u64,
     name: &'static str,
 ) -> Result<Flicker, String> {
     let mut lum: Vec<Vec<f64>> = Vec::with_capacity(frames);
@@ -97,7 +97,7 @@ pub fn measure<I: Intersector + Sync>(
         accel,
         cfg,
         frames,
-        budget,
+        per_pixel,
         |_| camera,
         |_, r| {
             seconds += r.seconds;
@@ -137,7 +137,7 @@ pub fn run_static<I: Intersector + Sync>(
     accel: &I,
     base: RendererConfig,
     frames: usize,
-    budget: u64,
+    per_pixel: u64,
     b_window: u32,
     out: &mut impl Write,
 ) -> Result<Vec<Flicker>, String> {
@@ -147,7 +147,7 @@ pub fn run_static<I: Intersector + Sync>(
     let mut rows = Vec::new();
     for (name, temporal) in configurations(b_window) {
         let cfg = RendererConfig { temporal, ..base };
-        let row = measure(scene, accel, cfg, frames, budget, name)?;
+        let row = measure(scene, accel, cfg, frames, per_pixel, name)?;
         rows.push(row);
     }
     let base_row = rows[0].clone();
@@ -196,7 +196,7 @@ pub fn run_moving<I: Intersector + Sync>(
     accel: &I,
     cfg: RendererConfig,
     frames: usize,
-    budget: u64,
+    per_pixel: u64,
     orbit_degrees: f32,
     reference_spp: u64,
     out: &mut impl Write,
@@ -205,14 +205,13 @@ pub fn run_moving<I: Intersector + Sync>(
     let pivot = frames::look_at_point(&start, accel);
     let camera_at = |f: usize| frames::orbit_camera(&start, pivot, orbit_degrees, f, frames);
     let mut means = Vec::new();
-    frames::render_frames(scene, accel, cfg, frames, budget, camera_at, |_, r| {
+    frames::render_frames(scene, accel, cfg, frames, per_pixel, camera_at, |_, r| {
         means.push(r.image.mean().luminance() as f64);
         Ok(())
     })?;
-    let pixels = start.width() as u64 * start.height() as u64;
     let mut diffs = Vec::new();
     for (f, m) in means.iter().enumerate() {
-        let reference = reference_mean(scene, accel, &cfg, camera_at(f), reference_spp * pixels)?;
+        let reference = reference_mean(scene, accel, &cfg, camera_at(f), reference_spp)?;
         let d = m / reference - 1.0;
         writeln!(
             out,
@@ -225,27 +224,27 @@ pub fn run_moving<I: Intersector + Sync>(
     Ok(diffs)
 }
 
-/// Mean luminance of a BDPT render of `camera` with `budget` samples.
+/// Mean luminance of a BDPT render of `camera` with `per_pixel` samples
+/// per pixel.
 fn reference_mean<I: Intersector + Sync>(
     scene: &Scene,
     accel: &I,
     cfg: &RendererConfig,
     camera: Camera,
-    budget: u64,
+    per_pixel: u64,
 ) -> Result<f64, String> {
     let cfg = RendererConfig {
         estimator: Estimator::Bdpt,
         temporal: Temporal::default(),
         ..*cfg
     };
-    let per_worker = budget.div_ceil(cfg.workers as u64);
     let mut mean = 0.0;
     frames::render_frames(
         scene,
         accel,
         cfg,
         1,
-        per_worker,
+        per_pixel,
         |_| camera,
         |_, r| {
             mean = r.image.mean().luminance() as f64;

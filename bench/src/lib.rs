@@ -1,4 +1,7 @@
-//! Benchmarks of the front end (`cmlt bench …`).
+//! The benchmarks of cmlt (`cmlt-bench …`): the lab apart from the
+//! product. They drive the same API as `cmlt render` and C hosts (the
+//! core's renderer through [`cmlt_cli::render`] and [`cmlt_cli::frames`]);
+//! the product never depends on this crate.
 //!
 //! - [`rays`]: ray throughput of every traversal kernel;
 //! - [`ray_targets`]: issue 4's throughput targets checked on `rays`'

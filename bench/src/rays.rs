@@ -1,4 +1,4 @@
-//! `cmlt bench rays`: ray throughput of every traversal kernel on the same
+//! `cmlt-bench rays`: ray throughput of every traversal kernel on the same
 //! fixed ray sets.
 //!
 //! Ray sets, generated once per scene from a fixed seed:
@@ -180,7 +180,7 @@ fn load(name: &str, opts: &Options) -> Result<BenchScene, String> {
     } else {
         opts.scenes_dir.join(name).join("scene.xml")
     };
-    let loaded = crate::scene::load_scene(&path, &[]).map_err(|e| e.to_string())?;
+    let loaded = cmlt_cli::scene::load_scene(&path, &[]).map_err(|e| e.to_string())?;
     let scene: Scene = loaded.scene;
     let tris = scene.triangles().collect();
     let camera = scene.camera;

@@ -2,7 +2,7 @@
 //! `PREFIX.svg` with plotters.
 //!
 //! Text is drawn with a font compiled into the binary (DejaVu Sans, cut
-//! down to ASCII and a few symbols; `cli/assets/fonts/`) through plotters'
+//! down to ASCII and a few symbols; `bench/assets/fonts/`) through plotters'
 //! `ab_glyph` feature, so plotting needs no system fonts or fontconfig.
 //! PNGs are encoded with the `image` crate the CLI already uses.
 
@@ -15,8 +15,8 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::convergence::Curve;
 
-/// The embedded font (Bitstream Vera licence, see `cli/assets/fonts/`).
-const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
+/// The embedded font (Bitstream Vera licence, see `bench/assets/fonts/`).
+const FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.ttf");
 
 /// Registers [`FONT`] as plotters' `sans-serif` (every style falls back to
 /// it), once per process.

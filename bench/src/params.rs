@@ -1,4 +1,4 @@
-//! `cmlt bench params`: the parameter study of the seed's §2.5.1 — CMLT's
+//! `cmlt-bench params`: the parameter study of the seed's §2.5.1 — CMLT's
 //! lens-perturbation width σ (pixels) × candidates per step k × side-chain
 //! length m, every cell rendered for the same wall-clock time and scored
 //! against the reference.
@@ -14,7 +14,8 @@ use std::path::{Path, PathBuf};
 use cmlt::mlt::{Candidates, MltSettings};
 
 use super::plot::HeatPanel;
-use super::study::{Estimator, Measurement, Study, StudyBudget};
+use super::study::{Measurement, Study};
+use cmlt_cli::render::{Budget, metropolis};
 
 /// The CSV header of [`write_csv`]; `method` is `cmlt` or `mlt` (the
 /// baseline, whose σ, k and m columns are empty).
@@ -105,8 +106,9 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Cell>, String> {
             .map_err(|e| format!("{e} (σ {lens_sigma}, k {k}, m {m})"))?;
         for seed in 0..opts.seeds.max(1) {
             let result = study.measure(
-                &Estimator::Metropolis(settings),
-                StudyBudget::Seconds(opts.time),
+                metropolis(&settings),
+                &settings,
+                Budget::Seconds(opts.time),
                 opts.threads,
                 seed,
             )?;

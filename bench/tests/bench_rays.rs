@@ -1,4 +1,4 @@
-//! `cmlt bench rays` on a tiny budget: the CSV has the documented header
+//! `cmlt-bench rays` on a tiny budget: the CSV has the documented header
 //! and one well-formed row per (scene, ray set, kernel, threads), with
 //! every kernel this machine runs (Embree's too with the feature on), also
 //! when each cell is measured in several rounds.
@@ -15,15 +15,8 @@ fn bench_rays_writes_csv() {
     let dir = std::env::temp_dir().join(format!("cmlt-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("rays.csv");
-    let out = Command::new(env!("CARGO_BIN_EXE_cmlt"))
-        .args([
-            "bench",
-            "rays",
-            "--scenes",
-            "cornell-box,mesh",
-            "--time",
-            "0",
-        ])
+    let out = Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
+        .args(["rays", "--scenes", "cornell-box,mesh", "--time", "0"])
         .args([
             "--threads",
             "1,2",
@@ -118,8 +111,8 @@ fn bench_rays_writes_csv() {
     assert!(stdout.contains(" of 4"), "{stdout}");
     // `bench rays-summary` reads the CSV back: the same table, and with two
     // files the cells met in every run.
-    let summary = Command::new(env!("CARGO_BIN_EXE_cmlt"))
-        .args(["bench", "rays-summary"])
+    let summary = Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
+        .args(["rays-summary"])
         .arg(&csv)
         .arg(&csv)
         .output()
@@ -145,8 +138,8 @@ fn bench_rays_writes_csv() {
         ),
     )
     .unwrap();
-    let failed = Command::new(env!("CARGO_BIN_EXE_cmlt"))
-        .args(["bench", "rays-summary"])
+    let failed = Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
+        .args(["rays-summary"])
         .arg(&bad)
         .output()
         .unwrap();

@@ -1,4 +1,4 @@
-//! `cmlt bench convergence`: error against a reference versus time, per
+//! `cmlt-bench convergence`: error against a reference versus time, per
 //! method — what accuracy costs.
 //!
 //! Every method renders the scene at every budget (seconds of wall-clock
@@ -6,13 +6,15 @@
 //! each render is one CSV row ([`CSV_HEADER`]). Curves average the seeds
 //! of each (method, budget): mean wall time against mean relMSE. Peer
 //! renderers (`bench/peers/`) append rows of the same shape with
-//! `cmlt bench score`, and `cmlt bench plot` redraws the curves from the
+//! `cmlt-bench score`, and `cmlt-bench plot` redraws the curves from the
 //! CSV.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use super::study::{Estimator, Measurement, Study, StudyBudget};
+use super::study::{Measurement, Study};
+use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt_cli::render::Budget;
 
 /// The CSV header of [`write_csv`]. `budget_s` is empty for sample-count
 /// budgets; `samples` is samples per pixel (PT, BDPT, peers) or mutations
@@ -272,7 +274,11 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
     let estimators = opts
         .methods
         .iter()
-        .map(|m| Estimator::from_name(m).map(|e| (m.clone(), e)))
+        .map(|m| {
+            Estimator::from_name(m)
+                .map(|e| (m.clone(), e, RendererConfig::for_estimator(e).mlt))
+                .ok_or_else(|| format!("unknown method '{m}' (expected pt, bdpt, mlt or cmlt)"))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     if opts.budgets.iter().any(|b| !(b.is_finite() && *b > 0.0)) {
         return Err("budgets must be positive numbers".to_string());
@@ -290,12 +296,12 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
     )
     .map_err(io)?;
     let mut rows = Vec::new();
-    for (name, estimator) in &estimators {
+    for (name, estimator, mlt) in &estimators {
         for &b in &opts.budgets {
             let (budget, budget_s) = if opts.samples {
-                (StudyBudget::Samples(b.round().max(1.0) as u64), None)
+                (Budget::PerPixel(b.round().max(1.0) as u64), None)
             } else {
-                (StudyBudget::Seconds(b), Some(b))
+                (Budget::Seconds(b), Some(b))
             };
             let seeds = if b <= opts.seeds_up_to {
                 opts.seeds.max(1)
@@ -303,7 +309,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
                 1
             };
             for seed in 0..seeds {
-                let m = study.measure(estimator, budget, opts.threads, seed)?;
+                let m = study.measure(*estimator, mlt, budget, opts.threads, seed)?;
                 writeln!(
                     out,
                     "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5}, mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s",

@@ -1,21 +1,21 @@
-//! `cmlt bench convergence` end to end on a tiny, deterministic study: the
+//! `cmlt-bench convergence` end to end on a tiny, deterministic study: the
 //! CSV has the documented columns, one row per (method, budget, seed), PT's
-//! error falls with its budget, the plots are written, and `cmlt bench
-//! plot` and `cmlt bench score` read and extend the same CSV.
+//! error falls with its budget, the plots are written, and `cmlt-bench
+//! plot` and `cmlt-bench score` read and extend the same CSV.
 //!
 //! Budgets are sample counts (`--samples`), not seconds: with a fixed seed
 //! and thread count every render is bit-identical, so the test cannot be
 //! flaky, and timings never enter an assertion.
 
-use crate::common;
+mod common;
 
 use std::path::PathBuf;
 use std::process::Command;
 
-use cmlt_cli::bench::convergence::{CSV_HEADER, curves, read_csv};
+use cmlt_bench::convergence::{CSV_HEADER, curves, read_csv};
 
-fn cmlt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_cmlt"))
+fn bench() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -27,7 +27,7 @@ fn tmp(name: &str) -> PathBuf {
 fn ok(out: std::process::Output) -> String {
     assert!(
         out.status.success(),
-        "cmlt failed: {}",
+        "cmlt-bench failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
@@ -38,8 +38,8 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
     let scene = common::scenes_dir().join("cornell-box");
     let (csv, plot) = (tmp("c.csv"), tmp("c"));
     let _ = std::fs::remove_file(&csv);
-    let stdout = ok(cmlt()
-        .args(["bench", "convergence"])
+    let stdout = ok(bench()
+        .args(["convergence"])
         .arg(scene.join("scene.xml"))
         .arg("--reference")
         .arg(scene.join("reference.exr"))
@@ -108,25 +108,27 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
 
     // A peer's image scored into the same CSV, then re-plotted.
     let img = tmp("peer.exr");
-    ok(cmlt()
-        .args(["render"])
-        .arg(scene.join("scene.xml"))
-        .args([
-            "-D",
-            "resx=32",
-            "-D",
-            "resy=32",
-            "--spp",
-            "8",
-            "--threads",
-            "2",
-        ])
-        .args(["--quiet", "-o"])
-        .arg(&img)
-        .output()
-        .unwrap());
-    ok(cmlt()
-        .args(["bench", "score"])
+    // (rendered here by the product's driver: PT, 8 spp, 2 threads)
+    let loaded = cmlt_cli::load_scene_or_builtin(
+        &scene.join("scene.xml").to_string_lossy(),
+        &[
+            ("resx".to_string(), "32".to_string()),
+            ("resy".to_string(), "32".to_string()),
+        ],
+    )
+    .unwrap();
+    let bvh = cmlt::accel::bvh::Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
+    let config = cmlt::renderer::RendererConfig {
+        estimator: cmlt::renderer::Estimator::Path,
+        settings: loaded.settings,
+        workers: 2,
+        ..Default::default()
+    };
+    let budget = cmlt::renderer::Budget::PerPixel(8);
+    let out = cmlt_cli::render::render(&loaded.scene, &bvh, config, budget, &|_| {}).unwrap();
+    cmlt_cli::image_io::write_image(&img, &out.image).unwrap();
+    ok(bench()
+        .args(["score"])
         .arg(&img)
         .arg("--reference")
         .arg(scene.join("reference.exr"))
@@ -154,8 +156,8 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
         "{peer:?} {e:?}"
     );
     let replot = tmp("replot");
-    let stdout = ok(cmlt()
-        .args(["bench", "plot", "--csv"])
+    let stdout = ok(bench()
+        .args(["plot", "--csv"])
         .arg(&csv)
         .arg("--plot")
         .arg(&replot)

@@ -1,0 +1,128 @@
+//! What the accuracy benchmarks share: a scene loaded once with its
+//! reference, and one measured render of it (error against the reference,
+//! and what the render cost).
+//!
+//! Renders go through the CLI's driver ([`cmlt_cli::render::render`], over the
+//! core's renderer) and are scored with [`cmlt_cli::metrics`], exactly as
+//! `cmlt render --reference` does.
+
+use std::path::Path;
+use std::time::Instant;
+
+use cmlt::mlt::MltSettings;
+use cmlt::renderer::{Estimator, RendererConfig};
+
+use cmlt_cli::accel::{Accel, AccelKind};
+use cmlt_cli::image_io::Image;
+use cmlt_cli::load_scene_or_builtin;
+use cmlt_cli::metrics;
+use cmlt_cli::render::{Budget, render};
+use cmlt_cli::scene::LoadedScene;
+
+/// One measured render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurement {
+    /// Wall-clock seconds of the render (bootstrap included, scene loading
+    /// and BVH build excluded).
+    pub wall_s: f64,
+    /// Samples per pixel (PT, BDPT) or mutations per pixel (MLT, CMLT),
+    /// over all threads.
+    pub samples: f64,
+    /// Relative MSE against the reference ([`metrics::rel_mse`]).
+    pub rel_mse: f64,
+    /// RMSE against the reference.
+    pub rmse: f64,
+    /// Mean of each channel of the image.
+    pub mean: [f64; 3],
+    /// Millions of rays per second over the whole render.
+    pub mrays_per_s: f64,
+}
+
+/// A scene, its intersector and its reference, loaded once for many renders.
+pub struct Study {
+    /// The scene as loaded (with the `-D` overrides).
+    pub loaded: LoadedScene,
+    accel: Accel,
+    /// The reference at the scene's resolution (box-filtered down).
+    pub reference: Image,
+}
+
+impl Study {
+    /// Loads `scene` (see [`load_scene_or_builtin`]) with `defines`, builds
+    /// our BVH over it and reads `reference`, downsampled to the scene's
+    /// resolution when that divides the reference's.
+    pub fn load(
+        scene: &str,
+        defines: &[(String, String)],
+        reference: &Path,
+    ) -> Result<Study, String> {
+        let loaded = load_scene_or_builtin(scene, defines)?;
+        let tris: Vec<_> = loaded.scene.triangles().collect();
+        let accel = Accel::build(AccelKind::Ours, &tris)?;
+        let cam = &loaded.scene.camera;
+        let reference =
+            metrics::load_reference(reference, cam.width() as usize, cam.height() as usize)?;
+        Ok(Study {
+            loaded,
+            accel,
+            reference,
+        })
+    }
+
+    /// Width × height of the renders.
+    pub fn resolution(&self) -> (usize, usize) {
+        let cam = &self.loaded.scene.camera;
+        (cam.width() as usize, cam.height() as usize)
+    }
+
+    /// Renders with `estimator` (Metropolis settings `mlt`) under
+    /// `budget` on `threads` threads from `seed`, and scores the image
+    /// against the reference.
+    pub fn measure(
+        &self,
+        estimator: Estimator,
+        mlt: &MltSettings,
+        budget: Budget,
+        threads: usize,
+        seed: u64,
+    ) -> Result<Measurement, String> {
+        let config = RendererConfig {
+            estimator,
+            settings: self.loaded.settings,
+            mlt: *mlt,
+            seed,
+            workers: threads as u32,
+            ..RendererConfig::default()
+        };
+        let start = Instant::now();
+        let out = render(&self.loaded.scene, &self.accel, config, budget, &|_| {})?;
+        let wall_s = start.elapsed().as_secs_f64();
+        Ok(score(
+            &out.image,
+            &self.reference,
+            wall_s,
+            out.per_pixel(),
+            out.mrays_per_sec(),
+        ))
+    }
+}
+
+/// Scores `img` against `reference` (same size) into a [`Measurement`] with
+/// the given cost figures.
+pub fn score(
+    img: &Image,
+    reference: &Image,
+    wall_s: f64,
+    samples: f64,
+    mrays_per_s: f64,
+) -> Measurement {
+    let mean = img.mean();
+    Measurement {
+        wall_s,
+        samples,
+        rel_mse: metrics::rel_mse(img, reference),
+        rmse: metrics::rmse(img, reference),
+        mean: [mean.r as f64, mean.g as f64, mean.b as f64],
+        mrays_per_s,
+    }
+}

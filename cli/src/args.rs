@@ -1,0 +1,361 @@
+//! `cmlt render`'s options, grouped by what they set: the scene, the
+//! estimator and its budget, the Metropolis settings, the output, the
+//! frame loop. Each group turns itself into the core's types
+//! ([`Estimator`], [`Budget`], [`MltSettings`], [`RendererConfig`]); the
+//! parsers of single values check their ranges, so a bad value is refused
+//! with a message before anything is loaded.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use cmlt::integrator::Settings;
+use cmlt::mlt::{Candidates, MltSettings, Splatting};
+use cmlt::renderer::{Budget, Estimator, RendererConfig, Temporal};
+
+/// The longest `--time` budget accepted: a year, so that a deadline
+/// always fits the clock (`inf` or 1e30 s used to panic).
+pub const MAX_SECONDS: f64 = 365.0 * 24.0 * 3600.0;
+
+/// Most worker threads: far beyond any machine's cores, and each one holds
+/// a film of the whole image.
+pub const MAX_THREADS: usize = 1024;
+
+/// Most frames one `--frames` render writes.
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Everything `cmlt render` takes.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// What to render.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Which estimator, for how long, on how many threads.
+    #[command(flatten)]
+    pub estimator: EstimatorArgs,
+    /// MLT and CMLT settings.
+    #[command(flatten)]
+    pub mlt: MltArgs,
+    /// Where the image goes.
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// The frame loop (`--frames`).
+    #[command(flatten)]
+    pub frames: FrameArgs,
+}
+
+/// The scene and how it is traced.
+#[derive(Args, Debug)]
+#[command(next_help_heading = "Scene")]
+pub struct SceneArgs {
+    /// Mitsuba 3 XML scene file, or a built-in name (`cornell-box`).
+    pub scene: Option<String>,
+    /// Override a scene `<default>` (e.g. `-D resx=64`), like Mitsuba's -D.
+    #[arg(short = 'D', value_parser = parse_define)]
+    pub define: Vec<(String, String)>,
+    /// Ray-tracing backend for every method: our BVH, or Embree
+    /// (builds with `--features embree` only).
+    #[arg(long, value_enum, default_value = "ours")]
+    pub accel: AccelArg,
+    /// Simulate every effect (all lobes, lens sampling, caustic
+    /// perturbations, full depth) instead of only those the scene
+    /// calls for: switches the scene analysis off.
+    #[arg(long)]
+    pub all_effects: bool,
+}
+
+/// `--accel`: which ray-tracing backend renders.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum AccelArg {
+    /// Our BVH (8-wide, SIMD kernels; always available).
+    Ours,
+    /// Embree 3 (only in builds with `--features embree`; an error otherwise).
+    Embree,
+}
+
+/// The estimator, its budget, threads and seed.
+#[derive(Args, Debug)]
+#[command(next_help_heading = "Estimator and budget")]
+pub struct EstimatorArgs {
+    /// Estimator: pt (path tracing with next-event estimation and MIS),
+    /// bdpt (bidirectional path tracing with MIS), mlt (primary-sample-space
+    /// Metropolis light transport over BDPT) or cmlt (coherent MLT: MLT plus
+    /// multiple-try lens and caustic perturbations traced as packets;
+    /// --k, --m, --lens-sigma).
+    #[arg(long, default_value = "pt", value_parser = parse_estimator)]
+    pub method: Estimator,
+    /// Samples per pixel, at least 1 (default: the scene's
+    /// `sample_count`).
+    #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
+    pub spp: Option<u64>,
+    /// MLT: mutations per pixel over all threads, at least 1 (default:
+    /// --spp, else the scene's `sample_count`).
+    #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
+    pub mutations_per_pixel: Option<u64>,
+    /// Render for this many seconds instead of a fixed sample count
+    /// (finite, > 0, at most a year).
+    #[arg(long, value_parser = parse_seconds)]
+    pub time: Option<f64>,
+    /// Worker threads, 1..=1024 (default: all cores).
+    #[arg(long, value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Seed of all random streams.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+}
+
+impl EstimatorArgs {
+    /// The budget: `--time`, else `--mutations-per-pixel` (MLT, CMLT) or
+    /// `--spp`, else the scene's sample count (16 when it has none).
+    pub fn budget(&self, scene_spp: Option<u32>) -> Budget {
+        if let Some(t) = self.time {
+            return Budget::Seconds(t);
+        }
+        let n = if self.method.is_metropolis() {
+            self.mutations_per_pixel.or(self.spp)
+        } else {
+            self.spp
+        };
+        Budget::PerPixel(n.unwrap_or(scene_spp.unwrap_or(16) as u64))
+    }
+
+    /// `--threads`, or all cores.
+    pub fn threads(&self) -> usize {
+        threads_or_all(self.threads)
+    }
+}
+
+/// Metropolis settings (MLT and CMLT).
+#[derive(Args, Debug)]
+#[command(next_help_heading = "MLT and CMLT")]
+pub struct MltArgs {
+    /// MLT: Markov chains per thread.
+    #[arg(long, default_value_t = MltSettings::default().n_chains)]
+    pub chains: u32,
+    /// MLT: probability of a large step (an independent sample), in [0, 1].
+    #[arg(long, default_value_t = MltSettings::default().large_step_prob)]
+    pub large_step: f32,
+    /// MLT: width of small steps in primary sample space, in (0, 1].
+    #[arg(long, default_value_t = MltSettings::default().sigma)]
+    pub sigma: f32,
+    /// MLT: bootstrap seed samples per path depth (the chains' starting
+    /// points).
+    #[arg(long, default_value_t = MltSettings::default().n_bootstrap)]
+    pub bootstrap: u32,
+    /// MLT: BDPT passes that estimate the normalisation b (the image's
+    /// mean luminance, which scales the whole image); 0 = estimate b
+    /// from the seed samples as pbrt does.
+    #[arg(long, default_value_t = MltSettings::default().b_passes)]
+    pub b_passes: u32,
+    /// CMLT: candidates per multiple-try step, 1..=64 (default: the
+    /// CMLT default for --method cmlt, 1 for mlt).
+    #[arg(long)]
+    pub k: Option<u32>,
+    /// CMLT: side-chain length (multiple-try steps per level-1
+    /// mutation); 0 = plain MLT (default: the CMLT default for --method
+    /// cmlt, 0 for mlt).
+    #[arg(long)]
+    pub m: Option<u32>,
+    /// CMLT: standard deviation of the lens perturbation, in pixels.
+    #[arg(long, default_value_t = MltSettings::cmlt().lens_sigma)]
+    pub lens_sigma: f32,
+    /// CMLT: the caustic perturbation's angular width as a multiple of
+    /// lens-sigma pixel angles.
+    #[arg(long, default_value_t = MltSettings::cmlt().caustic_scale)]
+    pub caustic_scale: f32,
+    /// CMLT: how the k candidates of a step are drawn: independent, or
+    /// stratified (a randomly shifted lattice).
+    #[arg(long, default_value = "stratified", value_parser = parse_candidates)]
+    pub candidates: Candidates,
+    /// CMLT: what a multiple-try step records: recycled (every candidate,
+    /// weighted by its one-proposal acceptance over k) or expected (the
+    /// selected candidate with a, the current state with 1 − a).
+    #[arg(long, default_value = "recycled", value_parser = parse_splatting)]
+    pub splatting: Splatting,
+}
+
+impl MltArgs {
+    /// The Metropolis settings of `estimator` with these options (the
+    /// CMLT defaults for `cmlt`), checked for MLT and CMLT; the defaults
+    /// for PT and BDPT, which do not use them.
+    pub fn settings(&self, estimator: Estimator) -> Result<MltSettings, String> {
+        let base = RendererConfig::for_estimator(estimator).mlt;
+        if !estimator.is_metropolis() {
+            return Ok(base);
+        }
+        if self.bootstrap == 0 {
+            return Err("--bootstrap must be at least 1".to_string());
+        }
+        let mlt = MltSettings {
+            n_bootstrap: self.bootstrap,
+            b_passes: self.b_passes,
+            n_chains: self.chains,
+            large_step_prob: self.large_step,
+            sigma: self.sigma,
+            k: self.k.unwrap_or(base.k),
+            m: self.m.unwrap_or(base.m),
+            lens_sigma: self.lens_sigma,
+            caustic_scale: self.caustic_scale,
+            candidates: self.candidates,
+            splatting: self.splatting,
+            ..base
+        };
+        mlt.validate().map_err(|e| {
+            format!(
+                "{e} (--large-step {}, --sigma {}, --chains {}, --k {}, --lens-sigma {}, --caustic-scale {})",
+                self.large_step, self.sigma, self.chains, mlt.k, self.lens_sigma, self.caustic_scale
+            )
+        })?;
+        Ok(mlt)
+    }
+}
+
+/// Output files and reporting.
+#[derive(Args, Debug)]
+#[command(next_help_heading = "Output")]
+pub struct OutputArgs {
+    /// Output image (.exr linear, or .png sRGB).
+    #[arg(short, long, default_value = "cmlt.exr")]
+    pub output: PathBuf,
+    /// Also write an sRGB PNG preview here.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Compare with a reference OpenEXR and print relMSE and means.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The frame loop.
+#[derive(Args, Debug)]
+#[command(next_help_heading = "Frames")]
+pub struct FrameArgs {
+    /// Render this many frames through the core's frame loop (one
+    /// worker per thread), written as OUTPUT-0000.exr, … next to the
+    /// output; the budget (--spp or --mutations-per-pixel) is per frame.
+    #[arg(long, conflicts_with = "time", value_parser = parse_frames)]
+    pub frames: Option<usize>,
+    /// Frames: orbit the camera about the vertical through the point it
+    /// looks at, --orbit-degrees over all frames.
+    #[arg(long, requires = "frames")]
+    pub orbit: bool,
+    /// Frames: total orbit angle in degrees.
+    #[arg(long, default_value_t = 30.0, requires = "orbit")]
+    pub orbit_degrees: f32,
+    /// Frames, MLT/CMLT: keep the chains across frames (re-evaluated
+    /// after a camera move) instead of restarting them.
+    #[arg(long, requires = "frames")]
+    pub keep_chains: bool,
+    /// Frames, MLT/CMLT: average b over this many frames while the camera
+    /// stays put (0 = each frame its own b; at most 64).
+    #[arg(long, default_value_t = 0, requires = "frames")]
+    pub b_window: u32,
+    /// Frames: reuse the same random sequences in every frame.
+    #[arg(long, requires = "frames")]
+    pub fixed_sequence: bool,
+}
+
+impl FrameArgs {
+    /// The frame-to-frame switches.
+    pub fn temporal(&self) -> Temporal {
+        Temporal {
+            keep_chains: self.keep_chains,
+            b_window: self.b_window,
+            fixed_sequence: self.fixed_sequence,
+        }
+    }
+}
+
+impl RenderArgs {
+    /// The renderer configuration these options ask for over a scene with
+    /// `settings`.
+    pub fn config(&self, settings: Settings) -> Result<RendererConfig, String> {
+        let estimator = self.estimator.method;
+        let mlt = self.mlt.settings(estimator)?;
+        Ok(RendererConfig {
+            // `--method mlt --m 4` runs side chains, `--method cmlt --m 0`
+            // none: the estimator follows m.
+            estimator: if estimator.is_metropolis() {
+                crate::render::metropolis(&mlt)
+            } else {
+                estimator
+            },
+            settings,
+            mlt,
+            seed: self.estimator.seed,
+            workers: self.estimator.threads() as u32,
+            temporal: self.frames.temporal(),
+            all_effects: self.scene.all_effects,
+        })
+    }
+}
+
+/// `--method`: `pt`, `bdpt`, `mlt` or `cmlt` ([`Estimator::name`]).
+pub fn parse_estimator(s: &str) -> Result<Estimator, String> {
+    Estimator::from_name(s)
+        .ok_or_else(|| format!("unknown method '{s}' (expected pt, bdpt, mlt or cmlt)"))
+}
+
+/// `--candidates`: `independent` or `stratified`.
+pub fn parse_candidates(s: &str) -> Result<Candidates, String> {
+    match s {
+        "independent" => Ok(Candidates::Independent),
+        "stratified" => Ok(Candidates::Stratified),
+        _ => Err(format!(
+            "unknown candidates '{s}' (expected independent or stratified)"
+        )),
+    }
+}
+
+/// `--splatting`: `recycled` or `expected`.
+pub fn parse_splatting(s: &str) -> Result<Splatting, String> {
+    match s {
+        "recycled" => Ok(Splatting::Recycled),
+        "expected" => Ok(Splatting::ExpectedValue),
+        _ => Err(format!(
+            "unknown splatting '{s}' (expected recycled or expected)"
+        )),
+    }
+}
+
+/// A time budget in seconds: finite, positive, at most [`MAX_SECONDS`].
+pub fn parse_seconds(s: &str) -> Result<f64, String> {
+    let t: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if t.is_finite() && t > 0.0 && t <= MAX_SECONDS {
+        Ok(t)
+    } else {
+        Err(format!(
+            "the time budget must be finite, > 0 and at most {MAX_SECONDS} s, got {s}"
+        ))
+    }
+}
+
+/// A thread count in 1..=[`MAX_THREADS`].
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!("threads must be in 1..={MAX_THREADS}, got {s}")),
+    }
+}
+
+/// A frame count in 1..=[`MAX_FRAMES`].
+pub fn parse_frames(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_FRAMES).contains(&n) => Ok(n),
+        _ => Err(format!("frames must be in 1..={MAX_FRAMES}, got {s}")),
+    }
+}
+
+/// `-D NAME=VALUE`.
+pub fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, got '{s}'"))?;
+    Ok((k.to_string(), v.to_string()))
+}
+
+/// `threads`, or all cores.
+pub fn threads_or_all(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
