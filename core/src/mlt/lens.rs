@@ -21,15 +21,14 @@
 //! grazing connection). Here the connection is tested by the main ray
 //! alone: the tail cost 1 232 of the 6 993 instructions of a k = 1 lens
 //! step on veach-bidir (callgrind), almost two thirds of the main ray,
-//! for a test that decides only connections passing within
-//! 2·10⁻⁴ of their length of the fixed vertex x_{t+1}. The cost to
-//! exactness: the side chain's target may count such a connection as
-//! visible where level 1 counts it blocked, a difference confined to
-//! paths whose fixed vertex lies within 2·10⁻⁴·|x′_t − x_{t+1}| of
-//! another surface the segment crosses, and only for a lens-perturbed
-//! x′_t on that surface's far side. The side chain is still started
-//! from level-1 states and leaves its own target invariant; the records
-//! differ from level 1's distribution by at most that set's share.
+//! and what it alone decides is the last 10⁻⁴ of the segment, next to the
+//! fixed vertex x_{t+1}. The cost to exactness: the side chain's target
+//! may count as visible a connection that crosses another surface within
+//! 10⁻⁴·|x′_t − x_{t+1}| of x_{t+1}, which level 1 counts blocked — only
+//! for a fixed vertex that close to another surface, with x′_t on that
+//! surface's far side. The side chain starts from level-1 states and
+//! leaves its own target invariant, so its records differ from level 1's
+//! distribution by at most the share of such paths.
 
 use glam::{Vec2, Vec3};
 
