@@ -48,7 +48,9 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         names,
         [
+            "caustic-pool",
             "cornell-box",
+            "glossy-room",
             "lights-punctual",
             "plastics",
             "rough-glass",
@@ -88,6 +90,16 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("rough-glass"),
         (set(&[Diffuse, AreaLights, RoughRefraction]), false)
+    );
+    // Water over a diffuse floor: refraction, so specular chains.
+    assert_eq!(
+        effects("caustic-pool"),
+        (set(&[Diffuse, Refraction, AreaLights]), true)
+    );
+    // Rough metals and rough plastics: no Dirac lobe, no specular chains.
+    assert_eq!(
+        effects("glossy-room"),
+        (set(&[Diffuse, Glossy, AreaLights, Coating]), false)
     );
     // Normal and bump maps and an alpha mask, all bitmaps.
     assert_eq!(

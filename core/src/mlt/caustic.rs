@@ -126,13 +126,26 @@ pub struct CausticTarget<'r, 'a, I: Intersector> {
 impl<I: Intersector> Target<CausticState> for CausticTarget<'_, '_, I> {
     fn evaluate(&mut self, states: &mut [Option<CausticState>], p: &mut [f32]) {
         for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
-            self.evaluate_chunk(states, p);
+            // Scratch for the lanes at hand: a one-candidate step sets up
+            // one lane, not 16.
+            match states.len() {
+                0..=1 => self.evaluate_chunk::<1>(states, p),
+                2..=4 => self.evaluate_chunk::<4>(states, p),
+                5..=8 => self.evaluate_chunk::<8>(states, p),
+                _ => self.evaluate_chunk::<MAX_LANES>(states, p),
+            }
         }
     }
 }
 
 impl<I: Intersector> CausticTarget<'_, '_, I> {
-    fn evaluate_chunk(&mut self, states: &mut [Option<CausticState>], p: &mut [f32]) {
+    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
+    /// `N` lanes.
+    fn evaluate_chunk<const N: usize>(
+        &mut self,
+        states: &mut [Option<CausticState>],
+        p: &mut [f32],
+    ) {
         let n = states.len();
         let scene = self.tracer.scene;
         let camera = self.tracer.camera;
@@ -141,8 +154,8 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
         // x_j's factor per unit solid angle: emission (with the emitter's
         // geometric cosine, as light subpaths start) or BSDF × shading
         // cosine in light-transport direction.
-        let mut start = [Rgb::ZERO; MAX_LANES];
-        let mut rays: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
+        let mut start = [Rgb::ZERO; N];
+        let mut rays: [Option<Ray>; N] = [None; N];
         for i in 0..n {
             let Some(s) = &states[i] else { continue };
             let w = s.dir;
@@ -161,17 +174,17 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
             start[i] = f * a.tail;
             rays[i] = Some(offset::spawn_ray(o.sp.p, o.sp.p_error, o.sp.ng, w));
         }
-        let mut ends: [Option<Retraced>; MAX_LANES] = [None; MAX_LANES];
-        retrace(
+        let mut ends: [Option<Retraced>; N] = [None; N];
+        retrace::<I, N>(
             self.tracer,
             &mut rays[..n],
             &a.chain,
             TransportMode::Importance,
             &mut ends[..n],
         );
-        let mut value = [Rgb::ZERO; MAX_LANES];
-        let mut raster = [Vec2::ZERO; MAX_LANES];
-        let mut shadow: [Option<Ray>; MAX_LANES] = [None; MAX_LANES];
+        let mut value = [Rgb::ZERO; N];
+        let mut raster = [Vec2::ZERO; N];
+        let mut shadow: [Option<Ray>; N] = [None; N];
         for i in 0..n {
             let Some(e) = &ends[i] else { continue };
             let h = &e.hit;
@@ -204,7 +217,7 @@ impl<I: Intersector> CausticTarget<'_, '_, I> {
             )
             .map(|seg| seg.main);
         }
-        let mut blocked = [false; MAX_LANES];
+        let mut blocked = [false; N];
         self.tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);
         for i in 0..n {
             if let Some(s) = &mut states[i] {

@@ -386,11 +386,10 @@ pub struct MltWorker {
     seeds: Vec<u64>,
     ws: bdpt::Workspace,
     stats: MltStats,
-    /// Level 2, when m > 0, with each chain's current path and scratch for
-    /// a proposal's path (swapped in on acceptance).
+    /// Level 2, when m > 0, with each chain's current path (copied from
+    /// the workspace when a proposal is accepted).
     level2: Option<Level2>,
     paths: Vec<Vec<PathVertex>>,
-    scratch: Vec<PathVertex>,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -445,7 +444,6 @@ impl MltWorker {
             stats: MltStats::default(),
             level2,
             paths,
-            scratch: Vec::with_capacity(max_vertices),
         }
     }
 
@@ -605,28 +603,23 @@ impl MltWorker {
             stats,
             level2,
             paths,
-            scratch,
             ..
         } = self;
         for _ in 0..rounds {
             for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
                 let depth = *depth;
                 let w = weights[ci];
-                let keep_path = level2.is_some();
-                let st = chain.step(|s| {
-                    let r = bootstrap::evaluate_target(tracer, settings, ws, depth, s);
-                    if keep_path {
-                        bdpt::strategy_path(ws, scratch);
-                    }
-                    r
-                });
+                let st = chain.step(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
                 for sp in st.splats() {
                     film.add_splat(sp.raster, sp.value * w);
                 }
                 stats.record(&st);
                 if let Some(l2) = level2 {
+                    // The workspace still holds the proposal's subpaths
+                    // (nothing traced since): copy its path only when the
+                    // chain moved there, not on every proposal.
                     if st.accepted {
-                        core::mem::swap(&mut paths[ci], scratch);
+                        bdpt::strategy_path(ws, &mut paths[ci]);
                     }
                     let mut rng =
                         SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);

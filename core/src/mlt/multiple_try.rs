@@ -136,6 +136,10 @@ pub trait Proposal<S> {
     /// Uniform numbers one candidate consumes (≤ [`MAX_PROPOSAL_DIM`]).
     const DIM: usize;
 
+    /// Whether T(x→y) = T(y→x) holds bit for bit (e.g. a density of the
+    /// offset's length only): then a one-candidate step takes the reverse
+    /// density from the forward one instead of evaluating it again.
+    const SYMMETRIC: bool = false;
     /// A candidate perturbed from `from`, using `u` (`DIM` uniforms).
     fn sample(&self, from: &S, u: &[f32]) -> Option<S>;
 
@@ -528,6 +532,9 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         const { assert!(P::DIM <= MAX_PROPOSAL_DIM) };
         let k = self.k;
         let variant = self.variant;
+        if k == 1 && matches!(variant, Variant::Correct | Variant::RejectToStart) {
+            return self.step_single(proposal, target, state, rng, splat);
+        }
         let lattice = match self.candidates {
             Candidates::Stratified => self.lattice,
             Candidates::Independent => None,
@@ -730,6 +737,85 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             accepted,
             selected: Some(sel),
             nonzero,
+        }
+    }
+
+    /// [`MultipleTry::step`] for k = 1: a Metropolis–Hastings step with
+    /// a = min(1, p(y)T(y→x) / (p(x)T(x→y))), the multiple-try ratio
+    /// w(x, y)/w(y, x) with the reference set reduced to z₁ = x. It does
+    /// only what that needs: no selection, no reference set (so no
+    /// [`Proposal::invert`] of the lattice through x, which has no other
+    /// point), no empty batch through the target, and T(y→x) evaluated
+    /// once (not at all for a [`Proposal::SYMMETRIC`] proposal). All
+    /// three splatting rules record y with a and x with 1 − a at k = 1
+    /// (see the module docs), so they share this code. Random numbers:
+    /// `DIM` for y (a one-point lattice is its shift), one for the test —
+    /// the general step's.
+    fn step_single<P, T, R>(
+        &mut self,
+        proposal: &P,
+        target: &mut T,
+        state: &mut ChainState<S>,
+        rng: &mut R,
+        splat: &mut impl FnMut(&S, f32),
+    ) -> MtmStep
+    where
+        P: Proposal<S>,
+        T: Target<S> + ?Sized,
+        R: Sampler + ?Sized,
+    {
+        let x = &state.x;
+        let y = &mut self.y[..1];
+        y[0] = draw(proposal, x, rng);
+        let mut py = [0.0f32];
+        target.evaluate(y, &mut py);
+        // A symmetric T cancels from a: only p matters, and T(x→y) of a
+        // drawn y stands for any positive value (weight's > 0 test).
+        let (p_y, t_xy) = match &y[0] {
+            Some(_) if P::SYMMETRIC => (sanitize_target(py[0]), 1.0),
+            Some(c) => (sanitize_target(py[0]), proposal.density(x, c)),
+            None => (0.0, 0.0),
+        };
+        let wy = weight(p_y, t_xy);
+        if !(wy > 0.0) {
+            if state.p > 0.0 {
+                splat(&state.x, 1.0);
+            }
+            return MtmStep {
+                acceptance: 0.0,
+                accepted: false,
+                selected: None,
+                nonzero: 0,
+            };
+        }
+        let cand = y[0].as_ref().expect("a candidate with weight exists");
+        let t_yx = if P::SYMMETRIC {
+            t_xy
+        } else {
+            proposal.density(cand, x)
+        };
+        let a = match reference_weight(state.p, t_yx) {
+            None => 0.0,
+            Some(wx) if wx > 0.0 => (wy / wx).min(1.0) as f32,
+            // Only when p(x) = 0: move on.
+            Some(_) => 1.0,
+        };
+        let accepted = rng.next_f32() < a;
+        if a > 0.0 {
+            splat(cand, a);
+        }
+        if a < 1.0 && state.p > 0.0 {
+            splat(&state.x, 1.0 - a);
+        }
+        if accepted {
+            state.p = p_y;
+            state.x = self.y[0].take().expect("the candidate exists");
+        }
+        MtmStep {
+            acceptance: a,
+            accepted,
+            selected: Some(0),
+            nonzero: 1,
         }
     }
 

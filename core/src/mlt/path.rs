@@ -321,8 +321,10 @@ pub struct Retraced {
 /// Retraces a bundle of rays through `chain` with packets, one packet per
 /// bounce: every lane must hit a specular surface at each link and take the
 /// recorded lobe, then hit a non-specular surface, else it fails (`None`).
-/// `rays` is consumed as the bundle's current rays.
-pub fn retrace<I: Intersector>(
+/// `rays` is consumed as the bundle's current rays. `N` ≥ `rays.len()` is
+/// the scratch's lane count: a one-candidate step sets up
+/// one lane, not [`MAX_LANES`].
+pub fn retrace<I: Intersector, const N: usize>(
     tr: &mut Tracer<'_, I>,
     rays: &mut [Option<Ray>],
     chain: &SpecularChain,
@@ -330,10 +332,10 @@ pub fn retrace<I: Intersector>(
     out: &mut [Option<Retraced>],
 ) {
     let n = rays.len();
-    debug_assert!(n <= MAX_LANES && out.len() == n);
-    let mut hits: [Option<Shading>; MAX_LANES] = [None; MAX_LANES];
-    let mut beta = [Rgb::ONE; MAX_LANES];
-    let mut prev = [Vec3::ZERO; MAX_LANES];
+    debug_assert!(n <= N && out.len() == n);
+    let mut hits: [Option<Shading>; N] = [None; N];
+    let mut beta = [Rgb::ONE; N];
+    let mut prev = [Vec3::ZERO; N];
     for (p, r) in prev.iter_mut().zip(rays.iter()) {
         if let Some(r) = r {
             *p = r.o;

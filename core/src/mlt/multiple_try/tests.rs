@@ -145,6 +145,35 @@ fn walk() -> Walk {
     Walk(ClampedGaussian2::new(0.2, 0.45).unwrap())
 }
 
+/// [`Walk`] declared [`Proposal::SYMMETRIC`] (as the lens perturbation
+/// is): a one-candidate step then takes a = min(1, p(y)/p(x)).
+struct SymmetricWalk(Walk);
+
+impl Proposal<Vec2> for SymmetricWalk {
+    const DIM: usize = 2;
+    const SYMMETRIC: bool = true;
+    fn sample(&self, from: &Vec2, u: &[f32]) -> Option<Vec2> {
+        self.0.sample(from, u)
+    }
+    fn density(&self, from: &Vec2, to: &Vec2) -> f32 {
+        self.0.density(from, to)
+    }
+}
+
+/// [`StateSigma`] wrongly declared symmetric (negative control).
+struct StateSigmaClaimedSymmetric;
+
+impl Proposal<Vec2> for StateSigmaClaimedSymmetric {
+    const DIM: usize = 2;
+    const SYMMETRIC: bool = true;
+    fn sample(&self, from: &Vec2, u: &[f32]) -> Option<Vec2> {
+        StateSigma.sample(from, u)
+    }
+    fn density(&self, from: &Vec2, to: &Vec2) -> f32 {
+        StateSigma.density(from, to)
+    }
+}
+
 /// Runs `chains` independent side chains of `m` steps from exact samples
 /// of p and returns Pearson's (χ², dof) of their end states.
 fn chi2_of_end_states<P: Proposal<Vec2>>(
@@ -323,6 +352,30 @@ fn mtm_keeps_target_symmetric_walk() {
     check_correct("walk", &walk(), 1);
 }
 
+/// The one-candidate step's shortcut for symmetric proposals keeps p
+/// invariant where T(x→y) = T(y→x), and breaks it where the claim is false
+/// (so the χ² test sees the reverse density's role at k = 1).
+#[test]
+fn symmetric_shortcut_keeps_target_only_when_true() {
+    let (chi2, dof) =
+        chi2_of_end_states(&SymmetricWalk(walk()), 1, Variant::Correct, CHAINS, M, 21);
+    let limit = chi2_quantile_1e4(dof);
+    assert!(chi2 < limit, "symmetric walk: χ² = {chi2:.1} ≥ {limit:.1}");
+    let (chi2, dof) = chi2_of_end_states(
+        &StateSigmaClaimedSymmetric,
+        1,
+        Variant::Correct,
+        CHAINS,
+        M,
+        22,
+    );
+    let limit = chi2_quantile_1e4(dof);
+    assert!(
+        chi2 > limit,
+        "state-σ claimed symmetric passed: χ² = {chi2:.1}"
+    );
+}
+
 #[test]
 fn mtm_keeps_target_state_dependent_sigma() {
     check_correct("state-σ", &StateSigma, 2);
@@ -468,6 +521,7 @@ fn k1_is_metropolis_hastings() {
     }
     for (strict, accepted) in [
         check(&walk(), 1),
+        check(&SymmetricWalk(walk()), 4),
         check(&StateSigma, 2),
         check(&Independence, 3),
     ] {
