@@ -808,3 +808,7 @@ fn bsdf_stays_small() {
 // The rough dielectric's tests live in their own file.
 #[cfg(feature = "rough-refraction")]
 mod rough_dielectric;
+
+// The principled BSDF's tests live in their own file.
+#[cfg(feature = "principled")]
+mod principled;
