@@ -349,12 +349,12 @@ impl Bsdf {
                     metallic: unit(&p.metallic),
                     spec_trans: unit(&p.spec_trans),
                     eta: p.eta,
-                    spec_tint: unit(&p.spec_tint),
+                    spec_tint: principled::Unit16::new(scalar(&p.spec_tint)),
                     sheen: unit(&p.sheen),
-                    sheen_tint: unit(&p.sheen_tint),
+                    sheen_tint: principled::Unit16::new(scalar(&p.sheen_tint)),
                     clearcoat: unit(&p.clearcoat),
-                    clearcoat_gloss: unit(&p.clearcoat_gloss),
-                    flatness: unit(&p.flatness),
+                    clearcoat_gloss: principled::Unit16::new(scalar(&p.clearcoat_gloss)),
+                    flatness: principled::Unit16::new(scalar(&p.flatness)),
                 })
             }
             _ => Model::Diffuse { albedo: Rgb::ZERO },

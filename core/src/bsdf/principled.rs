@@ -58,17 +58,38 @@ pub(super) struct Principled {
     /// transmitting).
     pub(super) eta: f32,
     /// How much the dielectric's specular F0 takes the base colour's hue.
-    pub(super) spec_tint: f32,
+    pub(super) spec_tint: Unit16,
     /// Weight of the sheen lobe.
     pub(super) sheen: f32,
     /// How much the sheen takes the base colour's hue.
-    pub(super) sheen_tint: f32,
+    pub(super) sheen_tint: Unit16,
     /// Weight of the clearcoat lobe.
     pub(super) clearcoat: f32,
     /// Glossiness of the clearcoat: GTR1 α = lerp(0.1, 0.001, gloss).
-    pub(super) clearcoat_gloss: f32,
+    pub(super) clearcoat_gloss: Unit16,
     /// Blend of the diffuse lobe towards the fake subsurface.
-    pub(super) flatness: f32,
+    pub(super) flatness: Unit16,
+}
+
+/// A blend weight in [0, 1] as a 16-bit fraction (within 8·10⁻⁶ of the
+/// value; the rough plastic's coating table is stored the same way). The
+/// four tints and shape blends are kept so, which keeps [`super::Bsdf`]
+/// within its size bound; the energy weights stay `f32`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Unit16(u16);
+
+impl Unit16 {
+    /// `x` clamped to [0, 1] and rounded to the nearest 1/65535.
+    #[inline]
+    pub(super) fn new(x: f32) -> Self {
+        Unit16(libm::roundf(x.clamp(0.0, 1.0) * 65535.0) as u16)
+    }
+
+    /// The stored weight.
+    #[inline]
+    pub(super) fn get(self) -> f32 {
+        self.0 as f32 * (1.0 / 65535.0)
+    }
 }
 
 /// Schlick's weight (1 − c)⁵, c clamped to [0, 1].
@@ -204,7 +225,7 @@ impl Principled {
     #[inline]
     fn clearcoat_distribution(&self) -> Gtr1 {
         Gtr1 {
-            alpha: 0.1 + (0.001 - 0.1) * self.clearcoat_gloss,
+            alpha: 0.1 + (0.001 - 0.1) * self.clearcoat_gloss.get(),
         }
     }
 
@@ -217,14 +238,15 @@ impl Principled {
     fn front_fresnel(&self, f_dielectric: f32, cos: f32) -> Rgb {
         let w = schlick_fresnel_weight(cos, self.eta);
         let schlick = |f0: Rgb| f0 + (Rgb::ONE - f0) * w;
-        let mut f = Rgb::splat((1.0 - self.metallic) * (1.0 - self.spec_tint) * f_dielectric);
+        let spec_tint = self.spec_tint.get();
+        let mut f = Rgb::splat((1.0 - self.metallic) * (1.0 - spec_tint) * f_dielectric);
         if self.metallic > 0.0 {
             f += schlick(self.base_color) * self.metallic;
         }
-        if self.spec_tint > 0.0 {
+        if spec_tint > 0.0 {
             let eta_it = if cos >= 0.0 { self.eta } else { 1.0 / self.eta };
             let f0 = hue(self.base_color) * schlick_r0(eta_it);
-            f += schlick(f0) * ((1.0 - self.metallic) * self.spec_tint);
+            f += schlick(f0) * ((1.0 - self.metallic) * spec_tint);
         }
         f
     }
@@ -303,17 +325,18 @@ impl Principled {
             let rr = 2.0 * self.roughness * cos_d * cos_d;
             let f_retro = rr * (fl + fv + fl * fv * (rr - 1.0));
             let mut lobe = f_diff + f_retro;
-            if self.flatness > 0.0 {
+            let flatness = self.flatness.get();
+            if flatness > 0.0 {
                 // Hanrahan–Krueger-like subsurface approximation (Burley
                 // 2015), F_ss90 = R_R/2.
                 let fss90 = 0.5 * rr;
                 let fss = (1.0 + (fss90 - 1.0) * fl) * (1.0 + (fss90 - 1.0) * fv);
                 let f_ss = 1.25 * (fss * (1.0 / (cos_l + cos_v) - 0.5) + 0.5);
-                lobe += (f_ss - lobe) * self.flatness;
+                lobe += (f_ss - lobe) * flatness;
             }
             value += self.base_color * (w_diffuse * INV_PI * lobe);
             if self.sheen > 0.0 && self.metallic < 1.0 {
-                let tint = Rgb::ONE + (hue(self.base_color) - Rgb::ONE) * self.sheen_tint;
+                let tint = Rgb::ONE + (hue(self.base_color) - Rgb::ONE) * self.sheen_tint.get();
                 let f = self.sheen * (1.0 - self.metallic) * schlick_weight(cos_d.abs());
                 value += tint * f;
             }

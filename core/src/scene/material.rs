@@ -223,6 +223,24 @@ impl PrincipledParams {
         ]
     }
 
+    /// Every texture of the material, mutably (base colour first, then the
+    /// scalars in [`PrincipledParams::scalars`]' order).
+    pub fn textures_mut(&mut self) -> [&mut Texture; 11] {
+        [
+            &mut self.base_color,
+            &mut self.roughness,
+            &mut self.anisotropic,
+            &mut self.metallic,
+            &mut self.spec_trans,
+            &mut self.spec_tint,
+            &mut self.sheen,
+            &mut self.sheen_tint,
+            &mut self.clearcoat,
+            &mut self.clearcoat_gloss,
+            &mut self.flatness,
+        ]
+    }
+
     /// Every texture of the material (base colour first).
     pub fn textures(&self) -> impl Iterator<Item = &Texture> {
         core::iter::once(&self.base_color).chain(self.scalars().into_iter().map(|(_, t)| t))
