@@ -42,6 +42,11 @@ pub mod fresnel;
     feature = "rough-refraction",
     feature = "principled"
 ))]
+// The principled BSDF alone uses only GGX masking of the shared distribution.
+#[cfg_attr(
+    not(any(feature = "glossy", feature = "coating", feature = "rough-refraction")),
+    allow(dead_code)
+)]
 mod microfacet;
 #[cfg(feature = "coating")]
 mod plastic;

@@ -405,6 +405,14 @@ impl Material {
         )
     }
 
+    /// True for a principled material with anisotropy (not the constant 0):
+    /// its shading frame must follow ∂p/∂u.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        matches!(&self.kind, MaterialKind::Principled(p)
+            if p.anisotropic != Texture::Constant(Rgb::ZERO))
+    }
+
     /// Checks the parameters a host may hand in; returns what is wrong.
     pub fn validate(&self) -> Result<(), &'static str> {
         self.detail.validate()?;
