@@ -271,6 +271,9 @@ impl Principled {
     /// f(wo, wi) without the cosine: the sum of the lobes listed in the
     /// module docs. Refracted radiance carries 1/η² as in the rough
     /// dielectric, so eval(wo, wi, Importance) = eval(wi, wo, Radiance).
+    // Out of line: keeps `Bsdf`'s dispatch small enough to inline for
+    // the other models.
+    #[inline(never)]
     pub(super) fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         if wo.z == 0.0 || wi.z == 0.0 {
             return Rgb::ZERO;
@@ -348,6 +351,9 @@ impl Principled {
     /// each lobe's density (visible GGX normals or GTR1 normals through the
     /// half-vector Jacobian, cosine-weighted for the diffuse lobe). Zero
     /// inside when nothing transmits, where `sample` scatters nothing.
+    // Out of line: keeps `Bsdf`'s dispatch small enough to inline for
+    // the other models.
+    #[inline(never)]
     pub(super) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z == 0.0 || wi.z == 0.0 {
             return 0.0;
@@ -392,6 +398,9 @@ impl Principled {
     /// chosen lobe's direction. Value and density come from `eval` and
     /// `pdf` of the final pair. `None` when the chosen lobe leaves on the
     /// wrong side or the pair has no density.
+    // Out of line: keeps `Bsdf`'s dispatch small enough to inline for
+    // the other models.
+    #[inline(never)]
     pub(super) fn sample(
         &self,
         wo: Vec3,
