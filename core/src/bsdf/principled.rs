@@ -5,9 +5,9 @@
 //! references. Its lobes, with f written without the cosine factor:
 //!
 //! - **diffuse** (weight (1 − metallic)(1 − spec_trans)): Burley's diffuse
-//!   with retro-reflection, (base/π)·((1 − F_L/2)(1 − F_V/2) + R_R (F_L + F_V
-//!   + F_L F_V (R_R − 1))) with R_R = 2 roughness cos²θd and F_x the Schlick
-//!   weight (1 − cos θx)⁵, blended by `flatness` towards the Hanrahan–Krueger
+//!   with retro-reflection, (base/π)·((1 − F_L/2)(1 − F_V/2) +
+//!   R_R (F_L + F_V + F_L F_V (R_R − 1))) with R_R = 2 roughness cos²θd and
+//!   F_x the Schlick weight (1 − cos θx)⁵, blended by `flatness` towards the Hanrahan–Krueger
 //!   "fake subsurface" 1.25 (F_ss (1/(cos θL + cos θV) − ½) + ½);
 //! - **sheen** (weight sheen·(1 − metallic), only where the diffuse lobe
 //!   has weight): F_d = (1 − cos θd)⁵ tinted towards the base colour's hue;

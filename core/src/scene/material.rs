@@ -36,6 +36,10 @@ pub enum ConductorFresnel {
 }
 
 /// A surface's scattering model.
+// The principled variant carries eleven textures. A material is stored once
+// in the scene and read by reference at each hit (only the resolved `Bsdf`
+// travels with a path), and `no_std` builds have no `Box`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     /// Lambertian reflection.
