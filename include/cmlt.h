@@ -98,6 +98,49 @@
 // one interface with an inside and an outside: `two_sided` is ignored.
 #define CMLT_MATERIAL_ROUGH_GLASS 8
 
+// Principled (Mitsuba 3's `principled`, the metallic-roughness model):
+// `color` (or `color_texture`) is the base colour in [0, 1], `roughness`
+// the perceptual roughness in [0, 1] (GGX α = roughness²), and `metallic`,
+// `anisotropic`, `spec_tint`, `spec_trans`, `sheen`, `sheen_tint`,
+// `clearcoat`, `clearcoat_gloss`, `flatness` the model's weights, each in
+// [0, 1] (Mitsuba's defaults: colour 0.5, roughness 0.5, specular 0.5,
+// the others 0). `ior` > 0 is the relative index η;
+// `ior` = 0 derives it from `specular` in [0, 1] (Mitsuba's: 0.5 is
+// η = 1.5). With `spec_trans` > 0, η must not be 1 and `two_sided` is
+// ignored (one interface). Each scalar may be replaced by a texture
+// (its luminance) in `principled_textures`.
+#define CMLT_MATERIAL_PRINCIPLED 9
+
+// Index of `roughness`'s texture in `cmlt_material.principled_textures`.
+#define CMLT_PRINCIPLED_ROUGHNESS 0
+
+// Index of `anisotropic`'s texture.
+#define CMLT_PRINCIPLED_ANISOTROPIC 1
+
+// Index of `metallic`'s texture.
+#define CMLT_PRINCIPLED_METALLIC 2
+
+// Index of `spec_trans`'s texture.
+#define CMLT_PRINCIPLED_SPEC_TRANS 3
+
+// Index of `spec_tint`'s texture.
+#define CMLT_PRINCIPLED_SPEC_TINT 4
+
+// Index of `sheen`'s texture.
+#define CMLT_PRINCIPLED_SHEEN 5
+
+// Index of `sheen_tint`'s texture.
+#define CMLT_PRINCIPLED_SHEEN_TINT 6
+
+// Index of `clearcoat`'s texture.
+#define CMLT_PRINCIPLED_CLEARCOAT 7
+
+// Index of `clearcoat_gloss`'s texture.
+#define CMLT_PRINCIPLED_CLEARCOAT_GLOSS 8
+
+// Index of `flatness`'s texture.
+#define CMLT_PRINCIPLED_FLATNESS 9
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -127,6 +170,8 @@
 // A uniform environment (Mitsuba's `constant`): `color` is the radiance
 // arriving from every direction.
 #define CMLT_LIGHT_CONSTANT 3
+
+
 
 
 
@@ -365,6 +410,29 @@ typedef struct cmlt_material {
   // Plastics: non-zero for Mitsuba's `nonlinear` (internal reflections
   // tint the base).
   uint32_t nonlinear;
+  // Principled: blend from dielectric (0) to metal (1).
+  float metallic;
+  // Principled: anisotropy in [0, 1] (the lobe is stretched along ∂p/∂u).
+  float anisotropic;
+  // Principled: Mitsuba's `specular` in [0, 1], used when `ior` is 0.
+  float specular;
+  // Principled: tint of the dielectric specular towards `color`.
+  float spec_tint;
+  // Principled: blend of the dielectric part towards transmission.
+  float spec_trans;
+  // Principled: sheen weight.
+  float sheen;
+  // Principled: tint of the sheen towards `color`.
+  float sheen_tint;
+  // Principled: clearcoat weight.
+  float clearcoat;
+  // Principled: clearcoat glossiness.
+  float clearcoat_gloss;
+  // Principled: blend of the diffuse lobe towards fake subsurface.
+  float flatness;
+  // Principled: textures replacing the scalars (their luminance), by
+  // `CMLT_PRINCIPLED_*` index, each `CMLT_NO_TEXTURE` or a texture id.
+  uint32_t principled_textures[10];
 } cmlt_material;
 
 // A light that is not an emitting mesh. Fields a type does not use are

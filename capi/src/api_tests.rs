@@ -50,6 +50,17 @@ const WHITE: cmlt_material = cmlt_material {
     transmission_color: [1.0; 3],
     distribution: CMLT_DISTRIBUTION_GGX,
     nonlinear: 0,
+    metallic: 0.0,
+    anisotropic: 0.0,
+    specular: 0.5,
+    spec_tint: 0.0,
+    spec_trans: 0.0,
+    sheen: 0.0,
+    sheen_tint: 0.0,
+    clearcoat: 0.0,
+    clearcoat_gloss: 0.0,
+    flatness: 0.0,
+    principled_textures: [CMLT_NO_TEXTURE; 10],
 };
 
 /// A floor quad and a light quad facing it.
@@ -1781,6 +1792,163 @@ fn rough_glass_renders_through_every_estimator() {
             cmlt_renderer_release(r);
         }
         cmlt_scene_release(s);
+    }
+}
+
+/// A principled floor through the C API: every parameter is passed on
+/// (the scene's material equals the core's), η comes from `ior` or from
+/// `specular`, a scalar takes a texture, the effect and its lobe counter
+/// (the third of the later lobe kinds) are reported, and bad values are
+/// refused with a status.
+#[test]
+fn principled_materials_are_checked_and_rendered() {
+    use cmlt_core::math::Rgb;
+    use cmlt_core::scene::{MaterialKind, PrincipledParams, Texture};
+    let p = cmlt_material {
+        type_: CMLT_MATERIAL_PRINCIPLED,
+        color: [0.8, 0.3, 0.2],
+        ior: 0.0,
+        roughness: 0.4,
+        metallic: 0.3,
+        anisotropic: 0.5,
+        specular: 0.6,
+        spec_tint: 0.2,
+        sheen: 0.5,
+        sheen_tint: 0.4,
+        clearcoat: 0.7,
+        clearcoat_gloss: 0.9,
+        flatness: 0.1,
+        two_sided: 1,
+        ..WHITE
+    };
+    let m = material_from_c(&p, 0).expect("valid principled");
+    let c = |v: f32| Texture::Constant(Rgb::splat(v));
+    assert_eq!(
+        m.kind,
+        MaterialKind::Principled(PrincipledParams {
+            base_color: Texture::Constant(Rgb::new(0.8, 0.3, 0.2)),
+            roughness: c(0.4),
+            anisotropic: c(0.5),
+            metallic: c(0.3),
+            spec_trans: c(0.0),
+            spec_tint: c(0.2),
+            sheen: c(0.5),
+            sheen_tint: c(0.4),
+            clearcoat: c(0.7),
+            clearcoat_gloss: c(0.9),
+            flatness: c(0.1),
+            eta: PrincipledParams::eta_from_specular(0.6),
+        })
+    );
+    assert!(m.two_sided);
+    let glass = cmlt_material {
+        ior: 1.45,
+        spec_trans: 1.0,
+        ..p
+    };
+    let MaterialKind::Principled(g) = material_from_c(&glass, 0).unwrap().kind else {
+        panic!("not principled");
+    };
+    assert_eq!((g.eta, g.spec_trans), (1.45, c(1.0)));
+    let mut textured = p;
+    textured.principled_textures[CMLT_PRINCIPLED_METALLIC as usize] = 1;
+    let MaterialKind::Principled(t) = material_from_c(&textured, 1).unwrap().kind else {
+        panic!("not principled");
+    };
+    assert!(matches!(t.metallic, Texture::Bitmap { id, .. } if id.0 == 0));
+    for (name, m) in [("opaque", p), ("glass", glass)] {
+        let s = floor_of(&m).unwrap_or_else(|e| panic!("{name}: status {e:?}"));
+        let mut fx = 0u32;
+        // SAFETY: valid pointers and handles.
+        unsafe {
+            expect(
+                cmlt_scene_get_effects(s, &mut fx, null_mut()),
+                CMLT_OK,
+                name,
+            );
+        }
+        assert_ne!(fx & CMLT_EFFECT_PRINCIPLED, 0, "{name}");
+        for est in [
+            CMLT_ESTIMATOR_PT,
+            CMLT_ESTIMATOR_BDPT,
+            CMLT_ESTIMATOR_MLT,
+            CMLT_ESTIMATOR_CMLT,
+        ] {
+            let r = renderer(s, &config(est, 1));
+            let stats = prepare_render_stats(r, 16 * 12 * 2);
+            assert_eq!(stats.nonfinite, 0, "{name} {est}");
+            assert!(
+                est >= CMLT_ESTIMATOR_MLT
+                    || stats.bsdf_samples_more[2] > 0 && stats.bsdf_evals_more[2] > 0,
+                "{name} estimator {est}: {:?}",
+                stats.bsdf_samples_more
+            );
+            let px = image(r);
+            assert!(
+                px.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{name} {est}"
+            );
+            assert!(px.iter().any(|v| *v > 0.0), "{name} {est}: black");
+            // SAFETY: a handle from above.
+            unsafe { cmlt_renderer_release(r) };
+        }
+        // SAFETY: a handle from above.
+        unsafe { cmlt_scene_release(s) };
+    }
+    let mut bad_texture = p;
+    bad_texture.principled_textures[CMLT_PRINCIPLED_SHEEN as usize] = 3;
+    for (name, bad) in [
+        (
+            "roughness NaN",
+            cmlt_material {
+                roughness: f32::NAN,
+                ..p
+            },
+        ),
+        (
+            "metallic < 0",
+            cmlt_material {
+                metallic: -0.1,
+                ..p
+            },
+        ),
+        ("sheen > 1", cmlt_material { sheen: 1.5, ..p }),
+        (
+            "clearcoat_gloss NaN",
+            cmlt_material {
+                clearcoat_gloss: f32::NAN,
+                ..p
+            },
+        ),
+        (
+            "base colour > 1",
+            cmlt_material {
+                color: [0.5, 1.5, 0.5],
+                ..p
+            },
+        ),
+        ("specular > 1", cmlt_material { specular: 2.0, ..p }),
+        (
+            "specular NaN",
+            cmlt_material {
+                specular: f32::NAN,
+                ..p
+            },
+        ),
+        ("ior < 0", cmlt_material { ior: -1.5, ..p }),
+        ("ior 1 with spec_trans", cmlt_material { ior: 1.0, ..glass }),
+        ("unknown texture", bad_texture),
+    ] {
+        assert_eq!(
+            floor_of(&bad).err(),
+            Some(CMLT_ERROR_INVALID_ARGUMENT),
+            "{name}"
+        );
+        assert!(
+            last_error().starts_with("cmlt_scene_add_material"),
+            "{name}: {}",
+            last_error()
+        );
     }
 }
 

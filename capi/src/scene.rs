@@ -16,8 +16,8 @@ use cmlt_core::math::spectrum::srgb_to_linear;
 use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
     Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Light,
-    Material, MaterialId, MaterialKind, Mesh, RoughCoating, SHAPE_PRIM_BIT, Scene, SceneBuilder,
-    ShapeGroup, Texture,
+    Material, MaterialId, MaterialKind, Mesh, PrincipledParams, RoughCoating, SHAPE_PRIM_BIT,
+    Scene, SceneBuilder, ShapeGroup, Texture,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -60,6 +60,39 @@ pub const CMLT_DISTRIBUTION_BECKMANN: u32 = 1;
 /// `color` the transmittance in [0, 1] (reflection is untinted). Always
 /// one interface with an inside and an outside: `two_sided` is ignored.
 pub const CMLT_MATERIAL_ROUGH_GLASS: u32 = 8;
+/// Principled (Mitsuba 3's `principled`, the metallic-roughness model):
+/// `color` (or `color_texture`) is the base colour in [0, 1], `roughness`
+/// the perceptual roughness in [0, 1] (GGX α = roughness²), and `metallic`,
+/// `anisotropic`, `spec_tint`, `spec_trans`, `sheen`, `sheen_tint`,
+/// `clearcoat`, `clearcoat_gloss`, `flatness` the model's weights, each in
+/// [0, 1] (Mitsuba's defaults: colour 0.5, roughness 0.5, specular 0.5,
+/// the others 0). `ior` > 0 is the relative index η;
+/// `ior` = 0 derives it from `specular` in [0, 1] (Mitsuba's: 0.5 is
+/// η = 1.5). With `spec_trans` > 0, η must not be 1 and `two_sided` is
+/// ignored (one interface). Each scalar may be replaced by a texture
+/// (its luminance) in `principled_textures`.
+pub const CMLT_MATERIAL_PRINCIPLED: u32 = 9;
+
+/// Index of `roughness`'s texture in `cmlt_material.principled_textures`.
+pub const CMLT_PRINCIPLED_ROUGHNESS: u32 = 0;
+/// Index of `anisotropic`'s texture.
+pub const CMLT_PRINCIPLED_ANISOTROPIC: u32 = 1;
+/// Index of `metallic`'s texture.
+pub const CMLT_PRINCIPLED_METALLIC: u32 = 2;
+/// Index of `spec_trans`'s texture.
+pub const CMLT_PRINCIPLED_SPEC_TRANS: u32 = 3;
+/// Index of `spec_tint`'s texture.
+pub const CMLT_PRINCIPLED_SPEC_TINT: u32 = 4;
+/// Index of `sheen`'s texture.
+pub const CMLT_PRINCIPLED_SHEEN: u32 = 5;
+/// Index of `sheen_tint`'s texture.
+pub const CMLT_PRINCIPLED_SHEEN_TINT: u32 = 6;
+/// Index of `clearcoat`'s texture.
+pub const CMLT_PRINCIPLED_CLEARCOAT: u32 = 7;
+/// Index of `clearcoat_gloss`'s texture.
+pub const CMLT_PRINCIPLED_CLEARCOAT_GLOSS: u32 = 8;
+/// Index of `flatness`'s texture.
+pub const CMLT_PRINCIPLED_FLATNESS: u32 = 9;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -111,6 +144,29 @@ pub struct cmlt_material {
     /// Plastics: non-zero for Mitsuba's `nonlinear` (internal reflections
     /// tint the base).
     pub nonlinear: u32,
+    /// Principled: blend from dielectric (0) to metal (1).
+    pub metallic: f32,
+    /// Principled: anisotropy in [0, 1] (the lobe is stretched along ∂p/∂u).
+    pub anisotropic: f32,
+    /// Principled: Mitsuba's `specular` in [0, 1], used when `ior` is 0.
+    pub specular: f32,
+    /// Principled: tint of the dielectric specular towards `color`.
+    pub spec_tint: f32,
+    /// Principled: blend of the dielectric part towards transmission.
+    pub spec_trans: f32,
+    /// Principled: sheen weight.
+    pub sheen: f32,
+    /// Principled: tint of the sheen towards `color`.
+    pub sheen_tint: f32,
+    /// Principled: clearcoat weight.
+    pub clearcoat: f32,
+    /// Principled: clearcoat glossiness.
+    pub clearcoat_gloss: f32,
+    /// Principled: blend of the diffuse lobe towards fake subsurface.
+    pub flatness: f32,
+    /// Principled: textures replacing the scalars (their luminance), by
+    /// `CMLT_PRINCIPLED_*` index, each `CMLT_NO_TEXTURE` or a texture id.
+    pub principled_textures: [u32; 10],
 }
 
 /// "No texture" in `cmlt_material`'s texture fields: zero, so that a
@@ -428,7 +484,45 @@ fn texture_from_c(id: u32, textures: usize, what: &str) -> Result<Option<Texture
     }))
 }
 
-fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
+/// The principled parameters of `m` (see `CMLT_MATERIAL_PRINCIPLED`);
+/// ranges are checked by `PrincipledParams::validate` afterwards.
+fn principled_from_c(
+    m: &cmlt_material,
+    base_color: Texture,
+    textures: usize,
+) -> Result<PrincipledParams> {
+    let scalar = |index: u32, value: f32| -> Result<Texture> {
+        let id = m.principled_textures[index as usize];
+        let t = texture_from_c(id, textures, "principled_textures")?;
+        Ok(t.unwrap_or(Texture::Constant(Rgb::splat(value))))
+    };
+    let eta = if m.ior == 0.0 {
+        if !(0.0..=1.0).contains(&m.specular) {
+            return Err(Error::invalid(
+                "material: principled specular must be in [0, 1]",
+            ));
+        }
+        PrincipledParams::eta_from_specular(m.specular)
+    } else {
+        m.ior
+    };
+    Ok(PrincipledParams {
+        base_color,
+        roughness: scalar(CMLT_PRINCIPLED_ROUGHNESS, m.roughness)?,
+        anisotropic: scalar(CMLT_PRINCIPLED_ANISOTROPIC, m.anisotropic)?,
+        metallic: scalar(CMLT_PRINCIPLED_METALLIC, m.metallic)?,
+        spec_trans: scalar(CMLT_PRINCIPLED_SPEC_TRANS, m.spec_trans)?,
+        spec_tint: scalar(CMLT_PRINCIPLED_SPEC_TINT, m.spec_tint)?,
+        sheen: scalar(CMLT_PRINCIPLED_SHEEN, m.sheen)?,
+        sheen_tint: scalar(CMLT_PRINCIPLED_SHEEN_TINT, m.sheen_tint)?,
+        clearcoat: scalar(CMLT_PRINCIPLED_CLEARCOAT, m.clearcoat)?,
+        clearcoat_gloss: scalar(CMLT_PRINCIPLED_CLEARCOAT_GLOSS, m.clearcoat_gloss)?,
+        flatness: scalar(CMLT_PRINCIPLED_FLATNESS, m.flatness)?,
+        eta,
+    })
+}
+
+pub(crate) fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
     let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
     let tex = texture_from_c(m.color_texture, textures, "color_texture")?;
     let colour = tex.unwrap_or(Texture::Constant(color));
@@ -514,6 +608,9 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             specular_reflectance: Texture::Constant(Rgb::ONE),
             specular_transmittance: Texture::Constant(color),
         },
+        CMLT_MATERIAL_PRINCIPLED => {
+            MaterialKind::Principled(principled_from_c(m, colour, textures)?)
+        }
         t => return Err(Error::invalid(format!("unknown material type {t}"))),
     };
     let detail = Detail {
@@ -1280,6 +1377,8 @@ pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u3
 pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
 /// A constant environment.
 pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
+/// `cmlt_scene_effects` bit: a principled material.
+pub const CMLT_EFFECT_PRINCIPLED: u32 = 1 << Effect::Principled as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

@@ -80,6 +80,17 @@ fn host_input_paths_under_miri() {
             transmission_color: [1.0; 3],
             distribution: 0,
             nonlinear: 0,
+            metallic: 0.0,
+            anisotropic: 0.0,
+            specular: 0.5,
+            spec_tint: 0.0,
+            spec_trans: 0.0,
+            sheen: 0.0,
+            sheen_tint: 0.0,
+            clearcoat: 0.0,
+            clearcoat_gloss: 0.0,
+            flatness: 0.0,
+            principled_textures: [CMLT_NO_TEXTURE; 10],
         };
         assert_eq!(cmlt_scene_add_material(s, &white, &mut id), CMLT_OK);
         let mesh = cmlt_mesh {

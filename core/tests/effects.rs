@@ -15,8 +15,8 @@ use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Camera, ConductorFresnel, Detail, Distribution, Effect, EffectSet, FovAxis, Material,
-    MaterialKind, RoughCoating, Scene, SceneBuilder, SceneError, ShapeGroup, ShapePoint,
-    ShapeSurface, Texture,
+    MaterialKind, PrincipledParams, RoughCoating, Scene, SceneBuilder, SceneError, ShapeGroup,
+    ShapePoint, ShapeSurface, Texture,
 };
 
 fn camera(aperture: f32) -> Camera {
@@ -86,6 +86,14 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
                 two_sided: false,
                 detail: Detail::NONE,
             },
+            0.0,
+        ),
+        (
+            Effect::Principled,
+            opaque(MaterialKind::Principled(PrincipledParams {
+                metallic: Texture::Constant(Rgb::splat(0.5)),
+                ..PrincipledParams::DEFAULT
+            })),
             0.0,
         ),
         (

@@ -38,7 +38,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         .map(|_| u.arbitrary())
         .collect::<Result<_>>()?;
     let material = cmlt_material {
-        type_: u.int_in_range(0..=8)?,
+        type_: u.int_in_range(0..=9)?,
         color: f3(u)?,
         ior: u.arbitrary()?,
         roughness: u.arbitrary()?,
@@ -52,6 +52,17 @@ fn run(u: &mut Unstructured) -> Result<()> {
         transmission_color: f3(u)?,
         distribution: u.int_in_range(0..=2)?,
         nonlinear: u.arbitrary()?,
+        metallic: u.arbitrary()?,
+        anisotropic: u.arbitrary()?,
+        specular: u.arbitrary()?,
+        spec_tint: u.arbitrary()?,
+        spec_trans: u.arbitrary()?,
+        sheen: u.arbitrary()?,
+        sheen_tint: u.arbitrary()?,
+        clearcoat: u.arbitrary()?,
+        clearcoat_gloss: u.arbitrary()?,
+        flatness: u.arbitrary()?,
+        principled_textures: [CMLT_NO_TEXTURE; 10],
     };
     // An array of `count` elements of `size` words at `stride` bytes from
     // word `at`, or NULL / empty.

@@ -13,7 +13,7 @@ use cmlt::math::Rgb;
 use cmlt::math::spectrum::srgb_to_linear;
 use cmlt::scene::{
     Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind,
-    RoughCoating, Texture,
+    PrincipledParams, RoughCoating, Texture,
 };
 use glam::Affine2;
 use roxmltree::Node;
@@ -166,6 +166,7 @@ impl<'a> Loader<'a> {
                 fix(diffuse_reflectance);
                 fix(specular_reflectance);
             }
+            MaterialKind::Principled(p) => p.textures_mut().into_iter().for_each(fix),
         }
         self.material_origin.push(origin);
         self.builder.add_material(m)
@@ -214,6 +215,14 @@ impl<'a> Loader<'a> {
                     return Err(self.xml.err(
                         inner,
                         "'twosided' cannot wrap a transmissive BSDF ('dielectric', 'roughdielectric')",
+                    ));
+                }
+                if let MaterialKind::Principled(p) = &m.kind
+                    && p.spec_trans != Texture::Constant(Rgb::ZERO)
+                {
+                    return Err(self.xml.err(
+                        inner,
+                        "'twosided' cannot wrap a transmissive BSDF ('principled' with 'spec_trans')",
                     ));
                 }
                 if m.detail.perturbs_frame() {
@@ -380,6 +389,19 @@ impl<'a> Loader<'a> {
                     detail: Default::default(),
                 }
             }
+            "principled" => {
+                // The sampling rates only change the variance.
+                ignored = &[
+                    "main_specular_sampling_rate",
+                    "clearcoat_sampling_rate",
+                    "diffuse_reflectance_sampling_rate",
+                ];
+                Material {
+                    kind: MaterialKind::Principled(self.principled(&props, node)?),
+                    two_sided: false,
+                    detail: Default::default(),
+                }
+            }
             other => {
                 return Err(self
                     .xml
@@ -523,6 +545,98 @@ impl<'a> Loader<'a> {
                 }
             },
         })
+    }
+
+    /// Mitsuba 3's `principled`: its parameter names and defaults
+    /// ([`PrincipledParams::DEFAULT`]); every parameter but `eta` and
+    /// `specular` may be a texture. Constant values must lie in [0, 1]
+    /// (`base_color` per channel). `eta` (> 0) and `specular` (in [0, 1],
+    /// η = 2/(1 − √(0.08 specular)) − 1) are alternatives; as in Mitsuba, a
+    /// transmitting material (`spec_trans` given and not 0) moves η = 1 to
+    /// 1.001 and specular = 0 to 0.001.
+    fn principled(
+        &mut self,
+        props: &Props<'a>,
+        node: Node<'a, 'a>,
+    ) -> Result<PrincipledParams, LoadError> {
+        let d = PrincipledParams::DEFAULT;
+        let base_color = self.texture_param(props, "base_color", Rgb::splat(0.5))?;
+        if let Texture::Constant(c) = base_color
+            && !c.to_array().iter().all(|v| (0.0..=1.0).contains(v))
+        {
+            let n = props.get("base_color").map_or(node, |e| e.node);
+            return Err(self.xml.err(
+                n,
+                format!("principled: 'base_color' must be in [0, 1], got {c:?}"),
+            ));
+        }
+        let mut scalar = |name: &str, default: f32| -> Result<Texture, LoadError> {
+            let t = self.texture_param(props, name, Rgb::splat(default))?;
+            let values = match t {
+                Texture::Constant(c) => vec![c],
+                Texture::Checkerboard { color0, color1, .. } => vec![color0, color1],
+                Texture::Bitmap { .. } => vec![],
+            };
+            for c in values {
+                let v = Texture::scalar(c);
+                if !(0.0..=1.0).contains(&v) {
+                    let n = props.get(name).map_or(node, |e| e.node);
+                    return Err(self.xml.err(
+                        n,
+                        format!("principled: '{name}' must be in [0, 1], got {v}"),
+                    ));
+                }
+            }
+            Ok(t)
+        };
+        let mut p = PrincipledParams {
+            base_color,
+            roughness: scalar("roughness", 0.5)?,
+            anisotropic: scalar("anisotropic", 0.0)?,
+            metallic: scalar("metallic", 0.0)?,
+            spec_trans: scalar("spec_trans", 0.0)?,
+            spec_tint: scalar("spec_tint", 0.0)?,
+            sheen: scalar("sheen", 0.0)?,
+            sheen_tint: scalar("sheen_tint", 0.0)?,
+            clearcoat: scalar("clearcoat", 0.0)?,
+            clearcoat_gloss: scalar("clearcoat_gloss", 0.0)?,
+            flatness: scalar("flatness", 0.0)?,
+            eta: d.eta,
+        };
+        // Mitsuba's `get_flag`: given and not the float 0.
+        let transmits = p.spec_trans != Texture::Constant(Rgb::ZERO);
+        let x = &self.xml;
+        p.eta = match (props.float(x, "eta")?, props.float(x, "specular")?) {
+            (Some(_), Some((_, n))) => {
+                return Err(x.err(n, "principled: give either 'eta' or 'specular', not both"));
+            }
+            (Some((eta, n)), None) => {
+                if !(eta.is_finite() && eta > 0.0) {
+                    return Err(x.err(n, format!("principled: 'eta' must be > 0, got {eta}")));
+                }
+                if transmits && eta == 1.0 {
+                    1.001
+                } else {
+                    eta as f32
+                }
+            }
+            (None, specular) => {
+                let (s, n) = specular.unwrap_or((0.5, node));
+                if !(0.0..=1.0).contains(&s) {
+                    return Err(x.err(
+                        n,
+                        format!("principled: 'specular' must be in [0, 1], got {s}"),
+                    ));
+                }
+                let s = if transmits && s == 0.0 {
+                    1e-3
+                } else {
+                    s as f32
+                };
+                PrincipledParams::eta_from_specular(s)
+            }
+        };
+        Ok(p)
     }
 
     /// `alpha`, or equal `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).

@@ -27,6 +27,7 @@
 //! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic),
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
+//!   `principled` (Mitsuba 3's parameters; scalars may be textures),
 //!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
 //!   `bitmap` (JPEG/PNG) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`.

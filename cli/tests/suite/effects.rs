@@ -53,6 +53,7 @@ fn shared_scenes_call_for_what_they_contain() {
             "glossy-room",
             "lights-punctual",
             "plastics",
+            "principled",
             "rough-glass",
             "surface-detail",
             "veach-ajar",
@@ -84,6 +85,12 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("plastics"),
         (set(&[Diffuse, Refraction, AreaLights, Coating]), true)
+    );
+    // Principled spheres (metal, sheen, clearcoat, transmission): no Dirac
+    // lobe, so no specular chains.
+    assert_eq!(
+        effects("principled"),
+        (set(&[Diffuse, AreaLights, Principled]), false)
     );
     // Rough dielectrics on a diffuse floor: no Dirac lobe, so no specular
     // chains.

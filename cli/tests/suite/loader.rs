@@ -1492,3 +1492,121 @@ fn bad_scene_level_emitters_are_located() {
         assert!(text.contains(want), "{body}: {text}");
     }
 }
+
+// ---------------------------------------------------------------- principled
+
+#[test]
+fn principled_parameters_and_defaults() {
+    use cmlt::scene::PrincipledParams;
+    let s = ok(r#"
+      <shape type="rectangle"><bsdf type="principled"/></shape>
+      <shape type="rectangle"><bsdf type="principled">
+        <rgb name="base_color" value="0.8 0.3 0.2"/>
+        <float name="roughness" value="0.3"/><float name="anisotropic" value="0.5"/>
+        <float name="metallic" value="0.25"/><float name="spec_trans" value="0.5"/>
+        <float name="eta" value="1.33"/><float name="spec_tint" value="0.1"/>
+        <float name="sheen" value="0.2"/><float name="sheen_tint" value="0.3"/>
+        <float name="clearcoat" value="0.4"/><float name="clearcoat_gloss" value="0.6"/>
+        <float name="flatness" value="0.7"/>
+        <float name="main_specular_sampling_rate" value="2"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="principled">
+        <texture type="checkerboard" name="roughness"/>
+        <float name="specular" value="0.8"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="principled">
+        <float name="spec_trans" value="1"/><float name="specular" value="0"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="principled">
+        <float name="spec_trans" value="1"/><float name="eta" value="1"/></bsdf></shape>"#)
+    .scene;
+    // Mitsuba's defaults: base colour 0.5, roughness 0.5, specular 0.5.
+    let mut want = PrincipledParams::DEFAULT;
+    want.eta = PrincipledParams::eta_from_specular(0.5);
+    assert_eq!(material(&s, 0).kind, MaterialKind::Principled(want));
+    assert!((want.eta - 1.5).abs() < 1e-6, "{}", want.eta);
+    let c = |v: f32| Texture::Constant(Rgb::splat(v));
+    let given = PrincipledParams {
+        base_color: Texture::Constant(Rgb::new(0.8, 0.3, 0.2)),
+        roughness: c(0.3),
+        anisotropic: c(0.5),
+        metallic: c(0.25),
+        spec_trans: c(0.5),
+        spec_tint: c(0.1),
+        sheen: c(0.2),
+        sheen_tint: c(0.3),
+        clearcoat: c(0.4),
+        clearcoat_gloss: c(0.6),
+        flatness: c(0.7),
+        eta: 1.33,
+    };
+    assert_eq!(material(&s, 1).kind, MaterialKind::Principled(given));
+    let MaterialKind::Principled(p) = material(&s, 2).kind else {
+        panic!("not principled");
+    };
+    assert!(matches!(p.roughness, Texture::Checkerboard { .. }));
+    assert_eq!(p.eta, PrincipledParams::eta_from_specular(0.8));
+    // A transmitting principled moves specular 0 and η = 1 off the
+    // index-matched interface, as Mitsuba does.
+    let MaterialKind::Principled(p) = material(&s, 3).kind else {
+        panic!("not principled");
+    };
+    assert_eq!(p.eta, PrincipledParams::eta_from_specular(1e-3));
+    let MaterialKind::Principled(p) = material(&s, 4).kind else {
+        panic!("not principled");
+    };
+    assert_eq!(p.eta, 1.001);
+    // Bad values: refused with the line of the offending element.
+    for (body, phrase) in [
+        (
+            r#"<bsdf type="principled"><float name="roughness" value="nan"/></bsdf>"#,
+            "not a finite number",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="metallic" value="-0.5"/></bsdf>"#,
+            "must be non-negative",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="sheen" value="1.5"/></bsdf>"#,
+            "'sheen' must be in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="principled"><rgb name="base_color" value="0.5 1.2 0.5"/></bsdf>"#,
+            "'base_color' must be in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="principled"><texture type="checkerboard" name="clearcoat"><float name="color0" value="2"/></texture></bsdf>"#,
+            "'clearcoat' must be in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="eta" value="1.5"/><float name="specular" value="0.5"/></bsdf>"#,
+            "either 'eta' or 'specular'",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="eta" value="-1.5"/></bsdf>"#,
+            "'eta' must be > 0",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="specular" value="3"/></bsdf>"#,
+            "'specular' must be in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="principled"><float name="clearcoat_glos" value="0.5"/></bsdf>"#,
+            "unsupported property 'clearcoat_glos'",
+        ),
+        (
+            r#"<bsdf type="twosided"><bsdf type="principled"><float name="spec_trans" value="0.3"/></bsdf></bsdf>"#,
+            "cannot wrap a transmissive BSDF",
+        ),
+    ] {
+        let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {body}"));
+        let text = e.to_string();
+        assert!(text.contains(phrase), "{body}: {text}");
+        assert!(text.starts_with("inline.xml:9:"), "{body}: {text}");
+    }
+    // An opaque principled may be two-sided.
+    let s = ok(
+        r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="principled"/></bsdf></shape>"#,
+    )
+    .scene;
+    assert!(material(&s, 0).two_sided);
+}

@@ -323,6 +323,30 @@ fn plastics_mlt_and_cmlt_match_reference() {
     check_reference("plastics", 2, &cmlt, 32, 2.5);
 }
 
+/// MLT and CMLT converge on the principled scene: its lobes are all
+/// smooth (never delta), and the glass sphere's transmission refracts
+/// through non-delta vertices as the rough dielectric does.
+#[test]
+fn principled_mlt_and_cmlt_match_reference() {
+    let mlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    check_reference("principled", 2, &mlt, 64, 2.5);
+    let cmlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        k: 8,
+        m: 4,
+        lens_sigma: 2.0,
+        ..MltSettings::cmlt()
+    };
+    check_reference("principled", 2, &cmlt, 32, 1.7);
+}
+
 /// Level-1 MLT and CMLT converge on the rough-glass scene: paths
 /// refract through rough dielectrics, which the perturbations treat as
 /// non-delta vertices and reconnect through.

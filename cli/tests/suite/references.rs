@@ -130,6 +130,18 @@ fn rough_glass_bdpt() {
     check_scene("rough-glass", Method::Bdpt, 64);
 }
 
+// The principled scene: a metal, a dielectric with sheen, a clearcoat and
+// a transmitting glass (Mitsuba 3's `principled`).
+#[test]
+fn principled_pt() {
+    check_scene("principled", Method::Path, 64);
+}
+
+#[test]
+fn principled_bdpt() {
+    check_scene("principled", Method::Bdpt, 32);
+}
+
 /// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
 #[test]
 fn lights_punctual_pt() {

@@ -181,6 +181,111 @@ impl Microfacet {
     }
 }
 
+/// An anisotropic GGX distribution with roughnesses (αx, αy) along the
+/// shading frame's x and y axes: the principled BSDF's main lobe (Mitsuba
+/// 3's `MicrofacetDistribution` with `alpha_u`, `alpha_v`, visible-normal
+/// sampling on). With αx = αy it is [`Microfacet`]'s GGX.
+#[cfg(feature = "principled")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AnisoGgx {
+    pub(crate) ax: f32,
+    pub(crate) ay: f32,
+}
+
+#[cfg(feature = "principled")]
+impl AnisoGgx {
+    /// D(m) = 1 / (π αx αy (mx²/αx² + my²/αy² + mz²)²) (Heitz 2014, eq. 85),
+    /// normalised so that ∫ D(m) cos θm dm = 1; zero below the plane.
+    pub(crate) fn d(&self, m: Vec3) -> f32 {
+        if m.z <= 0.0 {
+            return 0.0;
+        }
+        let t = m.x * m.x / (self.ax * self.ax) + m.y * m.y / (self.ay * self.ay) + m.z * m.z;
+        let d = 1.0 / (PI * self.ax * self.ay * t * t);
+        if d.is_finite() { d } else { 0.0 }
+    }
+
+    /// Smith G1(v, m) = 2 / (1 + √(1 + α(φ)² tan²θ)) with
+    /// α(φ)² tan²θ = ((αx vx)² + (αy vy)²)/vz² (Heitz 2014, §5.3); zero
+    /// when v sees the back of m.
+    pub(crate) fn g1(&self, v: Vec3, m: Vec3) -> f32 {
+        if v.dot(m) * v.z <= 0.0 {
+            return 0.0;
+        }
+        let xy = (self.ax * v.x) * (self.ax * v.x) + (self.ay * v.y) * (self.ay * v.y);
+        if xy == 0.0 {
+            return 1.0;
+        }
+        2.0 / (1.0 + libm::sqrtf(1.0 + xy / (v.z * v.z)))
+    }
+
+    /// The visible-normal density D_v(m) = G1(v, m) |v·m| D(m) / cos θv of
+    /// [`AnisoGgx::sample_visible`] (`v.z > 0`).
+    pub(crate) fn pdf_visible(&self, v: Vec3, m: Vec3) -> f32 {
+        self.g1(v, m) * v.dot(m).abs() * self.d(m) / v.z
+    }
+
+    /// Samples m from D_v (`v.z > 0`): Heitz 2018's stretch–sample–unstretch
+    /// with the stretch (αx, αy) (see [`Microfacet::sample_visible`]).
+    pub(crate) fn sample_visible(&self, v: Vec3, u: Vec2) -> Vec3 {
+        let vh = Vec3::new(self.ax * v.x, self.ay * v.y, v.z).normalize();
+        let len2 = vh.x * vh.x + vh.y * vh.y;
+        let t1 = if len2 > 0.0 {
+            Vec3::new(-vh.y, vh.x, 0.0) / libm::sqrtf(len2)
+        } else {
+            Vec3::X
+        };
+        let t2 = vh.cross(t1);
+        let r = libm::sqrtf(u.x);
+        let phi = 2.0 * PI * u.y;
+        let p1 = r * libm::cosf(phi);
+        let p2 = r * libm::sinf(phi);
+        let s = 0.5 * (1.0 + vh.z);
+        let p2 = (1.0 - s) * safe_sqrt(1.0 - p1 * p1) + s * p2;
+        let nh = t1 * p1 + t2 * p2 + vh * safe_sqrt(1.0 - p1 * p1 - p2 * p2);
+        Vec3::new(self.ax * nh.x, self.ay * nh.y, nh.z.max(0.0)).normalize()
+    }
+}
+
+/// Burley's GTR1 ("generalised Trowbridge–Reitz", γ = 1) distribution of
+/// the principled BSDF's clearcoat (Burley 2012, "Physically Based Shading
+/// at Disney", appendix B): D(m) = (α² − 1) / (π ln α² (1 + (α² − 1) cos²θ)),
+/// sampled from D(m) cos θm (not visible normals, as Mitsuba 3: the lobe
+/// is weak and mostly sharp).
+#[cfg(feature = "principled")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Gtr1 {
+    pub(crate) alpha: f32,
+}
+
+#[cfg(feature = "principled")]
+impl Gtr1 {
+    /// D(m), zero where D cos θm underflows (as Mitsuba, below 1e-20).
+    pub(crate) fn d(&self, m: Vec3) -> f32 {
+        let a2 = self.alpha * self.alpha;
+        let d = (a2 - 1.0) / (PI * libm::logf(a2) * (1.0 + (a2 - 1.0) * m.z * m.z));
+        if d * m.z > 1e-20 { d } else { 0.0 }
+    }
+
+    /// Density of [`Gtr1::sample`]: D(m) cos θm.
+    pub(crate) fn pdf(&self, m: Vec3) -> f32 {
+        if m.z < 0.0 { 0.0 } else { m.z * self.d(m) }
+    }
+
+    /// Inverts the CDF of D cos θ: cos²θ = (1 − α^{2(1−u)}) / (1 − α²).
+    pub(crate) fn sample(&self, u: Vec2) -> Vec3 {
+        let phi = 2.0 * PI * u.x;
+        let a2 = self.alpha * self.alpha;
+        let cos2 = (1.0 - libm::powf(a2, 1.0 - u.y)) / (1.0 - a2);
+        let sin = safe_sqrt(1.0 - cos2);
+        Vec3::new(
+            libm::cosf(phi) * sin,
+            libm::sinf(phi) * sin,
+            safe_sqrt(cos2),
+        )
+    }
+}
+
 /// Smith Λ of the Beckmann distribution as a function of a = 1/(α tan θ)
 /// (Walter et al. 2007, §5.1, before their rational fit):
 /// Λ = (erf(a) − 1)/2 + e^{−a²}/(2a√π), written with erfc to keep the

@@ -36,10 +36,22 @@ mod conductor;
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-#[cfg(any(feature = "glossy", feature = "coating", feature = "rough-refraction"))]
+#[cfg(any(
+    feature = "glossy",
+    feature = "coating",
+    feature = "rough-refraction",
+    feature = "principled"
+))]
+// The principled BSDF alone uses only GGX masking of the shared distribution.
+#[cfg_attr(
+    not(any(feature = "glossy", feature = "coating", feature = "rough-refraction")),
+    allow(dead_code)
+)]
 mod microfacet;
 #[cfg(feature = "coating")]
 mod plastic;
+#[cfg(feature = "principled")]
+mod principled;
 #[cfg(feature = "rough-refraction")]
 mod roughdielectric;
 #[cfg(feature = "coating")]
@@ -68,6 +80,8 @@ use crate::scene::{Material, MaterialKind, Texture};
 use microfacet::Microfacet;
 #[cfg(feature = "coating")]
 use plastic::Plastic;
+#[cfg(feature = "principled")]
+use principled::Principled;
 #[cfg(feature = "rough-refraction")]
 use roughdielectric::RoughDielectric;
 #[cfg(feature = "coating")]
@@ -102,17 +116,21 @@ pub enum Lobe {
     Coating = 4,
     /// Rough dielectric: microfacet reflection and refraction.
     RoughRefraction = 5,
+    /// Principled: diffuse, sheen, GGX reflection and refraction, GTR1
+    /// clearcoat.
+    Principled = 6,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 6] = [
+    pub const ALL: [Lobe; 7] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
         Lobe::Refraction,
         Lobe::Coating,
         Lobe::RoughRefraction,
+        Lobe::Principled,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -124,6 +142,7 @@ impl Lobe {
             Lobe::Refraction => "refraction",
             Lobe::Coating => "coating",
             Lobe::RoughRefraction => "rough-refraction",
+            Lobe::Principled => "principled",
         }
     }
 }
@@ -179,6 +198,8 @@ enum Model {
     RoughPlastic(RoughPlastic),
     #[cfg(feature = "rough-refraction")]
     RoughDielectric(RoughDielectric),
+    #[cfg(feature = "principled")]
+    Principled(Principled),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -320,6 +341,28 @@ impl Bsdf {
                 reflectance: texture(specular_reflectance),
                 transmittance: texture(specular_transmittance),
             }),
+            #[cfg(feature = "principled")]
+            MaterialKind::Principled(p) => {
+                // Scalars read textures as `Texture::eval_1`. Weights are
+                // kept in [0, 1] (constants are validated; a bitmap's texel
+                // could leave the range, where the model means nothing).
+                let scalar = |t: &Texture| Texture::scalar(texture(t));
+                let unit = |t: &Texture| scalar(t).clamp(0.0, 1.0);
+                Model::Principled(Principled {
+                    base_color: texture(&p.base_color),
+                    roughness: unit(&p.roughness),
+                    anisotropic: unit(&p.anisotropic),
+                    metallic: unit(&p.metallic),
+                    spec_trans: unit(&p.spec_trans),
+                    eta: p.eta,
+                    spec_tint: principled::Unit16::new(scalar(&p.spec_tint)),
+                    sheen: unit(&p.sheen),
+                    sheen_tint: principled::Unit16::new(scalar(&p.sheen_tint)),
+                    clearcoat: unit(&p.clearcoat),
+                    clearcoat_gloss: principled::Unit16::new(scalar(&p.clearcoat_gloss)),
+                    flatness: principled::Unit16::new(scalar(&p.flatness)),
+                })
+            }
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -379,6 +422,8 @@ impl Bsdf {
             Model::Plastic(_) | Model::RoughPlastic(_) => Lobe::Coating,
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(..) => Lobe::RoughRefraction,
+            #[cfg(feature = "principled")]
+            Model::Principled(..) => Lobe::Principled,
         }
     }
 
@@ -396,7 +441,11 @@ impl Bsdf {
     /// their direction points to (`offset::spawn_ray` picks it from the
     /// geometric normal), so callers need this only for two-sidedness.
     pub fn has_transmission(&self) -> bool {
-        matches!(self.lobe(), Lobe::Refraction | Lobe::RoughRefraction)
+        match &self.model {
+            #[cfg(feature = "principled")]
+            Model::Principled(p) => p.transmits(),
+            _ => matches!(self.lobe(), Lobe::Refraction | Lobe::RoughRefraction),
+        }
     }
 
     /// A coarse roughness hint in the microfacet α scale: 0 for Dirac-only
@@ -413,6 +462,16 @@ impl Bsdf {
             Model::Plastic(_) | Model::RoughPlastic(_) => 1.0,
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.mf.alpha,
+            // The diffuse lobe carries connections when it has weight.
+            #[cfg(feature = "principled")]
+            Model::Principled(p) => {
+                if p.metallic < 1.0 && p.spec_trans < 1.0 {
+                    1.0
+                } else {
+                    let d = p.distribution();
+                    libm::sqrtf(d.ax * d.ay)
+                }
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -462,6 +521,12 @@ impl Bsdf {
             // Never two-sided, like the smooth dielectric.
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.eval(wo, wi, mode),
+            // Two-sided only when nothing transmits (see `Bsdf::new`).
+            #[cfg(feature = "principled")]
+            Model::Principled(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.eval(wo, wi, mode)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -494,6 +559,11 @@ impl Bsdf {
             }
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.pdf(wo, wi),
+            #[cfg(feature = "principled")]
+            Model::Principled(p) => {
+                let (wo, wi) = self.orient(wo, wi);
+                p.pdf(wo, wi)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -568,6 +638,8 @@ impl Bsdf {
             Model::RoughPlastic(p) => p.sample(wo_up, u_lobe, u),
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.sample(wo, u_lobe, u, mode),
+            #[cfg(feature = "principled")]
+            Model::Principled(p) => p.sample(wo_up, u_lobe, u, mode),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

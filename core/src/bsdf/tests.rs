@@ -795,7 +795,8 @@ fn bsdf_stays_small() {
     fn is_copy<T: Copy>() {}
     is_copy::<Bsdf>();
     // Every path vertex holds one. The largest model is the rough plastic
-    // (colours, weights and its 8-entry coating table, 60 bytes); a
+    // (colours, weights and its 8-entry coating table, 60 bytes) and the
+    // principled (a colour, seven f32 and four 16-bit weights, 48 bytes); a
     // normal-mapped frame adds the unperturbed normal for Mitsuba's side
     // test.
     assert!(
@@ -808,3 +809,7 @@ fn bsdf_stays_small() {
 // The rough dielectric's tests live in their own file.
 #[cfg(feature = "rough-refraction")]
 mod rough_dielectric;
+
+// The principled BSDF's tests live in their own file.
+#[cfg(feature = "principled")]
+mod principled;

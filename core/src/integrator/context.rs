@@ -7,7 +7,11 @@ use crate::accel::Intersector;
 use crate::bsdf::{Bsdf, BsdfSample, Lobe, TransportMode};
 use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket, offset};
 use crate::math::{Frame, Rgb};
-#[cfg(any(feature = "normal-mapping", feature = "alpha-masks"))]
+#[cfg(any(
+    feature = "normal-mapping",
+    feature = "alpha-masks",
+    feature = "principled"
+))]
 use crate::scene::detail;
 #[cfg(feature = "normal-mapping")]
 use crate::scene::detail::Detail;
@@ -237,6 +241,14 @@ impl<'a, I: Intersector> Tracer<'a, I> {
             let bsdf = bsdf.with_unperturbed_normal(frame.to_local(sp.ns));
             let mut sp = sp;
             sp.ns = frame.n;
+            return Shading { sp, bsdf, frame };
+        }
+        // An anisotropic principled lobe is oriented by the first tangent,
+        // which Mitsuba takes along ∂p/∂u (its `initialize_sh_frame`).
+        #[cfg(feature = "principled")]
+        if self.analysis.effects.contains(Effect::Principled) && material.is_anisotropic() {
+            let (dp_du, _) = scene.uv_tangents(&sp);
+            let frame = detail::tangent_frame(sp.ns, dp_du);
             return Shading { sp, bsdf, frame };
         }
         Shading {

@@ -42,11 +42,13 @@ pub enum Effect {
     PointLights = 11,
     /// A constant environment around the scene.
     Environment = 12,
+    /// Mitsuba 3's principled BSDF.
+    Principled = 13,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 13] = [
+    pub const ALL: [Effect; 14] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -60,6 +62,7 @@ impl Effect {
         Effect::RoughRefraction,
         Effect::PointLights,
         Effect::Environment,
+        Effect::Principled,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -78,6 +81,7 @@ impl Effect {
             Effect::RoughRefraction => "rough-refraction",
             Effect::PointLights => "point-lights",
             Effect::Environment => "environment",
+            Effect::Principled => "principled",
         }
     }
 
@@ -96,6 +100,7 @@ impl Effect {
             Effect::RoughRefraction => Some("rough-refraction"),
             Effect::PointLights => Some("delta-lights"),
             Effect::Environment => Some("environment"),
+            Effect::Principled => Some("principled"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -115,6 +120,7 @@ impl Effect {
             Effect::RoughRefraction => cfg!(feature = "rough-refraction"),
             Effect::PointLights => cfg!(feature = "delta-lights"),
             Effect::Environment => cfg!(feature = "environment"),
+            Effect::Principled => cfg!(feature = "principled"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -135,6 +141,7 @@ impl Effect {
             Effect::RoughRefraction => "no rough dielectric",
             Effect::PointLights => "no point, spot or directional light",
             Effect::Environment => "no environment: escaping rays carry nothing",
+            Effect::Principled => "no principled material",
         }
     }
 }
@@ -254,9 +261,19 @@ impl Analysis {
                     Effect::RoughRefraction,
                     [Some(specular_reflectance), Some(specular_transmittance)],
                 ),
+                // Its many textures are visited below.
+                MaterialKind::Principled(_) => (Effect::Principled, [None, None]),
             };
             effects = effects.with(effect);
-            for t in textures.into_iter().flatten() {
+            let principled = match &m.kind {
+                MaterialKind::Principled(p) => Some(p.textures()),
+                _ => None,
+            };
+            for t in textures
+                .into_iter()
+                .flatten()
+                .chain(principled.into_iter().flatten())
+            {
                 match t {
                     Texture::Constant(c) => scatters |= c.r > 0.0 || c.g > 0.0 || c.b > 0.0,
                     _ => {
@@ -286,6 +303,7 @@ impl Analysis {
                     | MaterialKind::RoughDielectric { .. }
                     | MaterialKind::Plastic { .. }
                     | MaterialKind::RoughPlastic { .. }
+                    | MaterialKind::Principled(_)
             );
         }
         if has_emitters {

@@ -36,6 +36,10 @@ pub enum ConductorFresnel {
 }
 
 /// A surface's scattering model.
+// The principled variant carries eleven textures. A material is stored once
+// in the scene and read by reference at each hit (only the resolved `Bsdf`
+// travels with a path), and `no_std` builds have no `Box`.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     /// Lambertian reflection.
@@ -140,6 +144,158 @@ pub enum MaterialKind {
         /// once from (distribution, α, η) by [`RoughCoating::new`].
         coating: RoughCoating,
     },
+    /// Mitsuba 3's `principled`: Burley's metallic-roughness model (diffuse
+    /// with retro-reflection, sheen, anisotropic GGX reflection and
+    /// transmission, a GTR1 clearcoat).
+    Principled(PrincipledParams),
+}
+
+/// The parameters of [`MaterialKind::Principled`], named as Mitsuba 3 names
+/// them. Every one but `eta` may vary over the surface; the scalar ones read
+/// a texture as [`Texture::eval_1`] does (its luminance).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrincipledParams {
+    /// Base colour in [0, 1] per channel.
+    pub base_color: Texture,
+    /// Perceptual roughness in [0, 1] (GGX α = roughness²).
+    pub roughness: Texture,
+    /// Anisotropy in [0, 1].
+    pub anisotropic: Texture,
+    /// Metallic blend in [0, 1].
+    pub metallic: Texture,
+    /// Transmission blend in [0, 1].
+    pub spec_trans: Texture,
+    /// Tint of the dielectric specular towards the base colour, in [0, 1].
+    pub spec_tint: Texture,
+    /// Sheen weight in [0, 1].
+    pub sheen: Texture,
+    /// Tint of the sheen towards the base colour, in [0, 1].
+    pub sheen_tint: Texture,
+    /// Clearcoat weight in [0, 1].
+    pub clearcoat: Texture,
+    /// Clearcoat glossiness in [0, 1].
+    pub clearcoat_gloss: Texture,
+    /// Blend of the diffuse lobe towards fake subsurface, in [0, 1].
+    pub flatness: Texture,
+    /// Relative index of refraction, interior over exterior (> 0; ≠ 1 when
+    /// `spec_trans` is not zero). Mitsuba's `specular` s stands for
+    /// η = 2/(1 − √(0.08 s)) − 1.
+    pub eta: f32,
+}
+
+impl PrincipledParams {
+    /// Mitsuba 3's defaults: base colour 0.5, roughness 0.5, specular 0.5
+    /// (η ≈ 1.5), everything else 0.
+    pub const DEFAULT: PrincipledParams = {
+        let zero = Texture::Constant(Rgb::splat(0.0));
+        let half = Texture::Constant(Rgb::splat(0.5));
+        PrincipledParams {
+            base_color: half,
+            roughness: half,
+            anisotropic: zero,
+            metallic: zero,
+            spec_trans: zero,
+            spec_tint: zero,
+            sheen: zero,
+            sheen_tint: zero,
+            clearcoat: zero,
+            clearcoat_gloss: zero,
+            flatness: zero,
+            eta: 1.5,
+        }
+    };
+
+    /// The relative index Mitsuba derives from `specular` (Burley 2015:
+    /// specular 0.5 is F0 = 0.04, η = 1.5).
+    pub fn eta_from_specular(specular: f32) -> f32 {
+        2.0 / (1.0 - libm::sqrtf(0.08 * specular)) - 1.0
+    }
+
+    /// The scalar parameters with their names, in declaration order.
+    pub fn scalars(&self) -> [(&'static str, &Texture); 10] {
+        [
+            ("roughness", &self.roughness),
+            ("anisotropic", &self.anisotropic),
+            ("metallic", &self.metallic),
+            ("spec_trans", &self.spec_trans),
+            ("spec_tint", &self.spec_tint),
+            ("sheen", &self.sheen),
+            ("sheen_tint", &self.sheen_tint),
+            ("clearcoat", &self.clearcoat),
+            ("clearcoat_gloss", &self.clearcoat_gloss),
+            ("flatness", &self.flatness),
+        ]
+    }
+
+    /// Every texture of the material, mutably (base colour first, then the
+    /// scalars in [`PrincipledParams::scalars`]' order).
+    pub fn textures_mut(&mut self) -> [&mut Texture; 11] {
+        [
+            &mut self.base_color,
+            &mut self.roughness,
+            &mut self.anisotropic,
+            &mut self.metallic,
+            &mut self.spec_trans,
+            &mut self.spec_tint,
+            &mut self.sheen,
+            &mut self.sheen_tint,
+            &mut self.clearcoat,
+            &mut self.clearcoat_gloss,
+            &mut self.flatness,
+        ]
+    }
+
+    /// Every texture of the material (base colour first).
+    pub fn textures(&self) -> impl Iterator<Item = &Texture> {
+        core::iter::once(&self.base_color).chain(self.scalars().into_iter().map(|(_, t)| t))
+    }
+
+    /// Checks the parameters: a colour in [0, 1], every constant scalar
+    /// (and both colours of a checkerboard, as luminances) in [0, 1], η
+    /// finite, > 0 and ≠ 1 when transmitting.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        fn in_unit(c: &Rgb) -> bool {
+            let ok = |x: f32| (0.0..=1.0).contains(&x);
+            ok(c.r) && ok(c.g) && ok(c.b)
+        }
+        fn colours(t: &Texture) -> (Option<&Rgb>, Option<&Rgb>) {
+            match t {
+                Texture::Constant(c) => (Some(c), None),
+                Texture::Checkerboard { color0, color1, .. } => (Some(color0), Some(color1)),
+                Texture::Bitmap { .. } => (None, None),
+            }
+        }
+        let (a, b) = colours(&self.base_color);
+        if !a.into_iter().chain(b).all(in_unit) {
+            return Err("principled base_color must be in [0, 1]");
+        }
+        for (_, t) in self.scalars() {
+            if let Texture::Bitmap { to_uv, .. } | Texture::Checkerboard { to_uv, .. } = t
+                && !to_uv.is_finite()
+            {
+                return Err("principled texture transforms must be finite");
+            }
+            let (a, b) = colours(t);
+            if !a
+                .into_iter()
+                .chain(b)
+                .all(|c| c.is_finite() && (0.0..=1.0).contains(&c.luminance()))
+            {
+                return Err("principled scalar parameters must be in [0, 1]");
+            }
+        }
+        if let Texture::Bitmap { to_uv, .. } | Texture::Checkerboard { to_uv, .. } =
+            &self.base_color
+            && !to_uv.is_finite()
+        {
+            return Err("principled texture transforms must be finite");
+        }
+        let transmits = self.spec_trans != Texture::Constant(Rgb::ZERO);
+        if !(self.eta.is_finite() && self.eta > 0.0 && !(transmits && self.eta == 1.0)) {
+            return Err("principled eta must be finite, > 0 and != 1 with spec_trans");
+        }
+        Ok(())
+    }
 }
 
 /// What the diffuse part of a rough plastic needs of its coating, precomputed
@@ -251,6 +407,14 @@ impl Material {
                 | MaterialKind::TintedDielectric { .. }
                 | MaterialKind::ThinDielectric { .. }
         )
+    }
+
+    /// True for a principled material with anisotropy (not the constant 0):
+    /// its shading frame must follow ∂p/∂u.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        matches!(&self.kind, MaterialKind::Principled(p)
+            if p.anisotropic != Texture::Constant(Rgb::ZERO))
     }
 
     /// Checks the parameters a host may hand in; returns what is wrong.
@@ -376,6 +540,7 @@ impl Material {
                     .then_some(())
                     .ok_or("roughplastic reflectances must be finite and non-negative")
             }
+            MaterialKind::Principled(p) => p.validate(),
         }
     }
 }

@@ -32,7 +32,8 @@ pub use effects::{Analysis, Effect, EffectSet};
 #[cfg(feature = "alloc")]
 pub use light::Light;
 pub use material::{
-    ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, RoughCoating,
+    ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, PrincipledParams,
+    RoughCoating,
 };
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;

@@ -312,8 +312,18 @@ impl SceneBuilder {
                     specular_reflectance,
                     ..
                 } => [Some(diffuse_reflectance), Some(specular_reflectance)],
+                super::MaterialKind::Principled(_) => [None, None],
             };
-            for t in tex_refs.into_iter().flatten().chain(m.detail.textures()) {
+            let principled = match &m.kind {
+                super::MaterialKind::Principled(p) => Some(p.textures()),
+                _ => None,
+            };
+            for t in tex_refs
+                .into_iter()
+                .flatten()
+                .chain(principled.into_iter().flatten())
+                .chain(m.detail.textures())
+            {
                 if let Texture::Bitmap { id, .. } = t
                     && id.0 as usize >= self.bitmaps.len()
                 {

@@ -171,7 +171,15 @@ impl Texture {
     #[cfg(feature = "alloc")]
     #[inline]
     pub fn eval_1(&self, uv: Vec2, bitmaps: &[Bitmap]) -> f32 {
-        self.eval(uv, bitmaps).luminance()
+        Texture::scalar(self.eval(uv, bitmaps))
+    }
+
+    /// The scalar an RGB texture value stands for where a material takes a
+    /// float (Mitsuba's `eval_1`): its luminance. The one place that rule
+    /// is written ([`Texture::eval_1`] and the BSDFs' scalar parameters).
+    #[inline]
+    pub fn scalar(value: Rgb) -> f32 {
+        value.luminance()
     }
 
     /// The uv gradient of [`Texture::eval_1`] (Mitsuba's `eval_1_grad`):
