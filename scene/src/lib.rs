@@ -28,7 +28,7 @@
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
 //!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
-//!   `bitmap` (JPEG/PNG) and `checkerboard`;
+//!   `bitmap` (JPEG/PNG, OpenEXR and Radiance HDR) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`.
 //!
 //! Anything else is an error that names the file, line and column and the
@@ -39,6 +39,7 @@ pub mod accel;
 
 mod bsdf;
 mod error;
+mod image_io;
 pub mod input;
 mod loader;
 mod mesh_io;
