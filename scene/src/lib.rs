@@ -29,7 +29,8 @@
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
 //!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
 //!   `bitmap` (JPEG/PNG, OpenEXR and Radiance HDR) and `checkerboard`;
-//! - scene-level emitters `point`, `spot`, `directional`, `constant`.
+//! - scene-level emitters `point`, `spot`, `directional`, `constant`,
+//!   `envmap` (JPEG/PNG, OpenEXR or Radiance HDR lat-long images).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
