@@ -196,6 +196,22 @@ fn lights_punctual_mlt_and_cmlt_match_reference() {
     check_reference("lights-punctual", 4, &cmlt, 256, 2.0);
 }
 
+/// MLT and CMLT converge to the reference of the scene lit by an
+/// environment map: a path ending on it is classified "none" by level 2
+/// (a vertex at infinity), as for the constant environment.
+#[test]
+fn envmap_mlt_and_cmlt_match_reference() {
+    let mlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    check_reference("envmap", 4, &mlt, 256, 2.5);
+    let cmlt = MltSettings { k: 4, m: 2, ..mlt };
+    check_reference("envmap", 4, &cmlt, 256, 2.0);
+}
+
 #[test]
 fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
     let (loaded, _) = load_reduced("cornell-box", 16);
