@@ -722,6 +722,11 @@ pub struct cmlt_light {
 /// # Safety
 /// `l.texels` is NULL or points to `l.height` rows of `l.stride` bytes.
 unsafe fn envmap_from_c(l: &cmlt_light) -> Result<(Bitmap, cmlt_core::math::Mat3)> {
+    if l.color.iter().any(|v| !(*v >= 0.0)) {
+        return Err(Error::invalid(
+            "light: envmap color (the texels' factor) must be non-negative",
+        ));
+    }
     if l.texels.is_null() {
         return Err(Error::null("light.texels"));
     }
@@ -729,7 +734,9 @@ unsafe fn envmap_from_c(l: &cmlt_light) -> Result<(Bitmap, cmlt_core::math::Mat3
         return Err(Error::invalid("light: envmap width and height must be > 0"));
     }
     if !(l.texels as usize).is_multiple_of(4) {
-        return Err(Error::invalid("light: envmap texels must be 4-byte aligned"));
+        return Err(Error::invalid(
+            "light: envmap texels must be 4-byte aligned",
+        ));
     }
     let row = l.width as usize * 12;
     let stride = if l.stride == 0 { row } else { l.stride };
@@ -823,9 +830,10 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
 
 /// Adds a light that is not an emitting mesh (point, spot, directional,
 /// constant environment, environment map, whose texels are copied);
-/// every field is checked first, and on failure the scene is unchanged. `*out_index` (may be NULL) receives its index
-/// among the scene's lights. A scene with lights at infinity (directional,
-/// constant) cannot also have host shapes: commit refuses it (their light
+/// every field is checked first, and on failure the scene is unchanged.
+/// `*out_index` (may be NULL) receives its index among the scene's
+/// lights. A scene with lights at infinity (directional, constant,
+/// envmap) cannot also have host shapes: commit refuses it (their light
 /// paths need the scene's bounds).
 ///
 /// # Safety
@@ -1390,7 +1398,7 @@ pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
 pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
 /// Point, spot and directional lights.
 pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
-/// A constant environment.
+/// An environment (constant or an environment map).
 pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for

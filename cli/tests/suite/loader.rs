@@ -996,7 +996,10 @@ const MALFORMED: &[(&str, &str)] = &[
     ("unclosed_tag.xml", "malformed XML"),
     ("undefined_parameter.xml", "undefined parameter '$depth'"),
     ("unknown_bsdf.xml", "unsupported BSDF plugin 'pplastic'"),
-    ("unknown_emitter.xml", "unsupported emitter plugin 'projector'"),
+    (
+        "unknown_emitter.xml",
+        "unsupported emitter plugin 'projector'",
+    ),
     ("unknown_ref.xml", "reference to unknown id 'NoSuchBSDF'"),
     ("unknown_shape.xml", "unsupported shape plugin 'cylinder'"),
     ("wrong_property_type.xml", "'fov' must be a float"),
