@@ -62,6 +62,16 @@ fn check_exr_headers(bytes: &[u8]) -> Result<(), String> {
 /// (OpenEXR, Radiance HDR) are linear. The error says what is wrong,
 /// without the file name (the caller adds it).
 pub(crate) fn decode_bitmap(path: &Path, raw: bool) -> Result<Bitmap, String> {
+    // Mitsuba reads PFM too; the image crate has no decoder for it.
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pfm"))
+    {
+        return Err(
+            "Portable Float Map (PFM) images are not supported: convert it to OpenEXR or Radiance HDR"
+                .to_string(),
+        );
+    }
     let bytes = input::read_bounded(path, MAX_IMAGE_BYTES, "image file")?;
     let mut reader = image::ImageReader::new(Cursor::new(bytes.as_slice()))
         .with_guessed_format()
