@@ -119,8 +119,12 @@ impl EnvMap {
         u -= libm::floorf(u);
         let theta = libm::acosf(v.y.clamp(-1.0, 1.0));
         let w = self.width as f32;
-        let mut x = (u * w - 0.5).rem_euclid(w);
-        // rem_euclid of a tiny negative rounds to w itself.
+        // u ∈ [0, 1), so x ∈ [−½, w − ½): wrap the left half texel (a
+        // tiny negative plus w may round to w itself).
+        let mut x = u * w - 0.5;
+        if x < 0.0 {
+            x += w;
+        }
         if x >= w {
             x = 0.0;
         }
