@@ -722,7 +722,7 @@ pub struct cmlt_light {
 /// # Safety
 /// `l.texels` is NULL or points to `l.height` rows of `l.stride` bytes.
 unsafe fn envmap_from_c(l: &cmlt_light) -> Result<(Bitmap, cmlt_core::math::Mat3)> {
-    if l.color.iter().any(|v| !(*v >= 0.0)) {
+    if l.color.iter().any(|v| v.is_nan() || *v < 0.0) {
         return Err(Error::invalid(
             "light: envmap color (the texels' factor) must be non-negative",
         ));

@@ -94,7 +94,7 @@ impl Distribution2D {
     /// `None` when the size does not match, a weight is negative or not
     /// finite, or all are zero.
     pub fn new(width: usize, weights: &[f32]) -> Option<Self> {
-        if width == 0 || weights.is_empty() || weights.len() % width != 0 {
+        if width == 0 || weights.is_empty() || !weights.len().is_multiple_of(width) {
             return None;
         }
         let rows: Vec<Option<Distribution1D>> =

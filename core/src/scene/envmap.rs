@@ -82,10 +82,10 @@ impl EnvMap {
         let lum = |x: usize, y: usize| texels[y * width + x % width].luminance();
         let mut weights = Vec::with_capacity(width * rows);
         let mut integral = 0.0f64;
-        for j in 0..rows {
+        for (j, &omega) in cell_solid_angle.iter().enumerate() {
             for i in 0..width {
                 let mean = 0.25 * (lum(i, j) + lum(i + 1, j) + lum(i, j + 1) + lum(i + 1, j + 1));
-                let wgt = mean as f64 * cell_solid_angle[j];
+                let wgt = mean as f64 * omega;
                 integral += wgt;
                 weights.push(wgt as f32);
             }
