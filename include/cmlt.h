@@ -171,6 +171,14 @@
 // arriving from every direction.
 #define CMLT_LIGHT_CONSTANT 3
 
+// An environment map (Mitsuba's `envmap`): the latitude-longitude image
+// `texels` (`width` × `height` linear RGB floats, copied in) times
+// `color` (Mitsuba's `scale` in all three; 1, 1, 1 for the image as it
+// is), turned by the rotation `to_world`. Row 0 is the zenith (+y of the
+// map's frame), texel column x lies at φ = 2π (x + ½)/width from −z
+// towards +x, as in Mitsuba.
+#define CMLT_LIGHT_ENVMAP 4
+
 
 
 
@@ -452,6 +460,19 @@ typedef struct cmlt_light {
   // Spot: half-angle of the full-intensity beam in degrees, in
   // [0, `cutoff_angle`].
   float beam_width;
+  // Envmap: `height` rows of `width` RGB float triples, each finite and
+  // ≥ 0, 4-byte aligned; read during the call. Ignored by other types.
+  const float *texels;
+  // Envmap: texels per row (> 0).
+  uint32_t width;
+  // Envmap: rows (> 0).
+  uint32_t height;
+  // Envmap: bytes from one row to the next (0 = packed, 12 · `width`);
+  // a multiple of 4, at least 12 · `width`.
+  size_t stride;
+  // Envmap: the emitter-to-world rotation, a row-major 3×3 orthonormal
+  // matrix; all zeros means the identity.
+  float to_world[9];
 } cmlt_light;
 
 // A triangle mesh, read from the host's arrays during
@@ -868,10 +889,11 @@ enum cmlt_status cmlt_scene_add_texture(struct cmlt_scene *scene,
                                         uint32_t *out_id);
 
 // Adds a light that is not an emitting mesh (point, spot, directional,
-// constant environment); every field is checked first, and on failure
-// the scene is unchanged. `*out_index` (may be NULL) receives its index
-// among the scene's lights. A scene with lights at infinity (directional,
-// constant) cannot also have host shapes: commit refuses it (their light
+// constant environment, environment map, whose texels are copied);
+// every field is checked first, and on failure the scene is unchanged.
+// `*out_index` (may be NULL) receives its index among the scene's
+// lights. A scene with lights at infinity (directional, constant,
+// envmap) cannot also have host shapes: commit refuses it (their light
 // paths need the scene's bounds).
 //
 // # Safety

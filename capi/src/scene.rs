@@ -369,7 +369,9 @@ impl Committed {
 struct Building {
     builder: SceneBuilder,
     materials: usize,
-    textures: usize,
+    /// The bitmap of each texture id − 1 (environment maps' bitmaps are
+    /// among the scene's bitmaps too, so ids and bitmaps differ).
+    textures: Vec<BitmapId>,
     meshes: usize,
     triangles: u64,
     shapes: u64,
@@ -437,7 +439,7 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
             state: Mutex::new(State::Building(Box::new(Building {
                 builder: SceneBuilder::new(),
                 materials: 0,
-                textures: 0,
+                textures: Vec::new(),
                 meshes: 0,
                 triangles: 0,
                 shapes: 0,
@@ -469,17 +471,17 @@ pub unsafe extern "C" fn cmlt_scene_release(scene: *mut cmlt_scene) {
 
 /// The texture of id `id` (`CMLT_NO_TEXTURE`: none) among `textures`
 /// added so far.
-fn texture_from_c(id: u32, textures: usize, what: &str) -> Result<Option<Texture>> {
+fn texture_from_c(id: u32, textures: &[BitmapId], what: &str) -> Result<Option<Texture>> {
     if id == CMLT_NO_TEXTURE {
         return Ok(None);
     }
-    if id as usize > textures {
+    let Some(&bitmap) = textures.get(id as usize - 1) else {
         return Err(Error::invalid(format!(
             "material: {what} {id} is not a texture of this scene"
         )));
-    }
+    };
     Ok(Some(Texture::Bitmap {
-        id: BitmapId(id - 1),
+        id: bitmap,
         to_uv: Affine2::IDENTITY,
     }))
 }
@@ -489,7 +491,7 @@ fn texture_from_c(id: u32, textures: usize, what: &str) -> Result<Option<Texture
 fn principled_from_c(
     m: &cmlt_material,
     base_color: Texture,
-    textures: usize,
+    textures: &[BitmapId],
 ) -> Result<PrincipledParams> {
     let scalar = |index: u32, value: f32| -> Result<Texture> {
         let id = m.principled_textures[index as usize];
@@ -522,7 +524,7 @@ fn principled_from_c(
     })
 }
 
-pub(crate) fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
+pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Result<Material> {
     let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
     let tex = texture_from_c(m.color_texture, textures, "color_texture")?;
     let colour = tex.unwrap_or(Texture::Constant(color));
@@ -664,7 +666,7 @@ pub unsafe extern "C" fn cmlt_scene_add_material(
             )
         };
         scene.building(|b| {
-            let material = material_from_c(m, b.textures)?;
+            let material = material_from_c(m, &b.textures)?;
             let MaterialId(id) = b.builder.add_material(material);
             b.materials += 1;
             *out = id;
@@ -743,12 +745,12 @@ pub unsafe extern "C" fn cmlt_scene_add_texture(
         let bitmap = Bitmap::new(width, height, out_texels)
             .ok_or_else(|| Error::invalid("texture: invalid size"))?;
         scene.building(|b| {
-            if b.textures >= u32::MAX as usize - 1 {
+            if b.textures.len() >= u32::MAX as usize - 1 {
                 return Err(Error::invalid("scene: too many textures"));
             }
-            b.builder.add_bitmap(bitmap);
-            b.textures += 1;
-            *out = b.textures as u32;
+            let id = b.builder.add_bitmap(bitmap);
+            b.textures.push(id);
+            *out = b.textures.len() as u32;
             Ok(())
         })
     })
@@ -768,6 +770,13 @@ pub const CMLT_LIGHT_DIRECTIONAL: u32 = 2;
 /// A uniform environment (Mitsuba's `constant`): `color` is the radiance
 /// arriving from every direction.
 pub const CMLT_LIGHT_CONSTANT: u32 = 3;
+/// An environment map (Mitsuba's `envmap`): the latitude-longitude image
+/// `texels` (`width` × `height` linear RGB floats, copied in) times
+/// `color` (Mitsuba's `scale` in all three; 1, 1, 1 for the image as it
+/// is), turned by the rotation `to_world`. Row 0 is the zenith (+y of the
+/// map's frame), texel column x lies at φ = 2π (x + ½)/width from −z
+/// towards +x, as in Mitsuba.
+pub const CMLT_LIGHT_ENVMAP: u32 = 4;
 
 /// A light that is not an emitting mesh. Fields a type does not use are
 /// ignored (but must be finite).
@@ -789,6 +798,87 @@ pub struct cmlt_light {
     /// Spot: half-angle of the full-intensity beam in degrees, in
     /// [0, `cutoff_angle`].
     pub beam_width: f32,
+    /// Envmap: `height` rows of `width` RGB float triples, each finite and
+    /// ≥ 0, 4-byte aligned; read during the call. Ignored by other types.
+    pub texels: *const f32,
+    /// Envmap: texels per row (> 0).
+    pub width: u32,
+    /// Envmap: rows (> 0).
+    pub height: u32,
+    /// Envmap: bytes from one row to the next (0 = packed, 12 · `width`);
+    /// a multiple of 4, at least 12 · `width`.
+    pub stride: usize,
+    /// Envmap: the emitter-to-world rotation, a row-major 3×3 orthonormal
+    /// matrix; all zeros means the identity.
+    pub to_world: [f32; 9],
+}
+
+/// Copies an environment map's texels from a C light (times its `color`)
+/// and reads its rotation.
+///
+/// # Safety
+/// `l.texels` is NULL or points to `l.height` rows of `l.stride` bytes.
+unsafe fn envmap_from_c(l: &cmlt_light) -> Result<(Bitmap, cmlt_core::math::Mat3)> {
+    if l.color.iter().any(|v| v.is_nan() || *v < 0.0) {
+        return Err(Error::invalid(
+            "light: envmap color (the texels' factor) must be non-negative",
+        ));
+    }
+    if l.texels.is_null() {
+        return Err(Error::null("light.texels"));
+    }
+    if l.width == 0 || l.height == 0 {
+        return Err(Error::invalid("light: envmap width and height must be > 0"));
+    }
+    if !(l.texels as usize).is_multiple_of(4) {
+        return Err(Error::invalid(
+            "light: envmap texels must be 4-byte aligned",
+        ));
+    }
+    let row = l.width as usize * 12;
+    let stride = if l.stride == 0 { row } else { l.stride };
+    if stride < row || !stride.is_multiple_of(4) {
+        return Err(Error::invalid(format!(
+            "light: envmap stride {stride} must be a multiple of 4 and at least a row's {row} bytes"
+        )));
+    }
+    (l.height as usize - 1)
+        .checked_mul(stride)
+        .and_then(|b| b.checked_add(row))
+        .filter(|&b| b <= isize::MAX as usize)
+        .ok_or_else(|| Error::invalid("light: envmap size overflows the address space"))?;
+    let mut texels = Vec::new();
+    texels
+        .try_reserve_exact(l.width as usize * l.height as usize)
+        .map_err(|_| Error::invalid("light: envmap too large for the available memory"))?;
+    for y in 0..l.height as usize {
+        // SAFETY: the caller's contract: row y starts y · stride bytes in,
+        // holds 3 · width floats and is 4-byte aligned.
+        let r = unsafe {
+            std::slice::from_raw_parts(
+                l.texels.cast::<u8>().add(y * stride).cast::<f32>(),
+                3 * l.width as usize,
+            )
+        };
+        for (x, t) in r.chunks_exact(3).enumerate() {
+            if !t.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                return Err(Error::invalid(format!(
+                    "light: envmap texel ({x}, {y}) must be finite and non-negative, got {t:?}"
+                )));
+            }
+            texels.push(Rgb::new(t[0], t[1], t[2]) * Rgb::new(l.color[0], l.color[1], l.color[2]));
+        }
+    }
+    let bitmap = Bitmap::new(l.width, l.height, texels)
+        .ok_or_else(|| Error::invalid("light: envmap texels times color overflow"))?;
+    let m = l.to_world;
+    let to_world = if m.iter().all(|v| *v == 0.0) {
+        cmlt_core::math::Mat3::IDENTITY
+    } else {
+        // Row-major in, glam's columns out.
+        cmlt_core::math::Mat3::from_cols_array(&m).transpose()
+    };
+    Ok((bitmap, to_world))
 }
 
 /// Checks a C light and converts it.
@@ -797,7 +887,8 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
         && l.position.iter().all(|v| v.is_finite())
         && l.direction.iter().all(|v| v.is_finite())
         && l.cutoff_angle.is_finite()
-        && l.beam_width.is_finite();
+        && l.beam_width.is_finite()
+        && l.to_world.iter().all(|v| v.is_finite());
     if !finite {
         return Err(Error::invalid("light: every field must be finite"));
     }
@@ -820,6 +911,12 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
             irradiance: color,
         },
         CMLT_LIGHT_CONSTANT => Light::Constant { radiance: color },
+        // The bitmap is copied and the id set by cmlt_scene_add_light.
+        CMLT_LIGHT_ENVMAP => Light::Envmap {
+            bitmap: BitmapId(u32::MAX),
+            scale: 1.0,
+            to_world: cmlt_core::math::Mat3::IDENTITY,
+        },
         t => return Err(Error::invalid(format!("light: unknown type {t}"))),
     };
     light
@@ -829,10 +926,11 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
 }
 
 /// Adds a light that is not an emitting mesh (point, spot, directional,
-/// constant environment); every field is checked first, and on failure
-/// the scene is unchanged. `*out_index` (may be NULL) receives its index
-/// among the scene's lights. A scene with lights at infinity (directional,
-/// constant) cannot also have host shapes: commit refuses it (their light
+/// constant environment, environment map, whose texels are copied);
+/// every field is checked first, and on failure the scene is unchanged.
+/// `*out_index` (may be NULL) receives its index among the scene's
+/// lights. A scene with lights at infinity (directional, constant,
+/// envmap) cannot also have host shapes: commit refuses it (their light
 /// paths need the scene's bounds).
 ///
 /// # Safety
@@ -847,8 +945,30 @@ pub unsafe extern "C" fn cmlt_scene_add_light(
     guard("cmlt_scene_add_light", || {
         // SAFETY: the caller's contract.
         let (scene, l) = unsafe { (read(scene, "scene")?, read(light, "light")?) };
-        let light = light_from_c(l)?;
+        let mut light = light_from_c(l)?;
+        // SAFETY: the caller's contract.
+        let envmap = match light {
+            Light::Envmap { .. } => Some(unsafe { envmap_from_c(l)? }),
+            _ => None,
+        };
+        if let Some((_, to_world)) = envmap {
+            light = Light::Envmap {
+                bitmap: BitmapId(u32::MAX),
+                scale: 1.0,
+                to_world,
+            };
+            light
+                .validate()
+                .map_err(|reason| Error::invalid(format!("light: {reason}")))?;
+        }
         scene.building(|b| {
+            if let (Some((bitmap, to_world)), Light::Envmap { scale, .. }) = (envmap, light) {
+                light = Light::Envmap {
+                    bitmap: b.builder.add_bitmap(bitmap),
+                    scale,
+                    to_world,
+                };
+            }
             let i = b.builder.add_light(light);
             if !out_index.is_null() {
                 // SAFETY: non-NULL, so valid by the caller's contract.
@@ -1375,7 +1495,7 @@ pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
 pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
 /// Point, spot and directional lights.
 pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
-/// A constant environment.
+/// An environment (constant or an environment map).
 pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
 /// `cmlt_scene_effects` bit: a principled material.
 pub const CMLT_EFFECT_PRINCIPLED: u32 = 1 << Effect::Principled as u32;

@@ -323,8 +323,9 @@ fn surfaces_that_do_not_scatter_cap_paths_at_one_segment_with_the_same_image() {
     }
 }
 
-/// A point light needs `delta-lights`, a constant environment
-/// `environment`: without the feature the scene is refused by name.
+/// A point light needs `delta-lights`, a constant environment or an
+/// environment map `environment`: without the feature the scene is
+/// refused by name.
 #[test]
 fn lights_need_their_features_built() {
     use cmlt::scene::Light;
@@ -337,9 +338,18 @@ fn lights_need_their_features_built() {
             },
         ),
         (Effect::Environment, Light::Constant { radiance: Rgb::ONE }),
+        (
+            Effect::Environment,
+            Light::Envmap {
+                bitmap: cmlt::scene::BitmapId(0),
+                scale: 1.0,
+                to_world: glam::Mat3::IDENTITY,
+            },
+        ),
     ];
     for (effect, light) in lights {
         let mut b = SceneBuilder::new();
+        b.add_bitmap(cmlt::scene::Bitmap::new(2, 1, vec![Rgb::ONE; 2]).unwrap());
         let m = b.add_material(Material::diffuse(Rgb::splat(0.5)));
         b.add_mesh(common::inward_box(m, 0.0));
         b.add_light(light);

@@ -10,7 +10,6 @@
 use std::path::PathBuf;
 
 use cmlt::math::Rgb;
-use cmlt::math::spectrum::srgb_to_linear;
 use cmlt::scene::{
     Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind,
     PrincipledParams, RoughCoating, Texture,
@@ -869,7 +868,7 @@ impl<'a> Loader<'a> {
         if let Some(&i) = self.bitmap_index.get(&cache_key) {
             return Ok(BitmapId(i as u32));
         }
-        let b = decode_bitmap(&path, raw)
+        let b = super::image_io::decode_bitmap(&path, raw)
             .map_err(|e| self.xml.err(node, format!("image file '{filename}': {e}")))?;
         self.bitmaps.push(PendingBitmap {
             bitmap: Some(b),
@@ -879,48 +878,4 @@ impl<'a> Loader<'a> {
         self.bitmap_index.insert(cache_key, i);
         Ok(BitmapId(i as u32))
     }
-}
-
-/// Decodes a JPEG/PNG into linear RGB. Integer images are sRGB-encoded
-/// unless `raw` (Mitsuba decodes 8-bit data with the sRGB curve and treats
-/// 16-bit PNGs the same way); alpha is dropped.
-fn decode_bitmap(path: &std::path::Path, raw: bool) -> Result<Bitmap, String> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot open: {e}"))?
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read: {e}"))?;
-    let img = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.decode()))
-        .map_err(|_| "the image decoder failed on malformed data".to_string())?
-        .map_err(|e| format!("cannot decode: {e}"))?;
-    let (w, h) = (img.width(), img.height());
-    let ct = img.color();
-    let bytes_per_channel = ct.bytes_per_pixel() as usize / ct.channel_count().max(1) as usize;
-    let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
-    let texels: Vec<Rgb> = match bytes_per_channel {
-        1 => {
-            let lut: Vec<f32> = (0..256).map(|i| decode(i as f32 / 255.0)).collect();
-            img.to_rgb8()
-                .pixels()
-                .map(|p| Rgb::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
-                .collect()
-        }
-        2 => img
-            .to_rgb16()
-            .pixels()
-            .map(|p| {
-                Rgb::new(
-                    decode(p[0] as f32 / 65535.0),
-                    decode(p[1] as f32 / 65535.0),
-                    decode(p[2] as f32 / 65535.0),
-                )
-            })
-            .collect(),
-        // Floating-point images are linear already.
-        _ => img
-            .to_rgb32f()
-            .pixels()
-            .map(|p| Rgb::new(p[0], p[1], p[2]))
-            .collect(),
-    };
-    Bitmap::new(w, h, texels).ok_or_else(|| "image is empty or has non-finite texels".to_string())
 }

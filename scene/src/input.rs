@@ -26,6 +26,19 @@ pub const MAX_MESH_BYTES: u64 = 2 << 30;
 /// longest real value, a 4×4 matrix, is a few hundred bytes.
 pub const MAX_SUBSTITUTED_BYTES: usize = 1 << 20;
 
+/// Largest image file (JPEG, PNG, OpenEXR, Radiance HDR) read: 1 GiB, well
+/// beyond a 16k × 8k float environment map.
+pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
+
+/// Largest image side decoded, checked against the header before any
+/// pixel memory is taken (Mitsuba has no bound; real environment maps are
+/// at most 16k wide).
+pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
+
+/// Most memory an image decoder may take (`image::Limits::max_alloc`): an
+/// 8k × 4k RGBA float image is 512 MiB.
+pub const MAX_IMAGE_ALLOC: u64 = 1 << 30;
+
 /// Opens `path` for reading if it is a regular file of at most `max_bytes`
 /// bytes; returns the file and its size. `what` names the kind of file in
 /// the message ("scene file", "mesh file").

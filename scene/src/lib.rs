@@ -29,8 +29,9 @@
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
 //!   `principled` (Mitsuba 3's parameters; scalars may be textures),
 //!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
-//!   `bitmap` (JPEG/PNG) and `checkerboard`;
-//! - scene-level emitters `point`, `spot`, `directional`, `constant`.
+//!   `bitmap` (JPEG/PNG, OpenEXR and Radiance HDR) and `checkerboard`;
+//! - scene-level emitters `point`, `spot`, `directional`, `constant`,
+//!   `envmap` (JPEG/PNG, OpenEXR or Radiance HDR lat-long images).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
@@ -40,6 +41,7 @@ pub mod accel;
 
 mod bsdf;
 mod error;
+mod image_io;
 pub mod input;
 mod loader;
 mod mesh_io;

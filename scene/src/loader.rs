@@ -551,7 +551,8 @@ impl<'a> Loader<'a> {
     }
 
     /// A scene-level `<emitter>`: Mitsuba 3's `point`, `spot`,
-    /// `directional` or `constant`, with Mitsuba's defaults (power 1, a
+    /// `directional`, `constant` or `envmap` (`filename`, `scale`,
+    /// `to_world`), with Mitsuba's defaults (power 1, a
     /// spot's cutoff 20° and beam width 3/4 of it; `to_world` places a
     /// point light at its origin and aims a spot or sun along its +z).
     fn scene_emitter(&mut self, node: Node<'a, 'a>) -> Result<Light, LoadError> {
@@ -612,17 +613,48 @@ impl<'a> Loader<'a> {
             "constant" => Light::Constant {
                 radiance: self.emitter_power(&props, "radiance", 1.0)?,
             },
+            "envmap" => {
+                let (filename, fnode) = props
+                    .string(x, "filename")?
+                    .ok_or_else(|| x.err(node, "envmap emitter lacks the 'filename' property"))?;
+                let scale = match props.float(x, "scale")? {
+                    None => 1.0,
+                    Some((v, n)) if !(v.is_finite() && v >= 0.0) => {
+                        return Err(x.err(
+                            n,
+                            format!("'scale' must be finite and non-negative, got {v}"),
+                        ));
+                    }
+                    Some((v, _)) => v as f32,
+                };
+                // Mitsuba's envmap decodes 8-bit images with the sRGB curve
+                // (`convert(RGB, Float, srgb=false)`); float images are
+                // linear.
+                let path = self.base_dir.join(&filename);
+                let bitmap = super::image_io::decode_bitmap(&path, false)
+                    .map_err(|e| x.err(fnode, format!("image file '{filename}': {e}")))?;
+                // A light at infinity: only the rotation part matters.
+                let to_world = to_world
+                    .map(|(m, _)| glam::DMat3::from_mat4(m).as_mat3())
+                    .unwrap_or(glam::Mat3::IDENTITY);
+                Light::Envmap {
+                    bitmap: self.builder.add_bitmap(bitmap),
+                    scale,
+                    to_world,
+                }
+            }
             other => {
                 return Err(x.err(
                     node,
                     format!(
-                        "unsupported emitter plugin '{other}' (cmlt supports point, spot, directional and constant, and area emitters on shapes)"
+                        "unsupported emitter plugin '{other}' (cmlt supports point, spot, directional, constant and envmap, and area emitters on shapes)"
                     ),
                 ));
             }
         };
         light.validate().map_err(|reason| x.err(node, reason))?;
-        props.finish(x, &[])?;
+        // MIS compensation changes how an envmap is sampled, not the image.
+        props.finish(x, &["mis_compensation"])?;
         Ok(light)
     }
 

@@ -50,6 +50,7 @@ fn shared_scenes_call_for_what_they_contain() {
         [
             "caustic-pool",
             "cornell-box",
+            "envmap",
             "glossy-room",
             "lights-punctual",
             "plastics",
@@ -61,6 +62,11 @@ fn shared_scenes_call_for_what_they_contain() {
             "veach-mis"
         ],
         "a shared scene was added: state its effects here"
+    );
+    // An environment map over diffuse and rough-metal objects.
+    assert_eq!(
+        effects("envmap"),
+        (set(&[Diffuse, Glossy, Environment]), false)
     );
     // Point, spot, sun and sky over diffuse and rough-metal objects.
     assert_eq!(

@@ -996,7 +996,10 @@ const MALFORMED: &[(&str, &str)] = &[
     ("unclosed_tag.xml", "malformed XML"),
     ("undefined_parameter.xml", "undefined parameter '$depth'"),
     ("unknown_bsdf.xml", "unsupported BSDF plugin 'pplastic'"),
-    ("unknown_emitter.xml", "unsupported emitter plugin 'envmap'"),
+    (
+        "unknown_emitter.xml",
+        "unsupported emitter plugin 'projector'",
+    ),
     ("unknown_ref.xml", "reference to unknown id 'NoSuchBSDF'"),
     ("unknown_shape.xml", "unsupported shape plugin 'cylinder'"),
     ("wrong_property_type.xml", "'fov' must be a float"),
@@ -1474,7 +1477,27 @@ fn bad_scene_level_emitters_are_located() {
         ),
         (
             r#"<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>"#,
-            "unsupported emitter plugin 'envmap'",
+            "image file 'sky.exr': cannot open",
+        ),
+        (
+            r#"<emitter type="envmap"/>"#,
+            "lacks the 'filename' property",
+        ),
+        (
+            r#"<emitter type="envmap"><float name="scale" value="-2"/><string name="filename" value="sky.exr"/></emitter>"#,
+            "'scale' must be finite and non-negative",
+        ),
+        (
+            r#"<emitter type="envmap"><string name="filename" value="../../../../tests/scenes/cornell-box/reference.exr"/><transform name="to_world"><scale y="2"/></transform></emitter>"#,
+            "to_world must be finite and a rotation",
+        ),
+        (
+            r#"<emitter type="envmap"><string name="filename" value="tent.obj"/></emitter>"#,
+            "cannot decode",
+        ),
+        (
+            r#"<emitter type="spotlight"/>"#,
+            "unsupported emitter plugin 'spotlight'",
         ),
         (
             r#"<emitter type="constant"><rgb name="radiance" value="1, 1"/></emitter>"#,
@@ -1609,4 +1632,69 @@ fn principled_parameters_and_defaults() {
     )
     .scene;
     assert!(material(&s, 0).two_sided);
+}
+
+/// `<emitter type="envmap">`: an OpenEXR image (linear, unchanged), `scale`
+/// and the rotation of `to_world`, looked up with Mitsuba's mapping
+/// (texel column x at u = (x + ½)/W, φ = 2πu from −z towards +x, row 0
+/// along +y).
+#[test]
+fn envmap_emitter_loads_float_images() {
+    use cmlt::scene::Light;
+    use exr::prelude::*;
+    let dir = std::env::temp_dir().join(format!("cmlt-envmap-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // 4 × 3: texel (x, y) = (x + 1, 10·y, 100).
+    Image::from_channels(
+        (4, 3),
+        SpecificChannels::rgb(|p: Vec2<usize>| (p.x() as f32 + 1.0, 10.0 * p.y() as f32, 100.0)),
+    )
+    .write()
+    .to_file(dir.join("sky.exr"))
+    .unwrap();
+    let xml = r#"<scene version="3.0.0">
+      <sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><rfilter type="box"/></film></sensor>
+      <shape type="rectangle"/>
+      <emitter type="envmap">
+        <string name="filename" value="sky.exr"/>
+        <float name="scale" value="0.5"/>
+        <boolean name="mis_compensation" value="true"/>
+        <transform name="to_world"><rotate y="1" angle="90"/><translate x="5"/></transform>
+      </emitter>
+    </scene>"#;
+    let l = load_scene_str(xml, &dir, "envmap.xml", &[]).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::remove_dir_all(&dir).ok();
+    let s = &l.scene;
+    let lights: Vec<Light> = s.lights.others().copied().collect();
+    let Light::Envmap {
+        bitmap,
+        scale,
+        to_world,
+    } = lights[0]
+    else {
+        panic!("{:?}", lights[0])
+    };
+    assert_eq!(scale, 0.5);
+    let b = &s.bitmaps[bitmap.0 as usize];
+    assert_eq!((b.width(), b.height()), (4, 3));
+    assert_eq!(
+        b.eval(cmlt::math::Vec2::new(1.5 / 4.0, 2.5 / 3.0)),
+        Rgb::new(2.0, 20.0, 100.0)
+    );
+    // Rotating by 90° about +y takes the emitter's −z to world −x.
+    assert!(close(
+        to_world * Vec3::new(0.0, 0.0, -1.0),
+        Vec3::new(-1.0, 0.0, 0.0),
+        1e-6
+    ));
+    // Texel column 1 (u = 3/8, φ = 3π/4) on the horizon (row 1): the
+    // emitter-space direction (sin φ, 0, −cos φ), seen in world space.
+    let phi = 0.75 * std::f32::consts::PI;
+    let d = to_world * Vec3::new(phi.sin(), 0.0, -phi.cos());
+    let le = s.lights.radiance(0, d);
+    assert!(
+        (le.r - 1.0).abs() < 1e-4 && (le.g - 5.0).abs() < 1e-4,
+        "{le:?}"
+    );
+    assert!((le.b - 50.0).abs() < 1e-3, "{le:?}");
 }

@@ -142,6 +142,19 @@ fn principled_bdpt() {
     check_scene("principled", Method::Bdpt, 32);
 }
 
+/// An environment map with a sun over diffuse and glossy objects
+/// (tests/scenes/envmap): Mitsuba's lat-long lookup and orientation, and
+/// the map's importance sampling.
+#[test]
+fn envmap_pt() {
+    check_scene("envmap", Method::Path, 256);
+}
+
+#[test]
+fn envmap_bdpt() {
+    check_scene("envmap", Method::Bdpt, 32);
+}
+
 /// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
 #[test]
 fn lights_punctual_pt() {

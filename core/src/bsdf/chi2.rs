@@ -23,7 +23,7 @@ const MIN_EXPECTED: f64 = 5.0;
 
 /// Outcome of [`run`].
 #[derive(Debug)]
-pub(super) struct Chi2Outcome {
+pub(crate) struct Chi2Outcome {
     /// Pearson statistic.
     pub chi2: f64,
     /// Degrees of freedom (pooled bins − 1).
@@ -61,13 +61,13 @@ impl Chi2Outcome {
 }
 
 /// A uniform f32 in [0, 1) with 24 random bits, like the renderer's streams.
-pub(super) fn uniform(rng: &mut Pcg32) -> f32 {
+pub(crate) fn uniform(rng: &mut Pcg32) -> f32 {
     (rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
 /// The significance of each of `count` tests that keeps the family-wise
 /// false-rejection rate at `alpha` (Šidák correction).
-pub(super) fn sidak(alpha: f64, count: usize) -> f64 {
+pub(crate) fn sidak(alpha: f64, count: usize) -> f64 {
     1.0 - (1.0 - alpha).powf(1.0 / count as f64)
 }
 
@@ -82,7 +82,7 @@ fn bin_of(w: Vec3) -> usize {
 
 /// Draws `samples` directions with `sample` (given an RNG seeded with
 /// `seed`) and tests their histogram against `pdf` (per solid angle).
-pub(super) fn run(
+pub(crate) fn run(
     samples: usize,
     seed: u64,
     mut sample: impl FnMut(&mut Pcg32) -> Option<Vec3>,
@@ -161,7 +161,7 @@ pub(super) fn run(
 /// cos θ interval next to a pole spans a wide range of θ: the bin
 /// cos θ ∈ [1 − 1/24, 1] covers θ up to 16°, while a lobe of α = 0.05 lies
 /// within 3° and its nodes in cos θ would all fall outside it.
-pub(super) fn integrate_bins(f: &impl Fn(Vec3) -> f64) -> Vec<f64> {
+pub(crate) fn integrate_bins(f: &impl Fn(Vec3) -> f64) -> Vec<f64> {
     let g = |theta: f64, phi: f64| {
         let (s, c) = theta.sin_cos();
         s * f(Vec3::new(
@@ -186,7 +186,7 @@ pub(super) fn integrate_bins(f: &impl Fn(Vec3) -> f64) -> Vec<f64> {
 }
 
 /// ∫ f dω over the sphere.
-pub(super) fn integrate_sphere(f: &impl Fn(Vec3) -> f64) -> f64 {
+pub(crate) fn integrate_sphere(f: &impl Fn(Vec3) -> f64) -> f64 {
     integrate_bins(f).iter().sum()
 }
 
@@ -219,7 +219,7 @@ fn gauss_rect(f: &impl Fn(f64, f64) -> f64, [x0, x1, y0, y1]: [f64; 4]) -> f64 {
 
 /// Adaptive cubature: accept a rectangle when the rule on it agrees with
 /// the sum over its four quadrants, otherwise recurse into the quadrants.
-pub(super) fn integrate_rect(f: &impl Fn(f64, f64) -> f64, rect: [f64; 4], tol: f64) -> f64 {
+pub(crate) fn integrate_rect(f: &impl Fn(f64, f64) -> f64, rect: [f64; 4], tol: f64) -> f64 {
     fn rec(
         f: &impl Fn(f64, f64) -> f64,
         [x0, x1, y0, y1]: [f64; 4],
@@ -250,7 +250,7 @@ pub(super) fn integrate_rect(f: &impl Fn(f64, f64) -> f64, rect: [f64; 4], tol: 
 
 /// Survival function of the χ² distribution with `dof` degrees of freedom:
 /// the regularised upper incomplete gamma function Q(dof/2, x/2).
-pub(super) fn chi2_survival(x: f64, dof: usize) -> f64 {
+pub(crate) fn chi2_survival(x: f64, dof: usize) -> f64 {
     gamma_q(0.5 * dof as f64, 0.5 * x)
 }
 

@@ -64,7 +64,7 @@ pub(crate) use roughplastic::rough_coating;
 
 // The tests exercise every model.
 #[cfg(all(test, feature = "std", feature = "effects"))]
-mod chi2;
+pub(crate) mod chi2;
 #[cfg(all(test, feature = "std", feature = "effects"))]
 mod coating_tests;
 #[cfg(all(test, feature = "std", feature = "effects"))]

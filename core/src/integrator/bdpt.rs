@@ -535,7 +535,9 @@ fn other_light_vertex(scene: &Scene, index: usize, p: Vec3, from: Vec3, d: Vec3)
         Some(Light::Directional { .. }) => {
             at_infinity(Kind::Directional(index as u32), from, d, center, r)
         }
-        Some(Light::Constant { .. }) => at_infinity(Kind::Environment, from, d, center, r),
+        Some(Light::Constant { .. } | Light::Envmap { .. }) => {
+            at_infinity(Kind::Environment, from, d, center, r)
+        }
         _ => {
             let mut v = at_infinity(Kind::PointLight(index as u32), p, d, p, 0.0);
             v.sp.p = p;

@@ -2,6 +2,8 @@
 //!
 //! Vectors are glam's `Vec3` (f32, with `libm` so the crate stays `no_std`).
 
+#[cfg(feature = "alloc")]
+pub mod distribution;
 pub mod frame;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod lanes;

@@ -40,7 +40,7 @@ pub enum Effect {
     RoughRefraction = 10,
     /// Point, spot and directional lights (delta positions or directions).
     PointLights = 11,
-    /// A constant environment around the scene.
+    /// An environment around the scene (constant or an environment map).
     Environment = 12,
     /// Mitsuba 3's principled BSDF.
     Principled = 13,

@@ -1,7 +1,8 @@
 //! Emitters and their sampling.
 //!
 //! Every emissive mesh is one area light. Lights that are not meshes —
-//! Mitsuba 3's `point`, `spot`, `directional` and `constant` emitters —
+//! Mitsuba 3's `point`, `spot`, `directional`, `constant` and `envmap`
+//! emitters —
 //! are [`Light`]s added to the scene by the host. All of them share one
 //! power distribution: a light is chosen with probability proportional to
 //! its power (luminance, since p(x̄) is luminance):
@@ -14,17 +15,20 @@
 //!   beam width β to the cutoff α;
 //! - infinite lights use the scene's bounding sphere of radius r, as
 //!   pbrt-v4 does: a directional light π r² · Y(E), a constant environment
-//!   π r² · 4π · Y(L).
+//!   π r² · 4π · Y(L), an environment map π r² · ∫ Y(L) dω (its mean
+//!   radiance weighted by solid angle, [`EnvMap::luminance_integral`]).
 //!
 //! Area lights come first in the distribution, so a scene of area lights
 //! only chooses exactly as it always did.
 
 use alloc::vec::Vec;
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 
 use super::effects::Effect;
+use super::envmap::{EnvMap, is_orthonormal};
 use super::store::Mesh;
+use super::texture::{Bitmap, BitmapId};
 use crate::math::{Frame, PI, Rgb, warp};
 
 /// A light that is not an emissive mesh, with Mitsuba 3's semantics.
@@ -68,6 +72,18 @@ pub enum Light {
     Constant {
         /// Radiance.
         radiance: Rgb,
+    },
+    /// Mitsuba's `envmap`: radiance from a latitude-longitude image at
+    /// infinity (see [`super::envmap`] for the mapping).
+    Envmap {
+        /// The image (linear RGB, finite, non-negative), among the scene's
+        /// bitmaps.
+        bitmap: BitmapId,
+        /// Factor on the image's radiance.
+        scale: f32,
+        /// Emitter-to-world rotation (Mitsuba's `to_world` without its
+        /// translation, which does not move a light at infinity).
+        to_world: Mat3,
     },
 }
 
@@ -147,6 +163,18 @@ impl Light {
                     return Err("constant environment: radiance must be finite and non-negative");
                 }
             }
+            Light::Envmap {
+                scale, to_world, ..
+            } => {
+                if !(scale.is_finite() && scale >= 0.0) {
+                    return Err("environment map: scale must be finite and non-negative");
+                }
+                if !is_orthonormal(to_world) {
+                    return Err(
+                        "environment map: to_world must be finite and a rotation (orthonormal, no scaling or shear)",
+                    );
+                }
+            }
         }
         Ok(())
     }
@@ -155,18 +183,24 @@ impl Light {
     /// (point, spot, directional): no ray can hit them, only next-event
     /// estimation reaches them.
     pub fn is_delta(&self) -> bool {
-        !matches!(self, Light::Constant { .. })
+        !self.is_environment()
+    }
+
+    /// True for environments: non-delta lights at infinity (constant,
+    /// environment map), which rays escaping the scene see.
+    pub fn is_environment(&self) -> bool {
+        matches!(self, Light::Constant { .. } | Light::Envmap { .. })
     }
 
     /// True for lights at infinity (directional, constant).
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Directional { .. } | Light::Constant { .. })
+        matches!(self, Light::Directional { .. }) || self.is_environment()
     }
 
     /// The effect the light calls for.
     pub fn effect(&self) -> Effect {
         match self {
-            Light::Constant { .. } => Effect::Environment,
+            Light::Constant { .. } | Light::Envmap { .. } => Effect::Environment,
             _ => Effect::PointLights,
         }
     }
@@ -187,6 +221,8 @@ struct Prepared {
     cutoff: f32,
     /// 1 / (cutoff − beam width) in radians (Mitsuba's transition slope).
     inv_transition: f32,
+    /// An environment map's index in [`LightSet::envmaps`].
+    env: u32,
 }
 
 impl Prepared {
@@ -198,6 +234,7 @@ impl Prepared {
             cos_beam: -1.0,
             cutoff: PI,
             inv_transition: 0.0,
+            env: u32::MAX,
         };
         match light {
             Light::Spot {
@@ -248,6 +285,8 @@ impl Prepared {
             }
             Light::Directional { irradiance, .. } => disk * irradiance.luminance() as f64,
             Light::Constant { radiance } => disk * 4.0 * PI as f64 * radiance.luminance() as f64,
+            // Needs the map: LightSet::with_bitmaps computes it.
+            Light::Envmap { .. } => 0.0,
         }
     }
 
@@ -363,6 +402,8 @@ pub struct LightSet {
     /// Indices into `others` of the environment (non-delta infinite)
     /// lights: those a ray escaping the scene sees.
     environment: Vec<u32>,
+    /// The environment maps' tables (`Prepared::env` indexes them).
+    envmaps: Vec<EnvMap>,
     /// Centre of the scene's bounding sphere.
     center: Vec3,
     /// Radius of the scene's bounding sphere (positive).
@@ -392,8 +433,17 @@ fn sample_cdf(cdf: &[f32], u: f32) -> usize {
 impl LightSet {
     /// Builds the light set of the emissive meshes among `meshes` and the
     /// lights `others` (validated by the caller), with infinite lights
-    /// around the bounding sphere of the meshes.
+    /// around the bounding sphere of the meshes. Environment maps need
+    /// their images: see [`LightSet::with_bitmaps`]; here they emit
+    /// nothing.
     pub fn new(meshes: &[Mesh], others: &[Light]) -> Self {
+        Self::with_bitmaps(meshes, others, &[])
+    }
+
+    /// [`LightSet::new`] with the scene's `bitmaps`, which environment maps
+    /// name (validated by the caller: ids in range, texels finite and
+    /// non-negative). Builds each map's sampling tables once.
+    pub fn with_bitmaps(meshes: &[Mesh], others: &[Light], bitmaps: &[Bitmap]) -> Self {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         if others.iter().any(Light::is_infinite) {
             for p in meshes.iter().flat_map(|m| m.positions.iter()) {
@@ -436,13 +486,30 @@ impl LightSet {
             power.push(phi);
         }
         for l in others {
-            let p = Prepared::new(*l);
-            let phi = p.power(radius);
+            let mut p = Prepared::new(*l);
+            let mut phi = p.power(radius);
+            if let Light::Envmap {
+                bitmap,
+                scale,
+                to_world,
+            } = *l
+            {
+                // A black map, or one whose image is missing, emits nothing.
+                let Some(env) = bitmaps
+                    .get(bitmap.0 as usize)
+                    .and_then(|b| EnvMap::new(b, scale, to_world))
+                else {
+                    continue;
+                };
+                phi = PI as f64 * radius as f64 * radius as f64 * env.luminance_integral();
+                p.env = set.envmaps.len() as u32;
+                set.envmaps.push(env);
+            }
             // A light that emits nothing is left out, as black meshes are.
             if !(phi > 0.0 && phi.is_finite()) {
                 continue;
             }
-            if matches!(l, Light::Constant { .. }) {
+            if l.is_environment() {
                 set.environment.push(set.others.len() as u32);
             }
             set.others.push(p);
@@ -619,6 +686,21 @@ impl LightSet {
                     delta: false,
                 })
             }
+            Light::Envmap { .. } => {
+                let env = &self.envmaps[l.env as usize];
+                let (wi, pdf) = env.sample(u);
+                let li = env.eval(wi);
+                if li.is_black() || !(pdf > 0.0) {
+                    return None;
+                }
+                Some(Incident {
+                    wi,
+                    position: None,
+                    li,
+                    pdf,
+                    delta: false,
+                })
+            }
         }
     }
 
@@ -627,9 +709,10 @@ impl LightSet {
     /// the light); zero for delta lights.
     #[inline]
     pub fn pdf_incident(&self, index: usize, wi: Vec3) -> f32 {
-        let _ = wi;
-        match self.others[index].light {
+        let l = &self.others[index];
+        match l.light {
             Light::Constant { .. } => 1.0 / (4.0 * PI),
+            Light::Envmap { .. } => self.envmaps[l.env as usize].pdf(wi),
             _ => 0.0,
         }
     }
@@ -638,9 +721,10 @@ impl LightSet {
     /// `wi` (towards the light); zero for delta lights.
     #[inline]
     pub fn radiance(&self, index: usize, wi: Vec3) -> Rgb {
-        let _ = wi;
-        match self.others[index].light {
+        let l = &self.others[index];
+        match l.light {
             Light::Constant { radiance } => radiance,
+            Light::Envmap { .. } => self.envmaps[l.env as usize].eval(wi),
             _ => Rgb::ZERO,
         }
     }
@@ -696,9 +780,10 @@ impl LightSet {
                     l.pdf_emit_dir(l.frame.n),
                 )
             }
-            Light::Directional { .. } | Light::Constant { .. } => {
+            Light::Directional { .. } | Light::Constant { .. } | Light::Envmap { .. } => {
                 let (wi, pdf_dir) = match l.light {
                     Light::Directional { .. } => (l.frame.n, 1.0),
+                    Light::Envmap { .. } => self.envmaps[l.env as usize].sample(u_dir),
                     _ => (warp::square_to_uniform_sphere(u_dir), 1.0 / (4.0 * PI)),
                 };
                 // A disk of the bounding sphere's radius facing wi, pushed
@@ -713,6 +798,7 @@ impl LightSet {
             Light::Point { .. } | Light::Spot { .. } => l.intensity(dir),
             Light::Directional { irradiance, .. } => irradiance,
             Light::Constant { radiance } => radiance,
+            Light::Envmap { .. } => self.envmaps[l.env as usize].eval(-dir),
         };
         if le.is_black() || !(pdf_dir > 0.0) {
             return None;

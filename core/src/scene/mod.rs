@@ -13,6 +13,8 @@ pub mod camera;
 pub mod detail;
 pub mod effects;
 #[cfg(feature = "alloc")]
+pub mod envmap;
+#[cfg(feature = "alloc")]
 pub mod light;
 pub mod material;
 pub mod texture;

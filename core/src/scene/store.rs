@@ -363,6 +363,25 @@ impl SceneBuilder {
                     reason: "lights at infinity need the scene's bounds, which host shapes do not give",
                 });
             }
+            if let Light::Envmap { bitmap, .. } = *l {
+                let Some(b) = self.bitmaps.get(bitmap.0 as usize) else {
+                    return Err(SceneError::InvalidLight {
+                        light: li,
+                        reason: "environment map: bitmap id does not exist",
+                    });
+                };
+                // Bitmaps are finite (Bitmap::new); radiance must also be
+                // non-negative.
+                if b.texels()
+                    .iter()
+                    .any(|t| t.r < 0.0 || t.g < 0.0 || t.b < 0.0)
+                {
+                    return Err(SceneError::InvalidLight {
+                        light: li,
+                        reason: "environment map: the bitmap has negative texels",
+                    });
+                }
+            }
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
         let mut tri_mesh = Vec::with_capacity(total as usize);
@@ -371,7 +390,7 @@ impl SceneBuilder {
             first_tri.push(tri_mesh.len() as u32);
             tri_mesh.extend(core::iter::repeat_n(mi as u32, m.indices.len()));
         }
-        let lights = LightSet::new(&self.meshes, &self.lights);
+        let lights = LightSet::with_bitmaps(&self.meshes, &self.lights, &self.bitmaps);
         let scene = Scene {
             light_list: self.lights,
             meshes: self.meshes,
@@ -694,7 +713,7 @@ impl Scene {
         }
         // Infinite lights depend on the scene's bounds.
         if m.emission.is_some() || self.light_list.iter().any(Light::is_infinite) {
-            self.lights = LightSet::new(&self.meshes, &self.light_list);
+            self.lights = LightSet::with_bitmaps(&self.meshes, &self.light_list, &self.bitmaps);
         }
         self.revision += 1;
         Ok(())

@@ -49,6 +49,11 @@ impl Bitmap {
         self.height
     }
 
+    /// The texels, row-major, row 0 at the top.
+    pub fn texels(&self) -> &[Rgb] {
+        &self.texels
+    }
+
     #[inline]
     fn texel(&self, x: i64, y: i64) -> Rgb {
         let x = x.rem_euclid(self.width as i64) as usize;

@@ -7,7 +7,8 @@
 //!   no other), averaged over each pixel's footprint.
 //! - A constant environment of radiance L around a convex diffuse sphere of
 //!   albedo ρ: the sphere reflects ρ·L exactly (it never sees itself), the
-//!   background is L; ρ = 1 is the white furnace, L everywhere.
+//!   background is L; ρ = 1 is the white furnace, L everywhere. An
+//!   environment map of one value is that constant environment.
 
 use crate::common;
 
@@ -15,9 +16,9 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::geometry::Ray;
 use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
-use cmlt::math::{Rgb, Vec2, Vec3};
+use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
 use cmlt::mlt::{self, MltSettings};
-use cmlt::scene::{Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
+use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
 
 const PLANE_Z: f32 = 2.0;
 
@@ -477,5 +478,130 @@ fn assert_image_abs(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, pi
             "{what}: pixel {i}: {} vs {e}",
             p.g
         );
+    }
+}
+
+/// The sphere of [`sphere_in_environment`] under an environment map whose
+/// `w × h` texels are all `l` (times `scale` 2, so the image holds l/2).
+fn sphere_in_flat_envmap(rho: f32, l: f32, w: u32, h: u32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(Material::diffuse(Rgb::splat(rho)));
+    b.add_mesh(common::sphere(Vec3::new(0.0, 0.0, 3.0), 0.9, m));
+    let texels = vec![Rgb::splat(0.5 * l); (w * h) as usize];
+    let bitmap = b.add_bitmap(Bitmap::new(w, h, texels).unwrap());
+    b.add_light(Light::Envmap {
+        bitmap,
+        scale: 2.0,
+        to_world: Mat3::from_rotation_y(0.3) * Mat3::from_rotation_x(1.0),
+    });
+    b.set_camera(common::furnace_camera(Vec3::ZERO, 0.0));
+    b.build().unwrap()
+}
+
+/// An environment map of one value is the constant environment: the same
+/// radiance from every direction, the same (uniform) density and the same
+/// power, so PT, BDPT, MLT and CMLT give the constant environment's
+/// answers (the background exactly L, the sphere ρ·L).
+#[test]
+fn flat_envmap_is_the_constant_environment() {
+    let l = 1.5;
+    let flat = sphere_in_flat_envmap(0.5, l, 7, 4);
+    let constant = sphere_in_environment(0.5, l);
+    assert_eq!(flat.lights.len(), 1);
+    assert!(flat.lights.has_environment() && !flat.lights.is_delta(0));
+    let (fl, cl) = (&flat.lights, &constant.lights);
+    for k in 0..64 {
+        let u = Vec2::new((k as f32 * 0.618_034).fract(), (k as f32 + 0.5) / 64.0);
+        let inc = fl.sample_incident(0, Vec3::ZERO, u).unwrap();
+        assert!((inc.li.g - l).abs() < 1e-6 * l, "{:?}", inc.li);
+        assert!(
+            (inc.pdf * 4.0 * core::f32::consts::PI - 1.0).abs() < 1e-4,
+            "{}",
+            inc.pdf
+        );
+        let (a, c) = (fl.radiance(0, inc.wi), cl.radiance(0, inc.wi));
+        assert!((a.g - c.g).abs() < 1e-6 * l && (a.r - c.r).abs() < 1e-6 * l);
+        let e = fl.sample_emission(0, u, Vec2::new(u.y, u.x)).unwrap();
+        let c = cl.sample_emission(0, u, Vec2::new(u.y, u.x)).unwrap();
+        assert!((e.pdf_dir - c.pdf_dir).abs() < 1e-4 * c.pdf_dir);
+        assert!((e.le.g - c.le.g).abs() < 1e-6 * l && e.pdf_pos == c.pdf_pos);
+    }
+    assert_eq!(fl.bounding_sphere(), cl.bounding_sphere());
+    for rho in [1.0f32, 0.5] {
+        let scene = sphere_in_flat_envmap(rho, l, 7, 4);
+        let expected = sphere_pixels(&scene);
+        for (method, passes) in [(Method::Bdpt, 512), (Method::Path, 512)] {
+            let img = render(&scene, method, Settings::default(), passes);
+            let (on, off) = region_means(&img, &expected);
+            eprintln!("{method:?}, rho {rho}: sphere {on}, background {off}");
+            assert!((off - l).abs() < 1e-4 * l, "{method:?}: {off}");
+            assert!(
+                (on - rho * l).abs() < 0.01 * rho * l,
+                "{method:?}, rho {rho}: sphere {on} vs {}",
+                rho * l
+            );
+        }
+    }
+    let scene = sphere_in_flat_envmap(0.5, 1.0, 5, 3);
+    let expected = sphere_pixels(&scene);
+    for (what, s, mpp) in [
+        ("MLT", mlt_settings(0, 0), 256),
+        ("CMLT", mlt_settings(4, 2), 64),
+    ] {
+        let (img, r) = render_mlt(&scene, &s, mpp);
+        let (on, off) = region_means(&img, &expected);
+        eprintln!("{what}: sphere {on}, background {off}, {:?}", r.stats);
+        // The tolerances of constant_environment_mlt_and_cmlt.
+        assert!((on - 0.5).abs() < 0.05 * 0.5, "{what}: {on}");
+        assert!((off - 1.0).abs() < 0.02, "{what}: {off}");
+    }
+}
+
+/// Environment maps with a bad scale, a to_world that is not a rotation, a
+/// missing or negative bitmap are refused, naming the light.
+#[test]
+fn invalid_envmaps_are_refused_with_their_reason() {
+    let rot = Mat3::from_rotation_z(0.5);
+    let cases: [(f32, Mat3, Option<f32>, &str); 6] = [
+        (-1.0, rot, Some(1.0), "scale"),
+        (f32::NAN, rot, Some(1.0), "scale"),
+        (
+            1.0,
+            Mat3::from_diagonal(Vec3::new(1.0, 2.0, 1.0)),
+            Some(1.0),
+            "rotation",
+        ),
+        (
+            1.0,
+            Mat3::from_cols(Vec3::X, Vec3::new(f32::INFINITY, 1.0, 0.0), Vec3::Z),
+            Some(1.0),
+            "rotation",
+        ),
+        (1.0, rot, None, "bitmap id"),
+        (1.0, rot, Some(-0.5), "negative texels"),
+    ];
+    for (scale, to_world, texel, why) in cases {
+        let mut b = SceneBuilder::new();
+        let bitmap = match texel {
+            Some(t) => b.add_bitmap(Bitmap::new(2, 1, vec![Rgb::ONE, Rgb::splat(t)]).unwrap()),
+            None => cmlt::scene::BitmapId(3),
+        };
+        b.add_light(Light::Constant { radiance: Rgb::ONE });
+        b.add_light(Light::Envmap {
+            bitmap,
+            scale,
+            to_world,
+        });
+        b.set_camera(common::furnace_camera(Vec3::ZERO, 0.0));
+        match b.build() {
+            Err(e @ SceneError::InvalidLight { light: 1, .. }) => {
+                let e = e.to_string();
+                assert!(
+                    e.starts_with("light 1: environment map") && e.contains(why),
+                    "{e}"
+                )
+            }
+            other => panic!("{why}: {other:?}"),
+        }
     }
 }

@@ -1,0 +1,250 @@
+//! Decoding the images a scene names (`bitmap` textures, `envmap`
+//! emitters) into linear RGB, within bounds.
+//!
+//! Formats: JPEG and PNG (8 or 16 bits per channel) and the float formats
+//! OpenEXR and Radiance HDR (RGBE). Mitsuba's colour rules: integer data is
+//! sRGB-encoded and decoded to linear unless the texture is `raw`; float
+//! data is linear already and taken as it is. Alpha is dropped.
+//!
+//! A hostile file cannot make the decoder allocate without bound: the file
+//! is read through [`input::read_bounded`], an OpenEXR file's headers are
+//! checked first (the data window a header declares sizes the decoder's
+//! buffers, and it need not match the display window the `image` crate
+//! checks), and the `image` crate's [`image::Limits`] bound the sides and
+//! the memory of every decode. Negative and non-finite texels are refused:
+//! they are neither radiance nor reflectance, and clamping them would
+//! render a different image than the file describes.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use cmlt::math::Rgb;
+use cmlt::math::spectrum::srgb_to_linear;
+use cmlt::scene::Bitmap;
+
+use super::input::{self, MAX_IMAGE_ALLOC, MAX_IMAGE_BYTES, MAX_IMAGE_SIDE};
+
+/// The `image` crate's limits for our decodes.
+fn limits() -> image::Limits {
+    let mut l = image::Limits::no_limits();
+    l.max_image_width = Some(MAX_IMAGE_SIDE);
+    l.max_image_height = Some(MAX_IMAGE_SIDE);
+    l.max_alloc = Some(MAX_IMAGE_ALLOC);
+    l
+}
+
+/// Refuses an OpenEXR file any of whose layers declares a data or display
+/// window with a side over [`MAX_IMAGE_SIDE`].
+fn check_exr_headers(bytes: &[u8]) -> Result<(), String> {
+    let meta = exr::meta::MetaData::read_from_buffered(bytes, false)
+        .map_err(|e| format!("cannot decode: OpenEXR header: {e}"))?;
+    for h in &meta.headers {
+        let data = h.layer_size;
+        let display = h.shared_attributes.display_window.size;
+        for (what, w, h) in [
+            ("data", data.width(), data.height()),
+            ("display", display.width(), display.height()),
+        ] {
+            if w > MAX_IMAGE_SIDE as usize || h > MAX_IMAGE_SIDE as usize {
+                return Err(format!(
+                    "the OpenEXR {what} window is {w}×{h}, more than the limit of \
+                     {MAX_IMAGE_SIDE} texels a side"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Decodes an image file into linear RGB (row 0 at the top). Integer
+/// images are sRGB-encoded unless `raw` (Mitsuba decodes 8-bit data with
+/// the sRGB curve and treats 16-bit PNGs the same way); float images
+/// (OpenEXR, Radiance HDR) are linear. The error says what is wrong,
+/// without the file name (the caller adds it).
+pub(crate) fn decode_bitmap(path: &Path, raw: bool) -> Result<Bitmap, String> {
+    // Mitsuba reads PFM too; the image crate has no decoder for it.
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pfm"))
+    {
+        return Err(
+            "Portable Float Map (PFM) images are not supported: convert it to OpenEXR or Radiance HDR"
+                .to_string(),
+        );
+    }
+    let bytes = input::read_bounded(path, MAX_IMAGE_BYTES, "image file")?;
+    let mut reader = image::ImageReader::new(Cursor::new(bytes.as_slice()))
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read: {e}"))?;
+    if reader.format() == Some(image::ImageFormat::OpenExr) {
+        check_exr_headers(&bytes)?;
+    }
+    reader.limits(limits());
+    let img = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.decode()))
+        .map_err(|_| "the image decoder failed on malformed data".to_string())?
+        .map_err(|e| format!("cannot decode: {e}"))?;
+    let (w, h) = (img.width(), img.height());
+    let ct = img.color();
+    let float = matches!(ct, image::ColorType::Rgb32F | image::ColorType::Rgba32F);
+    let bytes_per_channel = ct.bytes_per_pixel() as usize / ct.channel_count().max(1) as usize;
+    let decode = |v: f32| if raw { v } else { srgb_to_linear(v) };
+    let texels: Vec<Rgb> = if float {
+        // Floating-point images are linear already.
+        img.to_rgb32f()
+            .pixels()
+            .map(|p| Rgb::new(p[0], p[1], p[2]))
+            .collect()
+    } else if bytes_per_channel == 1 {
+        let lut: Vec<f32> = (0..256).map(|i| decode(i as f32 / 255.0)).collect();
+        img.to_rgb8()
+            .pixels()
+            .map(|p| Rgb::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+            .collect()
+    } else {
+        img.to_rgb16()
+            .pixels()
+            .map(|p| {
+                Rgb::new(
+                    decode(p[0] as f32 / 65535.0),
+                    decode(p[1] as f32 / 65535.0),
+                    decode(p[2] as f32 / 65535.0),
+                )
+            })
+            .collect()
+    };
+    check_texels(w, &texels)?;
+    Bitmap::new(w, h, texels).ok_or_else(|| "the image is empty".to_string())
+}
+
+/// Refuses the first negative or non-finite texel, naming its column and
+/// row.
+fn check_texels(width: u32, texels: &[Rgb]) -> Result<(), String> {
+    let bad = |t: &Rgb| !(t.is_finite() && t.r >= 0.0 && t.g >= 0.0 && t.b >= 0.0);
+    if let Some(i) = texels.iter().position(bad) {
+        let t = texels[i];
+        let (x, y) = (i % width.max(1) as usize, i / width.max(1) as usize);
+        let what = if t.is_finite() {
+            "negative"
+        } else {
+            "not finite"
+        };
+        return Err(format!(
+            "texel ({x}, {y}) is {what} ({}, {}, {}): texels must be finite and non-negative",
+            t.r, t.g, t.b
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("cmlt-image-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+
+    /// A Radiance HDR file of the given texels (flat, no RLE).
+    fn hdr(w: u32, h: u32, texels: &[[f32; 3]]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let pixels: Vec<image::Rgb<f32>> = texels.iter().map(|t| image::Rgb(*t)).collect();
+        image::codecs::hdr::HdrEncoder::new(&mut out)
+            .encode(&pixels, w as usize, h as usize)
+            .unwrap();
+        out
+    }
+
+    fn exr(w: usize, h: usize, f: impl Fn(usize, usize) -> (f32, f32, f32) + Sync) -> Vec<u8> {
+        use exr::prelude::*;
+        let mut out = Cursor::new(Vec::new());
+        let img = Image::from_channels(
+            (w, h),
+            SpecificChannels::rgb(|p: Vec2<usize>| f(p.x(), p.y())),
+        );
+        img.write().to_buffered(&mut out).unwrap();
+        out.into_inner()
+    }
+
+    /// Float images come back linear and unchanged (not sRGB-decoded,
+    /// `raw` or not), row 0 at the top; RGBE keeps its 8-bit mantissas.
+    #[test]
+    fn float_images_are_linear() {
+        let p = write(
+            "a.exr",
+            &exr(3, 2, |x, y| (x as f32 * 0.25, y as f32 * 2.0, 7.5)),
+        );
+        for raw in [false, true] {
+            let b = decode_bitmap(&p, raw).unwrap();
+            assert_eq!((b.width(), b.height()), (3, 2));
+            // Texel centres: uv = ((x + ½)/w, (y + ½)/h).
+            let t = b.eval(glam::Vec2::new(2.5 / 3.0, 1.5 / 2.0));
+            assert_eq!(t, Rgb::new(0.5, 2.0, 7.5));
+            let t = b.eval(glam::Vec2::new(0.5 / 3.0, 0.5 / 2.0));
+            assert_eq!(t, Rgb::new(0.0, 0.0, 7.5));
+        }
+        let p = write("a.hdr", &hdr(2, 1, &[[0.5, 1.0, 4.0], [3.0, 0.25, 0.0]]));
+        let b = decode_bitmap(&p, false).unwrap();
+        assert_eq!(b.eval(glam::Vec2::new(0.25, 0.5)), Rgb::new(0.5, 1.0, 4.0));
+        assert_eq!(b.eval(glam::Vec2::new(0.75, 0.5)), Rgb::new(3.0, 0.25, 0.0));
+    }
+
+    /// Negative and non-finite texels are refused, naming the texel.
+    #[test]
+    fn bad_texels_are_refused() {
+        let p = write(
+            "neg.exr",
+            &exr(4, 3, |x, y| {
+                if (x, y) == (2, 1) {
+                    (1.0, -0.5, 0.0)
+                } else {
+                    (1.0, 1.0, 1.0)
+                }
+            }),
+        );
+        let e = decode_bitmap(&p, false).unwrap_err();
+        assert!(e.contains("texel (2, 1) is negative"), "{e}");
+        let p = write(
+            "nan.exr",
+            &exr(2, 2, |x, _| {
+                if x == 1 {
+                    (f32::NAN, 0.0, 0.0)
+                } else {
+                    (0.0, 0.0, 0.0)
+                }
+            }),
+        );
+        let e = decode_bitmap(&p, false).unwrap_err();
+        assert!(e.contains("texel (1, 0) is not finite"), "{e}");
+        let p = write("inf.exr", &exr(1, 1, |_, _| (f32::INFINITY, 0.0, 0.0)));
+        assert!(decode_bitmap(&p, false).unwrap_err().contains("not finite"));
+    }
+
+    /// A header declaring a huge image is refused before pixel memory is
+    /// taken; a truncated file is an error, not a panic.
+    #[test]
+    fn hostile_headers_are_refused() {
+        let side = MAX_IMAGE_SIDE as usize + 1;
+        // Radiance HDR: the size line says 1 × (limit + 1), no pixels.
+        let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n".to_vec();
+        bytes.extend_from_slice(format!("-Y {side} +X 1\n").as_bytes());
+        let e = decode_bitmap(&write("huge.hdr", &bytes), false).unwrap_err();
+        assert!(e.contains("exceeds limit"), "{e}");
+        // OpenEXR: patch the data and display windows of a 1×1 file.
+        let good = exr(1, 1, |_, _| (1.0, 1.0, 1.0));
+        let mut bad = good.clone();
+        for name in [&b"dataWindow\0box2i\0"[..], &b"displayWindow\0box2i\0"[..]] {
+            let at = bad.windows(name.len()).position(|w| w == name).unwrap() + name.len();
+            // size (4 bytes), then x_min, y_min, x_max, y_max.
+            let x_max = at + 4 + 8;
+            bad[x_max..x_max + 4].copy_from_slice(&(side as i32).to_le_bytes());
+        }
+        let e = decode_bitmap(&write("huge.exr", &bad), false).unwrap_err();
+        assert!(e.contains("more than the limit"), "{e}");
+        let e = decode_bitmap(&write("cut.exr", &good[..good.len() / 2]), false).unwrap_err();
+        assert!(e.contains("cannot decode"), "{e}");
+    }
+}
