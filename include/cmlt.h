@@ -96,6 +96,13 @@
 // one interface with an inside and an outside: `two_sided` is ignored.
 #define CMLT_MATERIAL_ROUGH_GLASS 8
 
+// Rough diffuse (Oren–Nayar, Mitsuba 0.6's `roughdiffuse` with
+// `useFastApprox` false: the full model with interreflections): `color`
+// (or `color_texture`) is the facets' albedo in [0, 1], `roughness`
+// Mitsuba's `alpha`, the RMS facet slope in [0, 1e4] (0 is Lambertian;
+// Oren–Nayar's σ is α/√2).
+#define CMLT_MATERIAL_ROUGH_DIFFUSE 9
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -125,6 +132,8 @@
 // A uniform environment (Mitsuba's `constant`): `color` is the radiance
 // arriving from every direction.
 #define CMLT_LIGHT_CONSTANT 3
+
+
 
 
 
@@ -331,7 +340,8 @@ typedef struct cmlt_material {
   float color[3];
   // Glass, rough glass: index of refraction ratio, > 0.
   float ior;
-  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
+  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0; rough
+  // diffuse: the RMS facet slope α in [0, 1e4].
   float roughness;
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).

@@ -60,6 +60,12 @@ pub const CMLT_DISTRIBUTION_BECKMANN: u32 = 1;
 /// `color` the transmittance in [0, 1] (reflection is untinted). Always
 /// one interface with an inside and an outside: `two_sided` is ignored.
 pub const CMLT_MATERIAL_ROUGH_GLASS: u32 = 8;
+/// Rough diffuse (Oren–Nayar, Mitsuba 0.6's `roughdiffuse` with
+/// `useFastApprox` false: the full model with interreflections): `color`
+/// (or `color_texture`) is the facets' albedo in [0, 1], `roughness`
+/// Mitsuba's `alpha`, the RMS facet slope in [0, 1e4] (0 is Lambertian;
+/// Oren–Nayar's σ is α/√2).
+pub const CMLT_MATERIAL_ROUGH_DIFFUSE: u32 = 9;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -79,7 +85,8 @@ pub struct cmlt_material {
     pub color: [f32; 3],
     /// Glass, rough glass: index of refraction ratio, > 0.
     pub ior: f32,
-    /// Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
+    /// Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0; rough
+    /// diffuse: the RMS facet slope α in [0, 1e4].
     pub roughness: f32,
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
@@ -507,6 +514,11 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: colour,
         },
+        CMLT_MATERIAL_ROUGH_DIFFUSE => MaterialKind::RoughDiffuse {
+            reflectance: colour,
+            alpha: m.roughness,
+            fast_approx: false,
+        },
         CMLT_MATERIAL_ROUGH_GLASS => MaterialKind::RoughDielectric {
             distribution: Distribution::Ggx,
             alpha: m.roughness,
@@ -538,6 +550,7 @@ fn material_from_c(m: &cmlt_material, textures: usize) -> Result<Material> {
             | CMLT_MATERIAL_PLASTIC
             | CMLT_MATERIAL_ROUGH_PLASTIC
             | CMLT_MATERIAL_ROUGH_GLASS
+            | CMLT_MATERIAL_ROUGH_DIFFUSE
     ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
     {
         return Err(Error::invalid(
@@ -1280,6 +1293,8 @@ pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u3
 pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
 /// A constant environment.
 pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
+/// Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
+pub const CMLT_EFFECT_ROUGH_DIFFUSE: u32 = 1 << Effect::RoughDiffuse as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

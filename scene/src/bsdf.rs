@@ -125,7 +125,8 @@ impl<'a> Loader<'a> {
             fix(t);
         }
         match &mut m.kind {
-            MaterialKind::Diffuse { reflectance } => fix(reflectance),
+            MaterialKind::Diffuse { reflectance }
+            | MaterialKind::RoughDiffuse { reflectance, .. } => fix(reflectance),
             MaterialKind::Conductor {
                 specular_reflectance,
                 ..
@@ -238,6 +239,7 @@ impl<'a> Loader<'a> {
                     detail: Default::default(),
                 }
             }
+            "roughdiffuse" => self.rough_diffuse(&props, node)?,
             "conductor" => {
                 let fresnel = self.conductor_fresnel(&props)?;
                 let specular_reflectance =
@@ -505,6 +507,55 @@ impl<'a> Loader<'a> {
             m.detail.bump_scale = scale;
         }
         Ok(m)
+    }
+
+    /// Mitsuba 0.6's `roughdiffuse` (Mitsuba 3 has none): `reflectance`
+    /// (default 0.5), `alpha` (RMS slope, default 0.2, a number: a textured
+    /// roughness is refused) and `useFastApprox` (default false). 0.6's
+    /// alias `diffuseReflectance` is accepted, and each camel-case name
+    /// also as Mitsuba 3's upgrade of 0.x files spells it
+    /// (`diffuse_reflectance`, `use_fast_approx`).
+    fn rough_diffuse(
+        &mut self,
+        props: &Props<'a>,
+        node: Node<'a, 'a>,
+    ) -> Result<Material, LoadError> {
+        // The one name of `names` the element uses (the first if none).
+        let one_of = |names: &[&'static str]| -> Result<&'static str, LoadError> {
+            let given: Vec<&str> = names.iter().copied().filter(|n| props.has(n)).collect();
+            match given.as_slice() {
+                [] => Ok(names[0]),
+                [one] => Ok(one),
+                [a, b, ..] => Err(self.xml.err(
+                    node,
+                    format!("roughdiffuse: give '{a}' or '{b}', not both (they are one parameter)"),
+                )),
+            }
+        };
+        let refl = one_of(&["reflectance", "diffuse_reflectance", "diffuseReflectance"])?;
+        let fast = one_of(&["useFastApprox", "use_fast_approx"])?;
+        let reflectance = self.texture_param(props, refl, Rgb::splat(0.5))?;
+        let x = &self.xml;
+        let alpha = match props.float(x, "alpha")? {
+            None => 0.2,
+            Some((a, n)) if !(a.is_finite() && (0.0..=1e4).contains(&a)) => {
+                return Err(x.err(
+                    n,
+                    format!("roughdiffuse 'alpha' must be in [0, 1e4], got {a}"),
+                ));
+            }
+            Some((a, _)) => a as f32,
+        };
+        let fast_approx = props.boolean(x, fast)?.unwrap_or(false);
+        Ok(Material {
+            kind: MaterialKind::RoughDiffuse {
+                reflectance,
+                alpha,
+                fast_approx,
+            },
+            two_sided: false,
+            detail: Default::default(),
+        })
     }
 
     /// A microfacet `distribution`: `beckmann` (Mitsuba's default) or `ggx`.

@@ -27,7 +27,8 @@
 //! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic),
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
-//!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
+//!   Mitsuba 0.6's `roughdiffuse` (Oren–Nayar; 0.6's and the upgraded
+//!   parameter names), `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
 //!   `bitmap` (JPEG/PNG) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`.
 //!

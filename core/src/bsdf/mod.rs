@@ -12,7 +12,8 @@
 //!
 //! The models follow Mitsuba 3 (`diffuse`, `conductor`, `roughconductor`,
 //! `dielectric`, `thindielectric`, `plastic`, `roughplastic`, `twosided`),
-//! whose `scalar_rgb` renders are our references.
+//! whose `scalar_rgb` renders are our references, and Mitsuba 0.6 for
+//! `roughdiffuse` (Oren–Nayar), which Mitsuba 3 lacks.
 //!
 //! Smooth plastic is *mixed*: a Dirac lobe (the coating) beside a smooth one
 //! (the base). It is not [`Bsdf::is_delta`], so connections end on it and
@@ -26,7 +27,7 @@
 //! material model.
 //!
 //! Models other than the diffuse one are built with their cargo features
-//! (`glossy`, `specular`, `refraction`, `coating`); a build without one
+//! (`glossy`, `specular`, `refraction`, `coating`, `rough-diffuse`); a build without one
 //! resolves that material to black, which never renders because
 //! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
@@ -42,6 +43,8 @@ mod microfacet;
 mod plastic;
 #[cfg(feature = "rough-refraction")]
 mod roughdielectric;
+#[cfg(feature = "rough-diffuse")]
+mod roughdiffuse;
 #[cfg(feature = "coating")]
 mod roughplastic;
 #[cfg(feature = "refraction")]
@@ -70,6 +73,8 @@ use microfacet::Microfacet;
 use plastic::Plastic;
 #[cfg(feature = "rough-refraction")]
 use roughdielectric::RoughDielectric;
+#[cfg(feature = "rough-diffuse")]
+use roughdiffuse::RoughDiffuse;
 #[cfg(feature = "coating")]
 use roughplastic::RoughPlastic;
 
@@ -102,17 +107,20 @@ pub enum Lobe {
     Coating = 4,
     /// Rough dielectric: microfacet reflection and refraction.
     RoughRefraction = 5,
+    /// Rough diffuse (Oren–Nayar) reflection: diffuse-class, smooth.
+    RoughDiffuse = 6,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 6] = [
+    pub const ALL: [Lobe; 7] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
         Lobe::Refraction,
         Lobe::Coating,
         Lobe::RoughRefraction,
+        Lobe::RoughDiffuse,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -124,6 +132,7 @@ impl Lobe {
             Lobe::Refraction => "refraction",
             Lobe::Coating => "coating",
             Lobe::RoughRefraction => "rough-refraction",
+            Lobe::RoughDiffuse => "rough-diffuse",
         }
     }
 }
@@ -179,6 +188,8 @@ enum Model {
     RoughPlastic(RoughPlastic),
     #[cfg(feature = "rough-refraction")]
     RoughDielectric(RoughDielectric),
+    #[cfg(feature = "rough-diffuse")]
+    RoughDiffuse(RoughDiffuse),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -319,6 +330,16 @@ impl Bsdf {
                 reflectance: texture(specular_reflectance),
                 transmittance: texture(specular_transmittance),
             }),
+            #[cfg(feature = "rough-diffuse")]
+            MaterialKind::RoughDiffuse {
+                reflectance,
+                alpha,
+                fast_approx,
+            } => Model::RoughDiffuse(RoughDiffuse::new(
+                texture(reflectance),
+                *alpha,
+                *fast_approx,
+            )),
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -378,6 +399,8 @@ impl Bsdf {
             Model::Plastic(_) | Model::RoughPlastic(_) => Lobe::Coating,
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(..) => Lobe::RoughRefraction,
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(..) => Lobe::RoughDiffuse,
         }
     }
 
@@ -405,6 +428,8 @@ impl Bsdf {
     pub fn roughness(&self) -> f32 {
         match &self.model {
             Model::Diffuse { .. } => 1.0,
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(..) => 1.0,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => mf.alpha,
             // The diffuse base carries connections.
@@ -460,6 +485,11 @@ impl Bsdf {
             // Never two-sided, like the smooth dielectric.
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.eval(wo, wi, mode),
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => {
+                let (wo, wi) = self.orient(wo, wi);
+                r.eval(wo, wi)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -491,6 +521,11 @@ impl Bsdf {
             }
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.pdf(wo, wi),
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => {
+                let (wo, wi) = self.orient(wo, wi);
+                r.pdf(wo, wi)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
@@ -565,6 +600,8 @@ impl Bsdf {
             Model::RoughPlastic(p) => p.sample(wo_up, u_lobe, u),
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.sample(wo, u_lobe, u, mode),
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => r.sample(wo_up, u),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

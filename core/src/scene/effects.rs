@@ -42,11 +42,13 @@ pub enum Effect {
     PointLights = 11,
     /// A constant environment around the scene.
     Environment = 12,
+    /// Rough diffuse (Oren–Nayar) reflection.
+    RoughDiffuse = 13,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 13] = [
+    pub const ALL: [Effect; 14] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -60,6 +62,7 @@ impl Effect {
         Effect::RoughRefraction,
         Effect::PointLights,
         Effect::Environment,
+        Effect::RoughDiffuse,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -78,6 +81,7 @@ impl Effect {
             Effect::RoughRefraction => "rough-refraction",
             Effect::PointLights => "point-lights",
             Effect::Environment => "environment",
+            Effect::RoughDiffuse => "rough-diffuse",
         }
     }
 
@@ -96,6 +100,7 @@ impl Effect {
             Effect::RoughRefraction => Some("rough-refraction"),
             Effect::PointLights => Some("delta-lights"),
             Effect::Environment => Some("environment"),
+            Effect::RoughDiffuse => Some("rough-diffuse"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -115,6 +120,7 @@ impl Effect {
             Effect::RoughRefraction => cfg!(feature = "rough-refraction"),
             Effect::PointLights => cfg!(feature = "delta-lights"),
             Effect::Environment => cfg!(feature = "environment"),
+            Effect::RoughDiffuse => cfg!(feature = "rough-diffuse"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -135,6 +141,7 @@ impl Effect {
             Effect::RoughRefraction => "no rough dielectric",
             Effect::PointLights => "no point, spot or directional light",
             Effect::Environment => "no environment: escaping rays carry nothing",
+            Effect::RoughDiffuse => "no rough diffuse material",
         }
     }
 }
@@ -207,6 +214,9 @@ impl Analysis {
             let (effect, textures) = match &m.kind {
                 MaterialKind::Diffuse { reflectance } => {
                     (Effect::Diffuse, [Some(reflectance), None])
+                }
+                MaterialKind::RoughDiffuse { reflectance, .. } => {
+                    (Effect::RoughDiffuse, [Some(reflectance), None])
                 }
                 MaterialKind::RoughConductor {
                     specular_reflectance,

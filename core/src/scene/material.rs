@@ -43,6 +43,18 @@ pub enum MaterialKind {
         /// Albedo in [0, 1] per channel.
         reflectance: Texture,
     },
+    /// Rough diffuse reflection (Mitsuba 0.6's `roughdiffuse`): the
+    /// Oren–Nayar model of diffuse facets in V-grooves.
+    RoughDiffuse {
+        /// Albedo ρ of the facets in [0, 1] per channel.
+        reflectance: Texture,
+        /// Mitsuba's RMS facet slope α in [0, 1e4] (Oren–Nayar's σ is
+        /// α/√2); 0 is Lambertian.
+        alpha: f32,
+        /// Mitsuba's `useFastApprox`: the simplified single-scattering
+        /// model instead of the full one with interreflections.
+        fast_approx: bool,
+    },
     /// Smooth conductor (Dirac delta reflection).
     Conductor {
         /// Fresnel model.
@@ -282,6 +294,17 @@ impl Material {
             MaterialKind::Diffuse { reflectance } => tex_ok(reflectance)
                 .then_some(())
                 .ok_or("diffuse reflectance must be finite and non-negative"),
+            MaterialKind::RoughDiffuse {
+                reflectance, alpha, ..
+            } => {
+                // Beyond 1e4 σ² leaves f32's range in the model's ratios.
+                if !(alpha.is_finite() && (0.0..=1e4).contains(alpha)) {
+                    return Err("roughdiffuse alpha must be finite and in [0, 1e4]");
+                }
+                tex_ok(reflectance)
+                    .then_some(())
+                    .ok_or("roughdiffuse reflectance must be finite and non-negative")
+            }
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,

@@ -277,7 +277,10 @@ impl SceneBuilder {
                 reason,
             })?;
             let tex_refs = match &m.kind {
-                super::MaterialKind::Diffuse { reflectance } => [Some(reflectance), None],
+                super::MaterialKind::Diffuse { reflectance }
+                | super::MaterialKind::RoughDiffuse { reflectance, .. } => {
+                    [Some(reflectance), None]
+                }
                 super::MaterialKind::Conductor {
                     specular_reflectance,
                     ..
