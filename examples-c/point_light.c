@@ -100,8 +100,9 @@ int main(int argc, char **argv) {
                   pixels[3 * (h * SIZE + h - 1) + c] + pixels[3 * (h * SIZE + h) + c];
         corners += pixels[3 * 0 + c] + pixels[3 * e + c] + pixels[3 * (e * SIZE) + c] + pixels[3 * (e * SIZE + e) + c];
     }
-    /* The four central pixels see points within 0.03 of the one below the
-     * light, where cos(theta)/d^2 is within 0.2 % of 1/h^2. */
+    /* The four central pixels see the square |x|, |z| < 0.066 around the
+     * point below the light, over which cos(theta)/d^2 = h/(h^2+r^2)^1.5
+     * averages 0.44 % below its peak 1/h^2. */
     printf("centre %.6f expected %.6f\n", centre / 12.0, rho * intensity / (3.14159265358979 * height * height));
     printf("corners %.6f\n", corners / 12.0);
     return 0;
