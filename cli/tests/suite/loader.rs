@@ -1300,6 +1300,20 @@ fn bad_coating_parameters_are_located_errors() {
     }
 }
 
+/// `body` (a `<bsdf>`) inside a cube two lines below the camera fails to
+/// load with an error at `inline.xml:line` that contains `phrase`.
+fn assert_refused_at(body: &str, line: u32, phrase: &str) {
+    let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
+        .err()
+        .unwrap_or_else(|| panic!("accepted: {body}"));
+    let text = e.to_string();
+    assert!(text.contains(phrase), "{body}: {text}");
+    assert!(
+        text.starts_with(&format!("inline.xml:{line}:")),
+        "{body}: {text}"
+    );
+}
+
 #[test]
 fn roughdielectric_parameters_and_defaults() {
     let s = ok(r#"
@@ -1379,15 +1393,7 @@ fn roughdielectric_parameters_and_defaults() {
             "cannot wrap a transmissive BSDF",
         ),
     ] {
-        let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
-            .err()
-            .unwrap_or_else(|| panic!("accepted: {body}"));
-        let text = e.to_string();
-        assert!(text.contains(phrase), "{body}: {text}");
-        assert!(
-            text.starts_with(&format!("inline.xml:{line}:")),
-            "{body}: {text}"
-        );
+        assert_refused_at(body, line, phrase);
     }
 }
 
@@ -1483,15 +1489,7 @@ fn roughdiffuse_follows_mitsuba_06() {
             "roughness",
         ),
     ] {
-        let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
-            .err()
-            .unwrap_or_else(|| panic!("accepted: {body}"));
-        let text = e.to_string();
-        assert!(text.contains(phrase), "{body}: {text}");
-        assert!(
-            text.starts_with(&format!("inline.xml:{line}:")),
-            "{body}: {text}"
-        );
+        assert_refused_at(body, line, phrase);
     }
 }
 

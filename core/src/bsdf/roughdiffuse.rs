@@ -124,14 +124,6 @@ impl RoughDiffuse {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = warp::square_to_cosine_hemisphere(u);
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            delta: false,
-            eta: 1.0,
-        })
+        super::diffuse::sample_cosine(u, |wi| self.eval(wo, wi), |wi| self.pdf(wo, wi))
     }
 }
