@@ -19,6 +19,7 @@ use glam::Affine2;
 use roxmltree::Node;
 
 use super::error::LoadError;
+use super::input;
 use super::loader::Loader;
 use super::transform;
 use super::xml::{Entry, Item, Props, Value, key};
@@ -818,14 +819,29 @@ impl<'a> Loader<'a> {
     }
 }
 
+/// Whether a JPEG file is whole: an end-of-image marker (FF D9) follows
+/// its last start-of-scan (FF DA). Inside entropy-coded data an FF byte
+/// is always followed by 00 or a restart marker, so the first FF D9 after
+/// the last scan is the image's end. The decoder accepts a file cut inside
+/// its last scan and fills the missing blocks with grey, silently.
+fn jpeg_is_whole(bytes: &[u8]) -> bool {
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    last_scan.is_some_and(|i| bytes[i..].windows(2).any(|w| w == [0xFF, 0xD9]))
+}
+
 /// Decodes a JPEG/PNG into linear RGB. Integer images are sRGB-encoded
 /// unless `raw` (Mitsuba decodes 8-bit data with the sRGB curve and treats
-/// 16-bit PNGs the same way); alpha is dropped.
+/// 16-bit PNGs the same way); alpha is dropped. The file is read whole
+/// first (a regular file within [`input::MAX_IMAGE_BYTES`]); a truncated
+/// one is refused, never decoded into a partly grey texture.
 fn decode_bitmap(path: &std::path::Path, raw: bool) -> Result<Bitmap, String> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot open: {e}"))?
+    let bytes = input::read_bounded(path, input::MAX_IMAGE_BYTES, "image file")?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {e}"))?;
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_is_whole(&bytes) {
+        return Err("truncated JPEG: the file ends before its end-of-image marker".into());
+    }
     let img = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reader.decode()))
         .map_err(|_| "the image decoder failed on malformed data".to_string())?
         .map_err(|e| format!("cannot decode: {e}"))?;

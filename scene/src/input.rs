@@ -20,6 +20,10 @@ pub const MAX_SCENE_BYTES: u64 = 64 << 20;
 /// binary PLY. The parsed mesh needs a small multiple of its file's size.
 pub const MAX_MESH_BYTES: u64 = 2 << 30;
 
+/// Largest image file (JPEG/PNG texture) read: 1 GiB; the decoder's own
+/// limits (the `image` crate's 512 MiB per image) bound what it decodes.
+pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
+
 /// Largest attribute value after `$name` substitution. A value references
 /// defaults that reference others, so substitution can grow a value
 /// exponentially with the nesting depth (ten copies of ten copies …); the

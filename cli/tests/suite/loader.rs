@@ -992,6 +992,14 @@ const MALFORMED: &[(&str, &str)] = &[
     ),
     ("transform_outside.xml", "only appear inside a <transform>"),
     ("truncated.xml", "malformed XML"),
+    (
+        "truncated_jpg.xml",
+        "image file 'data/truncated.jpg': truncated JPEG",
+    ),
+    (
+        "truncated_png.xml",
+        "image file 'data/truncated.png': cannot decode",
+    ),
     ("twosided_dielectric.xml", "cannot wrap a transmissive"),
     ("unclosed_tag.xml", "malformed XML"),
     ("undefined_parameter.xml", "undefined parameter '$depth'"),
