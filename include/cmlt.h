@@ -60,7 +60,7 @@
 #define CMLT_MATERIAL_GLASS 2
 
 // Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
-// `roughness` the GGX α in (0, 1].
+// `roughness` the GGX α in (0, 1e4].
 #define CMLT_MATERIAL_ROUGH_METAL 3
 
 // Smooth plastic (Mitsuba's `plastic`): `color` is the base's diffuse
@@ -70,7 +70,7 @@
 #define CMLT_MATERIAL_PLASTIC 4
 
 // Rough plastic (Mitsuba's `roughplastic`): as `CMLT_MATERIAL_PLASTIC`,
-// plus `roughness` (α in (0, 1]) and `distribution`; `ior` must not be 1.
+// plus `roughness` (α in (0, 1e4]) and `distribution`; `ior` must not be 1.
 #define CMLT_MATERIAL_ROUGH_PLASTIC 5
 
 // Thin glass pane (Mitsuba's `thindielectric`): `ior` is the pane's index
@@ -91,7 +91,8 @@
 #define CMLT_DISTRIBUTION_BECKMANN 1
 
 // Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
-// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α in
+// (0, 1e4],
 // `color` the transmittance in [0, 1] (reflection is untinted). Always
 // one interface with an inside and an outside: `two_sided` is ignored.
 #define CMLT_MATERIAL_ROUGH_GLASS 8
@@ -336,12 +337,18 @@ typedef struct cmlt_stats {
 typedef struct cmlt_material {
   // One of the `CMLT_MATERIAL_*` values.
   uint32_t type_;
-  // Linear RGB albedo / reflectance, each in [0, 1].
+  // Linear RGB albedo / reflectance (rough glass: transmittance), each
+  // in [0, 1]. The same rule holds for every colour of a material, in
+  // the scene loader too: a surface that reflects more than it receives
+  // creates energy, and no estimator converges in a closed scene with
+  // one (Mitsuba 0.6 rescales such a colour silently; cmlt refuses it).
   float color[3];
   // Glass, rough glass: index of refraction ratio, > 0.
   float ior;
-  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0; rough
-  // diffuse: the RMS facet slope α in [0, 1e4].
+  // Rough metal, rough plastic, rough glass: the microfacet α in
+  // (0, 1e4] (as in Mitsuba, α > 1 is allowed: extremely rough; 0 is
+  // refused, use the smooth type); rough diffuse: the RMS facet slope
+  // α in [0, 1e4].
   float roughness;
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).
@@ -364,9 +371,10 @@ typedef struct cmlt_material {
   // and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
   uint32_t opacity_texture;
   // Plastics: the coating's specular reflectance; thin and tinted
-  // glass: the reflection tint. Each component finite and ≥ 0.
+  // glass: the reflection tint. Each component in [0, 1].
   float specular_color[3];
-  // Thin and tinted glass: the transmission tint (finite, ≥ 0).
+  // Thin and tinted glass: the transmission tint, each component in
+  // [0, 1].
   float transmission_color[3];
   // Rough plastic: a `CMLT_DISTRIBUTION_*` value.
   uint32_t distribution;

@@ -1970,3 +1970,72 @@ fn rough_diffuse_is_checked_counted_and_rendered() {
         );
     }
 }
+
+/// One rule per parameter, the core's (`Material::validate`), as the
+/// loader applies it: every colour of a material in [0, 1], the
+/// microfacet α of rough metal, plastic and glass in (0, 1e4].
+#[test]
+fn colours_and_roughness_follow_one_rule() {
+    let metal = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_METAL,
+        roughness: alpha,
+        ..WHITE
+    };
+    let plastic = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_PLASTIC,
+        roughness: alpha,
+        ior: 1.5,
+        ..WHITE
+    };
+    let glass = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_GLASS,
+        roughness: alpha,
+        ior: 1.5,
+        ..WHITE
+    };
+    for m in [metal(2.0), plastic(2.0), glass(2.0), metal(1e4)] {
+        let s = floor_of(&m).unwrap_or_else(|e| panic!("α {}: {e:?}", m.roughness));
+        // SAFETY: a handle from floor_of.
+        unsafe { cmlt_scene_release(s) };
+    }
+    for (name, bad) in [
+        ("metal α 0", metal(0.0)),
+        ("metal α 2e4", metal(2e4)),
+        ("plastic α 2e4", plastic(2e4)),
+        ("glass α NaN", glass(f32::NAN)),
+        (
+            "plastic specular 1.5",
+            cmlt_material {
+                specular_color: [1.0, 1.5, 1.0],
+                ..plastic(0.2)
+            },
+        ),
+        (
+            "thin glass transmission 1.2",
+            cmlt_material {
+                type_: CMLT_MATERIAL_THIN_GLASS,
+                ior: 1.5,
+                transmission_color: [1.2, 1.0, 1.0],
+                ..WHITE
+            },
+        ),
+        (
+            "metal colour 1.01",
+            cmlt_material {
+                color: [1.01, 0.5, 0.5],
+                ..metal(0.3)
+            },
+        ),
+    ] {
+        assert_eq!(
+            floor_of(&bad).err(),
+            Some(CMLT_ERROR_INVALID_ARGUMENT),
+            "{name}"
+        );
+        let e = last_error();
+        assert!(
+            e.contains("[0, 1]") || e.contains("(0, 1e4]"),
+            "{name}: {e}"
+        );
+    }
+}

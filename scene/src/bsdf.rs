@@ -12,8 +12,8 @@ use std::path::PathBuf;
 use cmlt::math::Rgb;
 use cmlt::math::spectrum::srgb_to_linear;
 use cmlt::scene::{
-    Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind,
-    RoughCoating, Texture,
+    Bitmap, BitmapId, ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId,
+    MaterialKind, RoughCoating, Texture, roughness_ok,
 };
 use glam::Affine2;
 use roxmltree::Node;
@@ -539,7 +539,7 @@ impl<'a> Loader<'a> {
         let x = &self.xml;
         let alpha = match props.float(x, "alpha")? {
             None => 0.2,
-            Some((a, n)) if !(a.is_finite() && (0.0..=1e4).contains(&a)) => {
+            Some((a, n)) if !(a.is_finite() && (0.0..=MAX_ROUGHNESS as f64).contains(&a)) => {
                 return Err(x.err(
                     n,
                     format!("roughdiffuse 'alpha' must be in [0, 1e4], got {a}"),
@@ -601,11 +601,12 @@ impl<'a> Loader<'a> {
             (None, Some(u), None) => return Err(x.err(u.1, "'alpha_u' needs 'alpha_v' too")),
             (None, None, Some(v)) => return Err(x.err(v.1, "'alpha_v' needs 'alpha_u' too")),
         };
-        if !(alpha > 0.0 && alpha <= 1e4) {
+        if !roughness_ok(alpha as f32) {
             return Err(x.err(
                 node,
                 format!(
-                    "roughness alpha must be > 0, got {alpha} (use 'conductor' for a smooth metal)"
+                    "roughness alpha must be > 0 and at most {MAX_ROUGHNESS}, got {alpha} \
+                     (use 'conductor' for a smooth metal)"
                 ),
             ));
         }
@@ -676,8 +677,10 @@ impl<'a> Loader<'a> {
         Ok(v)
     }
 
-    /// A reflectance-like parameter: a colour, a nested or referenced
-    /// `<texture>`, or `default`. Colours must be finite and non-negative.
+    /// A reflectance-like parameter (an albedo, reflectance, tint or
+    /// opacity): a colour, a nested or referenced `<texture>`, or
+    /// `default`. Colours must lie in [0, 1] per channel (the rule of
+    /// `Material::validate`, located here at the property's line).
     fn texture_param(
         &mut self,
         props: &Props<'a>,
@@ -697,6 +700,12 @@ impl<'a> Loader<'a> {
             return Err(self
                 .xml
                 .err(node, format!("'{name}' must be non-negative, got {c:?}")));
+        }
+        if c.iter().any(|v| *v > 1.0) {
+            // Reflectances above 1 create energy; an opacity is a fraction.
+            return Err(self
+                .xml
+                .err(node, format!("'{name}' must lie in [0, 1], got {c:?}")));
         }
         Ok(Texture::Constant(rgb(c)))
     }
@@ -770,6 +779,9 @@ impl<'a> Loader<'a> {
                         Some((c, n)) => {
                             if c.iter().any(|v| *v < 0.0) {
                                 return Err(x.err(n, format!("'{name}' must be non-negative")));
+                            }
+                            if c.iter().any(|v| *v > 1.0) {
+                                return Err(x.err(n, format!("'{name}' must be at most 1")));
                             }
                             Ok(rgb(c))
                         }

@@ -1501,6 +1501,44 @@ fn roughdiffuse_follows_mitsuba_06() {
     }
 }
 
+/// One rule per parameter, as the C API applies it: colours in [0, 1]
+/// (a reflectance above 1 creates energy), microfacet α in (0, 1e4]
+/// (Mitsuba's α > 1 is accepted); each refusal names the line.
+#[test]
+fn colours_and_roughness_follow_one_rule() {
+    let s = ok(r#"<shape type="rectangle"><bsdf type="roughconductor">
+        <float name="alpha" value="2"/><rgb name="specular_reflectance" value="1"/></bsdf></shape>"#)
+    .scene;
+    assert!(matches!(
+        material(&s, 0).kind,
+        MaterialKind::RoughConductor { alpha: 2.0, .. }
+    ));
+    for (body, phrase) in [
+        (
+            r#"<bsdf type="diffuse"><rgb name="reflectance" value="0.5 1.2 0.5"/></bsdf>"#,
+            "'reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="conductor"><rgb name="specular_reflectance" value="1.5"/></bsdf>"#,
+            "'specular_reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="2"/></bsdf>"#,
+            "'diffuse_reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><rgb name="color0" value="1.1"/></texture></bsdf>"#,
+            "'color0' must be at most 1",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="20000"/></bsdf>"#,
+            "at most 10000",
+        ),
+    ] {
+        assert_refused_at(body, 9, phrase);
+    }
+}
+
 // ---------------------------------------------------------------- lights
 
 #[test]

@@ -32,7 +32,8 @@ pub use effects::{Analysis, Effect, EffectSet};
 #[cfg(feature = "alloc")]
 pub use light::Light;
 pub use material::{
-    ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, RoughCoating,
+    ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId, MaterialKind,
+    RoughCoating, roughness_ok,
 };
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
