@@ -152,7 +152,29 @@ pub enum SceneError {
         /// The effect.
         effect: Effect,
     },
+    /// The meshes lie so far from the origin, for their size, that f32
+    /// cannot resolve them: see [`MAX_DISTANCE_TO_EXTENT`].
+    TooFarFromOrigin {
+        /// The largest |coordinate| of any vertex.
+        max_coordinate: f32,
+        /// The diagonal of the meshes' bounding box.
+        extent: f32,
+    },
 }
+
+/// Largest ratio of the meshes' largest |coordinate| to their bounding
+/// box's diagonal that [`SceneBuilder::build`] accepts: 2^17.
+///
+/// Why: f32 positions at |p| are spaced |p|·2^-23 apart, and a hit
+/// point's rounding error bound, by which secondary rays are offset
+/// (pbrt-v4's robust spawn points, `geometry::offset`), is γ(7)·|p| ≈
+/// 4·10^-7·|p|. At a ratio of 2^17 that offset is 5 % of the whole scene
+/// (its grid spacing 1.6 %): a unit-sized scene 10^6 from the origin
+/// rendered darker (rays spawned past nearby walls) and at 10^7 black. The
+/// offsets are right; f32 cannot hold the scene there. Scenes 10^5 away,
+/// a ratio of 3·10^4, still render to within 3 % (the stability suite).
+/// A host should move such a scene (and its camera) near the origin.
+pub const MAX_DISTANCE_TO_EXTENT: f32 = 131_072.0;
 
 impl fmt::Display for SceneError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -204,12 +226,45 @@ impl fmt::Display for SceneError {
                 effect.name(),
                 effect.feature().unwrap_or("?")
             ),
+            SceneError::TooFarFromOrigin {
+                max_coordinate,
+                extent,
+            } => write!(
+                f,
+                "the meshes reach |coordinate| {max_coordinate:e} but span only {extent:e}: \
+                 beyond {MAX_DISTANCE_TO_EXTENT} times its size from the origin, f32 cannot \
+                 resolve a scene (rays would leave from the wrong places); move it and the \
+                 camera near the origin"
+            ),
         }
     }
 }
 
 #[cfg(feature = "std")]
 impl std::error::Error for SceneError {}
+
+/// Refuses meshes too far from the origin for their size
+/// ([`MAX_DISTANCE_TO_EXTENT`]); positions are finite (checked before).
+fn check_precision(meshes: &[Mesh]) -> Result<(), SceneError> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in meshes.iter().flat_map(|m| m.positions.iter()) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    if lo.x > hi.x {
+        return Ok(());
+    }
+    let max_coordinate = lo.abs().max(hi.abs()).max_element();
+    let extent = (hi - lo).length();
+    // Zero extent (degenerate meshes only) renders nothing either way.
+    if extent > 0.0 && max_coordinate > MAX_DISTANCE_TO_EXTENT * extent {
+        return Err(SceneError::TooFarFromOrigin {
+            max_coordinate,
+            extent,
+        });
+    }
+    Ok(())
+}
 
 /// Collects meshes, materials, bitmaps and the camera, then validates them
 /// all at once in [`SceneBuilder::build`].
@@ -329,6 +384,7 @@ impl SceneBuilder {
             m.validate(mi, self.materials.len())?;
             total += m.indices.len() as u64;
         }
+        check_precision(&self.meshes)?;
         // Triangle and shape indices share `Hit::prim`, split by its top bit.
         if total >= SHAPE_PRIM_BIT as u64 {
             return Err(SceneError::TooManyTriangles);
