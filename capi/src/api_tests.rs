@@ -2039,3 +2039,41 @@ fn colours_and_roughness_follow_one_rule() {
         );
     }
 }
+
+/// Meshes too far from the origin for their size are refused at commit
+/// (`SceneError::TooFarFromOrigin`), with the bound in the message, and
+/// the scene stays editable.
+#[test]
+fn a_scene_far_from_the_origin_is_refused_at_commit() {
+    // Both quads moved 10⁷ along x (their extent is about 3).
+    let mut far = POSITIONS;
+    for p in far.chunks_mut(3) {
+        p[0] += 1e7;
+    }
+    let mut s = null_mut();
+    let mut id = 0;
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "new");
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_OK,
+            "material",
+        );
+        for (indices, emission) in [(&FLOOR, 0.0), (&LIGHT, 5.0)] {
+            let m = cmlt_mesh {
+                positions: far.as_ptr(),
+                ..mesh(indices, id, emission)
+            };
+            expect(cmlt_scene_add_mesh(s, &m, null_mut()), CMLT_OK, "mesh");
+        }
+        expect(
+            cmlt_scene_commit(s),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_commit",
+        );
+        let e = last_error();
+        assert!(e.contains("65536") && e.contains("origin"), "{e}");
+        cmlt_scene_release(s);
+    }
+}

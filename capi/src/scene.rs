@@ -1033,6 +1033,12 @@ fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
 /// the scene is immutable and renderers can be made from it. On failure
 /// the scene is unchanged and can still be edited.
 ///
+/// Besides each element's own checks, meshes farther from the origin than
+/// 65536 (2^16) times their bounding box's diagonal are refused
+/// (`CMLT_ERROR_INVALID_ARGUMENT`): f32 cannot resolve them there (a unit
+/// box 10^7 from the origin renders at half its brightness); translate the
+/// scene and the camera near the origin.
+///
 /// # Safety
 /// `scene` is NULL or a valid handle.
 #[unsafe(no_mangle)]
