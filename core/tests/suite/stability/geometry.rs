@@ -322,7 +322,9 @@ fn scenes_too_far_from_the_origin_for_their_size_are_refused() {
         (1.0, Vec3::splat(-1e7)),
         (1e-3, Vec3::new(0.0, 500.0, 0.0)),
     ] {
-        let e = build(scale, offset).err().expect("refused");
+        let Err(e) = build(scale, offset) else {
+            panic!("{scale} {offset}: accepted");
+        };
         let SceneError::TooFarFromOrigin {
             max_coordinate,
             extent,
