@@ -62,7 +62,7 @@
 #define CMLT_MATERIAL_GLASS 2
 
 // Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
-// `roughness` the GGX α in (0, 1].
+// `roughness` the GGX α in (0, 1e4].
 #define CMLT_MATERIAL_ROUGH_METAL 3
 
 // Smooth plastic (Mitsuba's `plastic`): `color` is the base's diffuse
@@ -72,7 +72,7 @@
 #define CMLT_MATERIAL_PLASTIC 4
 
 // Rough plastic (Mitsuba's `roughplastic`): as `CMLT_MATERIAL_PLASTIC`,
-// plus `roughness` (α in (0, 1]) and `distribution`; `ior` must not be 1.
+// plus `roughness` (α in (0, 1e4]) and `distribution`; `ior` must not be 1.
 #define CMLT_MATERIAL_ROUGH_PLASTIC 5
 
 // Thin glass pane (Mitsuba's `thindielectric`): `ior` is the pane's index
@@ -93,7 +93,8 @@
 #define CMLT_DISTRIBUTION_BECKMANN 1
 
 // Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
-// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α in
+// (0, 1e4],
 // `color` the transmittance in [0, 1] (reflection is untinted). Always
 // one interface with an inside and an outside: `two_sided` is ignored.
 #define CMLT_MATERIAL_ROUGH_GLASS 8
@@ -141,6 +142,13 @@
 // Index of `flatness`'s texture.
 #define CMLT_PRINCIPLED_FLATNESS 9
 
+// Rough diffuse (Oren–Nayar, Mitsuba 0.6's `roughdiffuse` with
+// `useFastApprox` false: the full model with interreflections): `color`
+// (or `color_texture`) is the facets' albedo in [0, 1], `roughness`
+// Mitsuba's `alpha`, the RMS facet slope in [0, 1e4] (0 is Lambertian;
+// Oren–Nayar's σ is α/√2).
+#define CMLT_MATERIAL_ROUGH_DIFFUSE 10
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -178,6 +186,8 @@
 // map's frame), texel column x lies at φ = 2π (x + ½)/width from −z
 // towards +x, as in Mitsuba.
 #define CMLT_LIGHT_ENVMAP 4
+
+
 
 
 
@@ -371,7 +381,9 @@ typedef struct cmlt_stats {
   // BSDF samples of the lobe kinds after the first four (appended to keep
   // the layout): entry i counts lobe kind 4 + i, that is coating
   // (plastics, `CMLT_EFFECT_COATING`), rough refraction
-  // (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+  // (`CMLT_EFFECT_ROUGH_REFRACTION`), principled
+  // (`CMLT_EFFECT_PRINCIPLED`) and rough diffuse
+  // (`CMLT_EFFECT_ROUGH_DIFFUSE`).
   uint64_t bsdf_samples_more[4];
   // BSDF evaluations of the same lobe kinds, indexed as
   // `bsdf_samples_more`.
@@ -382,11 +394,18 @@ typedef struct cmlt_stats {
 typedef struct cmlt_material {
   // One of the `CMLT_MATERIAL_*` values.
   uint32_t type_;
-  // Linear RGB albedo / reflectance, each in [0, 1].
+  // Linear RGB albedo / reflectance (rough glass: transmittance), each
+  // in [0, 1]. The same rule holds for every colour of a material, in
+  // the scene loader too: a surface that reflects more than it receives
+  // creates energy, and no estimator converges in a closed scene with
+  // one (Mitsuba 0.6 rescales such a colour silently; cmlt refuses it).
   float color[3];
   // Glass, rough glass: index of refraction ratio, > 0.
   float ior;
-  // Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
+  // Rough metal, rough plastic, rough glass: the microfacet α in
+  // (0, 1e4] (as in Mitsuba, α > 1 is allowed: extremely rough; 0 is
+  // refused, use the smooth type); rough diffuse: the RMS facet slope
+  // α in [0, 1e4].
   float roughness;
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).
@@ -409,9 +428,10 @@ typedef struct cmlt_material {
   // and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
   uint32_t opacity_texture;
   // Plastics: the coating's specular reflectance; thin and tinted
-  // glass: the reflection tint. Each component finite and ≥ 0.
+  // glass: the reflection tint. Each component in [0, 1].
   float specular_color[3];
-  // Thin and tinted glass: the transmission tint (finite, ≥ 0).
+  // Thin and tinted glass: the transmission tint, each component in
+  // [0, 1].
   float transmission_color[3];
   // Rough plastic: a `CMLT_DISTRIBUTION_*` value.
   uint32_t distribution;
@@ -953,6 +973,12 @@ enum cmlt_status cmlt_scene_set_accel(struct cmlt_scene *scene, uint32_t accel);
 // Validates the scene and builds its acceleration structure; afterwards
 // the scene is immutable and renderers can be made from it. On failure
 // the scene is unchanged and can still be edited.
+//
+// Besides each element's own checks, meshes farther from the origin than
+// 65536 (2^16) times their bounding box's diagonal are refused
+// (`CMLT_ERROR_INVALID_ARGUMENT`): f32 cannot resolve them there (a unit
+// box 10^7 from the origin renders at half its brightness); translate the
+// scene and the camera near the origin.
 //
 // # Safety
 // `scene` is NULL or a valid handle.

@@ -2323,3 +2323,188 @@ fn envmaps_are_checked_copied_and_rendered() {
         cmlt_scene_release(plain);
     }
 }
+
+/// Rough diffuse through the C API: `roughness` is Mitsuba's α; the
+/// effect and the lobe counters (fourth of `bsdf_*_more`) report it, α = 0
+/// renders Lambert's image exactly, α = 1 another one, and bad α or
+/// albedo are refused.
+#[test]
+fn rough_diffuse_is_checked_counted_and_rendered() {
+    let lambert = cmlt_material {
+        color: [0.6, 0.5, 0.4],
+        two_sided: 1,
+        ..WHITE
+    };
+    let rough = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_DIFFUSE,
+        roughness: alpha,
+        ..lambert
+    };
+    let render = |m: &cmlt_material| {
+        let s = floor_of(m).unwrap_or_else(|e| panic!("status {e:?}"));
+        let mut fx = 0u32;
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_scene_get_effects(s, &mut fx, null_mut()),
+                CMLT_OK,
+                "effects",
+            )
+        };
+        let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+        let stats = prepare_render_stats(r, 16 * 12 * 4);
+        let px = image(r);
+        // SAFETY: handles from above.
+        unsafe {
+            cmlt_renderer_release(r);
+            cmlt_scene_release(s);
+        }
+        (fx, stats, px)
+    };
+    let (fx_l, stats_l, px_l) = render(&lambert);
+    let (fx_0, stats_0, px_0) = render(&rough(0.0));
+    let (fx_1, stats_1, px_1) = render(&rough(1.0));
+    assert_eq!(fx_l & CMLT_EFFECT_ROUGH_DIFFUSE, 0);
+    assert_ne!(fx_0 & CMLT_EFFECT_ROUGH_DIFFUSE, 0);
+    assert_ne!(fx_1 & CMLT_EFFECT_ROUGH_DIFFUSE, 0);
+    assert_eq!(stats_l.bsdf_samples_more[3], 0);
+    for st in [&stats_0, &stats_1] {
+        assert!(
+            st.bsdf_samples_more[3] > 0 && st.bsdf_evals_more[3] > 0,
+            "{st:?}"
+        );
+    }
+    assert!(px_1.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert_eq!(px_0, px_l, "α = 0 is Lambert");
+    assert_ne!(px_1, px_l, "α = 1 is not");
+    for (name, bad) in [
+        ("NaN α", rough(f32::NAN)),
+        ("negative α", rough(-0.5)),
+        ("huge α", rough(1e5)),
+        (
+            "albedo > 1",
+            cmlt_material {
+                color: [1.2, 0.5, 0.5],
+                ..rough(0.5)
+            },
+        ),
+    ] {
+        assert_eq!(
+            floor_of(&bad).err(),
+            Some(CMLT_ERROR_INVALID_ARGUMENT),
+            "{name}"
+        );
+        assert!(
+            last_error().contains("material"),
+            "{name}: {}",
+            last_error()
+        );
+    }
+}
+
+/// One rule per parameter, the core's (`Material::validate`), as the
+/// loader applies it: every colour of a material in [0, 1], the
+/// microfacet α of rough metal, plastic and glass in (0, 1e4].
+#[test]
+fn colours_and_roughness_follow_one_rule() {
+    let metal = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_METAL,
+        roughness: alpha,
+        ..WHITE
+    };
+    let plastic = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_PLASTIC,
+        roughness: alpha,
+        ior: 1.5,
+        ..WHITE
+    };
+    let glass = |alpha: f32| cmlt_material {
+        type_: CMLT_MATERIAL_ROUGH_GLASS,
+        roughness: alpha,
+        ior: 1.5,
+        ..WHITE
+    };
+    for m in [metal(2.0), plastic(2.0), glass(2.0), metal(1e4)] {
+        let s = floor_of(&m).unwrap_or_else(|e| panic!("α {}: {e:?}", m.roughness));
+        // SAFETY: a handle from floor_of.
+        unsafe { cmlt_scene_release(s) };
+    }
+    for (name, bad) in [
+        ("metal α 0", metal(0.0)),
+        ("metal α 2e4", metal(2e4)),
+        ("plastic α 2e4", plastic(2e4)),
+        ("glass α NaN", glass(f32::NAN)),
+        (
+            "plastic specular 1.5",
+            cmlt_material {
+                specular_color: [1.0, 1.5, 1.0],
+                ..plastic(0.2)
+            },
+        ),
+        (
+            "thin glass transmission 1.2",
+            cmlt_material {
+                type_: CMLT_MATERIAL_THIN_GLASS,
+                ior: 1.5,
+                transmission_color: [1.2, 1.0, 1.0],
+                ..WHITE
+            },
+        ),
+        (
+            "metal colour 1.01",
+            cmlt_material {
+                color: [1.01, 0.5, 0.5],
+                ..metal(0.3)
+            },
+        ),
+    ] {
+        assert_eq!(
+            floor_of(&bad).err(),
+            Some(CMLT_ERROR_INVALID_ARGUMENT),
+            "{name}"
+        );
+        let e = last_error();
+        assert!(
+            e.contains("[0, 1]") || e.contains("(0, 1e4]"),
+            "{name}: {e}"
+        );
+    }
+}
+
+/// Meshes too far from the origin for their size are refused at commit
+/// (`SceneError::TooFarFromOrigin`), with the bound in the message, and
+/// the scene stays editable.
+#[test]
+fn a_scene_far_from_the_origin_is_refused_at_commit() {
+    // Both quads moved 10⁷ along x (their extent is about 3).
+    let mut far = POSITIONS;
+    for p in far.chunks_mut(3) {
+        p[0] += 1e7;
+    }
+    let mut s = null_mut();
+    let mut id = 0;
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "new");
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_OK,
+            "material",
+        );
+        for (indices, emission) in [(&FLOOR, 0.0), (&LIGHT, 5.0)] {
+            let m = cmlt_mesh {
+                positions: far.as_ptr(),
+                ..mesh(indices, id, emission)
+            };
+            expect(cmlt_scene_add_mesh(s, &m, null_mut()), CMLT_OK, "mesh");
+        }
+        expect(
+            cmlt_scene_commit(s),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_commit",
+        );
+        let e = last_error();
+        assert!(e.contains("65536") && e.contains("origin"), "{e}");
+        cmlt_scene_release(s);
+    }
+}

@@ -152,7 +152,9 @@ pub struct cmlt_stats {
     /// BSDF samples of the lobe kinds after the first four (appended to keep
     /// the layout): entry i counts lobe kind 4 + i, that is coating
     /// (plastics, `CMLT_EFFECT_COATING`), rough refraction
-    /// (`CMLT_EFFECT_ROUGH_REFRACTION`), then zeros.
+    /// (`CMLT_EFFECT_ROUGH_REFRACTION`), principled
+    /// (`CMLT_EFFECT_PRINCIPLED`) and rough diffuse
+    /// (`CMLT_EFFECT_ROUGH_DIFFUSE`).
     pub bsdf_samples_more: [u64; 4],
     /// BSDF evaluations of the same lobe kinds, indexed as
     /// `bsdf_samples_more`.

@@ -17,7 +17,7 @@ use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
     Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Light,
     Material, MaterialId, MaterialKind, Mesh, PrincipledParams, RoughCoating, SHAPE_PRIM_BIT,
-    Scene, SceneBuilder, ShapeGroup, Texture,
+    Scene, SceneBuilder, ShapeGroup, Texture, roughness_ok,
 };
 
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
@@ -30,7 +30,7 @@ pub const CMLT_MATERIAL_MIRROR: u32 = 1;
 /// Smooth glass (dielectric): `ior` is the interior/exterior index ratio.
 pub const CMLT_MATERIAL_GLASS: u32 = 2;
 /// Rough metal (GGX, perfect Fresnel): `color` is the reflectance,
-/// `roughness` the GGX α in (0, 1].
+/// `roughness` the GGX α in (0, 1e4].
 pub const CMLT_MATERIAL_ROUGH_METAL: u32 = 3;
 /// Smooth plastic (Mitsuba's `plastic`): `color` is the base's diffuse
 /// albedo, `specular_color` the coating's specular reflectance (set it to
@@ -38,7 +38,7 @@ pub const CMLT_MATERIAL_ROUGH_METAL: u32 = 3;
 /// `nonlinear` Mitsuba's flag of that name.
 pub const CMLT_MATERIAL_PLASTIC: u32 = 4;
 /// Rough plastic (Mitsuba's `roughplastic`): as `CMLT_MATERIAL_PLASTIC`,
-/// plus `roughness` (α in (0, 1]) and `distribution`; `ior` must not be 1.
+/// plus `roughness` (α in (0, 1e4]) and `distribution`; `ior` must not be 1.
 pub const CMLT_MATERIAL_ROUGH_PLASTIC: u32 = 5;
 /// Thin glass pane (Mitsuba's `thindielectric`): `ior` is the pane's index
 /// ratio, `specular_color` and `transmission_color` tint the reflected and
@@ -56,7 +56,8 @@ pub const CMLT_DISTRIBUTION_GGX: u32 = 0;
 pub const CMLT_DISTRIBUTION_BECKMANN: u32 = 1;
 
 /// Rough glass (Mitsuba's `roughdielectric`, GGX): `ior` is the
-/// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α (> 0),
+/// interior/exterior index ratio (> 0, ≠ 1), `roughness` the GGX α in
+/// (0, 1e4],
 /// `color` the transmittance in [0, 1] (reflection is untinted). Always
 /// one interface with an inside and an outside: `two_sided` is ignored.
 pub const CMLT_MATERIAL_ROUGH_GLASS: u32 = 8;
@@ -93,6 +94,12 @@ pub const CMLT_PRINCIPLED_CLEARCOAT: u32 = 7;
 pub const CMLT_PRINCIPLED_CLEARCOAT_GLOSS: u32 = 8;
 /// Index of `flatness`'s texture.
 pub const CMLT_PRINCIPLED_FLATNESS: u32 = 9;
+/// Rough diffuse (Oren–Nayar, Mitsuba 0.6's `roughdiffuse` with
+/// `useFastApprox` false: the full model with interreflections): `color`
+/// (or `color_texture`) is the facets' albedo in [0, 1], `roughness`
+/// Mitsuba's `alpha`, the RMS facet slope in [0, 1e4] (0 is Lambertian;
+/// Oren–Nayar's σ is α/√2).
+pub const CMLT_MATERIAL_ROUGH_DIFFUSE: u32 = 10;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -108,11 +115,18 @@ pub const CMLT_ACCEL_EMBREE: u32 = 1;
 pub struct cmlt_material {
     /// One of the `CMLT_MATERIAL_*` values.
     pub type_: u32,
-    /// Linear RGB albedo / reflectance, each in [0, 1].
+    /// Linear RGB albedo / reflectance (rough glass: transmittance), each
+    /// in [0, 1]. The same rule holds for every colour of a material, in
+    /// the scene loader too: a surface that reflects more than it receives
+    /// creates energy, and no estimator converges in a closed scene with
+    /// one (Mitsuba 0.6 rescales such a colour silently; cmlt refuses it).
     pub color: [f32; 3],
     /// Glass, rough glass: index of refraction ratio, > 0.
     pub ior: f32,
-    /// Rough metal: GGX α in (0, 1]; rough glass: GGX α > 0.
+    /// Rough metal, rough plastic, rough glass: the microfacet α in
+    /// (0, 1e4] (as in Mitsuba, α > 1 is allowed: extremely rough; 0 is
+    /// refused, use the smooth type); rough diffuse: the RMS facet slope
+    /// α in [0, 1e4].
     pub roughness: f32,
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
@@ -135,9 +149,10 @@ pub struct cmlt_material {
     /// and 1), or `CMLT_NO_TEXTURE` for an opaque surface.
     pub opacity_texture: u32,
     /// Plastics: the coating's specular reflectance; thin and tinted
-    /// glass: the reflection tint. Each component finite and ≥ 0.
+    /// glass: the reflection tint. Each component in [0, 1].
     pub specular_color: [f32; 3],
-    /// Thin and tinted glass: the transmission tint (finite, ≥ 0).
+    /// Thin and tinted glass: the transmission tint, each component in
+    /// [0, 1].
     pub transmission_color: [f32; 3],
     /// Rough plastic: a `CMLT_DISTRIBUTION_*` value.
     pub distribution: u32,
@@ -568,9 +583,10 @@ pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Resul
                     )));
                 }
             };
-            // Checked before the coating table is integrated from them.
-            if !(m.roughness > 0.0 && m.roughness <= 1.0) {
-                return Err(Error::invalid("material: roughness must be in (0, 1]"));
+            // Checked before the coating table is integrated from them
+            // (the rule of `Material::validate`).
+            if !roughness_ok(m.roughness) {
+                return Err(Error::invalid("material: roughness must be in (0, 1e4]"));
             }
             if !(m.ior.is_finite() && m.ior > 0.0 && m.ior != 1.0) {
                 return Err(Error::invalid(
@@ -603,6 +619,11 @@ pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Resul
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: colour,
         },
+        CMLT_MATERIAL_ROUGH_DIFFUSE => MaterialKind::RoughDiffuse {
+            reflectance: colour,
+            alpha: m.roughness,
+            fast_approx: false,
+        },
         CMLT_MATERIAL_ROUGH_GLASS => MaterialKind::RoughDielectric {
             distribution: Distribution::Ggx,
             alpha: m.roughness,
@@ -626,23 +647,11 @@ pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Resul
         two_sided: m.two_sided != 0,
         detail,
     };
+    // Every parameter's range is the core's one rule (colours in [0, 1],
+    // roughness in (0, 1e4]), shared with the scene loader.
     material
         .validate()
         .map_err(|e| Error::invalid(format!("material: {e}")))?;
-    if matches!(
-        m.type_,
-        CMLT_MATERIAL_DIFFUSE
-            | CMLT_MATERIAL_MIRROR
-            | CMLT_MATERIAL_ROUGH_METAL
-            | CMLT_MATERIAL_PLASTIC
-            | CMLT_MATERIAL_ROUGH_PLASTIC
-            | CMLT_MATERIAL_ROUGH_GLASS
-    ) && !(color.r <= 1.0 && color.g <= 1.0 && color.b <= 1.0)
-    {
-        return Err(Error::invalid(
-            "material: colour components must be in [0, 1]",
-        ));
-    }
     Ok(material)
 }
 
@@ -1241,6 +1250,12 @@ fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
 /// the scene is immutable and renderers can be made from it. On failure
 /// the scene is unchanged and can still be edited.
 ///
+/// Besides each element's own checks, meshes farther from the origin than
+/// 65536 (2^16) times their bounding box's diagonal are refused
+/// (`CMLT_ERROR_INVALID_ARGUMENT`): f32 cannot resolve them there (a unit
+/// box 10^7 from the origin renders at half its brightness); translate the
+/// scene and the camera near the origin.
+///
 /// # Safety
 /// `scene` is NULL or a valid handle.
 #[unsafe(no_mangle)]
@@ -1499,6 +1514,8 @@ pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
 pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
 /// `cmlt_scene_effects` bit: a principled material.
 pub const CMLT_EFFECT_PRINCIPLED: u32 = 1 << Effect::Principled as u32;
+/// Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
+pub const CMLT_EFFECT_ROUGH_DIFFUSE: u32 = 1 << Effect::RoughDiffuse as u32;
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be

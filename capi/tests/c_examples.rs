@@ -270,6 +270,32 @@ fn frame_loop_allocates_nothing_per_frame() {
     }
 }
 
+/// point_light.c: a point light added through `cmlt_scene_add_light`
+/// lights the floor below it with the analytic radiance ρI/(πh²) (PT's
+/// next-event estimation is exact there; BDPT adds light tracing), and
+/// the corners, further from the light, are darker by the inverse-square
+/// and cosine falloff.
+#[test]
+fn point_light_example_matches_the_analytic_radiance() {
+    let exe = build_example("point_light");
+    for (method, tol) in [("pt", 0.01), ("bdpt", 0.03)] {
+        let out = run(&exe, &[method, "64"]);
+        let centre = numbers(&out, "centre");
+        let (got, want) = (centre[0], centre[1]);
+        assert!(
+            (want - 0.5 * 2.0 / std::f64::consts::PI).abs() < 1e-5,
+            "{out}"
+        );
+        assert!((got / want - 1.0).abs() < tol, "{method}: {out}");
+        // Corners at ≈ 0.72 from the nadir: (1 + 0.72²)^(−3/2) ≈ 0.5.
+        let corners = numbers(&out, "corners")[0];
+        assert!(
+            corners > 0.35 * got && corners < 0.7 * got,
+            "{method}: {out}"
+        );
+    }
+}
+
 /// host_geometry.c: the host's intersector (single rays and packets)
 /// renders the same picture as our BVH, and CMLT's bundles reach the
 /// packet callbacks.

@@ -158,6 +158,15 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             0.0,
         ),
         (
+            Effect::RoughDiffuse,
+            opaque(MaterialKind::RoughDiffuse {
+                reflectance: tint,
+                alpha: 0.5,
+                fast_approx: false,
+            }),
+            0.0,
+        ),
+        (
             Effect::Refraction,
             Material {
                 kind: MaterialKind::ThinDielectric {

@@ -11,8 +11,8 @@ use std::path::PathBuf;
 
 use cmlt::math::Rgb;
 use cmlt::scene::{
-    Bitmap, BitmapId, ConductorFresnel, Distribution, Material, MaterialId, MaterialKind,
-    PrincipledParams, RoughCoating, Texture,
+    Bitmap, BitmapId, ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId,
+    MaterialKind, PrincipledParams, RoughCoating, Texture, roughness_ok,
 };
 use glam::Affine2;
 use roxmltree::Node;
@@ -124,7 +124,8 @@ impl<'a> Loader<'a> {
             fix(t);
         }
         match &mut m.kind {
-            MaterialKind::Diffuse { reflectance } => fix(reflectance),
+            MaterialKind::Diffuse { reflectance }
+            | MaterialKind::RoughDiffuse { reflectance, .. } => fix(reflectance),
             MaterialKind::Conductor {
                 specular_reflectance,
                 ..
@@ -246,6 +247,7 @@ impl<'a> Loader<'a> {
                     detail: Default::default(),
                 }
             }
+            "roughdiffuse" => self.rough_diffuse(&props, node)?,
             "conductor" => {
                 let fresnel = self.conductor_fresnel(&props)?;
                 let specular_reflectance =
@@ -528,6 +530,55 @@ impl<'a> Loader<'a> {
         Ok(m)
     }
 
+    /// Mitsuba 0.6's `roughdiffuse` (Mitsuba 3 has none): `reflectance`
+    /// (default 0.5), `alpha` (RMS slope, default 0.2, a number: a textured
+    /// roughness is refused) and `useFastApprox` (default false). 0.6's
+    /// alias `diffuseReflectance` is accepted, and each camel-case name
+    /// also as Mitsuba 3's upgrade of 0.x files spells it
+    /// (`diffuse_reflectance`, `use_fast_approx`).
+    fn rough_diffuse(
+        &mut self,
+        props: &Props<'a>,
+        node: Node<'a, 'a>,
+    ) -> Result<Material, LoadError> {
+        // The one name of `names` the element uses (the first if none).
+        let one_of = |names: &[&'static str]| -> Result<&'static str, LoadError> {
+            let given: Vec<&str> = names.iter().copied().filter(|n| props.has(n)).collect();
+            match given.as_slice() {
+                [] => Ok(names[0]),
+                [one] => Ok(one),
+                [a, b, ..] => Err(self.xml.err(
+                    node,
+                    format!("roughdiffuse: give '{a}' or '{b}', not both (they are one parameter)"),
+                )),
+            }
+        };
+        let refl = one_of(&["reflectance", "diffuse_reflectance", "diffuseReflectance"])?;
+        let fast = one_of(&["useFastApprox", "use_fast_approx"])?;
+        let reflectance = self.texture_param(props, refl, Rgb::splat(0.5))?;
+        let x = &self.xml;
+        let alpha = match props.float(x, "alpha")? {
+            None => 0.2,
+            Some((a, n)) if !(a.is_finite() && (0.0..=MAX_ROUGHNESS as f64).contains(&a)) => {
+                return Err(x.err(
+                    n,
+                    format!("roughdiffuse 'alpha' must be in [0, 1e4], got {a}"),
+                ));
+            }
+            Some((a, _)) => a as f32,
+        };
+        let fast_approx = props.boolean(x, fast)?.unwrap_or(false);
+        Ok(Material {
+            kind: MaterialKind::RoughDiffuse {
+                reflectance,
+                alpha,
+                fast_approx,
+            },
+            two_sided: false,
+            detail: Default::default(),
+        })
+    }
+
     /// A microfacet `distribution`: `beckmann` (Mitsuba's default) or `ggx`.
     fn distribution(&self, props: &Props<'a>) -> Result<Distribution, LoadError> {
         let x = &self.xml;
@@ -662,11 +713,12 @@ impl<'a> Loader<'a> {
             (None, Some(u), None) => return Err(x.err(u.1, "'alpha_u' needs 'alpha_v' too")),
             (None, None, Some(v)) => return Err(x.err(v.1, "'alpha_v' needs 'alpha_u' too")),
         };
-        if !(alpha > 0.0 && alpha <= 1e4) {
+        if !roughness_ok(alpha as f32) {
             return Err(x.err(
                 node,
                 format!(
-                    "roughness alpha must be > 0, got {alpha} (use 'conductor' for a smooth metal)"
+                    "roughness alpha must be > 0 and at most {MAX_ROUGHNESS}, got {alpha} \
+                     (use 'conductor' for a smooth metal)"
                 ),
             ));
         }
@@ -737,8 +789,10 @@ impl<'a> Loader<'a> {
         Ok(v)
     }
 
-    /// A reflectance-like parameter: a colour, a nested or referenced
-    /// `<texture>`, or `default`. Colours must be finite and non-negative.
+    /// A reflectance-like parameter (an albedo, reflectance, tint or
+    /// opacity): a colour, a nested or referenced `<texture>`, or
+    /// `default`. Colours must lie in [0, 1] per channel (the rule of
+    /// `Material::validate`, located here at the property's line).
     fn texture_param(
         &mut self,
         props: &Props<'a>,
@@ -758,6 +812,12 @@ impl<'a> Loader<'a> {
             return Err(self
                 .xml
                 .err(node, format!("'{name}' must be non-negative, got {c:?}")));
+        }
+        if c.iter().any(|v| *v > 1.0) {
+            // Reflectances above 1 create energy; an opacity is a fraction.
+            return Err(self
+                .xml
+                .err(node, format!("'{name}' must lie in [0, 1], got {c:?}")));
         }
         Ok(Texture::Constant(rgb(c)))
     }
@@ -831,6 +891,9 @@ impl<'a> Loader<'a> {
                         Some((c, n)) => {
                             if c.iter().any(|v| *v < 0.0) {
                                 return Err(x.err(n, format!("'{name}' must be non-negative")));
+                            }
+                            if c.iter().any(|v| *v > 1.0) {
+                                return Err(x.err(n, format!("'{name}' must be at most 1")));
                             }
                             Ok(rgb(c))
                         }

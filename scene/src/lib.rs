@@ -28,8 +28,10 @@
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
 //!   `principled` (Mitsuba 3's parameters; scalars may be textures),
-//!   `twosided`, and the wrappers `normalmap`, `bumpmap`, `mask`; textures
-//!   `bitmap` (JPEG/PNG, OpenEXR and Radiance HDR) and `checkerboard`;
+//!   Mitsuba 0.6's `roughdiffuse` (Oren–Nayar; 0.6's and the upgraded
+//!   parameter names), `twosided`, and the wrappers `normalmap`,
+//!   `bumpmap`, `mask`; textures `bitmap` (JPEG/PNG, OpenEXR and Radiance
+//!   HDR) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
 //!   `envmap` (JPEG/PNG, OpenEXR or Radiance HDR lat-long images).
 //!

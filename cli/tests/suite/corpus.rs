@@ -75,7 +75,7 @@ const EXPECTED: &[(&str, Expect)] = &[
     ("house", Blocked("emitter plugin 'sunsky'")),
     ("kitchen", PluginsOk),
     ("lamp", PluginsOk),
-    ("living-room", Blocked("BSDF plugin 'roughdiffuse'")),
+    ("living-room", Renders),
     ("living-room-2", PluginsOk),
     ("living-room-3", Blocked("<medium type=\"homogeneous\">")),
     ("material-testball", Unavailable),

@@ -992,6 +992,14 @@ const MALFORMED: &[(&str, &str)] = &[
     ),
     ("transform_outside.xml", "only appear inside a <transform>"),
     ("truncated.xml", "malformed XML"),
+    (
+        "truncated_jpg.xml",
+        "image file 'data/truncated.jpg': truncated JPEG",
+    ),
+    (
+        "truncated_png.xml",
+        "image file 'data/truncated.png': cannot decode",
+    ),
     ("twosided_dielectric.xml", "cannot wrap a transmissive"),
     ("unclosed_tag.xml", "malformed XML"),
     ("undefined_parameter.xml", "undefined parameter '$depth'"),
@@ -1303,6 +1311,20 @@ fn bad_coating_parameters_are_located_errors() {
     }
 }
 
+/// `body` (a `<bsdf>`) inside a cube two lines below the camera fails to
+/// load with an error at `inline.xml:line` that contains `phrase`.
+fn assert_refused_at(body: &str, line: u32, phrase: &str) {
+    let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
+        .err()
+        .unwrap_or_else(|| panic!("accepted: {body}"));
+    let text = e.to_string();
+    assert!(text.contains(phrase), "{body}: {text}");
+    assert!(
+        text.starts_with(&format!("inline.xml:{line}:")),
+        "{body}: {text}"
+    );
+}
+
 #[test]
 fn roughdielectric_parameters_and_defaults() {
     let s = ok(r#"
@@ -1382,15 +1404,141 @@ fn roughdielectric_parameters_and_defaults() {
             "cannot wrap a transmissive BSDF",
         ),
     ] {
-        let e = load_body(&format!("\n\n<shape type=\"cube\">\n{body}\n</shape>"))
-            .err()
-            .unwrap_or_else(|| panic!("accepted: {body}"));
-        let text = e.to_string();
-        assert!(text.contains(phrase), "{body}: {text}");
-        assert!(
-            text.starts_with(&format!("inline.xml:{line}:")),
-            "{body}: {text}"
-        );
+        assert_refused_at(body, line, phrase);
+    }
+}
+
+#[test]
+fn roughdiffuse_follows_mitsuba_06() {
+    let s = ok(r#"
+      <shape type="rectangle"><bsdf type="roughdiffuse"/></shape>
+      <shape type="rectangle"><bsdf type="twosided"><bsdf type="roughdiffuse">
+        <rgb name="reflectance" value="0.1, 0.2, 0.3"/><float name="alpha" value="1"/>
+      </bsdf></bsdf></shape>
+      <shape type="rectangle"><bsdf type="roughdiffuse">
+        <rgb name="diffuseReflectance" value="0.4"/><float name="alpha" value="0"/>
+        <boolean name="useFastApprox" value="true"/></bsdf></shape>
+      <shape type="rectangle"><bsdf type="roughdiffuse">
+        <rgb name="diffuse_reflectance" value="0.4"/><float name="alpha" value="0"/>
+        <boolean name="use_fast_approx" value="true"/></bsdf></shape>"#)
+    .scene;
+    // Mitsuba 0.6's defaults: reflectance 0.5, α = 0.2, the full model.
+    assert_eq!(
+        *material(&s, 0),
+        Material {
+            kind: MaterialKind::RoughDiffuse {
+                reflectance: Texture::Constant(Rgb::splat(0.5)),
+                alpha: 0.2,
+                fast_approx: false,
+            },
+            two_sided: false,
+            detail: Default::default(),
+        }
+    );
+    assert_eq!(
+        *material(&s, 1),
+        Material {
+            kind: MaterialKind::RoughDiffuse {
+                reflectance: Texture::Constant(Rgb::new(0.1, 0.2, 0.3)),
+                alpha: 1.0,
+                fast_approx: false,
+            },
+            two_sided: true,
+            detail: Default::default(),
+        }
+    );
+    assert_eq!(
+        material(&s, 2).kind,
+        MaterialKind::RoughDiffuse {
+            reflectance: Texture::Constant(Rgb::splat(0.4)),
+            alpha: 0.0,
+            fast_approx: true,
+        }
+    );
+    // The names Mitsuba 3's upgrade of 0.x files gives them.
+    assert_eq!(material(&s, 3).kind, material(&s, 2).kind);
+    assert!(s.analysis(&s.camera).effects.contains(Effect::RoughDiffuse));
+    for (body, line, phrase) in [
+        (
+            r#"<bsdf type="roughdiffuse"><float name="alpha" value="nan"/></bsdf>"#,
+            9,
+            "not a finite number",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><float name="alpha" value="-0.1"/></bsdf>"#,
+            9,
+            "'alpha' must be in [0, 1e4]",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><rgb name="reflectance" value="0.5 -1 0.5"/></bsdf>"#,
+            9,
+            "must be non-negative",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><rgb name="reflectance" value="0.5"/><rgb name="diffuseReflectance" value="0.5"/></bsdf>"#,
+            9,
+            "not both",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><boolean name="useFastApprox" value="true"/><boolean name="use_fast_approx" value="true"/></bsdf>"#,
+            9,
+            "not both",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><texture type="checkerboard" name="alpha"/></bsdf>"#,
+            9,
+            "alpha",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><string name="useFastApprox" value="maybe"/></bsdf>"#,
+            9,
+            "useFastApprox",
+        ),
+        (
+            r#"<bsdf type="roughdiffuse"><float name="roughness" value="0.3"/></bsdf>"#,
+            9,
+            "roughness",
+        ),
+    ] {
+        assert_refused_at(body, line, phrase);
+    }
+}
+
+/// One rule per parameter, as the C API applies it: colours in [0, 1]
+/// (a reflectance above 1 creates energy), microfacet α in (0, 1e4]
+/// (Mitsuba's α > 1 is accepted); each refusal names the line.
+#[test]
+fn colours_and_roughness_follow_one_rule() {
+    let s = ok(r#"<shape type="rectangle"><bsdf type="roughconductor">
+        <float name="alpha" value="2"/><rgb name="specular_reflectance" value="1"/></bsdf></shape>"#)
+    .scene;
+    assert!(matches!(
+        material(&s, 0).kind,
+        MaterialKind::RoughConductor { alpha: 2.0, .. }
+    ));
+    for (body, phrase) in [
+        (
+            r#"<bsdf type="diffuse"><rgb name="reflectance" value="0.5 1.2 0.5"/></bsdf>"#,
+            "'reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="conductor"><rgb name="specular_reflectance" value="1.5"/></bsdf>"#,
+            "'specular_reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="2"/></bsdf>"#,
+            "'diffuse_reflectance' must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><rgb name="color0" value="1.1"/></texture></bsdf>"#,
+            "'color0' must be at most 1",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="20000"/></bsdf>"#,
+            "at most 10000",
+        ),
+    ] {
+        assert_refused_at(body, 9, phrase);
     }
 }
 

@@ -9,9 +9,11 @@
 //! approximation needs ≳ 5 per bin) and the p-value comes from the χ²
 //! distribution's survival function.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
+
+use super::{Bsdf, TransportMode};
 
 /// Bins in cos θ over [−1, 1] (both hemispheres: samples on the wrong side
 /// land in bins whose expected count is 0 and fail the test outright).
@@ -149,6 +151,55 @@ pub(crate) fn run(
         returned,
         impossible,
     }
+}
+
+/// The χ² fit of a BSDF's sampler against its density for one `wo`, as
+/// every model's tests run it: `samples` attempts of `bsdf.sample` (random
+/// lobe choice, radiance transport), whose non-delta directions are tested
+/// against `bsdf.pdf` at significance `alpha`. A Dirac sample (a mixed
+/// model's coating) counts as not returned: `pdf` describes the smooth
+/// part only. Two checks ride along: ∫pdf ≤ 1, and the fraction of
+/// attempts that return a smooth direction equals ∫pdf (within 5σ of
+/// binomial noise). Panics naming `name` on failure; returns the outcome
+/// for further checks.
+pub(super) fn fit_bsdf(
+    name: &str,
+    bsdf: &Bsdf,
+    wo: Vec3,
+    samples: usize,
+    seed: u64,
+    alpha: f64,
+) -> Chi2Outcome {
+    let out = run(
+        samples,
+        seed,
+        |rng| {
+            let u_lobe = uniform(rng);
+            let u = Vec2::new(uniform(rng), uniform(rng));
+            bsdf.sample(wo, u_lobe, u, TransportMode::Radiance)
+                .filter(|s| !s.delta)
+                .map(|s| s.wi)
+        },
+        |wi| bsdf.pdf(wo, wi) as f64,
+    );
+    assert!(
+        out.passes(alpha),
+        "{name}: χ² rejected at {alpha:.2e}: {out}"
+    );
+    assert!(
+        out.integral <= 1.0 + 1e-4,
+        "{name}: ∫pdf = {}",
+        out.integral
+    );
+    let frac = out.returned as f64 / samples as f64;
+    let p = out.integral.clamp(0.0, 1.0);
+    let sigma = (p * (1.0 - p) / samples as f64).sqrt();
+    assert!(
+        (frac - out.integral).abs() <= 5.0 * sigma + 1e-4,
+        "{name}: returned {frac}, ∫pdf {}",
+        out.integral
+    );
+    out
 }
 
 /// ∫ f dω over each (cos θ, φ) bin of the sphere. Absolute tolerance 1e-8

@@ -84,30 +84,17 @@ const SAMPLES: usize = 500_000;
 /// plastic 2 distributions × 2 α × 3 angles.
 const CHI2_TESTS: usize = 4 + 12;
 
-/// χ² of the smooth (non-delta) samples against `pdf`; the Dirac samples
-/// count as not returned, so ∫pdf must equal the fraction of smooth ones.
+/// χ² of the smooth (non-delta) samples against `pdf`;
+/// [`chi2::fit_bsdf`] counts the Dirac samples as not returned, so ∫pdf
+/// must equal the fraction of smooth ones.
 fn chi2_smooth_part(name: &str, bsdf: Bsdf, wo: Vec3, seed: u64) {
-    let out = chi2::run(
+    chi2::fit_bsdf(
+        name,
+        &bsdf,
+        wo,
         SAMPLES,
         seed,
-        |rng| {
-            let u_lobe = uniform(rng);
-            let u = Vec2::new(uniform(rng), uniform(rng));
-            bsdf.sample(wo, u_lobe, u, TransportMode::Radiance)
-                .filter(|s| !s.delta)
-                .map(|s| s.wi)
-        },
-        |wi| bsdf.pdf(wo, wi) as f64,
-    );
-    let alpha = chi2::sidak(0.01, CHI2_TESTS);
-    assert!(out.passes(alpha), "{name}: χ² rejected: {out}");
-    let frac = out.returned as f64 / SAMPLES as f64;
-    let p = out.integral.clamp(0.0, 1.0);
-    let sigma = (p * (1.0 - p) / SAMPLES as f64).sqrt();
-    assert!(
-        (frac - out.integral).abs() <= 5.0 * sigma + 1e-4,
-        "{name}: returned {frac}, ∫pdf {}",
-        out.integral
+        chi2::sidak(0.01, CHI2_TESTS),
     );
 }
 

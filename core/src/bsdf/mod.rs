@@ -12,7 +12,8 @@
 //!
 //! The models follow Mitsuba 3 (`diffuse`, `conductor`, `roughconductor`,
 //! `dielectric`, `thindielectric`, `plastic`, `roughplastic`, `twosided`),
-//! whose `scalar_rgb` renders are our references.
+//! whose `scalar_rgb` renders are our references, and Mitsuba 0.6 for
+//! `roughdiffuse` (Oren–Nayar), which Mitsuba 3 lacks.
 //!
 //! Smooth plastic is *mixed*: a Dirac lobe (the coating) beside a smooth one
 //! (the base). It is not [`Bsdf::is_delta`], so connections end on it and
@@ -26,7 +27,7 @@
 //! material model.
 //!
 //! Models other than the diffuse one are built with their cargo features
-//! (`glossy`, `specular`, `refraction`, `coating`); a build without one
+//! (`glossy`, `specular`, `refraction`, `coating`, `rough-diffuse`); a build without one
 //! resolves that material to black, which never renders because
 //! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
@@ -54,6 +55,8 @@ mod plastic;
 mod principled;
 #[cfg(feature = "rough-refraction")]
 mod roughdielectric;
+#[cfg(feature = "rough-diffuse")]
+mod roughdiffuse;
 #[cfg(feature = "coating")]
 mod roughplastic;
 #[cfg(feature = "refraction")]
@@ -84,6 +87,8 @@ use plastic::Plastic;
 use principled::Principled;
 #[cfg(feature = "rough-refraction")]
 use roughdielectric::RoughDielectric;
+#[cfg(feature = "rough-diffuse")]
+use roughdiffuse::RoughDiffuse;
 #[cfg(feature = "coating")]
 use roughplastic::RoughPlastic;
 
@@ -119,11 +124,13 @@ pub enum Lobe {
     /// Principled: diffuse, sheen, GGX reflection and refraction, GTR1
     /// clearcoat.
     Principled = 6,
+    /// Rough diffuse (Oren–Nayar) reflection: diffuse-class, smooth.
+    RoughDiffuse = 7,
 }
 
 impl Lobe {
     /// Every lobe kind, in index order.
-    pub const ALL: [Lobe; 7] = [
+    pub const ALL: [Lobe; 8] = [
         Lobe::Diffuse,
         Lobe::Glossy,
         Lobe::SpecularReflection,
@@ -131,6 +138,7 @@ impl Lobe {
         Lobe::Coating,
         Lobe::RoughRefraction,
         Lobe::Principled,
+        Lobe::RoughDiffuse,
     ];
 
     /// A short lower-case name (the matching effect's).
@@ -143,6 +151,7 @@ impl Lobe {
             Lobe::Coating => "coating",
             Lobe::RoughRefraction => "rough-refraction",
             Lobe::Principled => "principled",
+            Lobe::RoughDiffuse => "rough-diffuse",
         }
     }
 }
@@ -200,6 +209,8 @@ enum Model {
     RoughDielectric(RoughDielectric),
     #[cfg(feature = "principled")]
     Principled(Principled),
+    #[cfg(feature = "rough-diffuse")]
+    RoughDiffuse(RoughDiffuse),
 }
 
 /// A material resolved at one point (textures evaluated). Small and `Copy`;
@@ -363,6 +374,16 @@ impl Bsdf {
                     flatness: principled::Unit16::new(scalar(&p.flatness)),
                 })
             }
+            #[cfg(feature = "rough-diffuse")]
+            MaterialKind::RoughDiffuse {
+                reflectance,
+                alpha,
+                fast_approx,
+            } => Model::RoughDiffuse(RoughDiffuse::new(
+                texture(reflectance),
+                *alpha,
+                *fast_approx,
+            )),
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
@@ -424,6 +445,8 @@ impl Bsdf {
             Model::RoughDielectric(..) => Lobe::RoughRefraction,
             #[cfg(feature = "principled")]
             Model::Principled(..) => Lobe::Principled,
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(..) => Lobe::RoughDiffuse,
         }
     }
 
@@ -455,6 +478,8 @@ impl Bsdf {
     pub fn roughness(&self) -> f32 {
         match &self.model {
             Model::Diffuse { .. } => 1.0,
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(..) => 1.0,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { mf, .. } => mf.alpha,
             // The diffuse base carries connections.
@@ -527,6 +552,11 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 p.eval(wo, wi, mode)
             }
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => {
+                let (wo, wi) = self.orient(wo, wi);
+                r.eval(wo, wi)
+            }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
@@ -563,6 +593,11 @@ impl Bsdf {
             Model::Principled(p) => {
                 let (wo, wi) = self.orient(wo, wi);
                 p.pdf(wo, wi)
+            }
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => {
+                let (wo, wi) = self.orient(wo, wi);
+                r.pdf(wo, wi)
             }
             #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
@@ -640,6 +675,8 @@ impl Bsdf {
             Model::RoughDielectric(rd) => rd.sample(wo, u_lobe, u, mode),
             #[cfg(feature = "principled")]
             Model::Principled(p) => p.sample(wo_up, u_lobe, u, mode),
+            #[cfg(feature = "rough-diffuse")]
+            Model::RoughDiffuse(r) => r.sample(wo_up, u),
         }?;
         if flip {
             s.wi = flip_z(s.wi);

@@ -22,7 +22,7 @@
 use glam::{Vec2, Vec3};
 
 use super::{BsdfSample, diffuse, fresnel};
-use crate::math::{INV_PI, Rgb, warp};
+use crate::math::{INV_PI, Rgb};
 
 /// The parameters of a resolved smooth plastic.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,14 +123,6 @@ impl Plastic {
                 eta: 1.0,
             });
         }
-        let wi = warp::square_to_cosine_hemisphere(u);
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            delta: false,
-            eta: 1.0,
-        })
+        super::diffuse::sample_cosine(u, |wi| self.eval(wo, wi), |wi| self.pdf(wo, wi))
     }
 }

@@ -104,41 +104,11 @@ const CHI2_TESTS: usize = 5 + 2 * 5 * 3 + 2;
 /// Family-wise significance level.
 const SIGNIFICANCE: f64 = 0.01;
 
-/// χ² test of `bsdf.sample` against `bsdf.pdf` for one `wo`, plus the
-/// bookkeeping checks that ride along: ∫pdf ≤ 1, and the fraction of
-/// attempts that return a direction equals ∫pdf.
+/// χ² test of `bsdf.sample` against `bsdf.pdf` for one `wo`
+/// ([`chi2::fit_bsdf`] at this file's family-wise significance).
 fn chi2_bsdf(name: &str, bsdf: Bsdf, wo: Vec3, seed: u64) -> chi2::Chi2Outcome {
-    let out = chi2::run(
-        SAMPLES,
-        seed,
-        |rng| {
-            let u_lobe = uniform(rng);
-            let u = Vec2::new(uniform(rng), uniform(rng));
-            bsdf.sample(wo, u_lobe, u, TransportMode::Radiance)
-                .map(|s| s.wi)
-        },
-        |wi| bsdf.pdf(wo, wi) as f64,
-    );
     let alpha = chi2::sidak(SIGNIFICANCE, CHI2_TESTS);
-    assert!(
-        out.passes(alpha),
-        "{name}: χ² rejected at {alpha:.2e}: {out}"
-    );
-    assert!(
-        out.integral <= 1.0 + 1e-4,
-        "{name}: ∫pdf = {}",
-        out.integral
-    );
-    // Each attempt returns with probability ∫pdf; allow 5σ of binomial noise.
-    let frac = out.returned as f64 / SAMPLES as f64;
-    let p = out.integral.clamp(0.0, 1.0);
-    let sigma = (p * (1.0 - p) / SAMPLES as f64).sqrt();
-    assert!(
-        (frac - out.integral).abs() <= 5.0 * sigma + 1e-4,
-        "{name}: returned {frac}, ∫pdf {}",
-        out.integral
-    );
-    out
+    chi2::fit_bsdf(name, &bsdf, wo, SAMPLES, seed, alpha)
 }
 
 fn chi2_rough(dist: Distribution, alpha: f32) {
@@ -813,3 +783,6 @@ mod rough_dielectric;
 // The principled BSDF's tests live in their own file.
 #[cfg(feature = "principled")]
 mod principled;
+// So do the rough diffuse model's.
+#[cfg(feature = "rough-diffuse")]
+mod rough_diffuse;

@@ -44,11 +44,13 @@ pub enum Effect {
     Environment = 12,
     /// Mitsuba 3's principled BSDF.
     Principled = 13,
+    /// Rough diffuse (Oren–Nayar) reflection.
+    RoughDiffuse = 14,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 14] = [
+    pub const ALL: [Effect; 15] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -63,6 +65,7 @@ impl Effect {
         Effect::PointLights,
         Effect::Environment,
         Effect::Principled,
+        Effect::RoughDiffuse,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -82,6 +85,7 @@ impl Effect {
             Effect::PointLights => "point-lights",
             Effect::Environment => "environment",
             Effect::Principled => "principled",
+            Effect::RoughDiffuse => "rough-diffuse",
         }
     }
 
@@ -101,6 +105,7 @@ impl Effect {
             Effect::PointLights => Some("delta-lights"),
             Effect::Environment => Some("environment"),
             Effect::Principled => Some("principled"),
+            Effect::RoughDiffuse => Some("rough-diffuse"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -121,6 +126,7 @@ impl Effect {
             Effect::PointLights => cfg!(feature = "delta-lights"),
             Effect::Environment => cfg!(feature = "environment"),
             Effect::Principled => cfg!(feature = "principled"),
+            Effect::RoughDiffuse => cfg!(feature = "rough-diffuse"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -142,6 +148,7 @@ impl Effect {
             Effect::PointLights => "no point, spot or directional light",
             Effect::Environment => "no environment: escaping rays carry nothing",
             Effect::Principled => "no principled material",
+            Effect::RoughDiffuse => "no rough diffuse material",
         }
     }
 }
@@ -214,6 +221,9 @@ impl Analysis {
             let (effect, textures) = match &m.kind {
                 MaterialKind::Diffuse { reflectance } => {
                     (Effect::Diffuse, [Some(reflectance), None])
+                }
+                MaterialKind::RoughDiffuse { reflectance, .. } => {
+                    (Effect::RoughDiffuse, [Some(reflectance), None])
                 }
                 MaterialKind::RoughConductor {
                     specular_reflectance,

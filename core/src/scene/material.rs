@@ -47,6 +47,18 @@ pub enum MaterialKind {
         /// Albedo in [0, 1] per channel.
         reflectance: Texture,
     },
+    /// Rough diffuse reflection (Mitsuba 0.6's `roughdiffuse`): the
+    /// Oren–Nayar model of diffuse facets in V-grooves.
+    RoughDiffuse {
+        /// Albedo ρ of the facets in [0, 1] per channel.
+        reflectance: Texture,
+        /// Mitsuba's RMS facet slope α in [0, 1e4] (Oren–Nayar's σ is
+        /// α/√2); 0 is Lambertian.
+        alpha: f32,
+        /// Mitsuba's `useFastApprox`: the simplified single-scattering
+        /// model instead of the full one with interreflections.
+        fast_approx: bool,
+    },
     /// Smooth conductor (Dirac delta reflection).
     Conductor {
         /// Fresnel model.
@@ -370,6 +382,19 @@ pub(crate) fn coating_lerp(t: &[u16; RoughCoating::NODES], cos: f32) -> f32 {
     (ta + w * (tb - ta)) * (1.0 / 65535.0)
 }
 
+/// Largest microfacet roughness α accepted (rough conductor, plastic and
+/// dielectric; Mitsuba's `roughdiffuse` α too). Mitsuba accepts α > 1
+/// ("extremely rough"; single scattering then loses most of the energy);
+/// beyond 1e4, α² and the distributions' normalisations leave f32's
+/// comfortable range.
+pub const MAX_ROUGHNESS: f32 = 1e4;
+
+/// Whether `alpha` is a valid microfacet roughness: finite, in
+/// (0, [`MAX_ROUGHNESS`]] (0 is a smooth surface: its own, Dirac model).
+pub fn roughness_ok(alpha: f32) -> bool {
+    alpha > 0.0 && alpha <= MAX_ROUGHNESS
+}
+
 /// A material: its scattering model and whether both sides scatter alike.
 ///
 /// One-sided opaque materials are black seen from behind the shading normal,
@@ -418,21 +443,32 @@ impl Material {
     }
 
     /// Checks the parameters a host may hand in; returns what is wrong.
+    ///
+    /// The rules, the same for the C API and the scene loader (both call
+    /// this): every reflectance, albedo and tint given as a constant lies
+    /// in [0, 1] per channel — above 1 a surface reflects more light than
+    /// it receives, so a closed scene's path throughput grows with depth
+    /// and no estimator converges (Mitsuba 0.6 silently rescales such a
+    /// value, Mitsuba 3 renders it; we refuse it with this message). A
+    /// bitmap's texels are in [0, 1] by construction. Microfacet
+    /// roughness: [`roughness_ok`]; rough diffuse α in [0, 1e4].
     pub fn validate(&self) -> Result<(), &'static str> {
         self.detail.validate()?;
+        fn unit(c: &Rgb) -> bool {
+            c.is_finite() && [c.r, c.g, c.b].iter().all(|v| (0.0..=1.0).contains(v))
+        }
         fn tex_ok(t: &Texture) -> bool {
             match t {
-                Texture::Constant(c) => c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0,
+                Texture::Constant(c) => unit(c),
                 Texture::Bitmap { to_uv, .. } => to_uv.is_finite(),
                 Texture::Checkerboard {
                     color0,
                     color1,
                     to_uv,
                 } => {
-                    // Non-negative like a constant: a negative albedo made
+                    // In [0, 1] like a constant: a negative albedo made
                     // negative contributions (issue 7's host-input cases).
-                    let ok = |c: &Rgb| c.is_finite() && c.r >= 0.0 && c.g >= 0.0 && c.b >= 0.0;
-                    ok(color0) && ok(color1) && to_uv.is_finite()
+                    unit(color0) && unit(color1) && to_uv.is_finite()
                 }
             }
         }
@@ -445,25 +481,38 @@ impl Material {
         match &self.kind {
             MaterialKind::Diffuse { reflectance } => tex_ok(reflectance)
                 .then_some(())
-                .ok_or("diffuse reflectance must be finite and non-negative"),
+                .ok_or("diffuse reflectance must be finite and in [0, 1]"),
+            MaterialKind::RoughDiffuse {
+                reflectance, alpha, ..
+            } => {
+                // Beyond 1e4 σ² leaves f32's range in the model's ratios.
+                if !(alpha.is_finite() && (0.0..=MAX_ROUGHNESS).contains(alpha)) {
+                    return Err("roughdiffuse alpha must be finite and in [0, 1e4]");
+                }
+                tex_ok(reflectance)
+                    .then_some(())
+                    .ok_or("roughdiffuse reflectance must be finite and in [0, 1]")
+            }
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,
             } => (fresnel_ok(fresnel) && tex_ok(specular_reflectance))
                 .then_some(())
-                .ok_or("conductor parameters must be finite and non-negative"),
+                .ok_or("conductor eta and k must be finite, specular_reflectance in [0, 1]"),
             MaterialKind::RoughConductor {
                 alpha,
                 fresnel,
                 specular_reflectance,
                 ..
             } => {
-                if !(alpha.is_finite() && *alpha > 0.0) {
-                    return Err("roughconductor alpha must be finite and > 0");
+                if !roughness_ok(*alpha) {
+                    return Err("roughconductor alpha must be in (0, 1e4]");
                 }
                 (fresnel_ok(fresnel) && tex_ok(specular_reflectance))
                     .then_some(())
-                    .ok_or("roughconductor parameters must be finite and non-negative")
+                    .ok_or(
+                        "roughconductor eta and k must be finite, specular_reflectance in [0, 1]",
+                    )
             }
             MaterialKind::Dielectric { eta } => (eta.is_finite() && *eta > 0.0)
                 .then_some(())
@@ -475,8 +524,8 @@ impl Material {
                 specular_transmittance,
                 ..
             } => {
-                if !(alpha.is_finite() && *alpha > 0.0) {
-                    return Err("roughdielectric alpha must be finite and > 0");
+                if !roughness_ok(*alpha) {
+                    return Err("roughdielectric alpha must be in (0, 1e4]");
                 }
                 // Index-matched, the refraction half vector wo + η wi
                 // vanishes for the straight-through direction (Mitsuba
@@ -486,7 +535,7 @@ impl Material {
                 }
                 (tex_ok(specular_reflectance) && tex_ok(specular_transmittance))
                     .then_some(())
-                    .ok_or("roughdielectric reflectance and transmittance must be finite and non-negative")
+                    .ok_or("roughdielectric reflectance and transmittance must be finite and in [0, 1]")
             }
             MaterialKind::TintedDielectric {
                 eta,
@@ -503,7 +552,7 @@ impl Material {
                 }
                 (tex_ok(specular_reflectance) && tex_ok(specular_transmittance))
                     .then_some(())
-                    .ok_or("dielectric tints must be finite and non-negative")
+                    .ok_or("dielectric tints must be finite and in [0, 1]")
             }
             MaterialKind::Plastic {
                 eta,
@@ -516,7 +565,7 @@ impl Material {
                 }
                 (tex_ok(diffuse_reflectance) && tex_ok(specular_reflectance))
                     .then_some(())
-                    .ok_or("plastic reflectances must be finite and non-negative")
+                    .ok_or("plastic reflectances must be finite and in [0, 1]")
             }
             MaterialKind::RoughPlastic {
                 alpha,
@@ -526,8 +575,8 @@ impl Material {
                 coating,
                 ..
             } => {
-                if !(alpha.is_finite() && *alpha > 0.0) {
-                    return Err("roughplastic alpha must be finite and > 0");
+                if !roughness_ok(*alpha) {
+                    return Err("roughplastic alpha must be in (0, 1e4]");
                 }
                 if !(eta.is_finite() && *eta > 0.0 && *eta != 1.0) {
                     return Err("roughplastic eta must be finite, > 0 and ≠ 1");
@@ -538,9 +587,77 @@ impl Material {
                 }
                 (tex_ok(diffuse_reflectance) && tex_ok(specular_reflectance))
                     .then_some(())
-                    .ok_or("roughplastic reflectances must be finite and non-negative")
+                    .ok_or("roughplastic reflectances must be finite and in [0, 1]")
             }
             MaterialKind::Principled(p) => p.validate(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(kind: MaterialKind) -> Result<(), &'static str> {
+        Material {
+            kind,
+            two_sided: false,
+            detail: Detail::NONE,
+        }
+        .validate()
+    }
+
+    fn c(v: f32) -> Texture {
+        Texture::Constant(Rgb::new(0.5, v, 0.5))
+    }
+
+    fn rough_metal(alpha: f32, tint: f32) -> MaterialKind {
+        MaterialKind::RoughConductor {
+            distribution: Distribution::Ggx,
+            alpha,
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: c(tint),
+        }
+    }
+
+    /// Colours in [0, 1], microfacet α in (0, 1e4], for every model: the
+    /// one rule the loader and the C API apply through `validate`.
+    #[test]
+    fn one_rule_for_colours_and_roughness() {
+        for v in [0.0, 0.5, 1.0] {
+            assert_eq!(with(MaterialKind::Diffuse { reflectance: c(v) }), Ok(()));
+        }
+        for v in [1.0001, 2.0, -0.1, f32::NAN, f32::INFINITY] {
+            assert!(
+                with(MaterialKind::Diffuse { reflectance: c(v) }).is_err(),
+                "{v}"
+            );
+            assert!(with(rough_metal(0.3, v)).is_err(), "{v}");
+            let e = with(MaterialKind::ThinDielectric {
+                eta: 1.5,
+                specular_reflectance: c(0.5),
+                specular_transmittance: c(v),
+            });
+            assert!(e.is_err_and(|e| e.contains("[0, 1]")), "{v}");
+            let checker = Texture::Checkerboard {
+                color0: Rgb::splat(0.5),
+                color1: Rgb::new(v, 0.5, 0.5),
+                to_uv: glam::Affine2::IDENTITY,
+            };
+            assert!(
+                with(MaterialKind::Diffuse {
+                    reflectance: checker
+                })
+                .is_err()
+            );
+        }
+        // Roughness: Mitsuba's α > 1 is accepted, up to MAX_ROUGHNESS.
+        for a in [1e-3, 1.0, 2.0, MAX_ROUGHNESS] {
+            assert_eq!(with(rough_metal(a, 1.0)), Ok(()), "{a}");
+        }
+        for a in [0.0, -0.5, 1.0001e4, f32::NAN, f32::INFINITY] {
+            let e = with(rough_metal(a, 1.0));
+            assert_eq!(e, Err("roughconductor alpha must be in (0, 1e4]"), "{a}");
         }
     }
 }

@@ -34,8 +34,8 @@ pub use effects::{Analysis, Effect, EffectSet};
 #[cfg(feature = "alloc")]
 pub use light::Light;
 pub use material::{
-    ConductorFresnel, Distribution, Material, MaterialId, MaterialKind, PrincipledParams,
-    RoughCoating,
+    ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId, MaterialKind,
+    PrincipledParams, RoughCoating, roughness_ok,
 };
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;

@@ -23,7 +23,7 @@ use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, Sc
 const PLANE_Z: f32 = 2.0;
 
 /// The square |x|, |y| ≤ 4 at z = `PLANE_Z`, facing the camera (−z).
-fn plane(material: cmlt::scene::MaterialId) -> Mesh {
+pub(super) fn plane(material: cmlt::scene::MaterialId) -> Mesh {
     let z = PLANE_Z;
     Mesh {
         positions: vec![
@@ -52,7 +52,7 @@ fn lit_plane(rho: f32, light: Light) -> Scene {
 
 /// Each pixel's mean of `radiance` at the plane point its rays hit, over
 /// a 16 × 16 grid of raster positions.
-fn expected_on_plane(scene: &Scene, radiance: impl Fn(Vec3) -> f32) -> Vec<f32> {
+pub(super) fn expected_on_plane(scene: &Scene, radiance: impl Fn(Vec3) -> f32) -> Vec<f32> {
     let cam = &scene.camera;
     let (w, h) = (cam.width(), cam.height());
     let mut out = Vec::new();
@@ -76,7 +76,7 @@ fn expected_on_plane(scene: &Scene, radiance: impl Fn(Vec3) -> f32) -> Vec<f32> 
     out
 }
 
-fn render(scene: &Scene, method: Method, settings: Settings, passes: u64) -> Vec<Rgb> {
+pub(super) fn render(scene: &Scene, method: Method, settings: Settings, passes: u64) -> Vec<Rgb> {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -97,7 +97,7 @@ fn render(scene: &Scene, method: Method, settings: Settings, passes: u64) -> Vec
     film.resolve()
 }
 
-fn render_mlt(scene: &Scene, s: &MltSettings, mpp: u64) -> (Vec<Rgb>, mlt::MltRender) {
+pub(super) fn render_mlt(scene: &Scene, s: &MltSettings, mpp: u64) -> (Vec<Rgb>, mlt::MltRender) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -110,7 +110,7 @@ fn render_mlt(scene: &Scene, s: &MltSettings, mpp: u64) -> (Vec<Rgb>, mlt::MltRe
     (r.resolve(), r)
 }
 
-fn mlt_settings(k: u32, m: u32) -> MltSettings {
+pub(super) fn mlt_settings(k: u32, m: u32) -> MltSettings {
     MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
@@ -123,7 +123,7 @@ fn mlt_settings(k: u32, m: u32) -> MltSettings {
 
 /// The image's mean (green channel) within `mean_tol` of `expected`'s,
 /// relatively.
-fn assert_mean(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32) {
+pub(super) fn assert_mean(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32) {
     let n = img.len() as f32;
     let mean: f32 = img.iter().map(|p| p.g).sum::<f32>() / n;
     let want: f32 = expected.iter().sum::<f32>() / n;
@@ -136,7 +136,13 @@ fn assert_mean(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32) {
 
 /// Compares the image's mean and each pixel with `expected` (green
 /// channel; the scenes are grey).
-fn assert_image(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, pixel_tol: f32) {
+pub(super) fn assert_image(
+    what: &str,
+    img: &[Rgb],
+    expected: &[f32],
+    mean_tol: f32,
+    pixel_tol: f32,
+) {
     assert_mean(what, img, expected, mean_tol);
     for (i, (p, e)) in img.iter().zip(expected).enumerate() {
         assert!(
@@ -150,7 +156,7 @@ fn assert_image(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, pixel_
 
 /// Compares the image's mean and its four quadrants' means with
 /// `expected`'s (a Metropolis image is too noisy per pixel).
-fn assert_quadrants(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, tol: f32) {
+pub(super) fn assert_quadrants(what: &str, img: &[Rgb], expected: &[f32], mean_tol: f32, tol: f32) {
     let quadrant = |v: &dyn Fn(usize) -> f32, q: usize| {
         let mut s = 0.0;
         for y in 0..6 {

@@ -13,6 +13,7 @@
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
+//! - [`rough_diffuse`]: an Oren–Nayar plane under a sun, analytic;
 //! - [`shapes`]: host-intersected analytic shapes;
 //! - [`stability`]: the adversarial suite of issue 7.
 //!
@@ -30,5 +31,6 @@ mod furnace;
 mod lights;
 mod mlt;
 mod renderer;
+mod rough_diffuse;
 mod shapes;
 mod stability;

@@ -289,3 +289,51 @@ fn walks_from_hits_next_to_edges_stay_in_closed_meshes() {
         );
     }
 }
+
+/// A scene far from the origin for its size (issue 39, item 8: PT's
+/// furnace of a unit box, 2 exactly, measured 2.02 10⁵ away, 2.05 at
+/// 3·10⁵, 1.07 at 10⁷, silently) is refused at build, naming the bound;
+/// the same box nearer, or scaled up with it, builds.
+#[test]
+fn scenes_too_far_from_the_origin_for_their_size_are_refused() {
+    use cmlt::scene::{MAX_DISTANCE_TO_EXTENT, SceneError};
+    let build = |scale: f32, offset: Vec3| {
+        let mut b = SceneBuilder::new();
+        let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+        let mut mesh = cuboid(Vec3::splat(-1.0), Vec3::splat(1.0), wall, true);
+        for p in &mut mesh.positions {
+            *p = *p * scale + offset;
+        }
+        b.add_mesh(mesh);
+        b.set_camera(look_at(offset, offset + Vec3::Z, 70.0, 8, 8));
+        b.build()
+    };
+    // The box's diagonal is 2√3·scale.
+    for (scale, offset) in [
+        (1.0, Vec3::splat(1e5)),
+        (1.0, Vec3::new(2e5, 0.0, 0.0)),
+        (10.0, Vec3::splat(1e6)),
+        (1e6, Vec3::ZERO),
+    ] {
+        assert!(build(scale, offset).is_ok(), "{scale} {offset}");
+    }
+    for (scale, offset) in [
+        (1.0, Vec3::new(1e6, 0.0, 0.0)),
+        (1.0, Vec3::splat(-1e7)),
+        (1e-3, Vec3::new(0.0, 500.0, 0.0)),
+    ] {
+        let Err(e) = build(scale, offset) else {
+            panic!("{scale} {offset}: accepted");
+        };
+        let SceneError::TooFarFromOrigin {
+            max_coordinate,
+            extent,
+        } = e
+        else {
+            panic!("{e}");
+        };
+        assert!(max_coordinate > MAX_DISTANCE_TO_EXTENT * extent, "{e}");
+        let text = e.to_string();
+        assert!(text.contains("65536") && text.contains("origin"), "{text}");
+    }
+}
