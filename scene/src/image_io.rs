@@ -139,6 +139,16 @@ fn check_texels(width: u32, texels: &[Rgb]) -> Result<(), String> {
     Ok(())
 }
 
+/// Whether a JPEG file is whole: an end-of-image marker (FF D9) follows
+/// its last start-of-scan (FF DA). Inside entropy-coded data an FF byte
+/// is always followed by 00 or a restart marker, so the first FF D9 after
+/// the last scan is the image's end. The decoder accepts a file cut inside
+/// its last scan and fills the missing blocks with grey, silently.
+fn jpeg_is_whole(bytes: &[u8]) -> bool {
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    last_scan.is_some_and(|i| bytes[i..].windows(2).any(|w| w == [0xFF, 0xD9]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,14 +260,4 @@ mod tests {
         let e = decode_bitmap(&write("cut.exr", &good[..good.len() / 2]), false).unwrap_err();
         assert!(e.contains("cannot decode"), "{e}");
     }
-}
-
-/// Whether a JPEG file is whole: an end-of-image marker (FF D9) follows
-/// its last start-of-scan (FF DA). Inside entropy-coded data an FF byte
-/// is always followed by 00 or a restart marker, so the first FF D9 after
-/// the last scan is the image's end. The decoder accepts a file cut inside
-/// its last scan and fills the missing blocks with grey, silently.
-fn jpeg_is_whole(bytes: &[u8]) -> bool {
-    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
-    last_scan.is_some_and(|i| bytes[i..].windows(2).any(|w| w == [0xFF, 0xD9]))
 }
