@@ -1736,15 +1736,15 @@ fn principled_parameters_and_defaults() {
         ),
         (
             r#"<bsdf type="principled"><float name="sheen" value="1.5"/></bsdf>"#,
-            "'sheen' must be in [0, 1]",
+            "'sheen' must lie in [0, 1]",
         ),
         (
             r#"<bsdf type="principled"><rgb name="base_color" value="0.5 1.2 0.5"/></bsdf>"#,
-            "'base_color' must be in [0, 1]",
+            "'base_color' must lie in [0, 1]",
         ),
         (
             r#"<bsdf type="principled"><texture type="checkerboard" name="clearcoat"><float name="color0" value="2"/></texture></bsdf>"#,
-            "'clearcoat' must be in [0, 1]",
+            "'color0' must be at most 1",
         ),
         (
             r#"<bsdf type="principled"><float name="eta" value="1.5"/><float name="specular" value="0.5"/></bsdf>"#,
