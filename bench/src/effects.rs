@@ -1,5 +1,5 @@
 //! `cmlt-bench effects`: what simulating only the effects a scene calls for
-//! (the scene analysis, issue 8) buys, against `--all-effects`, in one run.
+//! (the scene analysis) buys, against `--all-effects`, in one run.
 //!
 //! For each scene and method, renders of a fixed wall time alternate
 //! between analysis on and off, `repeats` times each (alternating keeps

@@ -4,7 +4,7 @@
 //! the product never depends on this crate.
 //!
 //! - [`rays`]: ray throughput of every traversal kernel;
-//! - [`ray_targets`]: issue 4's throughput targets checked on `rays`'
+//! - [`ray_targets`]: the throughput targets against Embree checked on `rays`'
 //!   measurements (one run, or the CSVs of several);
 //! - [`convergence`]: error against a reference versus time, per method;
 //! - [`params`]: CMLT's σ × k × m grid at a fixed time;

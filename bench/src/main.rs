@@ -78,7 +78,7 @@ enum BenchCommand {
         #[arg(long, default_value_t = 1)]
         rounds: usize,
     },
-    /// Issue 4's throughput targets checked on the CSVs of `bench rays`
+    /// The throughput targets against Embree checked on the CSVs of `bench rays`
     /// runs: each run's table and tallies, then the cells that met each
     /// target in every run.
     RaysSummary {

@@ -1,4 +1,4 @@
-//! Issue 4's throughput targets, checked against `bench rays` measurements
+//! The throughput targets against Embree, checked against `bench rays` measurements
 //! (one run's rows, or the CSVs of several runs).
 //!
 //! The three targets, per cell (scene, ray set, thread count):
@@ -11,7 +11,7 @@
 //!   independent rays).
 //!
 //! Single cells of this shared machine swing by 10–30% between runs
-//! (`docs/rays.md`), so a cell near its target lands on either side of it
+//! (`docs/performance.md`), so a cell near its target lands on either side of it
 //! from run to run. [`write_across`] reads several runs and counts a cell
 //! as met only if it met the target in every one of them, with the range
 //! of its figures.

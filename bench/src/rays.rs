@@ -342,8 +342,8 @@ fn ray_sets(s: &BenchScene, bvh: &Bvh, count: usize) -> RaySets {
 
 /// The processor the figures were measured on ([`cpu_model_in`] of
 /// `/proc/cpuinfo`), or `unknown`. Printed with every run because the
-/// kernels' ratios to Embree differ between processors (`docs/rays.md`,
-/// "Stop 34").
+/// kernels' ratios to Embree differ between processors (an AVX-512 Xeon
+/// and a Zen 4 EPYC gave different tables for the same tree).
 fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
