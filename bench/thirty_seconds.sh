@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # relMSE, samples/s and Mrays/s of PT and BDPT on each shared scene after
-# 30 s on 2 threads (the figures of issue 2's closing note).
+# 30 s on 2 threads.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -p cmlt-cli

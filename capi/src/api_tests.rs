@@ -753,7 +753,7 @@ fn renderer_inputs_and_call_order_are_checked() {
             CMLT_ERROR_INVALID_ARGUMENT,
             f,
         );
-        // Issue 7 regression: a row stride whose (rows − 1) multiple wraps
+        // Regression: a row stride whose (rows − 1) multiple wraps
         // around must be refused, not write out of bounds.
         for stride in [usize::MAX / 2 + 1, usize::MAX / 11 * 2, usize::MAX] {
             expect(

@@ -721,7 +721,7 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
         }
         // Checked: a huge row_stride wrapped (h − 1) · stride around in
         // release builds, passed the size check and wrote out of bounds
-        // (issue 7; debug builds panicked).
+        // (debug builds panicked).
         let needed = (h - 1)
             .checked_mul(stride)
             .and_then(|b| b.checked_add(row))

@@ -392,9 +392,9 @@ fn rough_glass_mlt_and_cmlt_match_reference() {
 }
 
 /// Settings for the two scenes where Metropolis methods are meant to win
-/// (issue 38): level 1 alone, and CMLT with one candidate per step (the
+/// level 1 alone, and CMLT with one candidate per step (the
 /// lean step) and 4 side-chain steps per mutation.
-fn issue38_settings() -> (MltSettings, MltSettings) {
+fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
     let mlt = MltSettings {
         // The chains start at seed samples resampled ∝ luminance; with
         // 1 000 per depth the pool's floor, lit through the water, was too
@@ -428,7 +428,7 @@ fn issue38_settings() -> (MltSettings, MltSettings) {
 /// per-pixel error to a 1/N rate.
 #[test]
 fn caustic_pool_mlt_and_cmlt_match_reference() {
-    let (mlt, cmlt) = issue38_settings();
+    let (mlt, cmlt) = metropolis_scene_settings();
     check_means("caustic-pool", 2, &mlt, 128);
     check_means("caustic-pool", 2, &cmlt, 32);
 }
@@ -445,7 +445,7 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     // test's five seeds against 0.317 (skewed low, all five means 2.6%
     // low); with 1 024, 0.311–0.318. 1 000 seed samples per depth suffice
     // here (20 000 were for the pool's floor).
-    let (mlt, cmlt) = issue38_settings();
+    let (mlt, cmlt) = metropolis_scene_settings();
     let mlt = MltSettings {
         n_chains: 256,
         b_passes: 1024,

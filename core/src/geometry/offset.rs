@@ -80,7 +80,7 @@ pub struct TrianglePoint {
 /// needed so that a ray spawned from it cannot leave through a
 /// neighbouring face.
 ///
-/// Invariant (issue 7's edge leak): `p` lies in the triangle at an
+/// Invariant (against the edge leak): `p` lies in the triangle at an
 /// in-plane distance of at least `m = 2·|γ(7)·maxᵢ|pᵢ||` from each of its
 /// edges — more than its own error bound plus the rounding of the spawn
 /// offset — so it is strictly on the inner side of the plane of a face
@@ -400,7 +400,7 @@ mod tests {
 
     /// Two points of one wall, the first lit from outside, the second seen
     /// from inside, whose computed positions put each on its own side (the
-    /// first rounded one ulp inside, issue 7's cube leak): the segment's
+    /// first rounded one ulp inside, the stability suite's cube leak): the segment's
     /// rays cross the wall, so the connection is blocked.
     #[test]
     fn a_connection_between_the_two_sides_of_a_wall_crosses_it() {

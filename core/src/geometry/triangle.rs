@@ -197,7 +197,7 @@ impl WatertightRay {
     /// more instructions than the scalar test for them: their scalar
     /// branches mispredict on incoherent rays, which are what single rays
     /// mostly trace. Together with `traverse::prefetch`, measured in one
-    /// process against the scalar rule (stop 22, `docs/rays.md`): diffuse
+    /// process against the scalar rule: diffuse
     /// bounces 2–6% faster on all five benchmark scenes, coherent primary
     /// rays 5% slower on the four small ones, where the branches predict.
     #[cfg(target_arch = "x86_64")]
@@ -542,7 +542,8 @@ fn solve(
 /// A ray that starts next to a surface and crosses it at once has a `t`
 /// below `δt`, and its f32 value may come out ≤ 0: the walk from a hit
 /// next to a mesh edge, spawned a few ulps inside the adjacent face,
-/// missed that face and left the closed mesh (issue 7's edge leak).
+/// missed that face and left the closed mesh (the stability suite's edge
+/// leak).
 #[inline(always)]
 fn decide_t_f64(
     t: f32,
@@ -578,7 +579,7 @@ fn certified_t(t: f32, num: f64, den: f64, shear_z: f32) -> f32 {
 /// Reached only when the f32 `t` is not provably of either sign (within
 /// the bound `δt` of [`solve`]). That bound grows with the triangle's
 /// extent, so a triangle much larger than its distance to the origin (a
-/// 10⁶-wide ceiling one unit above the camera: issue 7's huge-light case)
+/// 10⁶-wide ceiling one unit above the camera: a stability-suite case)
 /// was missed altogether. In f64, `t = ((p₀ − o)·n) / (d·n)` with
 /// `n = (p₁ − p₀) × (p₂ − p₀)` has a relative error near 2⁻⁵⁰ instead; the
 /// sign is accepted only when both numerator and denominator exceed their
@@ -1448,7 +1449,7 @@ mod tests {
     /// it at once (t ≈ 10⁻⁷, under δt): its f32 `t` comes out negative,
     /// and only the f64 decision finds the hit — in both kernels. The ray
     /// is a walk step from next to an edge of the closed cube that left it
-    /// this way (issue 7).
+    /// this way (the stability suite's edge leak).
     #[test]
     fn a_surface_crossed_at_the_origin_is_hit() {
         let tri = [

@@ -1,7 +1,8 @@
-//! Level 2 of CMLT (seed Algorithm 4, step 1, corrected; DESIGN.md "The
-//! algorithm", 3–4): from a level-1 state, a side chain of m multiple-try
-//! steps with the perturbation its path admits ([`super::path`]), the k
-//! candidates of each step traced together as packets.
+//! Level 2 of CMLT (Segovia 2007, Algorithm 4, step 1, with the typos of
+//! its acceptance corrected as [`super::multiple_try`] says): from a
+//! level-1 state, a side chain of m multiple-try steps with the
+//! perturbation its path admits ([`super::path`]), the k candidates of
+//! each step traced together as packets.
 //!
 //! Every side-chain step records total luminance 1 (expected-value
 //! splatting, [`super::multiple_try`]), like a level-1 mutation, so a

@@ -90,7 +90,7 @@
 //!   T(x→·), so weighing them by p alone records ∝ p·T rather than p, and
 //!   the z are drawn around x*, not x; the test `eq36_splatting_is_biased`
 //!   measures 3–24 % errors in a region's share on the toy target, far
-//!   beyond noise (DESIGN.md asked for the check). Do not use it for
+//!   beyond noise. Do not use it for
 //!   images; [`Splatting::Recycled`] is the corrected rule.
 //!
 //! ## Allocation, batches and random numbers

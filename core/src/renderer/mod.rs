@@ -371,7 +371,7 @@ impl Renderer {
         }
         // Storage is sized for the deepest path up front: an absurd depth
         // from a host (u32::MAX) aborted the process in the allocator
-        // instead of being refused (issue 7). The C API's limit.
+        // instead of being refused. The C API's limit.
         if mlt::path_depth(&config.settings, &config.mlt) > MAX_DEPTH {
             return Err(RenderError::Config("path depth must be at most 1024"));
         }

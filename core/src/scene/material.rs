@@ -467,7 +467,7 @@ impl Material {
                     to_uv,
                 } => {
                     // In [0, 1] like a constant: a negative albedo made
-                    // negative contributions (issue 7's host-input cases).
+                    // negative contributions.
                     unit(color0) && unit(color1) && to_uv.is_finite()
                 }
             }

@@ -15,7 +15,7 @@
 //!   nothing per frame;
 //! - [`rough_diffuse`]: an Oren–Nayar plane under a sun, analytic;
 //! - [`shapes`]: host-intersected analytic shapes;
-//! - [`stability`]: the adversarial suite of issue 7.
+//! - [`stability`]: the adversarial suite.
 //!
 //! `effects`, `miri` and `embree` stay separate binaries: CI builds them
 //! with other features or under Miri.

@@ -246,7 +246,7 @@ fn edge_walk_escapes(mesh: &Mesh, inside: Vec3, shots: u32) -> u32 {
 }
 
 /// No walk step from a hit next to an edge of a closed mesh leaves it
-/// (issue 7's last leak, stability README): axis-aligned boxes (cube, grid
+/// (the stability README's last leak): axis-aligned boxes (cube, grid
 /// cube, 1000-long and 2000-wide flat boxes whose huge faces meet small
 /// ones, a cube 1000 from the origin), a rotated cube and a UV sphere.
 /// Before the fix 0.8–5.5% of these steps escaped every box (the sphere's
@@ -290,7 +290,7 @@ fn walks_from_hits_next_to_edges_stay_in_closed_meshes() {
     }
 }
 
-/// A scene far from the origin for its size (issue 39, item 8: PT's
+/// A scene far from the origin for its size (PT's
 /// furnace of a unit box, 2 exactly, measured 2.02 10⁵ away, 2.05 at
 /// 3·10⁵, 1.07 at 10⁷, silently) is refused at build, naming the bound;
 /// the same box nearer, or scaled up with it, builds.

@@ -1,4 +1,4 @@
-//! Hard cases stay numerically stable (issue 7): small scenes built in
+//! Hard cases stay numerically stable: small scenes built in
 //! code, each rendered with every method — PT, BDPT, MLT and CMLT through
 //! the host's frame loop (`cmlt::renderer`) — at a small budget. Every
 //! render must give finite pixels and count no non-finite contribution;
