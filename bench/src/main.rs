@@ -199,7 +199,7 @@ enum BenchCommand {
         #[arg(long)]
         title: Option<String>,
     },
-    /// CMLT's σ × k × m grid at a fixed time (the seed's §2.5.1): CSV, a
+    /// CMLT's σ × k × m grid at a fixed time (Segovia 2007's §2.5.1): CSV, a
     /// heat map per m, and the best setting.
     Params {
         /// Mitsuba 3 XML scene file, or a built-in name.

@@ -1,10 +1,10 @@
-//! `cmlt-bench params`: the parameter study of the seed's §2.5.1 — CMLT's
+//! `cmlt-bench params`: the parameter study of Segovia 2007's §2.5.1 — CMLT's
 //! lens-perturbation width σ (pixels) × candidates per step k × side-chain
 //! length m, every cell rendered for the same wall-clock time and scored
 //! against the reference.
 //!
 //! Small σ with many candidates is where stratified candidates should help
-//! most (the seed's fig. 14: a lattice of k candidates covers a small
+//! most (Segovia 2007's fig. 14: a lattice of k candidates covers a small
 //! perturbation disc evenly), so the grid spans both. Plain MLT (m = 0) is
 //! measured alongside as the baseline level 2 has to beat.
 

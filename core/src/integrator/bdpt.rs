@@ -37,7 +37,7 @@ use alloc::vec::Vec;
 use glam::{Vec2, Vec3};
 
 use super::Settings;
-use super::context::{Shading, Tracer};
+use super::tracer::{Shading, Tracer};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::film::Film;

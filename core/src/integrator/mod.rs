@@ -42,10 +42,10 @@ impl Settings {
 }
 
 pub mod bdpt;
-pub mod context;
 pub mod path;
+pub mod tracer;
 
-pub use context::{LobeCounts, Stats, Tracer};
+pub use tracer::{LobeCounts, Stats, Tracer};
 
 use glam::Vec2;
 

@@ -18,7 +18,7 @@
 use glam::Vec2;
 
 use super::Settings;
-use super::context::{Shading, Tracer};
+use super::tracer::{Shading, Tracer};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};

@@ -67,7 +67,7 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 }
 
 /// A 2-D isotropic Gaussian offset of standard deviation σ, truncated to
-/// the disk of radius `r_max` ("clamped Gaussian", seed eq. 37, §2.4.1):
+/// the disk of radius `r_max` ("clamped Gaussian", Segovia 2007, eq. 37, §2.4.1):
 /// the perturbation density T of the lens and caustic perturbations.
 ///
 /// ## Which truncation, and why the radius
@@ -76,12 +76,12 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 /// nor onto the boundary:
 /// - the density depends on |d| only, so for fixed σ and r_max the
 ///   perturbation is symmetric, T(x→y) = T(y→x), and its support is
-///   symmetric too (seed eq. 31: T(x→y) > 0 ⇔ T(y→x) > 0);
+///   symmetric too (Segovia 2007, eq. 31: T(x→y) > 0 ⇔ T(y→x) > 0);
 /// - the radial distribution has a closed-form inverse CDF in `exp`/`log`
 ///   (below), so every candidate costs exactly two uniforms and no
 ///   rejection loop — a packet of k candidates stays in lockstep, and
 ///   stratified (jittered-grid) inputs map monotonically in the radius, the
-///   Box–Muller-style map Segovia et al. use (seed §2.4.2, fig. 13). A
+///   Box–Muller-style map of Segovia 2007 (§2.4.2, fig. 13). A
 ///   per-axis (square) truncation would need erf⁻¹, which `libm` lacks;
 /// - a bounded offset keeps the candidates of one step close together,
 ///   which is what makes them coherent.

@@ -1,5 +1,5 @@
 //! The bootstrap phase: the normalisation b and the chains' starting
-//! points (Veach 1997, §11.3.1; the seed's eq. 28; pbrt-v4's
+//! points (Veach 1997, §11.3.1; Segovia 2007's eq. 28; pbrt-v4's
 //! `MLTIntegrator::Render`).
 //!
 //! Two kinds of independent samples:
@@ -47,9 +47,8 @@ use core::ops::Range;
 
 use glam::Vec2;
 
-use super::chain::PathSample;
 use super::primary::PrimarySampler;
-use super::{MltSettings, path_depth};
+use super::{MltSettings, path_depth, target};
 use crate::accel::Intersector;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
@@ -60,23 +59,6 @@ use crate::sampler::{SampleStream, mix64};
 #[inline]
 pub fn sample_seed(seed: u64, index: u64) -> u64 {
     mix64(mix64(seed ^ 0xB007_57A9_0000_0000) ^ index)
-}
-
-/// Evaluates the Metropolis target (one BDPT strategy of the given depth)
-/// at the current point of `sampler`.
-#[inline]
-pub fn evaluate_target<I: Intersector>(
-    tracer: &mut Tracer<'_, I>,
-    settings: &Settings,
-    ws: &mut bdpt::Workspace,
-    depth: u32,
-    sampler: &mut PrimarySampler,
-) -> PathSample {
-    let r = bdpt::sample_strategy(tracer, settings, ws, depth as usize, sampler);
-    PathSample {
-        l: r.l,
-        raster: r.raster,
-    }
 }
 
 /// Evaluates seed samples `range` (indices into 0 … n·D) and appends their
@@ -125,7 +107,7 @@ pub fn evaluate_seeds_with<I: Intersector>(
     for i in range {
         sampler.restart(sample_seed(seed, i));
         let depth = 1 + (i % depths) as u32;
-        let y = evaluate_target(tracer, settings, ws, depth, sampler).target();
+        let y = target::evaluate(tracer, settings, ws, depth, sampler).target();
         out.push(y);
     }
 }

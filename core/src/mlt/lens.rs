@@ -39,7 +39,7 @@ use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
 use crate::integrator::bdpt::{PathVertex, scatter};
-use crate::integrator::context::Shading;
+use crate::integrator::tracer::Shading;
 use crate::math::Rgb;
 use crate::math::warp::ClampedGaussian2;
 use crate::scene::SurfacePoint;

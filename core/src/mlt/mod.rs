@@ -6,6 +6,7 @@
 //!   mutations and three interleaved streams;
 //! - [`chain`]: one Metropolis–Hastings chain with expected-value
 //!   splatting;
+//! - [`target`]: the target a chain of depth d samples, Y(f_d(u));
 //! - [`bootstrap`]: the normalisation b and the chains' starting points;
 //! - this module: a worker running many chains into a film.
 //!
@@ -41,6 +42,7 @@ pub mod level2;
 pub mod multiple_try;
 pub mod path;
 pub mod primary;
+pub mod target;
 
 pub use bootstrap::Bootstrap;
 pub use chain::{Chain, PathSample, Splat, Step};
@@ -495,14 +497,14 @@ impl MltWorker {
             let u = uniform_f64(&mut rng);
             let start = start_sample(bootstrap, depth, u, *start_tries, &mut rng, |i| {
                 sampler.restart(bootstrap.seed_of(i));
-                bootstrap::evaluate_target(tracer, settings, ws, depth, &mut sampler).target() > 0.0
+                target::evaluate(tracer, settings, ws, depth, &mut sampler).target() > 0.0
             });
             let Some(index) = start else {
                 spare.push(sampler);
                 continue;
             };
             sampler.restart(bootstrap.seed_of(index));
-            let initial = bootstrap::evaluate_target(tracer, settings, ws, depth, &mut sampler);
+            let initial = target::evaluate(tracer, settings, ws, depth, &mut sampler);
             if level2.is_some() {
                 bdpt::strategy_path(ws, &mut paths[chains.len()]);
             }
@@ -546,14 +548,13 @@ impl MltWorker {
         };
         for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
             let depth = *depth;
-            chain.reevaluate(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+            chain.reevaluate(|s| target::evaluate(tracer, settings, ws, depth, s));
             if !(chain.current().target() > 0.0) {
                 let cs = mix64(seeds[ci] ^ seed);
                 let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
                 let u = uniform_f64(&mut rng);
-                let mut evaluate = |s: &mut PrimarySampler| {
-                    bootstrap::evaluate_target(tracer, settings, ws, depth, s)
-                };
+                let mut evaluate =
+                    |s: &mut PrimarySampler| target::evaluate(tracer, settings, ws, depth, s);
                 let start = start_sample(bootstrap, depth, u, *start_tries, &mut rng, |i| {
                     chain.restart(bootstrap.seed_of(i), cs, &mut evaluate);
                     chain.current().target() > 0.0
@@ -609,7 +610,7 @@ impl MltWorker {
             for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
                 let depth = *depth;
                 let w = weights[ci];
-                let st = chain.step(|s| bootstrap::evaluate_target(tracer, settings, ws, depth, s));
+                let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
                 for sp in st.splats() {
                     film.add_splat(sp.raster, sp.value * w);
                 }

@@ -7,7 +7,7 @@
 //! state (≥ 0). Path-space lens and caustic perturbations implement
 //! [`Proposal`] later; the tests here run it on 2-D toy targets.
 //!
-//! ## One step (seed Algorithm 3; Algorithm 4, steps b–g, corrected)
+//! ## One step (Segovia 2007, Algorithm 3; Algorithm 4, steps b–g, corrected)
 //!
 //! From the current state x:
 //! - b) draw y₁…y_k ~ T(x→·);
@@ -68,7 +68,7 @@
 //! - [`Splatting::Recycled`]: every candidate y_l with a₁(x, y_l)/k and x
 //!   with 1 − Σ_l a₁(x, y_l)/k, where a₁(x, y) = min(1, p(y)T(y→x) /
 //!   (p(x)T(x→y))) is the acceptance of an ordinary one-proposal
-//!   Metropolis–Hastings step. This is seed eq. 36's aim (use the samples a
+//!   Metropolis–Hastings step. This is the aim of Segovia 2007's eq. 36 (use the samples a
 //!   step has traced anyway) with a weighting that is provably right: let
 //!   P_l be the Metropolis–Hastings kernel that proposes y_l ~ T(x→·) and
 //!   accepts with a₁. Its expected-value record, a₁δ_{y_l} + (1 − a₁)δ_x,
@@ -81,7 +81,7 @@
 //!   may move by any π-invariant rule. For k = 1 it is expected-value
 //!   splatting of a plain Metropolis–Hastings step. The test
 //!   `recycled_splatting_matches_target` checks it against the toy targets.
-//! - [`Splatting::AllCandidates`] (seed eq. 36): every y_l with
+//! - [`Splatting::AllCandidates`] (Segovia 2007, eq. 36): every y_l with
 //!   a · p(y_l) / F_y and every z_l with (1 − a) · p(z_l) / F_z, where
 //!   F_y = Σ_{l=1}^{k} p(y_l), F_z = Σ_{l=1}^{k} p(z_l) (z_k = x included),
 //!   and p is the luminance — the seed's f "with colours scaled to
@@ -183,7 +183,7 @@ pub enum Candidates {
     /// k independent draws from T(x→·), the reference set k − 1 independent
     /// draws from T(x*→·) (Liu et al. 2000).
     Independent,
-    /// Stratified (Segovia's jittered grid, seed fig. 13): the k uniforms
+    /// Stratified (the jittered grid of Segovia 2007, fig. 13): the k uniforms
     /// are a rank-1 lattice shifted by one uniform toroidal offset Δ
     /// (Cranley–Patterson rotation), so every stratum of [0, 1)^DIM holds
     /// one point and each point alone is uniform, i.e. each candidate is
@@ -286,7 +286,7 @@ pub enum Splatting {
     /// samples per step instead of one; the reference set is traced only to
     /// move the chain.
     Recycled,
-    /// Seed eq. 36: all k candidates and all k reference points, weighted
+    /// Segovia 2007's eq. 36: all k candidates and all k reference points, weighted
     /// by a·p(y_l)/F_y and (1 − a)·p(z_l)/F_z. Biased for k > 1 (kept for
     /// the measurement in the tests and for comparison).
     AllCandidates,

@@ -55,7 +55,7 @@ use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
 use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
-use crate::integrator::context::Shading;
+use crate::integrator::tracer::Shading;
 use crate::math::Rgb;
 
 /// Longest specular chain a perturbation retraces (longer ones: identity).

@@ -155,7 +155,7 @@ pub struct Temporal {
     /// never lags); 0 or 1 = each frame its own b. At most
     /// [`MAX_B_WINDOW`].
     pub b_window: u32,
-    /// Every frame draws the same random numbers (the seed's §3.1
+    /// Every frame draws the same random numbers (Segovia 2007's §3.1
     /// reproducible perturbations): a static camera gives identical frames
     /// and a moving one a noise pattern that moves with the image.
     /// Otherwise frame f's streams are seeded by (seed, f).

@@ -251,7 +251,7 @@ fn fractional_opacity_lets_that_fraction_of_rays_through() {
 }
 
 /// The shading at the centre of the subject quad, seen from the camera.
-fn shade_centre(scene: &Scene, centre: Vec3) -> cmlt::integrator::context::Shading {
+fn shade_centre(scene: &Scene, centre: Vec3) -> cmlt::integrator::tracer::Shading {
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     let mut t = Tracer::new(scene, &bvh).with_analysis(scene.analysis(&scene.camera));
     let sh = t.trace(&Ray::new(Vec3::ZERO, centre)).unwrap();

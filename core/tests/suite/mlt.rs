@@ -10,7 +10,7 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Settings, Tracer};
 use cmlt::math::{Rgb, Vec3};
-use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, MltWorker, PrimarySampler, bootstrap};
+use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, MltWorker, PrimarySampler, target};
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -233,12 +233,11 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
         let index = boot.pick(depth, u).unwrap();
         assert_eq!(boot.depth_of(index), depth);
         let mut s = PrimarySampler::new(boot.seed_of(index), m.sigma, m.large_step_prob);
-        let init = bootstrap::evaluate_target(&mut tracer, &st, &mut ws, depth, &mut s);
+        let init = target::evaluate(&mut tracer, &st, &mut ws, depth, &mut s);
         s.reseed(1000 + c);
         let mut chain = Chain::new(s, init, 2000 + c);
         for _ in 0..(64 * 16 * 12 / 64) {
-            let step =
-                chain.step(|s| bootstrap::evaluate_target(&mut tracer, &st, &mut ws, depth, s));
+            let step = chain.step(|s| target::evaluate(&mut tracer, &st, &mut ws, depth, s));
             mutations += 1;
             let records = if with_current {
                 [step.proposal, step.current]

@@ -6,7 +6,7 @@
 //! that leaves p invariant keeps the end state exactly p-distributed for
 //! any m, and independent chains make the binned values i.i.d., so
 //! Pearson's χ² applies without any autocorrelation correction. This tests
-//! invariance (detailed balance), which is exactly what the seed's typos
+//! invariance (detailed balance), which is exactly what Segovia 2007's typos
 //! break; ergodicity is not what is at stake here.
 
 // The crate is `no_std` without the `std` feature; the tests print.
@@ -719,7 +719,7 @@ fn recycled_splatting_matches_target() {
     without_reverse("independence", &Independence, 45);
 }
 
-/// Documented finding: seed eq. 36 (all 2k samples, weights a·p(y)/F_y and
+/// Documented finding: Segovia 2007's eq. 36 (all 2k samples, weights a·p(y)/F_y and
 /// (1 − a)·p(z)/F_z) is biased for k > 1, far beyond sampling noise; for
 /// k = 1 it is expected-value splatting (same records). Measured (20 000
 /// chains × 8 steps): the block's share of the splatted weight, exactly
