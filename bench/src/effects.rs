@@ -15,8 +15,8 @@ use cmlt::math::Rgb;
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::Scene;
 
+use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, render};
-use cmlt_cli::scene::LoadedScene;
 
 /// What the throughput of `method` counts.
 fn unit(method: Estimator) -> &'static str {

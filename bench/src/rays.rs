@@ -180,7 +180,7 @@ fn load(name: &str, opts: &Options) -> Result<BenchScene, String> {
     } else {
         opts.scenes_dir.join(name).join("scene.xml")
     };
-    let loaded = cmlt_cli::scene::load_scene(&path, &[]).map_err(|e| e.to_string())?;
+    let loaded = cmlt_cli::mitsuba::load_scene(&path, &[]).map_err(|e| e.to_string())?;
     let scene: Scene = loaded.scene;
     let tris = scene.triangles().collect();
     let camera = scene.camera;

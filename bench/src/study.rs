@@ -16,8 +16,8 @@ use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::load_scene_or_builtin;
 use cmlt_cli::metrics;
+use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, render};
-use cmlt_cli::scene::LoadedScene;
 
 /// One measured render.
 #[derive(Clone, Debug, PartialEq)]

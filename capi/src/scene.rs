@@ -8,7 +8,7 @@ use std::ffi::{CStr, c_char};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 
-use ::cmlt_scene::accel::AccelKind;
+use ::cmlt_mitsuba::accel::AccelKind;
 use cmlt_core::accel::Intersector;
 use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use cmlt_core::integrator::Settings;
@@ -292,10 +292,10 @@ impl cmlt_camera {
 }
 
 /// What a committed scene traces with: a backend the library builds (our
-/// BVH or Embree, chosen at run time as in `cmlt-scene`) or the host's
+/// BVH or Embree, chosen at run time as in `cmlt-mitsuba`) or the host's
 /// callbacks.
 pub(crate) enum Accel {
-    Built(::cmlt_scene::accel::Accel),
+    Built(::cmlt_mitsuba::accel::Accel),
     Host(HostIntersector),
 }
 
@@ -1241,7 +1241,7 @@ fn accel_kind(accel: u32) -> Result<AccelKind> {
 
 /// Builds a backend over `scene`'s triangles.
 fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
-    ::cmlt_scene::accel::Accel::build(kind, &scene.triangles().collect::<Vec<_>>())
+    ::cmlt_mitsuba::accel::Accel::build(kind, &scene.triangles().collect::<Vec<_>>())
         .map(Accel::Built)
         .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e))
 }
@@ -1397,7 +1397,7 @@ pub unsafe extern "C" fn cmlt_scene_load_file(
         let path = unsafe { CStr::from_ptr(path) }
             .to_str()
             .map_err(|_| Error::invalid("path is not UTF-8"))?;
-        let loaded = ::cmlt_scene::load_scene(std::path::Path::new(path), &[])
+        let loaded = ::cmlt_mitsuba::load_scene(std::path::Path::new(path), &[])
             .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_IO, e.to_string()))?;
         // SAFETY: the caller's contract.
         unsafe { finish_loaded(loaded, out, out_camera, out_width, out_height) }
@@ -1430,7 +1430,7 @@ pub unsafe extern "C" fn cmlt_scene_new_builtin(
             ("resx".to_string(), width.to_string()),
             ("resy".to_string(), height.to_string()),
         ];
-        let loaded = ::cmlt_scene::builtin_scene(name, &defines)
+        let loaded = ::cmlt_mitsuba::builtin_scene(name, &defines)
             .ok_or_else(|| {
                 Error::invalid(format!(
                     "no built-in scene named {name:?} (try \"cornell-box\")"
@@ -1455,7 +1455,7 @@ pub unsafe extern "C" fn cmlt_scene_new_builtin(
 /// # Safety
 /// The out pointers other than `out` are NULL or valid.
 unsafe fn finish_loaded(
-    loaded: ::cmlt_scene::LoadedScene,
+    loaded: ::cmlt_mitsuba::LoadedScene,
     out: &mut *mut cmlt_scene,
     out_camera: *mut cmlt_camera,
     out_width: *mut u32,

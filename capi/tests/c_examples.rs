@@ -199,7 +199,7 @@ fn minimal_matches_a_rust_render() {
         assert!(out.contains("bad calls refused"), "{out}");
         assert_eq!(numbers(&out, "rays")[1], 0.0, "non-finite samples");
 
-        let loaded = cmlt_scene::builtin_scene(
+        let loaded = cmlt_mitsuba::builtin_scene(
             "cornell-box",
             &[("resx".into(), "32".into()), ("resy".into(), "32".into())],
         )

@@ -2,7 +2,7 @@
 //! ([`args`]), image files, error metrics, the multi-threaded drivers over
 //! the core's renderer ([`render`], [`frames`]) and what `cmlt render`
 //! writes ([`output`]), over the scene loading (Mitsuba 3 XML) and
-//! run-time backend choice of `cmlt-scene`, which it re-exports as
+//! run-time backend choice of `cmlt-mitsuba`, which it re-exports as
 //! [`scene`] and [`accel`]. The `cmlt` binary is a thin command-line layer
 //! over it; the benchmarks (crate `cmlt-bench`) and the tests use it
 //! directly.
@@ -16,12 +16,12 @@ pub mod render;
 
 use std::path::Path;
 
-/// The Mitsuba 3 loader (crate `cmlt-scene`, re-exported).
-pub use cmlt_scene as scene;
-/// The run-time choice of backend (crate `cmlt-scene`, re-exported).
-pub use cmlt_scene::accel;
+/// The Mitsuba 3 loader (crate `cmlt-mitsuba`, re-exported).
+pub use cmlt_mitsuba as mitsuba;
+/// The run-time choice of backend (crate `cmlt-mitsuba`, re-exported).
+pub use cmlt_mitsuba::accel;
 
-use scene::{LoadedScene, builtin_scene, load_scene};
+use mitsuba::{LoadedScene, builtin_scene, load_scene};
 
 /// Loads `name`: a built-in scene name (`cornell-box`) unless a file of
 /// that name exists, else a Mitsuba 3 XML file; `defines` override the

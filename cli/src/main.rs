@@ -11,8 +11,8 @@ use clap::{Parser, Subcommand};
 use cmlt::renderer::{Budget, RendererConfig};
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs};
+use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::render;
-use cmlt_cli::scene::LoadedScene;
 use cmlt_cli::{frames, load_scene_or_builtin, output};
 
 #[derive(Parser)]

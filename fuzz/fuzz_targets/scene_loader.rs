@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(xml) = std::str::from_utf8(data) {
-        let _ = cmlt_scene::load_scene_str(
+        let _ = cmlt_mitsuba::load_scene_str(
             xml,
             std::path::Path::new("/nonexistent/cmlt-fuzz"),
             "fuzz.xml",

@@ -7,8 +7,8 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Method;
 use cmlt::renderer::RendererConfig;
 use cmlt_cli::image_io::{Image, read_exr};
+use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, RenderOutput, render};
-use cmlt_cli::scene::{LoadedScene, load_scene};
 
 /// The test scenes: `$CMLT_SCENES_DIR` if set, else the copies of the
 /// shared scenes committed under `tests/scenes` (CC0, with their Mitsuba 3

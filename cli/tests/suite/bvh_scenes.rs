@@ -11,7 +11,7 @@ use cmlt::accel::{BruteForce, Intersector};
 use cmlt::geometry::Ray;
 use cmlt::math::Vec3;
 use cmlt::sampler::SampleStream;
-use cmlt_cli::scene::load_scene;
+use cmlt_cli::mitsuba::load_scene;
 
 fn check(name: &str, rays: usize) {
     let dir = common::scenes_dir().join(name);

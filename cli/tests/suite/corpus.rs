@@ -37,7 +37,7 @@ use std::path::{Path, PathBuf};
 use cmlt::integrator::Method;
 use cmlt::math::Rgb;
 use cmlt_cli::image_io::{Image, read_exr, write_exr};
-use cmlt_cli::scene::load_scene;
+use cmlt_cli::mitsuba::load_scene;
 
 use crate::common::render_scene;
 

@@ -15,8 +15,8 @@ use cmlt::math::Rgb;
 use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::{Effect, EffectSet};
+use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, render};
-use cmlt_cli::scene::{LoadedScene, load_scene};
 
 fn effects(scene: &str) -> (EffectSet, bool) {
     let path =

@@ -10,7 +10,7 @@ use cmlt::scene::{
     ConductorFresnel, Distribution, Effect, Material, MaterialKind, Mesh, RoughCoating, Scene,
     Texture,
 };
-use cmlt_cli::scene::{
+use cmlt_cli::mitsuba::{
     BUILTIN_SCENES, LoadError, LoadedScene, builtin_scene, load_scene, load_scene_str,
 };
 
@@ -1076,7 +1076,7 @@ fn errors_point_at_the_offending_line() {
 
 #[test]
 fn truncated_and_corrupted_scenes_never_panic() {
-    let text = include_str!("../../../scene/scenes/cornell-box.xml");
+    let text = include_str!("../../../mitsuba/scenes/cornell-box.xml");
     for cut in (0..text.len()).step_by(23) {
         let _ = load_scene_str(&text[..cut], Path::new("."), "cut.xml", &[]);
     }
@@ -1102,7 +1102,7 @@ fn truncated_and_corrupted_scenes_never_panic() {
 #[test]
 fn surface_detail_scene_wires_normalmap_bumpmap_and_mask() {
     let dir = crate::common::scenes_dir().join("surface-detail");
-    let l = cmlt_cli::scene::load_scene(&dir.join("scene.xml"), &[]).unwrap();
+    let l = cmlt_cli::mitsuba::load_scene(&dir.join("scene.xml"), &[]).unwrap();
     let s = &l.scene;
     let details: Vec<_> = s.materials.iter().map(|m| m.detail).collect();
     let normal = details.iter().find(|d| d.normal_map.is_some()).unwrap();

@@ -16,8 +16,8 @@ use cmlt::mlt::MltSettings;
 use cmlt::renderer::RendererConfig;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
+use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, RenderOutput, metropolis, render as drive};
-use cmlt_cli::scene::LoadedScene;
 use common::load_reduced;
 
 fn render(
