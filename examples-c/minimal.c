@@ -85,6 +85,14 @@ int main(int argc, char **argv) {
                                 sizeof(float) * 3 * size * size),
           "cmlt_renderer_resolve");
     check(cmlt_renderer_get_stats(renderer, &stats), "cmlt_renderer_get_stats");
+    /* The Cornell box calls for diffuse reflection and area lights, and for
+     * no environment: the renderer simulates only what the scene needs. */
+    if ((stats.effects & (CMLT_EFFECT_DIFFUSE | CMLT_EFFECT_AREA_LIGHTS)) !=
+            (CMLT_EFFECT_DIFFUSE | CMLT_EFFECT_AREA_LIGHTS) ||
+        (stats.effects & CMLT_EFFECT_ENVIRONMENT) != 0) {
+        fprintf(stderr, "unexpected effects 0x%x\n", (unsigned)stats.effects);
+        return 1;
+    }
 
     /* The same image as 8-bit sRGB for the preview. */
     preview = (uint8_t *)malloc((size_t)4 * size * size);

@@ -187,35 +187,51 @@
 // towards +x, as in Mitsuba.
 #define CMLT_LIGHT_ENVMAP 4
 
+// Lambertian reflection (bit of `cmlt_scene_get_effects`' mask).
+#define CMLT_EFFECT_DIFFUSE 1
 
+// Rough (microfacet) reflection.
+#define CMLT_EFFECT_GLOSSY 2
 
+// Smooth mirror reflection.
+#define CMLT_EFFECT_SPECULAR_REFLECTION 4
 
+// Smooth dielectric refraction.
+#define CMLT_EFFECT_REFRACTION 8
 
+// Textured reflectance.
+#define CMLT_EFFECT_TEXTURES 16
 
+// Emitting surfaces.
+#define CMLT_EFFECT_AREA_LIGHTS 32
 
+// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
+// the camera).
+#define CMLT_EFFECT_DEPTH_OF_FIELD 64
 
+// Normal or bump maps.
+#define CMLT_EFFECT_NORMAL_MAPPING 128
 
+// Alpha masks (opacity textures).
+#define CMLT_EFFECT_ALPHA_MASKS 256
 
+// Plastics (a dielectric coating over a diffuse base).
+#define CMLT_EFFECT_COATING 512
 
+// Rough dielectric reflection and refraction (`CMLT_MATERIAL_ROUGH_GLASS`).
+#define CMLT_EFFECT_ROUGH_REFRACTION 1024
 
+// Point, spot and directional lights.
+#define CMLT_EFFECT_POINT_LIGHTS 2048
 
+// An environment (constant or an environment map).
+#define CMLT_EFFECT_ENVIRONMENT 4096
 
+// A principled material (`CMLT_MATERIAL_PRINCIPLED`).
+#define CMLT_EFFECT_PRINCIPLED 8192
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
+// Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
+#define CMLT_EFFECT_ROUGH_DIFFUSE 16384
 
 // Result of every C API call.
 typedef enum cmlt_status {

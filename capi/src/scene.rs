@@ -1486,36 +1486,56 @@ unsafe fn finish_loaded(
 }
 
 /// Lambertian reflection (bit of `cmlt_scene_get_effects`' mask).
-pub const CMLT_EFFECT_DIFFUSE: u32 = 1 << Effect::Diffuse as u32;
+pub const CMLT_EFFECT_DIFFUSE: u32 = 0x1;
 /// Rough (microfacet) reflection.
-pub const CMLT_EFFECT_GLOSSY: u32 = 1 << Effect::Glossy as u32;
+pub const CMLT_EFFECT_GLOSSY: u32 = 0x2;
 /// Smooth mirror reflection.
-pub const CMLT_EFFECT_SPECULAR_REFLECTION: u32 = 1 << Effect::SpecularReflection as u32;
+pub const CMLT_EFFECT_SPECULAR_REFLECTION: u32 = 0x4;
 /// Smooth dielectric refraction.
-pub const CMLT_EFFECT_REFRACTION: u32 = 1 << Effect::Refraction as u32;
+pub const CMLT_EFFECT_REFRACTION: u32 = 0x8;
 /// Textured reflectance.
-pub const CMLT_EFFECT_TEXTURES: u32 = 1 << Effect::Textures as u32;
+pub const CMLT_EFFECT_TEXTURES: u32 = 0x10;
 /// Emitting surfaces.
-pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 1 << Effect::AreaLights as u32;
+pub const CMLT_EFFECT_AREA_LIGHTS: u32 = 0x20;
 /// A thin-lens camera (reported by `cmlt_renderer_get_stats`, which knows
 /// the camera).
-pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 1 << Effect::DepthOfField as u32;
+pub const CMLT_EFFECT_DEPTH_OF_FIELD: u32 = 0x40;
 /// Normal or bump maps.
-pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 1 << Effect::NormalMapping as u32;
+pub const CMLT_EFFECT_NORMAL_MAPPING: u32 = 0x80;
 /// Alpha masks (opacity textures).
-pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 1 << Effect::AlphaMasks as u32;
+pub const CMLT_EFFECT_ALPHA_MASKS: u32 = 0x100;
 /// Plastics (a dielectric coating over a diffuse base).
-pub const CMLT_EFFECT_COATING: u32 = 1 << Effect::Coating as u32;
+pub const CMLT_EFFECT_COATING: u32 = 0x200;
 /// Rough dielectric reflection and refraction (`CMLT_MATERIAL_ROUGH_GLASS`).
-pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 1 << Effect::RoughRefraction as u32;
+pub const CMLT_EFFECT_ROUGH_REFRACTION: u32 = 0x400;
 /// Point, spot and directional lights.
-pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 1 << Effect::PointLights as u32;
+pub const CMLT_EFFECT_POINT_LIGHTS: u32 = 0x800;
 /// An environment (constant or an environment map).
-pub const CMLT_EFFECT_ENVIRONMENT: u32 = 1 << Effect::Environment as u32;
-/// `cmlt_scene_effects` bit: a principled material.
-pub const CMLT_EFFECT_PRINCIPLED: u32 = 1 << Effect::Principled as u32;
+pub const CMLT_EFFECT_ENVIRONMENT: u32 = 0x1000;
+/// A principled material (`CMLT_MATERIAL_PRINCIPLED`).
+pub const CMLT_EFFECT_PRINCIPLED: u32 = 0x2000;
 /// Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
-pub const CMLT_EFFECT_ROUGH_DIFFUSE: u32 = 1 << Effect::RoughDiffuse as u32;
+pub const CMLT_EFFECT_ROUGH_DIFFUSE: u32 = 0x4000;
+
+// The bits are the core's `Effect` discriminants (literals here so that
+// cbindgen writes them into the header).
+const _: () = assert!(
+    CMLT_EFFECT_DIFFUSE == 1 << Effect::Diffuse as u32
+        && CMLT_EFFECT_GLOSSY == 1 << Effect::Glossy as u32
+        && CMLT_EFFECT_SPECULAR_REFLECTION == 1 << Effect::SpecularReflection as u32
+        && CMLT_EFFECT_REFRACTION == 1 << Effect::Refraction as u32
+        && CMLT_EFFECT_TEXTURES == 1 << Effect::Textures as u32
+        && CMLT_EFFECT_AREA_LIGHTS == 1 << Effect::AreaLights as u32
+        && CMLT_EFFECT_DEPTH_OF_FIELD == 1 << Effect::DepthOfField as u32
+        && CMLT_EFFECT_NORMAL_MAPPING == 1 << Effect::NormalMapping as u32
+        && CMLT_EFFECT_ALPHA_MASKS == 1 << Effect::AlphaMasks as u32
+        && CMLT_EFFECT_COATING == 1 << Effect::Coating as u32
+        && CMLT_EFFECT_ROUGH_REFRACTION == 1 << Effect::RoughRefraction as u32
+        && CMLT_EFFECT_POINT_LIGHTS == 1 << Effect::PointLights as u32
+        && CMLT_EFFECT_ENVIRONMENT == 1 << Effect::Environment as u32
+        && CMLT_EFFECT_PRINCIPLED == 1 << Effect::Principled as u32
+        && CMLT_EFFECT_ROUGH_DIFFUSE == 1 << Effect::RoughDiffuse as u32
+);
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for
 /// (materials of its meshes, its emitters); `*out_specular_chains` (may be
