@@ -772,8 +772,11 @@ enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
 
 // Readies the renderer for this frame's `cmlt_renderer_render` calls:
 // after creation or a camera change, MLT and CMLT estimate the
-// normalisation here (on the calling thread); otherwise it returns at
-// once. `CMLT_ERROR_BUSY` while a worker renders.
+// normalisation here, all of it on the calling thread; otherwise it
+// returns at once. A host with worker threads spreads the same work over
+// them with `cmlt_renderer_prepare_begin`, `cmlt_renderer_prepare_worker`
+// and `cmlt_renderer_prepare_finish` (the same image, bit for bit).
+// `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` is NULL or valid.
