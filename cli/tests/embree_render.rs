@@ -10,7 +10,7 @@ mod common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::accel::embree::EmbreeScene;
-use cmlt::integrator::Method;
+use cmlt::integrator::Estimator;
 use cmlt::renderer::RendererConfig;
 use cmlt_cli::render::{Budget, render};
 
@@ -20,7 +20,7 @@ fn embree_render_matches_bvh_render() {
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
     let embree = EmbreeScene::new(&tris).expect("Embree device");
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let config = RendererConfig {
             estimator: method,
             settings: loaded.settings,

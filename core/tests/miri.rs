@@ -11,7 +11,7 @@ use cmlt::accel::brute::BruteForce;
 use cmlt::accel::bvh::{Bvh, Kernel};
 use cmlt::film::Film;
 use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
-use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
 use cmlt::math::{Rgb, Vec3};
 use cmlt::scene::{Material, SceneBuilder};
 
@@ -103,7 +103,7 @@ fn tiny_render_passes() {
         max_depth: Some(3),
         ..Settings::default()
     };
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let mut tracer = Tracer::new(&scene, &bvh);
         let mut film = Film::new(2, 2);
         render_pass(

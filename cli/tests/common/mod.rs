@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::integrator::Method;
+use cmlt::integrator::Estimator;
 use cmlt::renderer::RendererConfig;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
@@ -46,7 +46,7 @@ pub fn load_reduced(name: &str, factor: u32) -> (LoadedScene, Image) {
 /// Renders a loaded scene with the default BVH on two threads.
 pub fn render_scene(
     loaded: &LoadedScene,
-    method: Method,
+    method: Estimator,
     spp: u64,
     seed: u64,
 ) -> (Image, RenderOutput) {

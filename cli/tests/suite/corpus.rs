@@ -34,7 +34,7 @@
 
 use std::path::{Path, PathBuf};
 
-use cmlt::integrator::Method;
+use cmlt::integrator::Estimator;
 use cmlt::math::Rgb;
 use cmlt_cli::image_io::{Image, read_exr, write_exr};
 use cmlt_cli::mitsuba::load_scene;
@@ -204,7 +204,7 @@ fn run(name: &str) -> Outcome {
         return match load_scene(&xml_path, &tiny) {
             Err(e) => Outcome::Blocked(e.to_string()),
             Ok(loaded) => {
-                let (img, _) = render_scene(&loaded, Method::Path, 2, 1);
+                let (img, _) = render_scene(&loaded, Estimator::Path, 2, 1);
                 let bad = img
                     .pixels
                     .iter()

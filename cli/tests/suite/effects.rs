@@ -10,10 +10,10 @@ use std::path::Path;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::bsdf::Lobe;
-use cmlt::integrator::{Method, Stats};
+use cmlt::integrator::{Estimator, Stats};
 use cmlt::math::Rgb;
 use cmlt::mlt::MltSettings;
-use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt::renderer::RendererConfig;
 use cmlt::scene::{Effect, EffectSet};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, render};
@@ -141,7 +141,7 @@ fn small(scene: &str, res: u32) -> LoadedScene {
 fn render_mean(
     loaded: &LoadedScene,
     all_effects: bool,
-    method: Method,
+    method: Estimator,
     spp: u64,
     seed: u64,
 ) -> (Rgb, Stats) {
@@ -199,7 +199,7 @@ fn all_effects_changes_no_image_beyond_noise() {
     // analysis skips work (classification), hence a noise tolerance.
     for scene in ["cornell-box", "veach-mis", "veach-bidir"] {
         let loaded = small(scene, 24);
-        for method in [Method::Path, Method::Bdpt] {
+        for method in [Estimator::Path, Estimator::Bdpt] {
             let (on, _) = render_mean(&loaded, false, method, 8, 1);
             let (off, _) = render_mean(&loaded, true, method, 8, 1);
             assert_close(on, off, 1e-4, &format!("{scene} {method:?}"));
@@ -214,8 +214,8 @@ fn all_effects_changes_no_image_beyond_noise() {
 fn diffuse_scenes_do_no_specular_work() {
     let loaded = small("cornell-box", 16);
     let runs = [
-        render_mean(&loaded, false, Method::Path, 2, 3).1,
-        render_mean(&loaded, false, Method::Bdpt, 2, 3).1,
+        render_mean(&loaded, false, Estimator::Path, 2, 3).1,
+        render_mean(&loaded, false, Estimator::Bdpt, 2, 3).1,
         render_mean_cmlt(&loaded, false, 2, 3).1,
     ];
     for (i, s) in runs.iter().enumerate() {
@@ -230,7 +230,7 @@ fn diffuse_scenes_do_no_specular_work() {
     }
     // The counters do count the other lobes where the scene has them.
     let glass = small("veach-bidir", 16);
-    let s = render_mean(&glass, false, Method::Bdpt, 2, 3).1;
+    let s = render_mean(&glass, false, Estimator::Bdpt, 2, 3).1;
     assert!(s.bsdf_samples.get(Lobe::Refraction) > 0);
     assert!(s.bsdf_evals.get(Lobe::Glossy) > 0);
 }

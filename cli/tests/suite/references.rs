@@ -10,11 +10,11 @@
 
 use crate::common;
 
-use cmlt::integrator::Method;
+use cmlt::integrator::Estimator;
 use cmlt_cli::metrics::rel_mse;
 use common::{load_reduced, render_scene};
 
-fn check_scene(name: &str, method: Method, spp: u64) {
+fn check_scene(name: &str, method: Estimator, spp: u64) {
     let (loaded, reference) = load_reduced(name, 4);
     // Four independent renders at `spp` give the mean and its noise; one at
     // 4·spp gives the convergence rate.
@@ -58,88 +58,88 @@ fn check_scene(name: &str, method: Method, spp: u64) {
 
 #[test]
 fn cornell_box_pt() {
-    check_scene("cornell-box", Method::Path, 16);
+    check_scene("cornell-box", Estimator::Path, 16);
 }
 
 #[test]
 fn cornell_box_bdpt() {
-    check_scene("cornell-box", Method::Bdpt, 8);
+    check_scene("cornell-box", Estimator::Bdpt, 8);
 }
 
 #[test]
 fn veach_mis_pt() {
-    check_scene("veach-mis", Method::Path, 16);
+    check_scene("veach-mis", Estimator::Path, 16);
 }
 
 #[test]
 fn veach_mis_bdpt() {
-    check_scene("veach-mis", Method::Bdpt, 8);
+    check_scene("veach-mis", Estimator::Bdpt, 8);
 }
 
 #[test]
 fn veach_bidir_pt() {
-    check_scene("veach-bidir", Method::Path, 32);
+    check_scene("veach-bidir", Estimator::Path, 32);
 }
 
 #[test]
 fn veach_bidir_bdpt() {
-    check_scene("veach-bidir", Method::Bdpt, 16);
+    check_scene("veach-bidir", Estimator::Bdpt, 16);
 }
 
 #[test]
 fn veach_ajar_pt() {
-    check_scene("veach-ajar", Method::Path, 64);
+    check_scene("veach-ajar", Estimator::Path, 64);
 }
 
 #[test]
 fn veach_ajar_bdpt() {
-    check_scene("veach-ajar", Method::Bdpt, 32);
+    check_scene("veach-ajar", Estimator::Bdpt, 32);
 }
 
 #[test]
 fn surface_detail_pt() {
-    check_scene("surface-detail", Method::Path, 64);
+    check_scene("surface-detail", Estimator::Path, 64);
 }
 
 #[test]
 fn surface_detail_bdpt() {
-    check_scene("surface-detail", Method::Bdpt, 32);
+    check_scene("surface-detail", Estimator::Bdpt, 32);
 }
 
 // Plastics, rough plastics (GGX; Beckmann nonlinear), a thin glass pane
 // and a tinted glass sphere (tests/scenes/plastics).
 #[test]
 fn plastics_pt() {
-    check_scene("plastics", Method::Path, 64);
+    check_scene("plastics", Estimator::Path, 64);
 }
 
 #[test]
 fn plastics_bdpt() {
-    check_scene("plastics", Method::Bdpt, 32);
+    check_scene("plastics", Estimator::Bdpt, 32);
 }
 
 // The rough-glass scene: rough dielectrics, GGX and Beckmann, with
 // refraction through non-delta vertices on every path.
 #[test]
 fn rough_glass_pt() {
-    check_scene("rough-glass", Method::Path, 128);
+    check_scene("rough-glass", Estimator::Path, 128);
 }
 
 #[test]
 fn rough_glass_bdpt() {
-    check_scene("rough-glass", Method::Bdpt, 64);
+    check_scene("rough-glass", Estimator::Bdpt, 64);
 }
 
 // The principled scene: a metal, a dielectric with sheen, a clearcoat and
 // a transmitting glass (Mitsuba 3's `principled`).
 #[test]
 fn principled_pt() {
-    check_scene("principled", Method::Path, 64);
+    check_scene("principled", Estimator::Path, 64);
 }
 
 #[test]
 fn principled_bdpt() {
-    check_scene("principled", Method::Bdpt, 32);
+    check_scene("principled", Estimator::Bdpt, 32);
 }
 
 /// An environment map with a sun over diffuse and glossy objects
@@ -147,23 +147,23 @@ fn principled_bdpt() {
 /// the map's importance sampling.
 #[test]
 fn envmap_pt() {
-    check_scene("envmap", Method::Path, 256);
+    check_scene("envmap", Estimator::Path, 256);
 }
 
 #[test]
 fn envmap_bdpt() {
-    check_scene("envmap", Method::Bdpt, 32);
+    check_scene("envmap", Estimator::Bdpt, 32);
 }
 
 /// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
 #[test]
 fn lights_punctual_pt() {
-    check_scene("lights-punctual", Method::Path, 64);
+    check_scene("lights-punctual", Estimator::Path, 64);
 }
 
 #[test]
 fn lights_punctual_bdpt() {
-    check_scene("lights-punctual", Method::Bdpt, 32);
+    check_scene("lights-punctual", Estimator::Bdpt, 32);
 }
 
 /// A caustic seen through water (tests/scenes/caustic-pool): the pool floor
@@ -173,12 +173,12 @@ fn lights_punctual_bdpt() {
 /// (48×48); the spp keeps 3 standard errors of the mean near 2%.
 #[test]
 fn caustic_pool_pt() {
-    check_scene("caustic-pool", Method::Path, 1024);
+    check_scene("caustic-pool", Estimator::Path, 1024);
 }
 
 #[test]
 fn caustic_pool_bdpt() {
-    check_scene("caustic-pool", Method::Bdpt, 1024);
+    check_scene("caustic-pool", Estimator::Bdpt, 1024);
 }
 
 /// A glossy room lit by a small lamp (tests/scenes/glossy-room): rough
@@ -186,10 +186,10 @@ fn caustic_pool_bdpt() {
 /// gold sphere.
 #[test]
 fn glossy_room_pt() {
-    check_scene("glossy-room", Method::Path, 1024);
+    check_scene("glossy-room", Estimator::Path, 1024);
 }
 
 #[test]
 fn glossy_room_bdpt() {
-    check_scene("glossy-room", Method::Bdpt, 256);
+    check_scene("glossy-room", Estimator::Bdpt, 256);
 }

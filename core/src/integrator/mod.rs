@@ -72,10 +72,6 @@ pub enum Estimator {
     Cmlt = 3,
 }
 
-/// The estimator's former name in this module, kept so that code written
-/// against it still builds; [`Estimator`] is the one type.
-pub type Method = Estimator;
-
 impl Estimator {
     /// Every estimator, in discriminant order.
     pub const ALL: [Estimator; 4] = [

@@ -7,7 +7,7 @@ use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
-use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
 use cmlt::math::{Rgb, Vec3};
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
@@ -30,13 +30,13 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
     b.build().unwrap()
 }
 
-fn render_mean(scene: &Scene, method: Method, settings: Settings, passes: u64) -> (Rgb, Film) {
+fn render_mean(scene: &Scene, method: Estimator, settings: Settings, passes: u64) -> (Rgb, Film) {
     render_mean_with(scene, method, settings, passes, Worker::new())
 }
 
 fn render_mean_with(
     scene: &Scene,
-    method: Method,
+    method: Estimator,
     settings: Settings,
     passes: u64,
     mut worker: Worker,
@@ -67,7 +67,7 @@ fn render_mean_with(
 #[test]
 fn furnace_radiance_is_two_for_pt_and_bdpt() {
     let scene = inward_box(0.5, 1.0);
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let (mean, film) = render_mean(&scene, method, Settings::default(), 256);
         assert_eq!(film.nonfinite(), 0);
         for c in 0..3 {
@@ -83,7 +83,7 @@ fn furnace_radiance_is_two_for_pt_and_bdpt() {
 #[test]
 fn truncated_furnace_follows_mitsuba_depth() {
     let scene = inward_box(0.5, 1.0);
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         for max_depth in [1u32, 2, 3, 5] {
             let settings = Settings {
                 max_depth: Some(max_depth),
@@ -108,7 +108,7 @@ fn hidden_emitters_remove_only_the_first_segment() {
         hide_emitters: true,
         ..Settings::default()
     };
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let (mean, _) = render_mean(&scene, method, settings, 128);
         assert!((mean.g - 1.0).abs() < 0.01, "{method:?}: {}", mean.g);
     }
@@ -117,7 +117,7 @@ fn hidden_emitters_remove_only_the_first_segment() {
 #[test]
 fn thin_lens_furnace_is_two() {
     let scene = furnace(Material::diffuse(Rgb::splat(0.5)), 1.0, 0.3, None);
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let (mean, _) = render_mean(&scene, method, Settings::default(), 256);
         assert!((mean.g - 2.0).abs() / 2.0 < 0.005, "{method:?}: {}", mean.g);
     }
@@ -135,7 +135,7 @@ fn mirror_furnace_is_two() {
         detail: Default::default(),
     };
     let scene = furnace(mirror, 1.0, 0.0, None);
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let (mean, film) = render_mean(&scene, method, Settings::default(), 64);
         assert_eq!(film.nonfinite(), 0);
         assert!((mean.g - 2.0).abs() / 2.0 < 0.005, "{method:?}: {}", mean.g);
@@ -159,7 +159,7 @@ fn glass_in_a_furnace_is_invisible() {
             0.0,
             Some((glass, 0.3)),
         );
-        for method in [Method::Path, Method::Bdpt] {
+        for method in [Estimator::Path, Estimator::Bdpt] {
             let (mean, film) = render_mean(&scene, method, Settings::default(), 128);
             assert_eq!(film.nonfinite(), 0);
             assert!(
@@ -221,7 +221,7 @@ fn every_bdpt_strategy_alone_is_unbiased() {
             let mut worker = Worker::new();
             worker.set_bdpt_strategy_filter(Some(filter));
             let (mean, film) =
-                render_mean_with(&scene, Method::Bdpt, Settings::default(), 256, worker);
+                render_mean_with(&scene, Estimator::Bdpt, Settings::default(), 256, worker);
             assert_eq!(film.nonfinite(), 0);
             let expected = 0.5f32.powi((s + t) as i32 - 2);
             let rel = (mean.g - expected).abs() / expected;

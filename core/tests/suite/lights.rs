@@ -15,7 +15,7 @@ use crate::common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::geometry::Ray;
-use cmlt::integrator::{Method, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
 use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
 use cmlt::mlt::{self, MltSettings};
 use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
@@ -76,7 +76,12 @@ pub(super) fn expected_on_plane(scene: &Scene, radiance: impl Fn(Vec3) -> f32) -
     out
 }
 
-pub(super) fn render(scene: &Scene, method: Method, settings: Settings, passes: u64) -> Vec<Rgb> {
+pub(super) fn render(
+    scene: &Scene,
+    method: Estimator,
+    settings: Settings,
+    passes: u64,
+) -> Vec<Rgb> {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -202,17 +207,17 @@ fn point_light_scene() -> (Scene, Vec<f32>) {
 fn point_light_over_a_plane_pt_and_bdpt() {
     let (scene, expected) = point_light_scene();
     // PT: next-event estimation is exact; only the pixel footprint varies.
-    let img = render(&scene, Method::Path, Settings::default(), 256);
+    let img = render(&scene, Estimator::Path, Settings::default(), 256);
     assert_image("PT", &img, &expected, 0.005, 0.03);
     // BDPT adds light tracing, weighted by MIS.
-    let img = render(&scene, Method::Bdpt, Settings::default(), 256);
+    let img = render(&scene, Estimator::Bdpt, Settings::default(), 256);
     assert_image("BDPT", &img, &expected, 0.01, 0.08);
     // Point lights are invisible: the camera sees nothing at depth 1.
     let direct = Settings {
         max_depth: Some(1),
         ..Settings::default()
     };
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let img = render(&scene, method, direct, 4);
         assert!(img.iter().all(|p| p.is_black()), "{method:?}");
     }
@@ -293,7 +298,7 @@ fn constant_environment_furnace_pt_and_bdpt() {
         let l = 1.5;
         let scene = sphere_in_environment(rho, l);
         let expected = sphere_pixels(&scene);
-        for (method, passes) in [(Method::Bdpt, 512), (Method::Path, 512)] {
+        for (method, passes) in [(Estimator::Bdpt, 512), (Estimator::Path, 512)] {
             let img = render(&scene, method, Settings::default(), passes);
             let (on, off) = region_means(&img, &expected);
             eprintln!("{method:?}, rho {rho}: sphere {on}, background {off}");
@@ -319,7 +324,7 @@ fn constant_environment_furnace_pt_and_bdpt() {
         hide_emitters: true,
         ..Settings::default()
     };
-    for method in [Method::Path, Method::Bdpt] {
+    for method in [Estimator::Path, Estimator::Bdpt] {
         let img = render(&scene, method, hidden, 64);
         let (on, off) = region_means(&img, &expected);
         assert_eq!(off, 0.0, "{method:?}");
@@ -456,9 +461,9 @@ fn spot_and_directional_lights_over_a_plane() {
         ("sun", &sun, &sun_expected),
     ] {
         // Off-cone pixels are black: compare them absolutely.
-        let img = render(scene, Method::Path, Settings::default(), 256);
+        let img = render(scene, Estimator::Path, Settings::default(), 256);
         assert_image_abs(&format!("{what} PT"), &img, expected, 0.005, 0.04);
-        let img = render(scene, Method::Bdpt, Settings::default(), 256);
+        let img = render(scene, Estimator::Bdpt, Settings::default(), 256);
         assert_image_abs(&format!("{what} BDPT"), &img, expected, 0.01, 0.08);
     }
     let (img, _) = render_mlt(&sun, &mlt_settings(0, 0), 512);
@@ -536,7 +541,7 @@ fn flat_envmap_is_the_constant_environment() {
     for rho in [1.0f32, 0.5] {
         let scene = sphere_in_flat_envmap(rho, l, 7, 4);
         let expected = sphere_pixels(&scene);
-        for (method, passes) in [(Method::Bdpt, 512), (Method::Path, 512)] {
+        for (method, passes) in [(Estimator::Bdpt, 512), (Estimator::Path, 512)] {
             let img = render(&scene, method, Settings::default(), passes);
             let (on, off) = region_means(&img, &expected);
             eprintln!("{method:?}, rho {rho}: sphere {on}, background {off}");

@@ -186,9 +186,9 @@ fn one_worker_equals_the_estimators_own_entry_points() {
             }
             _ => {
                 let method = if estimator == Estimator::Path {
-                    integrator::Method::Path
+                    integrator::Estimator::Path
                 } else {
-                    integrator::Method::Bdpt
+                    integrator::Estimator::Bdpt
                 };
                 let mut film = Film::new(16, 12);
                 let mut worker = Worker::new();

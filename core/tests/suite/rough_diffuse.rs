@@ -6,7 +6,7 @@
 //! with f from Oren and Nayar's published formula evaluated here in f64,
 //! independently of the core's code.
 
-use cmlt::integrator::{Method, Settings};
+use cmlt::integrator::{Estimator, Settings};
 use cmlt::math::{Rgb, Vec3};
 use cmlt::scene::{Effect, Light, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
@@ -107,9 +107,9 @@ fn sunlit_rough_plane_pt_and_bdpt() {
             off > 0.05,
             "fast={fast}: Oren–Nayar within {off} of Lambert"
         );
-        let img = render(&scene, Method::Path, Settings::default(), 256);
+        let img = render(&scene, Estimator::Path, Settings::default(), 256);
         assert_image(&format!("fast={fast} PT"), &img, &expected, 0.005, 0.03);
-        let img = render(&scene, Method::Bdpt, Settings::default(), 256);
+        let img = render(&scene, Estimator::Bdpt, Settings::default(), 256);
         assert_image(&format!("fast={fast} BDPT"), &img, &expected, 0.01, 0.08);
     }
 }

@@ -304,7 +304,7 @@ use glam::Vec4;
 #[test]
 fn renderer_config_rejects_out_of_range_values_and_stays_usable() {
     let scene = furnace();
-    let good = config(Method::Cmlt, Some(8));
+    let good = config(Estimator::Cmlt, Some(8));
     let before = render_cfg("before", &scene, good, 4);
     before.assert_finite();
     let m = good.mlt;

@@ -40,16 +40,8 @@ use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, FovAxis, Material, MaterialId, Mesh, Scene, SceneBuilder};
 
-/// A method as the issue names them: CMLT is MLT with level 2 (`m > 0`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    Pt,
-    Bdpt,
-    Mlt,
-    Cmlt,
-}
-
-pub const ALL: [Method; 4] = [Method::Pt, Method::Bdpt, Method::Mlt, Method::Cmlt];
+/// Every estimator (CMLT is MLT with level 2, `m > 0`).
+pub const ALL: [Estimator; 4] = Estimator::ALL;
 
 /// Small MLT settings: a few hundred seed samples, two normalisation
 /// passes, 32 chains.
@@ -64,9 +56,9 @@ pub fn small_mlt() -> MltSettings {
 
 /// The configuration of `method` at path depth `max_depth` (None: the
 /// renderer's cap of 32 segments).
-pub fn config(method: Method, max_depth: Option<u32>) -> RendererConfig {
+pub fn config(method: Estimator, max_depth: Option<u32>) -> RendererConfig {
     let mlt = match method {
-        Method::Cmlt => MltSettings {
+        Estimator::Cmlt => MltSettings {
             k: 4,
             m: 2,
             lens_sigma: 2.0,
@@ -75,11 +67,7 @@ pub fn config(method: Method, max_depth: Option<u32>) -> RendererConfig {
         _ => small_mlt(),
     };
     RendererConfig {
-        estimator: match method {
-            Method::Pt => Estimator::Path,
-            Method::Bdpt => Estimator::Bdpt,
-            Method::Mlt | Method::Cmlt => Estimator::Mlt,
-        },
+        estimator: method,
         settings: Settings {
             max_depth,
             ..Settings::default()
@@ -184,7 +172,7 @@ pub fn render_cfg(what: &str, scene: &Scene, cfg: RendererConfig, units_per_pixe
 pub fn render(
     what: &str,
     scene: &Scene,
-    method: Method,
+    method: Estimator,
     max_depth: Option<u32>,
     units_per_pixel: u64,
 ) -> Render {
@@ -195,10 +183,10 @@ pub fn render(
 
 /// Relative tolerance of a furnace mean for each method at the budgets used
 /// here (MLT's mean is its normalisation b, from two BDPT passes).
-pub fn furnace_tol(method: Method) -> f64 {
+pub fn furnace_tol(method: Estimator) -> f64 {
     match method {
-        Method::Pt | Method::Bdpt => 0.03,
-        Method::Mlt | Method::Cmlt => 0.05,
+        Estimator::Path | Estimator::Bdpt => 0.03,
+        Estimator::Mlt | Estimator::Cmlt => 0.05,
     }
 }
 

@@ -32,14 +32,14 @@ fn mirror_sphere_furnace() -> Scene {
 fn cmlt(mlt: MltSettings) -> RendererConfig {
     RendererConfig {
         mlt,
-        ..config(Method::Cmlt, Some(12))
+        ..config(Estimator::Cmlt, Some(12))
     }
 }
 
 #[test]
 fn extreme_level2_parameters_keep_the_furnace_at_two() {
     let scene = mirror_sphere_furnace();
-    let base = config(Method::Cmlt, None).mlt;
+    let base = config(Estimator::Cmlt, None).mlt;
     let cases: [(&str, MltSettings, u64); 10] = [
         ("k = 1", MltSettings { k: 1, ..base }, 16),
         (
@@ -124,7 +124,7 @@ fn multiple_try_steps_with_only_zero_candidates() {
         lens_sigma: 1e6,
         k: 8,
         m: 2,
-        ..config(Method::Cmlt, None).mlt
+        ..config(Estimator::Cmlt, None).mlt
     };
     let r = render_cfg("all candidates zero", &scene, cmlt(mlt), 16);
     r.assert_finite().assert_mean(2.0, 0.05);
@@ -143,7 +143,7 @@ fn multiple_try_steps_with_only_zero_candidates() {
 #[test]
 fn chains_started_on_zero_contribution_paths() {
     let scene = mirror_sphere_furnace();
-    for m in [Method::Mlt, Method::Cmlt] {
+    for m in [Estimator::Mlt, Estimator::Cmlt] {
         let mut cfg = config(m, Some(12));
         cfg.mlt.n_bootstrap = 1;
         cfg.mlt.b_passes = 4;
@@ -170,8 +170,8 @@ fn chains_started_on_zero_contribution_paths() {
     ));
     b.set_camera(look_at(Vec3::new(0.0, 3.0, -3.0), Vec3::ZERO, 40.0, 16, 12));
     let open = b.build().unwrap();
-    let reference = render("open", &open, Method::Bdpt, Some(3), 64).mean();
-    for m in [Method::Mlt, Method::Cmlt] {
+    let reference = render("open", &open, Estimator::Bdpt, Some(3), 64).mean();
+    for m in [Estimator::Mlt, Estimator::Cmlt] {
         let mut cfg = config(m, Some(3));
         cfg.mlt.n_bootstrap = 1;
         cfg.mlt.b_passes = 8;
