@@ -25,8 +25,6 @@ use glam::Vec3;
 
 use super::Ray;
 use super::offset::gamma;
-#[cfg(target_arch = "x86_64")]
-use crate::math::lanes::LaneVec;
 
 /// Per-ray precomputation of the watertight test (paper §3.2): the axis
 /// permutation and the shear constants.
@@ -38,11 +36,11 @@ pub struct WatertightRay {
     /// Axis permutation `[kx, ky, kz]`: `kz` is the axis of the largest
     /// `|d|` component; `kx, ky` follow cyclically, swapped when `d[kz] < 0`
     /// to preserve the triangles' winding in the sheared space.
-    k: [usize; 3],
+    pub(crate) k: [usize; 3],
     /// The ray origin, permuted: `[o[kx], o[ky], o[kz]]`.
-    org: [f32; 3],
+    pub(crate) org: [f32; 3],
     /// Shear constants `[Sx, Sy, Sz] = [d[kx]/d[kz], d[ky]/d[kz], 1/d[kz]]`.
-    shear: [f32; 3],
+    pub(crate) shear: [f32; 3],
 }
 
 impl WatertightRay {
@@ -176,234 +174,6 @@ impl WatertightRay {
             }
         }
         best
-    }
-
-    /// [`Self::intersect_many`] with SSE over groups of four triangles in
-    /// SoA form (`groups`, `count` triangles in all, the last group's lanes
-    /// past `count` ignored): one group per step, one triangle per lane
-    /// (the permutation is the ray's, shared by all lanes).
-    ///
-    /// Same answer bit for bit: every lane evaluates the IEEE operations of
-    /// the scalar helpers in the same order (`transform`, `edge_functions`,
-    /// `solve`; `maxps(a, b)` is `if a > b { a } else { b }` like `max3`,
-    /// no FMA), zero edge functions and unsure distances go through the
-    /// same scalar f64 helpers, and a triangle hits only below the `t_max`
-    /// of its group of four, so the closest of a group (first on a tie) is
-    /// the one the sequential loop keeps. It replaces a chain of
-    /// data-dependent branches per triangle, which mispredict often, with
-    /// one mask test per group.
-    ///
-    /// Leaves of one or two triangles take this path too, although it costs
-    /// more instructions than the scalar test for them: their scalar
-    /// branches mispredict on incoherent rays, which are what single rays
-    /// mostly trace. Together with `traverse::prefetch`, measured in one
-    /// process against the scalar rule: diffuse
-    /// bounces 2–6% faster on all five benchmark scenes, coherent primary
-    /// rays 5% slower on the four small ones, where the branches predict.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(crate) fn intersect_many_sse<'g, const ANY: bool>(
-        &self,
-        groups: impl Iterator<Item = &'g Planes4>,
-        count: usize,
-        mut t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
-        let mut best = None;
-        for (g, group) in groups.enumerate() {
-            let n = count.saturating_sub(4 * g).min(4);
-            if n == 0 {
-                break;
-            }
-            if let Some((j, t, b1, b2)) = self.intersect4_sse(group, n, t_max) {
-                t_max = t;
-                best = Some((4 * g + j, t, b1, b2));
-                if ANY {
-                    break;
-                }
-            }
-        }
-        best
-    }
-
-    /// One group of `n` (1–4) triangles for [`Self::intersect_many_sse`]:
-    /// lanes `0..n` of `p`.
-    ///
-    /// The ray's axis permutation is applied by the addresses of the nine
-    /// plane loads (`p[vertex][k[i]]`), so the permuted planes go straight
-    /// into registers.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn intersect4_sse(&self, p: &Planes4, n: usize, t_max: f32) -> Option<(usize, f32, f32, f32)> {
-        use core::arch::x86_64::*;
-
-        /// One vertex of the four triangles in ray space, as `transform`:
-        /// `[ax − Sx·az, ay − Sy·az, Sz·az, az]`, from its planes `v`
-        /// (`v[axis]`, one lane per triangle) permuted by `k`.
-        #[inline(always)]
-        fn ray_space(
-            v: &[[f32; 4]; 3],
-            k: [usize; 3],
-            org: [__m128; 3],
-            shear: [__m128; 3],
-        ) -> [__m128; 4] {
-            // SAFETY: SSE2 is part of the x86_64 baseline; each load reads
-            // one `[f32; 4]` of `v` (`k[i] < 3`; unaligned loads).
-            unsafe {
-                let ax = _mm_sub_ps(_mm_loadu_ps(v[k[0]].as_ptr()), org[0]);
-                let ay = _mm_sub_ps(_mm_loadu_ps(v[k[1]].as_ptr()), org[1]);
-                let az = _mm_sub_ps(_mm_loadu_ps(v[k[2]].as_ptr()), org[2]);
-                [
-                    _mm_sub_ps(ax, _mm_mul_ps(shear[0], az)),
-                    _mm_sub_ps(ay, _mm_mul_ps(shear[1], az)),
-                    _mm_mul_ps(shear[2], az),
-                    az,
-                ]
-            }
-        }
-
-        /// `abs` of every lane.
-        #[inline(always)]
-        fn abs(x: __m128) -> __m128 {
-            // SAFETY: SSE2 is part of the x86_64 baseline.
-            unsafe { _mm_andnot_ps(_mm_set1_ps(-0.0), x) }
-        }
-
-        /// `max3` per lane: `maxps(p, q)` is `if p > q { p } else { q }`.
-        #[inline(always)]
-        fn max3(p: __m128, q: __m128, r: __m128) -> __m128 {
-            // SAFETY: SSE2 is part of the x86_64 baseline.
-            unsafe { _mm_max_ps(_mm_max_ps(p, q), r) }
-        }
-
-        let live = (1u32 << n) - 1;
-        let k = self.k.map(|k| k % 3);
-        let mut t = [0.0f32; 4];
-        let mut b1 = [0.0f32; 4];
-        let mut b2 = [0.0f32; 4];
-        // SAFETY: SSE2 is part of the x86_64 baseline; the only memory
-        // accesses are stores of whole registers into the `[f32; 4]` arrays
-        // above (unaligned stores).
-        let (mut ok, mut unsure, zero) = unsafe {
-            let org = self.org.map(|x| _mm_set1_ps(x));
-            let shear = self.shear.map(|x| _mm_set1_ps(x));
-            let (a, b, c) = (
-                ray_space(&p[0], k, org, shear),
-                ray_space(&p[1], k, org, shear),
-                ray_space(&p[2], k, org, shear),
-            );
-            // `edge_functions`.
-            let u = _mm_sub_ps(_mm_mul_ps(c[0], b[1]), _mm_mul_ps(c[1], b[0]));
-            let v = _mm_sub_ps(_mm_mul_ps(a[0], c[1]), _mm_mul_ps(a[1], c[0]));
-            let w = _mm_sub_ps(_mm_mul_ps(b[0], a[1]), _mm_mul_ps(b[1], a[0]));
-            let z = _mm_setzero_ps();
-            let zero = _mm_or_ps(
-                _mm_or_ps(_mm_cmpeq_ps(u, z), _mm_cmpeq_ps(v, z)),
-                _mm_cmpeq_ps(w, z),
-            );
-            let zero = _mm_movemask_ps(zero) as u32 & live;
-            if zero != 0 {
-                // Rare: some lane needs the f64 edge functions; the scalar
-                // test does the rest of those lanes.
-                (0, 0, zero)
-            } else {
-                let neg = _mm_or_ps(
-                    _mm_or_ps(_mm_cmplt_ps(u, z), _mm_cmplt_ps(v, z)),
-                    _mm_cmplt_ps(w, z),
-                );
-                let pos = _mm_or_ps(
-                    _mm_or_ps(_mm_cmpgt_ps(u, z), _mm_cmpgt_ps(v, z)),
-                    _mm_cmpgt_ps(w, z),
-                );
-                let inside = !(_mm_movemask_ps(_mm_and_ps(neg, pos)) as u32) & live;
-                if inside == 0 {
-                    return None;
-                }
-                // `solve`.
-                let det = _mm_add_ps(_mm_add_ps(u, v), w);
-                let t_scaled = _mm_add_ps(
-                    _mm_add_ps(_mm_mul_ps(u, a[2]), _mm_mul_ps(v, b[2])),
-                    _mm_mul_ps(w, c[2]),
-                );
-                let inv_det = _mm_div_ps(_mm_set1_ps(1.0), det);
-                let tt = _mm_mul_ps(t_scaled, inv_det);
-                _mm_storeu_ps(t.as_mut_ptr(), tt);
-                _mm_storeu_ps(b1.as_mut_ptr(), _mm_mul_ps(v, inv_det));
-                _mm_storeu_ps(b2.as_mut_ptr(), _mm_mul_ps(w, inv_det));
-                let sign = _mm_set1_ps(-0.0);
-                let max_x = max3(abs(a[0]), abs(b[0]), abs(c[0]));
-                let max_y = max3(abs(a[1]), abs(b[1]), abs(c[1]));
-                let max_z = max3(abs(a[2]), abs(b[2]), abs(c[2]));
-                let max_zw = max3(abs(a[3]), abs(b[3]), abs(c[3]));
-                let g = |k: i32| _mm_set1_ps(gamma(k));
-                let delta_z = _mm_mul_ps(g(3), max_z);
-                let delta_x = _mm_mul_ps(g(5), _mm_add_ps(max_x, max_zw));
-                let delta_y = _mm_mul_ps(g(5), _mm_add_ps(max_y, max_zw));
-                let delta_e = _mm_mul_ps(
-                    _mm_set1_ps(2.0),
-                    _mm_add_ps(
-                        _mm_add_ps(
-                            _mm_mul_ps(_mm_mul_ps(g(2), max_x), max_y),
-                            _mm_mul_ps(delta_y, max_x),
-                        ),
-                        _mm_mul_ps(delta_x, max_y),
-                    ),
-                );
-                let max_e = max3(abs(u), abs(v), abs(w));
-                let sum = _mm_add_ps(
-                    _mm_add_ps(
-                        _mm_mul_ps(_mm_mul_ps(g(3), max_e), max_z),
-                        _mm_mul_ps(delta_e, max_z),
-                    ),
-                    _mm_mul_ps(delta_z, max_e),
-                );
-                let dt = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(3.0), sum), abs(inv_det));
-                let det_ok = _mm_cmpneq_ps(det, z);
-                let ok = _mm_and_ps(
-                    det_ok,
-                    _mm_and_ps(_mm_cmpgt_ps(tt, dt), _mm_cmplt_ps(tt, _mm_set1_ps(t_max))),
-                );
-                let unsure = _mm_and_ps(
-                    det_ok,
-                    _mm_and_ps(_mm_cmple_ps(tt, dt), _mm_cmpgt_ps(tt, _mm_xor_ps(dt, sign))),
-                );
-                (
-                    _mm_movemask_ps(ok) as u32 & inside,
-                    _mm_movemask_ps(unsure) as u32 & inside,
-                    0,
-                )
-            }
-        };
-        if zero != 0 {
-            // The scalar test, lane by lane, from the first lane (the
-            // lanes before the zero ones were fine but are redone too:
-            // the order of hits must stay the sequential one).
-            return self.intersect_many::<false>(n, |j| planes_tri(p, j), t_max);
-        }
-        while unsure != 0 {
-            let j = unsure.trailing_zeros() as usize;
-            unsure &= unsure - 1;
-            if let Some(tj) = decide_t_f64(t[j], planes_tri(p, j), self.k, self.org, self.shear) {
-                t[j] = tj;
-                if tj < t_max {
-                    ok |= 1 << j;
-                }
-            }
-        }
-        if ok == 0 {
-            return None;
-        }
-        // The closest hit, the first on a tie (strict `<`, like the
-        // sequential loop's `t < t_max`).
-        let mut j = ok.trailing_zeros() as usize;
-        let mut rest = ok & (ok - 1);
-        while rest != 0 {
-            let i = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            if t[i] < t[j] {
-                j = i;
-            }
-        }
-        Some((j, t[j], b1[j], b2[j]))
     }
 }
 
@@ -545,7 +315,7 @@ fn solve(
 /// missed that face and left the closed mesh (the stability suite's edge
 /// leak).
 #[inline(always)]
-fn decide_t_f64(
+pub(crate) fn decide_t_f64(
     t: f32,
     tri: [Vec3; 3],
     k: [usize; 3],
@@ -917,7 +687,10 @@ pub(crate) fn intersect_lanes<const N: usize>(
 /// that picks them otherwise (from registers, from a leaf block) has the
 /// same values in its lanes.
 #[inline(always)]
-fn permuted_lanes<const N: usize>(r: &WatertightLanes<N>, tri: &[Vec3; 3]) -> [[[f32; N]; 3]; 3] {
+pub(crate) fn permuted_lanes<const N: usize>(
+    r: &WatertightLanes<N>,
+    tri: &[Vec3; 3],
+) -> [[[f32; N]; 3]; 3] {
     let mut sel = [[[0.0f32; N]; 3]; 3];
     for (vi, p) in tri.iter().enumerate() {
         let pv = [p.x, p.y, p.z, p.z];
@@ -987,231 +760,6 @@ pub(crate) fn finish_lanes<const N: usize>(
     ok
 }
 
-/// [`intersect_lanes`] one register of lanes at a time ([`LaneVec`]) for
-/// triangle `slot` of the four in `planes` (a leaf block): the same IEEE
-/// operations in the same order per lane (those of the single-ray SSE
-/// leaf test), so the same bits. Vertex components are broadcast straight
-/// from the block's planes (by the shared permutation, or picked by the
-/// permutation masks `k_is`): going through a `[Vec3; 3]` first stored and
-/// reloaded every component (callgrind: about a tenth of the packet
-/// kernel's instructions on the mesh's primary rays). `N` must be a
-/// multiple of `V::W`.
-#[cfg(target_arch = "x86_64")]
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(crate) fn intersect_lanes_simd<V: LaneVec, const N: usize>(
-    r: &WatertightLanes<N>,
-    planes: &Planes4,
-    slot: usize,
-    t_max: &[f32; N],
-    lanes: u32,
-    t: &mut [f32; N],
-    b1: &mut [f32; N],
-    b2: &mut [f32; N],
-) -> u32 {
-    debug_assert!(N.is_multiple_of(V::W));
-    let slot = slot & 3;
-    let (mut ok, mut unsure, mut zero) = (0u32, 0u32, 0u32);
-    let chunk_bits = if V::W >= 32 {
-        u32::MAX
-    } else {
-        (1u32 << V::W) - 1
-    };
-    // The shared permutation, clamped so that the compiler sees the plane
-    // indices in range (`finish` stores values below 3).
-    let uniform = r.uniform.map(|k| k.map(|a| a.min(2)));
-    for chunk in 0..N / V::W {
-        let at = chunk * V::W;
-        let shift = at as u32;
-        let live = lanes >> shift & chunk_bits;
-        if live == 0 {
-            continue;
-        }
-        // No closures in this function: a closure is compiled without the
-        // caller's target features, so the AVX intrinsics inside it would
-        // become calls.
-        let org = [
-            V::load(&r.org[0][at..]),
-            V::load(&r.org[1][at..]),
-            V::load(&r.org[2][at..]),
-        ];
-        let shear = [
-            V::load(&r.shear[0][at..]),
-            V::load(&r.shear[1][at..]),
-            V::load(&r.shear[2][at..]),
-        ];
-        let sv = [
-            permuted::<V, N>(r, uniform, &planes[0], slot, shift),
-            permuted::<V, N>(r, uniform, &planes[1], slot, shift),
-            permuted::<V, N>(r, uniform, &planes[2], slot, shift),
-        ];
-        let tm = V::load(&t_max[at..]);
-        let Some(f) = lanes_f32(sv, org, shear, tm, live) else {
-            continue;
-        };
-        zero |= f.zero << shift;
-        f.t.store(&mut t[at..]);
-        f.b1.store(&mut b1[at..]);
-        f.b2.store(&mut b2[at..]);
-        ok |= f.ok << shift;
-        unsure |= f.unsure << shift;
-    }
-    if unsure | zero == 0 {
-        return ok;
-    }
-    // Rare: lanes decided in f64 or redone by the single-ray test, from
-    // the triangle and its permuted components made here.
-    let tri = planes_tri(planes, slot);
-    let sel = (unsure != 0).then(|| permuted_lanes(r, &tri));
-    finish_lanes(r, &tri, t_max, ok, unsure, zero, sel.as_ref(), t, b1, b2)
-}
-
-/// What [`lanes_f32`] finds for one register of lanes.
-#[cfg(target_arch = "x86_64")]
-struct LanesF32<V> {
-    /// Lanes with an exactly zero edge function (redone in f64).
-    zero: u32,
-    /// Lanes that hit with `t` provably positive and below `t_max`.
-    ok: u32,
-    /// Lanes inside the edges whose `t` is not provably of either sign.
-    unsure: u32,
-    t: V,
-    b1: V,
-    b2: V,
-}
-
-/// The f32 part of the watertight test for one register of lanes: the
-/// permuted vertices `sv[vertex][axis]`, each lane's permuted origin and
-/// shear, `t_max`, and the `live` lanes. Returns only the zero-edge lanes
-/// (`ok = unsure = 0`) when no live lane is inside the edges.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn lanes_f32<V: LaneVec>(
-    sv: [[V; 3]; 3],
-    org: [V; 3],
-    shear: [V; 3],
-    tm: V,
-    live: u32,
-) -> Option<LanesF32<V>> {
-    let z = V::splat(0.0);
-    let a = lanes_ray_space(sv[0], org, shear);
-    let b = lanes_ray_space(sv[1], org, shear);
-    let c = lanes_ray_space(sv[2], org, shear);
-    // `edge_functions` and the inside test.
-    let u = c[0].mul(b[1]).sub(c[1].mul(b[0]));
-    let v = a[0].mul(c[1]).sub(a[1].mul(c[0]));
-    let w = b[0].mul(a[1]).sub(b[1].mul(a[0]));
-    let zc = (u.eq(z) | v.eq(z) | w.eq(z)) & live;
-    let neg = u.lt(z) | v.lt(z) | w.lt(z);
-    let pos = u.gt(z) | v.gt(z) | w.gt(z);
-    let inside = !(neg & pos) & live & !zc;
-    if inside == 0 {
-        return (zc != 0).then_some(LanesF32 {
-            zero: zc,
-            ok: 0,
-            unsure: 0,
-            t: z,
-            b1: z,
-            b2: z,
-        });
-    }
-    // `solve`.
-    let det = u.add(v).add(w);
-    let t_scaled = u.mul(a[2]).add(v.mul(b[2])).add(w.mul(c[2]));
-    let inv_det = V::splat(1.0).div(det);
-    let tt = t_scaled.mul(inv_det);
-    let max_x = lanes_max3(a[0].abs(), b[0].abs(), c[0].abs());
-    let max_y = lanes_max3(a[1].abs(), b[1].abs(), c[1].abs());
-    let max_z = lanes_max3(a[2].abs(), b[2].abs(), c[2].abs());
-    let max_zw = lanes_max3(a[3].abs(), b[3].abs(), c[3].abs());
-    let (g2, g3, g5) = (V::splat(gamma(2)), V::splat(gamma(3)), V::splat(gamma(5)));
-    let delta_z = g3.mul(max_z);
-    let delta_x = g5.mul(max_x.add(max_zw));
-    let delta_y = g5.mul(max_y.add(max_zw));
-    let delta_e = V::splat(2.0).mul(
-        g2.mul(max_x)
-            .mul(max_y)
-            .add(delta_y.mul(max_x))
-            .add(delta_x.mul(max_y)),
-    );
-    let max_e = lanes_max3(u.abs(), v.abs(), w.abs());
-    let sum = g3
-        .mul(max_e)
-        .mul(max_z)
-        .add(delta_e.mul(max_z))
-        .add(delta_z.mul(max_e));
-    let dt = V::splat(3.0).mul(sum).mul(inv_det.abs());
-    let det_ok = det.ne(z);
-    let ok_c = det_ok & tt.gt(dt) & tt.lt(tm) & inside;
-    let unsure_c = det_ok & tt.le(dt) & tt.gt(dt.neg()) & inside;
-    Some(LanesF32 {
-        zero: zc,
-        ok: ok_c,
-        unsure: unsure_c,
-        t: tt,
-        b1: v.mul(inv_det),
-        b2: w.mul(inv_det),
-    })
-}
-
-/// A vertex's components (`v[axis][slot]`, one vertex of a block's planes)
-/// permuted per lane, for the register of lanes from `shift`: splats by
-/// the shared permutation `uniform` (indices below 3), else picked by the
-/// masks `k_is` (`k` is 0, 1 or 2 per lane).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn permuted<V: LaneVec, const N: usize>(
-    r: &WatertightLanes<N>,
-    uniform: Option<[usize; 3]>,
-    v: &[[f32; 4]; 3],
-    slot: usize,
-    shift: u32,
-) -> [V; 3] {
-    match uniform {
-        Some(k) => [
-            V::splat(v[k[0]][slot]),
-            V::splat(v[k[1]][slot]),
-            V::splat(v[k[2]][slot]),
-        ],
-        None => {
-            let (x, y, z) = (
-                V::splat(v[0][slot]),
-                V::splat(v[1][slot]),
-                V::splat(v[2][slot]),
-            );
-            let [[a0, a1], [b0, b1], [c0, c1]] = r.k_is;
-            [
-                V::select(a0 >> shift, x, V::select(a1 >> shift, y, z)),
-                V::select(b0 >> shift, x, V::select(b1 >> shift, y, z)),
-                V::select(c0 >> shift, x, V::select(c1 >> shift, y, z)),
-            ]
-        }
-    }
-}
-
-/// [`transform`] of one register of lanes.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn lanes_ray_space<V: LaneVec>(p: [V; 3], org: [V; 3], shear: [V; 3]) -> [V; 4] {
-    let ax = p[0].sub(org[0]);
-    let ay = p[1].sub(org[1]);
-    let az = p[2].sub(org[2]);
-    [
-        ax.sub(shear[0].mul(az)),
-        ay.sub(shear[1].mul(az)),
-        shear[2].mul(az),
-        az,
-    ]
-}
-
-/// `max3` of one register of lanes (`maxps(p, q)` is `if p > q { p } else
-/// { q }`, as in `max3`).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn lanes_max3<V: LaneVec>(p: V, q: V, r: V) -> V {
-    p.max(q).max(r)
-}
-
 /// Bit `i` set where `flags[i]` (`N ≤ 32`).
 ///
 /// Eight flags at a time as the bytes of a `u64` (each 0 or 1): the
@@ -1239,6 +787,10 @@ pub(crate) fn lane_mask<const N: usize>(flags: &[bool; N]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    // The register kernels live with the BVH's other kernels; these tests
+    // hold them to the portable form defined here.
+    #[cfg(target_arch = "x86_64")]
+    use crate::accel::bvh::kernel::triangle::intersect_lanes_simd as kernel_lanes;
 
     /// [`intersect_lanes`] in every form this CPU runs — portable, and in
     /// SSE2, AVX2 and AVX-512F registers where `N` fits — which must agree
@@ -1282,7 +834,7 @@ mod tests {
                 b1: &mut [f32; N],
                 b2: &mut [f32; N],
             ) -> u32 {
-                intersect_lanes_simd::<__m256, N>(r, planes, slot, t_max, lanes, t, b1, b2)
+                kernel_lanes::<__m256, N>(r, planes, slot, t_max, lanes, t, b1, b2)
             }
             #[target_feature(enable = "avx2,avx512f")]
             #[allow(clippy::too_many_arguments)]
@@ -1296,11 +848,11 @@ mod tests {
                 b1: &mut [f32; N],
                 b2: &mut [f32; N],
             ) -> u32 {
-                intersect_lanes_simd::<__m512, N>(r, planes, slot, t_max, lanes, t, b1, b2)
+                kernel_lanes::<__m512, N>(r, planes, slot, t_max, lanes, t, b1, b2)
             }
             let mut forms: Vec<(&str, Form<N>)> = Vec::new();
             if N.is_multiple_of(4) {
-                forms.push(("sse2", intersect_lanes_simd::<__m128, N>));
+                forms.push(("sse2", kernel_lanes::<__m128, N>));
             }
             if N.is_multiple_of(8) && std::is_x86_feature_detected!("avx2") {
                 // SAFETY: AVX2 was just detected.

@@ -5,8 +5,6 @@
 #[cfg(feature = "alloc")]
 pub mod distribution;
 pub mod frame;
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod lanes;
 pub mod spectrum;
 pub mod warp;
 

@@ -43,21 +43,19 @@
 //! assert!(bvh.view().occluded(&Ray { t_max: 0.6, ..Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z * 2.0) }));
 //! ```
 
-#[cfg(target_arch = "x86_64")]
-mod lanes;
+pub(crate) mod kernel;
 mod leaf;
 mod node;
 mod packet;
-mod simd;
 mod stream;
 mod traverse;
 
 #[cfg(feature = "std")]
 mod build;
 
+pub use kernel::Kernel;
 pub use leaf::TriBlock;
 pub use node::{EMPTY_CHILD, FAR_SCALE, MAX_DEPTH, Node, STACK_SIZE, WIDTH};
-pub use simd::Kernel;
 pub use stream::INTERLEAVE_MIN_BYTES;
 
 use glam::Vec3;

@@ -187,8 +187,8 @@ pub(crate) fn min_keep(acc: f32, x: f32) -> f32 {
 /// t_max]`. Returns the hit mask (bit `c` = child `c`) and the entry
 /// distances.
 ///
-/// The portable per-node kernel (the scalar kernel's; `simd::Sse2Box`
-/// and `simd::Avx2Box` are the same in SSE and AVX registers): the
+/// The portable per-node kernel (the scalar kernel's; `kernel::Sse2Box`
+/// and `kernel::Avx2Box` are the same in SSE and AVX registers): the
 /// node's boxes, one ray, straight-line code over `[f32; WIDTH]`.
 #[inline(always)]
 pub(crate) fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
@@ -313,7 +313,7 @@ pub(crate) fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumH
 /// node whose frustum test gave `offsets` ([`FrustumHits::offsets`]): for
 /// lanes of that frustum, the same bits as the per-lane test
 /// (`packet::boxes_lanes`), since `fl(b − o)` is the same for all of
-/// them. Portable form; `lanes::child_lanes_simd` is the same in
+/// them. Portable form; `kernel::boxes::child_lanes_simd` is the same in
 /// registers.
 #[inline(always)]
 pub(crate) fn child_lanes<const N: usize>(

@@ -14,7 +14,7 @@
 //! Per-lane `t_max` shrinks as hits are found in both. The kernels
 //! ([`boxes_lanes`], the frustum tests and the triangle test) come from the
 //! view's [`Kernel`] through [`BoxTest`]: in registers of its width
-//! (`super::lanes`, `triangle::intersect_lanes_simd`), or as the portable
+//! (`kernel::boxes`, `kernel::triangle`), or as the portable
 //! lane loops over `[f32; N]` arrays for the scalar kernel and odd widths.
 //! Both forms give every lane the closest hit its own single-ray traversal
 //! finds (a tie between two triangles at the same distance aside).
@@ -25,11 +25,11 @@
 //! masked, so they are never written to the output.
 
 use super::BvhView;
+#[cfg(target_arch = "x86_64")]
+use super::kernel::{Avx2Box, Avx512Box, Kernel, Sse2Box};
+use super::kernel::{BoxTest, LaneTests, ScalarBox, TriLanesOut};
 use super::leaf::slot_id;
 use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep};
-#[cfg(target_arch = "x86_64")]
-use super::simd::{Avx2Box, Avx512Box, Kernel, Sse2Box};
-use super::simd::{BoxTest, LaneTests, ScalarBox, TriLanesOut};
 use super::traverse::{self, Prepared, Stack, descend, descend_any, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
@@ -147,7 +147,7 @@ pub(super) struct LanesOut<'a, const N: usize> {
 /// the first valid lane's origin and direction and an empty interval, so
 /// that reductions over all lanes need no mask (`frustum_of`). Returns
 /// per axis the valid lanes whose reciprocal direction has its sign bit
-/// set. Portable form; `lanes::prepare_lanes_simd` is the same in
+/// set. Portable form; `kernel::boxes::prepare_lanes_simd` is the same in
 /// registers.
 #[inline(always)]
 pub(super) fn prepare_lanes_portable<const N: usize>(
@@ -960,7 +960,7 @@ pub(super) fn intersect_packet<const N: usize>(
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx512 if N > 8 => unsafe { x86::intersect_avx512(view, rays, active, hits) },
         // Packets of up to 8 lanes fit AVX2's registers, and measured
-        // faster there (see `simd`'s module docs).
+        // faster there (see `kernel`'s module docs).
         // SAFETY: an AVX-512 kernel is only available with AVX2.
         #[cfg(target_arch = "x86_64")]
         Kernel::Avx512 => unsafe { x86::intersect_avx2(view, rays, active, hits) },

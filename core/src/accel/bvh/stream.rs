@@ -16,10 +16,10 @@
 //! [`super::traverse::intersect`]'s or [`super::traverse::occluded`]'s.
 
 use super::BvhView;
-use super::leaf::slot_id;
-use super::simd::{BoxTest, ScalarBox};
+use super::kernel::{BoxTest, ScalarBox};
 #[cfg(target_arch = "x86_64")]
-use super::simd::{Kernel, Sse2Box};
+use super::kernel::{Kernel, Sse2Box};
+use super::leaf::slot_id;
 use super::traverse::{Entry, Prepared, ROOT, Stack, Walk, prepare};
 use crate::geometry::{Hit, Ray};
 
@@ -131,7 +131,7 @@ pub(super) fn occluded_with<B: BoxTest>(view: &BvhView<'_>, rays: &[Ray], occlud
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::*;
-    use crate::accel::bvh::simd::Avx2Box;
+    use crate::accel::bvh::kernel::Avx2Box;
 
     /// # Safety
     /// The CPU must support AVX2.

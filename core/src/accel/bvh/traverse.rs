@@ -3,11 +3,11 @@
 use core::mem::MaybeUninit;
 
 use super::BvhView;
+#[cfg(target_arch = "x86_64")]
+use super::kernel::{Avx2Box, Kernel, Sse2Box};
+use super::kernel::{BoxTest, ScalarBox};
 use super::leaf::slot_id;
 use super::node::{BoxRay, FAR_SCALE, STACK_SIZE, WIDTH};
-#[cfg(target_arch = "x86_64")]
-use super::simd::{Avx2Box, Kernel, Sse2Box};
-use super::simd::{BoxTest, ScalarBox};
 use crate::geometry::triangle::WatertightRay;
 use crate::geometry::{Hit, Ray};
 
@@ -475,7 +475,7 @@ pub(super) fn occluded_with<B: BoxTest>(view: &BvhView<'_>, ray: &Ray) -> bool {
 }
 
 /// The traversal compiled for AVX2 (also what the AVX-512 kernel runs for
-/// single rays; see `simd`).
+/// single rays; see `kernel`).
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::*;

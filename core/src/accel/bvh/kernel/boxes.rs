@@ -1,5 +1,6 @@
-//! The packet's per-lane box tests and its set-up in explicit registers
-//! ([`LaneVec`]).
+//! The box tests in explicit registers ([`LaneVec`]): the packet's
+//! per-lane box tests and its set-up, and the single-ray test of a node's
+//! children ([`boxes_in`], [`frustum_in`]).
 //!
 //! `packet::boxes_lanes_portable` is the portable form over `[f32; N]`;
 //! LLVM vectorised it across a node's four children instead of across the
@@ -13,10 +14,10 @@
 //! whose divisions LLVM had left scalar). x86_64 only; other targets use
 //! the portable forms.
 
-use super::node::{FAR_SCALE, Node, WIDTH};
-use super::packet::{BoxLanes, LanesOut};
+use super::lane_vec::LaneVec;
+use crate::accel::bvh::node::{BoxFrustum, BoxRay, FAR_SCALE, FrustumHits, Node, WIDTH};
+use crate::accel::bvh::packet::{BoxLanes, LanesOut};
 use crate::geometry::RayPacket;
-use crate::math::lanes::LaneVec;
 
 /// Robust slab test of `N` lanes against a node's children, as
 /// `packet::boxes_lanes`: per child, the lanes of `lanes` that hit it and
@@ -231,12 +232,70 @@ const fn lane_bits(w: usize) -> u32 {
     if w >= 32 { u32::MAX } else { (1 << w) - 1 }
 }
 
+/// The single-ray box test (`node::boxes`) in registers of `V::W`
+/// children, `WIDTH / V::W` registers per plane: the same operations per
+/// child (`LaneVec::max(x, acc)` is `maxps(x, acc)`, which keeps `acc` for
+/// a NaN `x`, as `max_keep(acc, x)`), so the same bits.
+#[inline(always)]
+pub(super) fn boxes_in<V: LaneVec>(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
+    let mut out = [0.0f32; WIDTH];
+    let mut mask = 0;
+    let rows = node.rows();
+    let scale = V::splat(FAR_SCALE);
+    for at in (0..WIDTH).step_by(V::W) {
+        let mut near = V::splat(0.0);
+        let mut far = V::splat(t_max);
+        for a in 0..3 {
+            let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
+            let (o, inv) = (V::splat(r.o[a]), V::splat(r.inv[a]));
+            near = V::load(&nb[at..]).sub(o).mul(inv).max(near);
+            far = V::load(&fb[at..]).sub(o).mul(inv).min(far);
+        }
+        mask |= near.le(far.mul(scale)) << at;
+        near.store(&mut out[at..]);
+    }
+    (mask, out)
+}
+
+/// The frustum test (`node::boxes_frustum`) in registers of `V::W`
+/// children: the same operations per child, so the same bits.
+#[inline(always)]
+pub(super) fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
+    debug_assert!(WIDTH.is_multiple_of(V::W));
+    let mut out = [0.0f32; WIDTH];
+    let mut offsets = [[0.0f32; WIDTH]; 6];
+    let mut mask = 0;
+    let rows = node.rows();
+    let scale = V::splat(FAR_SCALE);
+    for at in (0..WIDTH).step_by(V::W) {
+        let mut near = V::splat(0.0);
+        let mut far = V::splat(t_far);
+        for a in 0..3 {
+            let (nb, fb) = (&rows[f.near[a] & 7], &rows[f.far[a] & 7]);
+            let o = V::splat(f.o[a]);
+            let (lo, hi) = (V::splat(f.inv_lo[a]), V::splat(f.inv_hi[a]));
+            let dn = V::load(&nb[at..]).sub(o);
+            dn.store(&mut offsets[a][at..]);
+            near = dn.mul(lo).min(dn.mul(hi)).max(near);
+            let df = V::load(&fb[at..]).sub(o);
+            df.store(&mut offsets[3 + a][at..]);
+            far = df.mul(lo).max(df.mul(hi)).min(far);
+        }
+        mask |= near.le(far.mul(scale)) << at;
+        near.store(&mut out[at..]);
+    }
+    FrustumHits {
+        mask,
+        near: out,
+        offsets,
+    }
+}
+
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;
-    use crate::accel::bvh::node::{BoxFrustum, boxes_frustum, child_lanes};
+    use crate::accel::bvh::node::{boxes_frustum, child_lanes};
     use crate::accel::bvh::packet::{boxes_lanes_portable, prepare_lanes_portable};
-    use crate::accel::bvh::simd::frustum_in;
     use core::arch::x86_64::{__m128, __m256, __m512};
 
     /// A small xorshift generator: the test needs no statistics, only

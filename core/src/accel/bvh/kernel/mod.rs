@@ -25,8 +25,14 @@
 //!   code does 32 and 11.7, once coherent packets took the frustum
 //!   traversal (single runs; why was not found).
 //!
-//! Packet kernels run [`super::lanes`] and `triangle::intersect_lanes_simd`
-//! over `crate::math::lanes::LaneVec` registers of the kernel's width,
+//! Each instruction set's file holds its [`lane_vec::LaneVec`] register
+//! and its box test: `sse2.rs` (also the single-ray leaf test, four
+//! triangles per step), `avx2.rs`, `avx512.rs`; the code written once
+//! over `LaneVec` is in `boxes.rs` (box tests) and `triangle.rs` (the
+//! packet's triangle test).
+//!
+//! Packet kernels run `boxes.rs` and `triangle.rs`
+//! over `LaneVec` registers of the kernel's width,
 //! through each kernel's [`BoxTest::Lanes`]: a chain of [`RegLanes`] from
 //! its widest register down to [`PortableLanes`], so a packet narrower
 //! than the registers runs the next narrower kernel's code.
@@ -35,22 +41,40 @@
 //! detected at run time under `std`, from the build's `target-feature`s
 //! otherwise.
 
-#[cfg(target_arch = "x86_64")]
-use super::lanes::{apply_hits_simd, boxes_lanes_simd, child_lanes_simd, prepare_lanes_simd};
 use super::leaf::{TriBlock, slot_tri};
-#[cfg(target_arch = "x86_64")]
-use super::node::FAR_SCALE;
 use super::node::{
     BoxFrustum, BoxRay, FrustumHits, Node, WIDTH, boxes, boxes_frustum, child_lanes,
 };
 use super::packet::{BoxLanes, LanesOut, apply_hits, boxes_lanes_portable, prepare_lanes_portable};
 use crate::geometry::RayPacket;
 use crate::geometry::triangle::WatertightRay;
-#[cfg(target_arch = "x86_64")]
-use crate::geometry::triangle::intersect_lanes_simd;
 use crate::geometry::triangle::{Planes4, WatertightLanes, intersect_lanes, planes_tri};
 #[cfg(target_arch = "x86_64")]
-use crate::math::lanes::LaneVec;
+use boxes::{apply_hits_simd, boxes_lanes_simd, child_lanes_simd, prepare_lanes_simd};
+#[cfg(target_arch = "x86_64")]
+use lane_vec::LaneVec;
+#[cfg(target_arch = "x86_64")]
+use triangle::intersect_lanes_simd;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod boxes;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod lane_vec;
+#[cfg(target_arch = "x86_64")]
+mod sse2;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod triangle;
+
+#[cfg(target_arch = "x86_64")]
+pub(super) use avx2::Avx2Box;
+#[cfg(target_arch = "x86_64")]
+pub(super) use avx512::Avx512Box;
+#[cfg(target_arch = "x86_64")]
+pub(super) use sse2::Sse2Box;
 
 /// Where [`LaneTests::tri_lanes`] writes each hit lane's `t`, `b1`, `b2`
 /// (other lanes' entries are left unspecified).
@@ -130,7 +154,7 @@ impl Kernel {
 /// (the first hit for `ANY`), as `WatertightRay::intersect_many`.
 pub(super) trait BoxTest {
     /// Whether leaves are tested four triangles per SSE step
-    /// (`WatertightRay::intersect_many_sse`, x86_64 only) rather than one by
+    /// (`sse2::intersect_many`, x86_64 only) rather than one by
     /// one; both give the same answer bit for bit.
     #[cfg(target_arch = "x86_64")]
     const SSE_LEAF: bool = false;
@@ -160,7 +184,7 @@ pub(super) trait BoxTest {
     ) -> Option<(usize, f32, f32, f32)> {
         #[cfg(target_arch = "x86_64")]
         if Self::SSE_LEAF {
-            return r.intersect_many_sse::<ANY>(blocks.iter().map(|b| &b.v), count, t_max);
+            return sse2::intersect_many::<ANY>(r, blocks.iter().map(|b| &b.v), count, t_max);
         }
         r.intersect_many::<ANY>(count, |j| slot_tri(blocks, j), t_max)
     }
@@ -385,139 +409,5 @@ impl BoxTest for ScalarBox {
     #[inline(always)]
     fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
         boxes(node, r, t_max)
-    }
-}
-
-/// SSE2: one register holds one plane of all four children.
-#[cfg(target_arch = "x86_64")]
-pub(super) struct Sse2Box;
-
-#[cfg(target_arch = "x86_64")]
-impl BoxTest for Sse2Box {
-    /// Four triangles per SSE step.
-    const SSE_LEAF: bool = true;
-
-    type Lanes = RegLanes<core::arch::x86_64::__m128, PortableLanes>;
-
-    /// Four children per SSE register and plane.
-    #[inline(always)]
-    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-        boxes_in::<core::arch::x86_64::__m128>(node, r, t_max)
-    }
-
-    /// Four children per SSE register and plane.
-    #[inline(always)]
-    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
-        frustum_in::<core::arch::x86_64::__m128>(node, f, t_far)
-    }
-}
-
-/// AVX: near and far planes of one axis in one 256-bit register. Only
-/// called from functions compiled with AVX2 enabled.
-#[cfg(target_arch = "x86_64")]
-pub(super) struct Avx2Box;
-
-#[cfg(target_arch = "x86_64")]
-impl BoxTest for Avx2Box {
-    /// Four triangles per SSE step.
-    const SSE_LEAF: bool = true;
-
-    type Lanes = RegLanes<core::arch::x86_64::__m256, <Sse2Box as BoxTest>::Lanes>;
-
-    /// All eight children in one 256-bit register per plane.
-    #[inline(always)]
-    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-        boxes_in::<core::arch::x86_64::__m256>(node, r, t_max)
-    }
-
-    /// All eight children in one 256-bit register per plane.
-    #[inline(always)]
-    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
-        frustum_in::<core::arch::x86_64::__m256>(node, f, t_far)
-    }
-}
-
-/// AVX-512F: the single-ray tests of [`Avx2Box`], and packets of 16 lanes
-/// in one 512-bit register. Only called from functions compiled with
-/// AVX-512F enabled.
-#[cfg(target_arch = "x86_64")]
-pub(super) struct Avx512Box;
-
-#[cfg(target_arch = "x86_64")]
-impl BoxTest for Avx512Box {
-    /// Four triangles per SSE step.
-    const SSE_LEAF: bool = true;
-
-    type Lanes = RegLanes<core::arch::x86_64::__m512, <Avx2Box as BoxTest>::Lanes>;
-
-    #[inline(always)]
-    fn boxes(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-        Avx2Box::boxes(node, r, t_max)
-    }
-
-    #[inline(always)]
-    fn boxes_frustum(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
-        Avx2Box::boxes_frustum(node, f, t_far)
-    }
-}
-
-/// The single-ray box test (`node::boxes`) in registers of `V::W`
-/// children, `WIDTH / V::W` registers per plane: the same operations per
-/// child (`LaneVec::max(x, acc)` is `maxps(x, acc)`, which keeps `acc` for
-/// a NaN `x`, as `max_keep(acc, x)`), so the same bits.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn boxes_in<V: LaneVec>(node: &Node, r: &BoxRay, t_max: f32) -> (u32, [f32; WIDTH]) {
-    let mut out = [0.0f32; WIDTH];
-    let mut mask = 0;
-    let rows = node.rows();
-    let scale = V::splat(FAR_SCALE);
-    for at in (0..WIDTH).step_by(V::W) {
-        let mut near = V::splat(0.0);
-        let mut far = V::splat(t_max);
-        for a in 0..3 {
-            let (nb, fb) = (&rows[r.near[a] & 7], &rows[r.far[a] & 7]);
-            let (o, inv) = (V::splat(r.o[a]), V::splat(r.inv[a]));
-            near = V::load(&nb[at..]).sub(o).mul(inv).max(near);
-            far = V::load(&fb[at..]).sub(o).mul(inv).min(far);
-        }
-        mask |= near.le(far.mul(scale)) << at;
-        near.store(&mut out[at..]);
-    }
-    (mask, out)
-}
-
-/// The frustum test (`node::boxes_frustum`) in registers of `V::W`
-/// children: the same operations per child, so the same bits.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(super) fn frustum_in<V: LaneVec>(node: &Node, f: &BoxFrustum, t_far: f32) -> FrustumHits {
-    debug_assert!(WIDTH.is_multiple_of(V::W));
-    let mut out = [0.0f32; WIDTH];
-    let mut offsets = [[0.0f32; WIDTH]; 6];
-    let mut mask = 0;
-    let rows = node.rows();
-    let scale = V::splat(FAR_SCALE);
-    for at in (0..WIDTH).step_by(V::W) {
-        let mut near = V::splat(0.0);
-        let mut far = V::splat(t_far);
-        for a in 0..3 {
-            let (nb, fb) = (&rows[f.near[a] & 7], &rows[f.far[a] & 7]);
-            let o = V::splat(f.o[a]);
-            let (lo, hi) = (V::splat(f.inv_lo[a]), V::splat(f.inv_hi[a]));
-            let dn = V::load(&nb[at..]).sub(o);
-            dn.store(&mut offsets[a][at..]);
-            near = dn.mul(lo).min(dn.mul(hi)).max(near);
-            let df = V::load(&fb[at..]).sub(o);
-            df.store(&mut offsets[3 + a][at..]);
-            far = df.mul(lo).max(df.mul(hi)).min(far);
-        }
-        mask |= near.le(far.mul(scale)) << at;
-        near.store(&mut out[at..]);
-    }
-    FrustumHits {
-        mask,
-        near: out,
-        offsets,
     }
 }
