@@ -12,6 +12,8 @@
 //!   switches;
 //! - [`effects`]: samples/s and mutations/s with the scene analysis on
 //!   versus `--all-effects`;
+//! - [`prepare`]: a first frame's bootstrap on one thread versus spread
+//!   over the workers' threads;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
 //! - [`plot`]: their PNG/SVG plots.
 
@@ -20,6 +22,7 @@ pub mod effects;
 pub mod flicker;
 pub mod params;
 pub mod plot;
+pub mod prepare;
 pub mod ray_targets;
 pub mod rays;
 pub mod study;

@@ -268,6 +268,27 @@ enum BenchCommand {
         #[arg(long)]
         csv: PathBuf,
     },
+    /// Wall time of a first frame's MLT/CMLT bootstrap on the calling
+    /// thread (`cmlt_renderer_prepare`) against spread over one thread per
+    /// worker (`cmlt_renderer_prepare_begin` / `_worker` / `_finish`), in
+    /// turns in one process.
+    Prepare {
+        /// Mitsuba 3 XML scene file, or a built-in name (default
+        /// `cornell-box`).
+        scene: Option<String>,
+        /// MLT or CMLT.
+        #[arg(long, default_value = "cmlt", value_parser = parse_estimator)]
+        method: Estimator,
+        /// Workers (one thread each when spread).
+        #[arg(long, default_value_t = 2)]
+        threads: u32,
+        /// Turns of each.
+        #[arg(long, default_value_t = 9)]
+        repeats: usize,
+        /// Override a scene `<default>` (e.g. `-D resx=64`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+    },
     /// Redraws a `bench convergence` CSV (ours and peers' rows) as a plot
     /// and prints the curves; optionally how long each method takes to
     /// reach the error one method reaches at a given time.
@@ -376,6 +397,51 @@ fn run(cli: Cli) -> Result<(), String> {
                 let worst = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
                 println!("largest |difference|: {:.2}%", 100.0 * worst);
             }
+            Ok(())
+        }
+        BenchCommand::Prepare {
+            scene,
+            method,
+            threads,
+            repeats,
+            define,
+        } => {
+            use cmlt_bench::prepare::{median, run};
+            let loaded = load_scene_or_builtin(scene.as_deref().unwrap_or("cornell-box"), &define)?;
+            let scene = &loaded.scene;
+            let accel = Accel::build(AccelKind::Ours, &scene.triangles().collect::<Vec<_>>())?;
+            let config = RendererConfig {
+                settings: loaded.settings,
+                workers: threads.max(1),
+                ..RendererConfig::for_estimator(method)
+            };
+            let t = run(scene, &accel, config, repeats.max(1))?;
+            let ms = |v: &[f64]| {
+                v.iter()
+                    .map(|x| format!("{:.1}", 1e3 * x))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            println!(
+                "first-frame bootstrap, {:?}, {} workers, {} turns (b identical in every turn)",
+                method,
+                config.workers,
+                t.serial.len()
+            );
+            println!(
+                "serial ms: {}  (median {:.1})",
+                ms(&t.serial),
+                1e3 * median(&t.serial)
+            );
+            println!(
+                "spread ms: {}  (median {:.1})",
+                ms(&t.spread),
+                1e3 * median(&t.spread)
+            );
+            println!(
+                "speed-up (median serial / median spread): {:.2}x",
+                t.speedup()
+            );
             Ok(())
         }
         BenchCommand::Effects {
