@@ -297,7 +297,7 @@ typedef struct cmlt_renderer_config {
   uint64_t seed;
   // MLT: chains per worker.
   uint32_t chains;
-  // MLT: seed samples per path depth in the bootstrap.
+  // MLT: bootstrap samples per path depth (the chains' starting points).
   uint32_t bootstrap_samples;
   // MLT: BDPT passes that estimate the normalisation.
   uint32_t normalisation_passes;
@@ -798,7 +798,7 @@ enum cmlt_status cmlt_renderer_prepare(struct cmlt_renderer *renderer);
 enum cmlt_status cmlt_renderer_prepare_begin(struct cmlt_renderer *renderer, uint32_t *out_pending);
 
 // Worker `worker`'s share of the bootstrap begun by
-// `cmlt_renderer_prepare_begin`: its contiguous share of the seed samples
+// `cmlt_renderer_prepare_begin`: its contiguous share of the bootstrap samples
 // and every W-th normalisation pass. Same thread rules as
 // `cmlt_renderer_render` (different workers at the same time from
 // different threads). Returns at once when nothing is pending.

@@ -72,7 +72,7 @@ pub struct cmlt_renderer_config {
     pub seed: u64,
     /// MLT: chains per worker.
     pub chains: u32,
-    /// MLT: seed samples per path depth in the bootstrap.
+    /// MLT: bootstrap samples per path depth (the chains' starting points).
     pub bootstrap_samples: u32,
     /// MLT: BDPT passes that estimate the normalisation.
     pub normalisation_passes: u32,
@@ -516,7 +516,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_begin(
 }
 
 /// Worker `worker`'s share of the bootstrap begun by
-/// `cmlt_renderer_prepare_begin`: its contiguous share of the seed samples
+/// `cmlt_renderer_prepare_begin`: its contiguous share of the bootstrap samples
 /// and every W-th normalisation pass. Same thread rules as
 /// `cmlt_renderer_render` (different workers at the same time from
 /// different threads). Returns at once when nothing is pending.

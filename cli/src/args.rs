@@ -137,13 +137,13 @@ pub struct MltArgs {
     /// MLT: width of small steps in primary sample space, in (0, 1].
     #[arg(long, default_value_t = MltSettings::default().sigma)]
     pub sigma: f32,
-    /// MLT: bootstrap seed samples per path depth (the chains' starting
+    /// MLT: bootstrap samples per path depth (the chains' starting
     /// points).
     #[arg(long, default_value_t = MltSettings::default().n_bootstrap)]
     pub bootstrap: u32,
     /// MLT: BDPT passes that estimate the normalisation b (the image's
     /// mean luminance, which scales the whole image); 0 = estimate b
-    /// from the seed samples as pbrt does.
+    /// from the bootstrap samples as pbrt does.
     #[arg(long, default_value_t = MltSettings::default().b_passes)]
     pub b_passes: u32,
     /// CMLT: candidates per multiple-try step, 1..=64 (default: the

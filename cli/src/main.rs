@@ -100,7 +100,7 @@ fn run_single(
     let mlt = &config.mlt;
     if metropolis {
         eprintln!(
-            "scene: {} triangles, {} lights, {w}x{h}, max_depth {depth} (MLT depths 1..={}), {} on {threads} threads ({} BVH), {} chains/thread, large step {}, sigma {}, {} seed samples/depth, {} b passes{} (setup {:.2} s)",
+            "scene: {} triangles, {} lights, {w}x{h}, max_depth {depth} (MLT depths 1..={}), {} on {threads} threads ({} BVH), {} chains/thread, large step {}, sigma {}, {} bootstrap samples/depth, {} b passes{} (setup {:.2} s)",
             scene.triangle_count(),
             scene.lights.len(),
             cmlt::mlt::path_depth(&loaded.settings, mlt),

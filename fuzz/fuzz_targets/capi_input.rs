@@ -4,7 +4,7 @@
 //! then commit, create, prepare, render one pass and resolve with an
 //! arbitrary row stride. Every call must return a status; a caught panic
 //! (`CMLT_ERROR_INTERNAL`) is a bug. Sizes that would only make the run
-//! slow (image size, chains, seed samples, m) are reduced modulo a small
+//! slow (image size, chains, bootstrap samples, m) are reduced modulo a small
 //! bound; everything else — NaN, Inf, strides, indices, k, depth — is raw.
 #![no_main]
 

@@ -396,7 +396,7 @@ fn rough_glass_mlt_and_cmlt_match_reference() {
 /// lean step) and 4 side-chain steps per mutation.
 fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
     let mlt = MltSettings {
-        // The chains start at seed samples resampled ∝ luminance; with
+        // The chains start at bootstrap samples resampled ∝ luminance; with
         // 1 000 per depth the pool's floor, lit through the water, was too
         // rarely among them (blue 11% low at 128 mutations/pixel: the
         // chains seldom leave a start by a large step); 20 000 fixes it.
@@ -443,7 +443,7 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     // share of chains that start on the red surfaces. And 1 024 b passes:
     // with 256, b (from BDPT at 24×24) came out 0.303–0.314 for the
     // test's five seeds against 0.317 (skewed low, all five means 2.6%
-    // low); with 1 024, 0.311–0.318. 1 000 seed samples per depth suffice
+    // low); with 1 024, 0.311–0.318. 1 000 bootstrap samples per depth suffice
     // here (20 000 were for the pool's floor).
     let (mlt, cmlt) = metropolis_scene_settings();
     let mlt = MltSettings {

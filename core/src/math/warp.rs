@@ -107,7 +107,7 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 /// density of (r, φ) is F′(r)/(2π) = r e^{−r²/(2σ²)} / (2πσ² Z), and
 /// dividing by the Jacobian r gives q(d).
 ///
-/// The seed's eq. 37, q = e^{−(x−μ)²/σ} / (2πσ), is not this: with the
+/// Segovia 2007's eq. 37, q = e^{−(x−μ)²/σ} / (2πσ), is not this: with the
 /// exponent over σ its integral over the plane is πσ / (2πσ) = ½ (the
 /// prefactor should be 1/(πσ)), and its width is √(σ/2) rather than the σ
 /// the Box–Muller sampler of §2.4.2 draws with. Its division by ∫_Ω q

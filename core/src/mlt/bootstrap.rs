@@ -4,7 +4,7 @@
 //!
 //! Two kinds of independent samples:
 //!
-//! - **Seed samples** (pbrt's bootstrap): sample `i` evaluates the
+//! - **Bootstrap samples** (pbrt's bootstrap): sample `i` evaluates the
 //!   Metropolis target at depth `1 + i mod D` (D = the largest path depth)
 //!   at the uniform primary point of [`sample_seed`]`(seed, i)`. With n per
 //!   depth, b_d = (1/n) Σ_{i of depth d} Y_i estimates ∫ Y(f_d(u)) du, and a
@@ -39,7 +39,7 @@
 //! one expected chain contributes exactly its b_d.
 //!
 //! Everything can be evaluated in any split across workers (index ranges of
-//! seed samples, pass numbers) and combined in index order: the result does
+//! bootstrap samples, pass numbers) and combined in index order: the result does
 //! not depend on the split.
 
 use alloc::vec::Vec;
@@ -53,7 +53,7 @@ use crate::accel::Intersector;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
 
-/// Seed of seed sample `index` of a render seeded by `seed`: the primary
+/// Seed of bootstrap sample `index` of a render seeded by `seed`: the primary
 /// sample it evaluates is `PrimarySampler::new(sample_seed(…))`'s first
 /// (large-step) point.
 #[inline]
@@ -61,7 +61,7 @@ pub fn sample_seed(seed: u64, index: u64) -> u64 {
     mix64(mix64(seed ^ 0xB007_57A9_0000_0000) ^ index)
 }
 
-/// Evaluates seed samples `range` (indices into 0 … n·D) and appends their
+/// Evaluates bootstrap samples `range` (indices into 0 … n·D) and appends their
 /// target values Y_i to `out`, in index order.
 pub fn evaluate_seeds<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
@@ -181,19 +181,19 @@ impl BootstrapScratch {
     }
 }
 
-/// The bootstrap's result: b by depth and the seed samples chains start
+/// The bootstrap's result: b by depth and the bootstrap samples chains start
 /// from.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bootstrap {
     seed: u64,
     depths: u32,
     per_depth: u32,
-    /// Per depth, prefix sums of Y over that depth's seed samples
+    /// Per depth, prefix sums of Y over that depth's bootstrap samples
     /// (depth-major: `cdf[(d − 1)·n + k]` for sample k·D + d − 1).
     cdf: Vec<f64>,
     /// b_d used for the image (from the passes, else from the seeds).
     depth_b: Vec<f64>,
-    /// b_d as the seed samples estimate it (pbrt's estimate).
+    /// b_d as the bootstrap samples estimate it (pbrt's estimate).
     seed_depth_b: Vec<f64>,
     /// Prefix sums of `depth_b` (for [`Bootstrap::depth_at`]).
     depth_cdf: Vec<f64>,
@@ -201,7 +201,7 @@ pub struct Bootstrap {
 }
 
 impl Bootstrap {
-    /// Number of seed samples: `n_bootstrap` per path depth.
+    /// Number of bootstrap samples: `n_bootstrap` per path depth.
     pub fn seed_count(settings: &Settings, mlt: &MltSettings) -> u64 {
         mlt.n_bootstrap as u64 * path_depth(settings, mlt) as u64
     }
@@ -219,7 +219,7 @@ impl Bootstrap {
         boot
     }
 
-    /// An empty bootstrap (b = 0, no seed samples) with room for the
+    /// An empty bootstrap (b = 0, no bootstrap samples) with room for the
     /// bootstrap of `settings` and `mlt`, so that [`Bootstrap::rerun`] and
     /// [`Bootstrap::fill`] allocate nothing.
     pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
@@ -274,11 +274,11 @@ impl Bootstrap {
         self.fill(settings, mlt, seed, values, sums, pixels);
     }
 
-    /// Builds the bootstrap from the target values of all seed samples in
+    /// Builds the bootstrap from the target values of all bootstrap samples in
     /// index order (as [`evaluate_seeds`] produces them, possibly in pieces)
     /// and the per-depth luminance sums of all `mlt.b_passes` normalisation
     /// passes over `pixels` pixels (ignored when `b_passes` is 0: then b_d
-    /// comes from the seed samples, as in pbrt).
+    /// comes from the bootstrap samples, as in pbrt).
     ///
     /// # Panics
     /// When `values` does not hold [`Bootstrap::seed_count`] values or
@@ -374,7 +374,7 @@ impl Bootstrap {
         &self.depth_b
     }
 
-    /// b by path depth as the seed samples estimate it (pbrt's estimate;
+    /// b by path depth as the bootstrap samples estimate it (pbrt's estimate;
     /// equal to [`Bootstrap::depth_b`] without normalisation passes).
     pub fn seed_depth_b(&self) -> &[f64] {
         &self.seed_depth_b
@@ -402,11 +402,11 @@ impl Bootstrap {
         Some(i as u32 + 1)
     }
 
-    /// The seed sample a chain of `depth` starts from, with probability
+    /// The bootstrap sample a chain of `depth` starts from, with probability
     /// Y_i / Σ_{depth} Y for a uniform `u` ∈ [0, 1); uniformly among the
     /// depth's samples when all of them are zero (the chain then starts on
     /// a zero-contribution path and takes the first proposal that is not).
-    /// `None` without seed samples.
+    /// `None` without bootstrap samples.
     pub fn pick(&self, depth: u32, u: f64) -> Option<u64> {
         let n = self.per_depth as usize;
         if n == 0 || depth == 0 || depth > self.depths {
@@ -425,7 +425,7 @@ impl Bootstrap {
         Some(k as u64 * self.depths as u64 + d as u64)
     }
 
-    /// Whether some seed sample of `depth` contributes, so that
+    /// Whether some bootstrap sample of `depth` contributes, so that
     /// [`Bootstrap::pick`] starts a chain of that depth on the target's
     /// support.
     pub fn has_contributing_seed(&self, depth: u32) -> bool {
@@ -436,19 +436,19 @@ impl Bootstrap {
     /// Index of the `j`-th sample of `depth` past the bootstrap's own:
     /// [`Bootstrap::depth_of`] and [`Bootstrap::seed_of`] treat it as a seed
     /// sample of that depth. Chains search these when none of their
-    /// depth's seed samples contributes. Distinct for distinct `j` below
+    /// depth's bootstrap samples contributes. Distinct for distinct `j` below
     /// 2⁴⁸ (indices wrap beyond).
     pub fn extra_sample(&self, depth: u32, j: u64) -> u64 {
         let d = self.depths.max(1) as u64;
         (self.per_depth as u64).wrapping_add(j).wrapping_mul(d) + (depth.max(1) as u64 - 1) % d
     }
 
-    /// Path depth of seed sample `index`.
+    /// Path depth of bootstrap sample `index`.
     pub fn depth_of(&self, index: u64) -> u32 {
         1 + (index % self.depths.max(1) as u64) as u32
     }
 
-    /// Seed of seed sample `index` (see [`sample_seed`]).
+    /// Seed of bootstrap sample `index` (see [`sample_seed`]).
     pub fn seed_of(&self, index: u64) -> u64 {
         sample_seed(self.seed, index)
     }

@@ -65,12 +65,12 @@ use crate::scene::Camera;
 /// Parameters of level-1 MLT. Defaults are pbrt-v4's where it has one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MltSettings {
-    /// Seed samples per path depth (pbrt: `bootstrapsamples`, 100 000):
+    /// Bootstrap samples per path depth (pbrt: `bootstrapsamples`, 100 000):
     /// the points chains start from, and pbrt's estimate of b when
     /// `b_passes` is 0.
     pub n_bootstrap: u32,
     /// BDPT passes (one sample per pixel, all strategies with MIS) that
-    /// estimate b by depth; 0 = estimate b from the seed samples as pbrt
+    /// estimate b by depth; 0 = estimate b from the bootstrap samples as pbrt
     /// does (much noisier: see [`bootstrap`]).
     pub b_passes: u32,
     /// Independent chains per worker (pbrt: 1000 in total).
@@ -104,7 +104,7 @@ pub struct MltSettings {
 }
 
 impl Default for MltSettings {
-    /// 2 000 seed samples per depth, 4 normalisation passes, 256 chains
+    /// 2 000 bootstrap samples per depth, 4 normalisation passes, 256 chains
     /// per worker, large steps 0.3, σ = 0.01, depth cap 32.
     fn default() -> Self {
         MltSettings {
@@ -155,11 +155,11 @@ impl MltSettings {
         if !(self.sigma > 0.0 && self.sigma <= 1.0) {
             return Err("primary-sample σ must be in (0, 1]");
         }
-        // Chains start from seed samples: with none, b > 0 from the
+        // Chains start from bootstrap samples: with none, b > 0 from the
         // normalisation passes left every chain without a start (the C API
         // already refused 0; the Rust API let it through).
         if self.n_bootstrap == 0 {
-            return Err("at least one seed sample per depth is needed");
+            return Err("at least one bootstrap sample per depth is needed");
         }
         if self.n_chains == 0 {
             return Err("at least one chain per worker is needed");
@@ -309,22 +309,22 @@ pub fn chain_seed(seed: u64, worker: u64, chain: u64) -> u64 {
     mix64(mix64(mix64(seed ^ 0x3C7A_1200_0000_0000) ^ worker) ^ chain)
 }
 
-/// Samples a chain searches for a start, per seed sample per depth
-/// (`MltSettings::n_bootstrap`), when none of its depth's seed samples
+/// Samples a chain searches for a start, per bootstrap sample per depth
+/// (`MltSettings::n_bootstrap`), when none of its depth's bootstrap samples
 /// contributes (see [`start_sample`]), and at least [`START_SEARCH_MIN`].
 const START_SEARCH: u64 = 4;
 
 /// Least number of samples a chain searches for a start.
 const START_SEARCH_MIN: u64 = 8192;
 
-/// The seed sample a chain of `depth` starts from, `u` uniform in [0, 1).
+/// The bootstrap sample a chain of `depth` starts from, `u` uniform in [0, 1).
 ///
 /// Normally one of the bootstrap's, drawn ∝ Y by [`Bootstrap::pick`]. When
 /// none of them contributes although b_d > 0 (a light that is rare among
-/// the depth's paths, or few seed samples), a chain started on a zero path
+/// the depth's paths, or few bootstrap samples), a chain started on a zero path
 /// would record nothing until a proposal finds light, and its depth's
 /// share of the image would be missing meanwhile: on the Cornell box with
-/// 100 seed samples per depth, whose directly seen light then often has no
+/// 100 bootstrap samples per depth, whose directly seen light then often has no
 /// seed, the image came out 30% dark at 64 mutations per pixel. Such a
 /// chain instead takes the first contributing one of up to `tries`
 /// further samples of its depth ([`Bootstrap::extra_sample`]), in an order
@@ -400,7 +400,7 @@ const LEVEL2_STREAM: u64 = 0x4C32;
 impl MltWorker {
     /// Starts `mlt.n_chains` chains for worker `worker` of `workers` in a
     /// render seeded by `seed`: each gets its depth from the systematic
-    /// sample, starts at a seed sample of that depth picked with
+    /// sample, starts at a bootstrap sample of that depth picked with
     /// probability ∝ its luminance (replayed from its seed), and continues
     /// with its own random stream. No chain is started when b = 0. With
     /// `mlt.m > 0` every chain also keeps its current path for level 2.
@@ -521,7 +521,7 @@ impl MltWorker {
     /// `tracer` (a new camera or scene): the temporal alternative to
     /// [`MltWorker::restart`] (the chains keep their depths and random
     /// streams). A chain whose state no longer contributes restarts from a
-    /// seed sample of its depth in `bootstrap` (the new frame's, seeded by
+    /// bootstrap sample of its depth in `bootstrap` (the new frame's, seeded by
     /// `seed`; see `start_sample`): left at zero it would record nothing
     /// until a proposal hits, and those records would darken the image.
     /// Counters start again from zero. Allocates nothing.

@@ -84,7 +84,7 @@
 //! - [`Splatting::AllCandidates`] (Segovia 2007, eq. 36): every y_l with
 //!   a · p(y_l) / F_y and every z_l with (1 − a) · p(z_l) / F_z, where
 //!   F_y = Σ_{l=1}^{k} p(y_l), F_z = Σ_{l=1}^{k} p(z_l) (z_k = x included),
-//!   and p is the luminance — the seed's f "with colours scaled to
+//!   and p is the luminance — Segovia 2007's f "with colours scaled to
 //!   luminance |f| = 1". For k = 1 it coincides with expected-value
 //!   splatting. For k > 1 it is **biased**: the y are distributed by
 //!   T(x→·), so weighing them by p alone records ∝ p·T rather than p, and

@@ -128,7 +128,7 @@ pub struct RendererConfig {
 }
 
 /// Frames after the first whose chains are kept evaluate
-/// `n_bootstrap / KEPT_SEED_SHARE` seed samples per depth (see
+/// `n_bootstrap / KEPT_SEED_SHARE` bootstrap samples per depth (see
 /// [`Renderer::prepare`]).
 pub const KEPT_SEED_SHARE: u32 = 16;
 
@@ -326,7 +326,7 @@ pub struct RenderWorker {
 }
 
 /// One worker's share of a bootstrap spread over the workers
-/// ([`Renderer::prepare_worker`]): its seed samples' values, its
+/// ([`Renderer::prepare_worker`]): its bootstrap samples' values, its
 /// normalisation passes' per-depth sums (pass `i + W·j` at `j · D`), the
 /// rays it traced, and the storage it evaluates with — all sized when the
 /// worker is made.
@@ -432,7 +432,7 @@ impl Renderer {
     }
 
     /// The bootstrap of the current frame (MLT, CMLT, after `prepare`:
-    /// b by depth and the chains' seed samples; empty otherwise).
+    /// b by depth and the chains' bootstrap samples; empty otherwise).
     pub fn bootstrap(&self) -> &Bootstrap {
         &self.bootstrap
     }
@@ -476,7 +476,7 @@ impl Renderer {
     }
 
     /// Makes the renderer ready for `render` after creation, a camera
-    /// change or a scene update: for MLT, runs the bootstrap (seed samples
+    /// change or a scene update: for MLT, runs the bootstrap (bootstrap samples
     /// and normalisation passes) on the calling thread. A scene whose
     /// [`Scene::revision`] differs from the one the frame was prepared for
     /// (meshes moved) starts a new frame here, as `set_camera` does.
@@ -534,11 +534,11 @@ impl Renderer {
             return false;
         }
         let c = &self.config;
-        // Kept chains need seed samples only to restart the few the new
+        // Kept chains need bootstrap samples only to restart the few the new
         // view leaves at zero (and those search further when none of
         // theirs contributes: `MltWorker::reevaluate`), so a frame after
         // the first draws a share of them. b comes from the normalisation
-        // passes then, not from the seed samples.
+        // passes then, not from the bootstrap samples.
         self.boot_mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
             MltSettings {
                 n_bootstrap: (c.mlt.n_bootstrap / KEPT_SEED_SHARE).max(1),
@@ -562,7 +562,7 @@ impl Renderer {
 
     /// Worker `worker`'s share of the bootstrap begun by
     /// [`Renderer::begin_prepare`]: the `i`-th of `W` contiguous ranges of
-    /// seed samples and the normalisation passes `i, i + W, …`, into the
+    /// bootstrap samples and the normalisation passes `i, i + W, …`, into the
     /// worker's own storage. Workers may run it at the same time on
     /// different threads. Does nothing when no bootstrap is pending.
     /// Allocates nothing.
@@ -677,7 +677,7 @@ impl Renderer {
     }
 
     /// Completes the bootstrap from the shares [`Renderer::gather_prepared`]
-    /// took from every worker: seed samples by index, pass sums added in
+    /// took from every worker: bootstrap samples by index, pass sums added in
     /// pass order (as `prepare` does). A share missing is
     /// [`RenderError::BootstrapIncomplete`] and changes nothing. Does
     /// nothing when no bootstrap is pending. Allocates nothing.
@@ -1141,7 +1141,7 @@ impl RenderWorker {
             bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
             mlt: metropolis.then(|| MltWorker::with_capacity(&c.settings, &c.mlt, camera)),
             boot: metropolis.then(|| {
-                // The largest share of a bootstrap: the seed samples of a
+                // The largest share of a bootstrap: the bootstrap samples of a
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
                 let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);

@@ -114,7 +114,7 @@ fn mlt_furnace_is_two() {
     // samples) and BDPT tallied by depth (normalisation passes) are
     // unbiased per depth.
     for (what, bds) in [
-        ("seed samples", r.bootstrap.seed_depth_b()),
+        ("bootstrap samples", r.bootstrap.seed_depth_b()),
         ("passes", r.bootstrap.depth_b()),
     ] {
         for (i, &bd) in bds.iter().take(6).enumerate() {
@@ -146,7 +146,7 @@ fn mlt_furnace_is_two() {
 
 #[test]
 fn mlt_furnace_with_pbrt_normalisation_is_two() {
-    // b from the seed samples alone (b_passes = 0), as pbrt does it.
+    // b from the bootstrap samples alone (b_passes = 0), as pbrt does it.
     let scene = diffuse_furnace(1.0);
     let pbrt = MltSettings {
         b_passes: 0,

@@ -650,7 +650,7 @@ fn split_frames(scene: &Scene, cfg: RendererConfig, split: bool) -> Vec<(Vec<Rgb
 #[test]
 fn bootstrap_spread_over_workers_equals_prepare_bit_for_bit() {
     let scene = room();
-    // An odd number of passes and of seed samples per worker: uneven
+    // An odd number of passes and of bootstrap samples per worker: uneven
     // shares.
     let mlt = MltSettings {
         n_bootstrap: 333,

@@ -406,7 +406,7 @@ fn renderer_config_rejects_out_of_range_values_and_stays_usable() {
             },
         ),
         (
-            "no seed samples",
+            "no bootstrap samples",
             RendererConfig {
                 mlt: MltSettings {
                     n_bootstrap: 0,

@@ -43,7 +43,7 @@ use cmlt::scene::{Camera, FovAxis, Material, MaterialId, Mesh, Scene, SceneBuild
 /// Every estimator (CMLT is MLT with level 2, `m > 0`).
 pub const ALL: [Estimator; 4] = Estimator::ALL;
 
-/// Small MLT settings: a few hundred seed samples, two normalisation
+/// Small MLT settings: a few hundred bootstrap samples, two normalisation
 /// passes, 32 chains.
 pub fn small_mlt() -> MltSettings {
     MltSettings {

@@ -137,7 +137,7 @@ fn multiple_try_steps_with_only_zero_candidates() {
     assert!((left - 2.0).abs() < 0.3, "left half {left}");
 }
 
-/// One seed sample per depth: at most depths it has zero contribution,
+/// One bootstrap sample per depth: at most depths it has zero contribution,
 /// while the BDPT passes still find b_d > 0 there, so chains start on
 /// zero-contribution paths and must walk off them. Plain MLT and CMLT.
 #[test]
