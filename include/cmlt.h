@@ -237,9 +237,10 @@ typedef enum cmlt_status {
   // The feature is not compiled into this build (e.g. Embree).
   CMLT_ERROR_UNSUPPORTED = 6,
   // A bug in cmlt (a caught panic). An object whose lock the failing
-  // call held is dead from then on: every later call on it (and on a
-  // renderer whose worker it was) returns `CMLT_ERROR_INTERNAL` again,
-  // and only its `*_release` is valid. Other objects are unaffected.
+  // call held (a scene, a renderer, one of a renderer's workers) may be
+  // half-changed and is dead from then on: every later call that needs
+  // it returns `CMLT_ERROR_INTERNAL` again (never `CMLT_ERROR_BUSY`);
+  // release it. Other objects are unaffected.
   CMLT_ERROR_INTERNAL = 7,
   // The host's allocator (or the system's) refused a block. The object
   // is left as it was and no handle was made; retrying when memory is

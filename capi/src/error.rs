@@ -16,6 +16,23 @@ use std::sync::{Mutex, TryLockError};
 
 use crate::alloc;
 
+#[cfg(test)]
+thread_local! {
+    /// Test hook: the next [`bug_hook`] on this thread panics.
+    pub(crate) static PANIC_ONCE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Stands in for a bug in tests: called where a call holds an object's
+/// lock (a scene being built, a worker being rendered), it panics once
+/// after the test armed [`PANIC_ONCE`]. Does nothing in the library.
+#[inline(always)]
+pub(crate) fn bug_hook() {
+    #[cfg(test)]
+    if PANIC_ONCE.take() {
+        panic!("test hook: a bug while holding a lock");
+    }
+}
+
 /// Result of every C API call.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,9 +56,10 @@ pub enum cmlt_status {
     /// The feature is not compiled into this build (e.g. Embree).
     CMLT_ERROR_UNSUPPORTED = 6,
     /// A bug in cmlt (a caught panic). An object whose lock the failing
-    /// call held is dead from then on: every later call on it (and on a
-    /// renderer whose worker it was) returns `CMLT_ERROR_INTERNAL` again,
-    /// and only its `*_release` is valid. Other objects are unaffected.
+    /// call held (a scene, a renderer, one of a renderer's workers) may be
+    /// half-changed and is dead from then on: every later call that needs
+    /// it returns `CMLT_ERROR_INTERNAL` again (never `CMLT_ERROR_BUSY`);
+    /// release it. Other objects are unaffected.
     CMLT_ERROR_INTERNAL = 7,
     /// The host's allocator (or the system's) refused a block. The object
     /// is left as it was and no handle was made; retrying when memory is

@@ -233,7 +233,7 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
 }
 
 /// The core configuration of `c` over `scene`, checked.
-fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
+pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
     if c.width == 0 || c.height == 0 || c.width > 1 << 14 || c.height > 1 << 14 {
         return Err(Error::invalid("width and height must be in 1 ..= 16384"));
     }
@@ -483,6 +483,7 @@ fn with_worker(
     let mut w = slot
         .try_lock()
         .map_err(|e| Error::lock(e, "the worker is being rendered by another thread"))?;
+    crate::error::bug_hook();
     f(&inner, &mut w).map_err(render_error)
 }
 

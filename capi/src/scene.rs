@@ -462,7 +462,10 @@ impl cmlt_scene {
             .try_lock()
             .map_err(|e| Error::lock(e, "the scene is in use by another thread"))?;
         match &mut *state {
-            State::Building(b) => f(b),
+            State::Building(b) => {
+                crate::error::bug_hook();
+                f(b)
+            }
             State::Committed(_) => Err(Error::operation(
                 "the scene is committed and can no longer change",
             )),

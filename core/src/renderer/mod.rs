@@ -437,10 +437,10 @@ impl Renderer {
         let dims = PrimarySampler::dimensions_for_depth(depth as u32) as u64;
         let sampler = dims * 32 + 4 * BLOCK;
         let workspace = 2 * (depth + 2) * vertex + 4 * BLOCK;
-        // Every worker: its film (two RGB f32 layers), path storage, a
+        // Every worker: its film (two RGB f64 layers), path storage, a
         // bootstrap share; Metropolis ones a state, a sampler and a path per
         // chain, the multiple-try candidates (k ≤ 64 of them).
-        let film = pixels * 24;
+        let film = pixels * Film::BYTES_PER_PIXEL;
         let mut worker = c(film.checked_add(
             size_of::<RenderWorker>() as u64 + 4 * workspace + 2 * sampler + 16 * BLOCK,
         ))?;
@@ -460,14 +460,12 @@ impl Renderer {
         }
         // The renderer: bootstrap tables and scratch (seeds, passes), one
         // slot per worker, the accumulator (two RGB f64 layers per pixel).
-        let renderer = c((if metropolis {
-            seeds.checked_mul(16)
-        } else {
-            Some(0)
-        })
-        .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
-        .and_then(|b| b.checked_add(workers * 64))
-        .and_then(|b| b.checked_add(pixels * size_of::<Layers>() as u64)))?;
+        // (The bootstrap's storage is made for every estimator.)
+        let renderer = c(seeds
+            .checked_mul(16)
+            .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
+            .and_then(|b| b.checked_add(workers * 64))
+            .and_then(|b| b.checked_add(pixels * size_of::<Layers>() as u64)))?;
         let total = c(workers
             .checked_mul(worker)
             .and_then(|b| b.checked_add(renderer)))?;
