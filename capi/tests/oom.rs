@@ -6,7 +6,11 @@
 //! before it succeeds), after the releases every block of the allocator is
 //! freed again, and the same session run again with a working allocator
 //! succeeds. A second sweep refuses every allocation from the N-th on (a
-//! host that stays out of memory).
+//! host that stays out of memory). The same for a session on the built-in
+//! scene (the scene-file loader and obvhs's BVH builder). No N is
+//! excluded: allocations that Rust code makes infallibly (obvhs, `Vec`
+//! growth in the core) are caught by the library's allocator (see
+//! `cmlt_capi::alloc`), those sized by input are reserved fallibly first.
 //!
 //! Its own binary without the test harness (`harness = false`): one
 //! thread, so the allocator's counts are this session's alone.
@@ -157,30 +161,6 @@ fn session() -> Outcome {
         ok_calls: 0,
         failed: None,
     };
-    let mut call = |name: &'static str, f: &mut dyn FnMut() -> cmlt_status| -> bool {
-        let before = MADE.load(Ordering::Relaxed);
-        ARMED.store(true, Ordering::Relaxed);
-        let status = f();
-        ARMED.store(false, Ordering::Relaxed);
-        let after = MADE.load(Ordering::Relaxed);
-        if status == CMLT_OK {
-            out.ok_calls += 1;
-            return true;
-        }
-        // SAFETY: never NULL, NUL-terminated.
-        let msg = unsafe { CStr::from_ptr(cmlt_last_error()) }.to_bytes();
-        let mut message = [0u8; 160];
-        let n = msg.len().min(159);
-        message[..n].copy_from_slice(&msg[..n]);
-        out.failed = Some(Failure {
-            call: name,
-            status,
-            before,
-            after,
-            message,
-        });
-        false
-    };
     let mut config = std::mem::MaybeUninit::uninit();
     // SAFETY: valid out pointer (no allocation: plain data).
     let mut config = unsafe {
@@ -216,6 +196,7 @@ fn session() -> Outcome {
     };
     // SAFETY: valid pointers throughout; handles from this session.
     unsafe {
+        let mut call = |name, f: &mut dyn FnMut() -> cmlt_status| call(&mut out, name, f);
         let _ = call("scene_new", &mut || cmlt_scene_new(&mut scene))
             && call("add_texture", &mut || {
                 cmlt_scene_add_texture(scene, 2, 2, 3, TEXELS.as_ptr(), 0, 1, &mut tex)
@@ -274,6 +255,80 @@ fn session() -> Outcome {
     out
 }
 
+/// A session on the built-in Cornell box (the scene-file loader's path,
+/// its BVH built by obvhs): scene, renderer, one frame.
+fn builtin_session() -> Outcome {
+    let (mut scene, mut renderer) = (null_mut(), null_mut());
+    let mut out = Outcome {
+        ok_calls: 0,
+        failed: None,
+    };
+    let mut camera = CAMERA;
+    let mut config = std::mem::MaybeUninit::uninit();
+    // SAFETY: valid out pointer (no allocation: plain data).
+    let mut config = unsafe {
+        assert_eq!(
+            cmlt_renderer_config_default(CMLT_ESTIMATOR_MLT, config.as_mut_ptr()),
+            CMLT_OK
+        );
+        config.assume_init()
+    };
+    (config.width, config.height, config.workers, config.chains) = (16, 16, 1, 8);
+    (config.bootstrap_samples, config.normalisation_passes) = (50, 1);
+    let mut pixels = [0.0f32; 16 * 16 * 3];
+    // SAFETY: valid pointers throughout; handles from this session.
+    unsafe {
+        let _ = call(&mut out, "new_builtin", &mut || {
+            cmlt_scene_new_builtin(c"cornell-box".as_ptr(), 16, 16, &mut scene, &mut camera)
+        }) && call(&mut out, "renderer_new", &mut || {
+            cmlt_renderer_new(scene, &config, &camera, &mut renderer)
+        }) && call(&mut out, "prepare", &mut || cmlt_renderer_prepare(renderer))
+            && call(&mut out, "render", &mut || {
+                cmlt_renderer_render(renderer, 0, 256, null_mut())
+            })
+            && call(&mut out, "resolve", &mut || {
+                cmlt_renderer_resolve(
+                    renderer,
+                    CMLT_FORMAT_RGB32F,
+                    pixels.as_mut_ptr().cast(),
+                    0,
+                    std::mem::size_of_val(&pixels),
+                )
+            });
+        cmlt_renderer_release(renderer);
+        cmlt_scene_release(scene);
+    }
+    ARMED.store(false, Ordering::Relaxed);
+    out
+}
+
+/// Runs one call with the hooks armed and records its outcome; false when
+/// it failed.
+fn call(out: &mut Outcome, name: &'static str, f: &mut dyn FnMut() -> cmlt_status) -> bool {
+    let before = MADE.load(Ordering::Relaxed);
+    ARMED.store(true, Ordering::Relaxed);
+    let status = f();
+    ARMED.store(false, Ordering::Relaxed);
+    let after = MADE.load(Ordering::Relaxed);
+    if status == CMLT_OK {
+        out.ok_calls += 1;
+        return true;
+    }
+    // SAFETY: never NULL, NUL-terminated.
+    let msg = unsafe { CStr::from_ptr(cmlt_last_error()) }.to_bytes();
+    let mut message = [0u8; 160];
+    let n = msg.len().min(159);
+    message[..n].copy_from_slice(&msg[..n]);
+    out.failed = Some(Failure {
+        call: name,
+        status,
+        before,
+        after,
+        message,
+    });
+    false
+}
+
 fn main() {
     let hooks = cmlt_allocator {
         user: null_mut(),
@@ -282,67 +337,73 @@ fn main() {
     };
     // SAFETY: process-lifetime callbacks.
     assert_eq!(unsafe { cmlt_set_allocator(&hooks) }, CMLT_OK);
-    // A working run: how many allocations a whole session makes.
-    let start = MADE.load(Ordering::Relaxed);
-    let live = LIVE.load(Ordering::Relaxed);
-    let full = session();
-    assert!(full.failed.is_none(), "{:?}", full.failed.map(|f| f.text()));
-    assert!(full.ok_calls >= 19, "only {} calls ran", full.ok_calls);
-    let total = MADE.load(Ordering::Relaxed) - start;
-    assert_eq!(
-        LIVE.load(Ordering::Relaxed),
-        live,
-        "a working session leaks"
-    );
-    assert!(
-        total > 20,
-        "only {total} allocations went through the hooks"
-    );
     let (mut passed, mut failed) = (0u64, 0u64);
-    for persistent in [false, true] {
-        FAIL_ON.store(persistent, Ordering::Relaxed);
-        for n in 1..=total {
-            let base = MADE.load(Ordering::Relaxed);
-            FAIL_AT.store(base + n, Ordering::Relaxed);
-            let run = session();
-            FAIL_AT.store(0, Ordering::Relaxed);
-            let leaked = LIVE.load(Ordering::Relaxed) as isize - live as isize;
-            let retry = session();
-            let retry_leaked = LIVE.load(Ordering::Relaxed) as isize - live as isize;
-            let mut problems = Vec::new();
-            match run.failed {
-                None => problems.push("every call succeeded".to_string()),
-                Some(f) => {
-                    if f.status != CMLT_ERROR_OUT_OF_MEMORY {
-                        problems.push(f.text());
-                    }
-                    if !(f.before < base + n && base + n <= f.after) {
-                        problems.push(format!("{} did not make allocation {n}", f.text()));
+    let sessions: [(&str, fn() -> Outcome, usize); 2] = [
+        ("a scene built call by call", session, 19),
+        ("the built-in scene", builtin_session, 5),
+    ];
+    for (name, session, calls) in sessions {
+        // A working run: how many allocations a whole session makes.
+        let start = MADE.load(Ordering::Relaxed);
+        let live = LIVE.load(Ordering::Relaxed);
+        let full = session();
+        assert!(full.failed.is_none(), "{:?}", full.failed.map(|f| f.text()));
+        assert!(full.ok_calls >= calls, "only {} calls ran", full.ok_calls);
+        let total = MADE.load(Ordering::Relaxed) - start;
+        assert_eq!(
+            LIVE.load(Ordering::Relaxed),
+            live,
+            "a working session leaks"
+        );
+        assert!(
+            total > 20,
+            "only {total} allocations went through the hooks"
+        );
+        for persistent in [false, true] {
+            FAIL_ON.store(persistent, Ordering::Relaxed);
+            for n in 1..=total {
+                let base = MADE.load(Ordering::Relaxed);
+                FAIL_AT.store(base + n, Ordering::Relaxed);
+                let run = session();
+                FAIL_AT.store(0, Ordering::Relaxed);
+                let leaked = LIVE.load(Ordering::Relaxed) as isize - live as isize;
+                let retry = session();
+                let retry_leaked = LIVE.load(Ordering::Relaxed) as isize - live as isize;
+                let mut problems = Vec::new();
+                match run.failed {
+                    None => problems.push("every call succeeded".to_string()),
+                    Some(f) => {
+                        if f.status != CMLT_ERROR_OUT_OF_MEMORY {
+                            problems.push(f.text());
+                        }
+                        if !(f.before < base + n && base + n <= f.after) {
+                            problems.push(format!("{} did not make allocation {n}", f.text()));
+                        }
                     }
                 }
-            }
-            if leaked != 0 {
-                problems.push(format!("{leaked} blocks leaked"));
-            }
-            if let Some(f) = retry.failed {
-                problems.push(format!("the retry failed: {}", f.text()));
-            }
-            if retry_leaked != 0 {
-                problems.push(format!("the retry leaked {retry_leaked} blocks"));
-            }
-            if problems.is_empty() {
-                passed += 1;
-            } else {
-                failed += 1;
-                eprintln!(
-                    "N = {n} of {total} ({}): {}",
-                    if persistent { "from N on" } else { "only N" },
-                    problems.join("; ")
-                );
+                if leaked != 0 {
+                    problems.push(format!("{leaked} blocks leaked"));
+                }
+                if let Some(f) = retry.failed {
+                    problems.push(format!("the retry failed: {}", f.text()));
+                }
+                if retry_leaked != 0 {
+                    problems.push(format!("the retry leaked {retry_leaked} blocks"));
+                }
+                if problems.is_empty() {
+                    passed += 1;
+                } else {
+                    failed += 1;
+                    eprintln!(
+                        "{name}: N = {n} of {total} ({}): {}",
+                        if persistent { "from N on" } else { "only N" },
+                        problems.join("; ")
+                    );
+                }
             }
         }
+        println!("{name}: failing-allocator sweep over {total} allocations, twice");
     }
-    println!("failing-allocator sweep over {total} allocations, twice:");
     println!("{passed} passed, {failed} failed");
     if failed > 0 {
         std::process::exit(1);
