@@ -7,7 +7,8 @@
  * to frame), each worker prepared (its share of the MLT bootstrap) and
  * rendered on its own host thread, the image resolved into the host's RGBA8
  * buffer. After setup the allocator aborts on any allocation: the frames
- * must not allocate. Prints one line per frame (mean luminance and the
+ * must not allocate, refused calls included (each frame tries two bad
+ * cmlt_scene_update_mesh calls). Prints one line per frame (mean luminance and the
  * frame's wall time in milliseconds) and the number of allocations made
  * during the frames (0).
  *
@@ -181,6 +182,19 @@ int main(int argc, char **argv) {
             check(on_workers(render_job, jobs, WORKERS), "cmlt_renderer_render");
             check(cmlt_renderer_resolve(renderer, CMLT_FORMAT_RGBA8_SRGB, image, 0, (size_t)4 * SIZE * SIZE),
                   "cmlt_renderer_resolve");
+            /* A refused scene update inside a frame (a wrong vertex count, an
+             * unknown mesh) returns its status and message without allocating
+             * either, and changes nothing. */
+            {
+                static const float nowhere[3] = {0.0f, 0.0f, 0.0f};
+                if (cmlt_scene_update_mesh(scene, 0, nowhere, 1, 0, NULL, 0) != CMLT_ERROR_INVALID_ARGUMENT ||
+                    cmlt_scene_update_mesh(scene, 1u << 30, nowhere, 1, 0, NULL, 0) !=
+                        CMLT_ERROR_INVALID_ARGUMENT ||
+                    strstr(cmlt_last_error(), "cmlt_scene_update_mesh") == NULL) {
+                    fprintf(stderr, "a bad cmlt_scene_update_mesh was not refused: %s\n", cmlt_last_error());
+                    return 1;
+                }
+            }
             for (i = 0; i < (size_t)SIZE * SIZE; ++i) sum += image[4 * i] + image[4 * i + 1] + image[4 * i + 2];
             printf("frame %d mean %.3f ms %.2f\n", frame, sum / (3.0 * SIZE * SIZE), now_ms() - t0);
         }

@@ -253,8 +253,16 @@ typedef enum cmlt_status {
   CMLT_ERROR_IO = 5,
   // The feature is not compiled into this build (e.g. Embree).
   CMLT_ERROR_UNSUPPORTED = 6,
-  // A bug in cmlt (a caught panic). The object is left as it was.
+  // A bug in cmlt (a caught panic). An object whose lock the failing
+  // call held (a scene, a renderer, one of a renderer's workers) may be
+  // half-changed and is dead from then on: every later call that needs
+  // it returns `CMLT_ERROR_INTERNAL` again (never `CMLT_ERROR_BUSY`);
+  // release it. Other objects are unaffected.
   CMLT_ERROR_INTERNAL = 7,
+  // The host's allocator (or the system's) refused a block. The object
+  // is left as it was and no handle was made; retrying when memory is
+  // free succeeds.
+  CMLT_ERROR_OUT_OF_MEMORY = 8,
 } cmlt_status;
 
 // A renderer handle (opaque to C).
@@ -702,6 +710,15 @@ uint32_t cmlt_version(void);
 // them. At most 16 host allocators can be installed per process
 // (`CMLT_ERROR_INVALID_OPERATION` after that).
 //
+// `alloc` may return NULL at any time: the call that meets it returns
+// `CMLT_ERROR_OUT_OF_MEMORY` and leaves its object as it was. Rust code
+// cannot survive a failed allocation midway, so cmlt finishes that
+// call's throw-away work with the system allocator (blocks freed before
+// the call returns, never kept in an object) and then fails it; only
+// when the system refuses too does the process abort. Renderer sizes are
+// checked first (`cmlt_renderer_new`), so an absurd configuration never
+// reaches the system.
+//
 // # Safety
 // `allocator` is NULL or points to a valid `cmlt_allocator` whose
 // callbacks stay callable for the rest of the process.
@@ -735,7 +752,10 @@ enum cmlt_status cmlt_renderer_config_default(uint32_t estimator, struct cmlt_re
 // configuration takes from the allocator (all of it, allocated in
 // `cmlt_renderer_new`; nothing more is allocated while rendering) and the
 // largest alignment it asks for. Measured by building the renderer once
-// and freeing it. Either out pointer may be NULL.
+// and freeing it. Either out pointer may be NULL. A configuration whose
+// upper bound of memory overflows the address space, or which the
+// allocator cannot give in one block, returns `CMLT_ERROR_OUT_OF_MEMORY`
+// before anything is built (as `cmlt_renderer_new` does).
 //
 // # Safety
 // `scene` and `config` are NULL or valid; the out pointers are NULL or
@@ -746,6 +766,11 @@ enum cmlt_status cmlt_renderer_memory_requirements(const struct cmlt_scene *scen
                                                    size_t *out_alignment);
 
 // Creates a renderer of the committed `scene` looking through `camera`.
+// Everything its frames need is allocated here. Before that the
+// allocator is asked once, fallibly, for an upper bound of it all in one
+// block (freed at once): `CMLT_ERROR_OUT_OF_MEMORY` when it cannot give
+// it, or when the bound overflows the address space (a huge resolution,
+// worker, chain or bootstrap count).
 //
 // # Safety
 // `scene`, `config`, `camera` and `out` are NULL or valid.
@@ -1013,7 +1038,15 @@ enum cmlt_status cmlt_scene_commit(struct cmlt_scene *scene);
 // the scene start a new frame at their next `cmlt_renderer_prepare`;
 // until then `cmlt_renderer_render` returns `CMLT_ERROR_INVALID_OPERATION`.
 // `CMLT_ERROR_BUSY` while a renderer of the scene prepares or renders.
-// On error the scene is unchanged.
+// On error the scene is unchanged. The moved scene must stay within the
+// f32 bound `cmlt_scene_commit` checks (`CMLT_ERROR_INVALID_ARGUMENT`).
+//
+// Part of the allocation-free frame loop with cmlt's BVH: packed arrays
+// are read in place, strided ones copied into buffers sized at commit (24
+// bytes per vertex of the largest mesh), error messages are literals. It
+// allocates only to give normals to a mesh added without them, when an
+// emitter's area becomes or stops being zero (its light distribution is
+// rebuilt), and with Embree (its scene is rebuilt).
 //
 // # Safety
 // `scene` is NULL or a valid handle; `positions` (and `normals`, unless

@@ -8,6 +8,23 @@
 //! the hooks that made it, so a block is always freed by its own allocator
 //! even when the host switches allocators while objects are alive. Hooks
 //! live in a fixed table of [`MAX_ALLOCATORS`] slots, written once each.
+//!
+//! ## Out of memory
+//!
+//! Rust's infallible allocations (a `Vec` growing, a `Box`, inside cmlt and
+//! inside its dependencies such as obvhs's BVH builder) abort the process
+//! when the global allocator returns NULL, and stable Rust offers no way to
+//! make them unwind. So a refusal inside a `cmlt_*` call is caught here
+//! instead: the allocator notes it (per thread), serves that block and the
+//! call's later ones from the system allocator when the host refuses them
+//! too, and the call then throws its work away and returns
+//! `CMLT_ERROR_OUT_OF_MEMORY` ([`check_oom`] before anything is published),
+//! so nothing the host refused outlives the call. A block from the system
+//! is marked as such in its header and freed there. Sizes from input are
+//! bounded and checked before they are allocated (`try_reserve`, checked
+//! arithmetic), so the system is never asked for an absurd block; only when
+//! the system refuses as well does an infallible allocation abort.
+//! Outside a `cmlt_*` call nothing is caught.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -66,6 +83,10 @@ pub(crate) struct Usage {
 }
 
 thread_local! {
+    /// Whether this thread is inside a `cmlt_*` call ([`enter_call`]).
+    static IN_CALL: Cell<bool> = const { Cell::new(false) };
+    /// Size of the first block the host refused during the current call.
+    static REFUSED: Cell<Option<usize>> = const { Cell::new(None) };
     /// Whether this thread is inside `measure_allocations`, and its tally
     /// (const-initialised, no destructor: safe to touch from the
     /// allocator).
@@ -100,6 +121,47 @@ pub(crate) fn measure_allocations<R>(f: impl FnOnce() -> R) -> (R, Usage) {
     )
 }
 
+/// Marks this thread as inside a `cmlt_*` call with no refusal yet;
+/// returns what [`leave_call`] restores.
+pub(crate) fn enter_call() -> (bool, Option<usize>) {
+    (IN_CALL.replace(true), REFUSED.take())
+}
+
+/// Ends the call [`enter_call`] began: the size of the first block refused
+/// during it, if any.
+pub(crate) fn leave_call(outer: (bool, Option<usize>)) -> Option<usize> {
+    IN_CALL.set(outer.0);
+    REFUSED.replace(outer.1)
+}
+
+/// `CMLT_ERROR_OUT_OF_MEMORY` if a block was refused so far in this call.
+/// Entry points call it after their last allocation and before they change
+/// the object or write a handle, so a refused call changes nothing.
+pub(crate) fn check_oom() -> crate::error::Result<()> {
+    match REFUSED.get() {
+        None => Ok(()),
+        Some(_) => Err(Error::out_of_memory(
+            "out of memory: the allocator refused a block; nothing was changed",
+        )),
+    }
+}
+
+/// `Vec::try_reserve_exact` as a C API error: for buffers whose size comes
+/// from input, so an absurd size is refused before anything is allocated.
+pub(crate) fn try_reserve<T>(v: &mut Vec<T>, additional: usize) -> crate::error::Result<()> {
+    v.try_reserve_exact(additional).map_err(|_| {
+        let mut m = String::new();
+        let _ = std::fmt::Write::write_fmt(
+            &mut m,
+            format_args!(
+                "out of memory: {additional} elements of {} bytes could not be allocated",
+                std::mem::size_of::<T>()
+            ),
+        );
+        Error::out_of_memory(m)
+    })
+}
+
 /// Bytes in front of every block: the slot number, padded to the block's
 /// alignment so the block itself stays aligned.
 fn header(layout: Layout) -> usize {
@@ -116,8 +178,8 @@ unsafe impl GlobalAlloc for HostAllocator {
         let Ok(outer) = Layout::from_size_align(layout.size() + h, layout.align().max(h)) else {
             return std::ptr::null_mut();
         };
-        let slot = CURRENT.load(Ordering::Acquire);
-        let base = match SLOTS[slot].get() {
+        let mut slot = CURRENT.load(Ordering::Acquire);
+        let mut base: *mut u8 = match SLOTS[slot].get() {
             // SAFETY: `outer` has a non-zero size.
             None => unsafe { System.alloc(outer) },
             // SAFETY: the host's contract for `alloc`.
@@ -125,6 +187,18 @@ unsafe impl GlobalAlloc for HostAllocator {
                 unsafe { (hk.alloc)(hk.user as *mut c_void, outer.size(), outer.align()) }.cast()
             }
         };
+        if base.is_null() && IN_CALL.get() {
+            // Caught (see the module docs): the call will fail with
+            // out-of-memory; until then the system serves it.
+            if REFUSED.get().is_none() {
+                REFUSED.set(Some(layout.size()));
+            }
+            if slot != 0 {
+                slot = 0;
+                // SAFETY: `outer` has a non-zero size.
+                base = unsafe { System.alloc(outer) };
+            }
+        }
         if base.is_null() {
             return base;
         }
@@ -184,6 +258,15 @@ static GLOBAL: HostAllocator = HostAllocator;
 /// Blocks allocated before keep being freed by the allocator that made
 /// them. At most 16 host allocators can be installed per process
 /// (`CMLT_ERROR_INVALID_OPERATION` after that).
+///
+/// `alloc` may return NULL at any time: the call that meets it returns
+/// `CMLT_ERROR_OUT_OF_MEMORY` and leaves its object as it was. Rust code
+/// cannot survive a failed allocation midway, so cmlt finishes that
+/// call's throw-away work with the system allocator (blocks freed before
+/// the call returns, never kept in an object) and then fails it; only
+/// when the system refuses too does the process abort. Renderer sizes are
+/// checked first (`cmlt_renderer_new`), so an absurd configuration never
+/// reaches the system.
 ///
 /// # Safety
 /// `allocator` is NULL or points to a valid `cmlt_allocator` whose

@@ -1066,6 +1066,56 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
         });
         assert_eq!(n, 0, "estimator {estimator}: {n} allocations during frames");
         assert!(px.iter().any(|&v| v > 0.0));
+        // Mesh updates are part of the frame loop, and so are refused
+        // calls: their messages are literals (`expect`, which copies the
+        // message, runs after counting).
+        let raised: Vec<f32> = POSITIONS
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| if i % 3 == 1 { v + 0.05 } else { v })
+            .collect();
+        let strided: Vec<f32> = raised
+            .chunks(3)
+            .flat_map(|p| [p[0], p[1], p[2], -7.0])
+            .collect();
+        let mut nan = raised.clone();
+        nan[4] = f32::NAN;
+        let mut statuses = [CMLT_OK; 7];
+        let ((), n, _) = counted(|| {
+            // SAFETY: valid pointers; arrays of 8 vertices at their strides.
+            unsafe {
+                statuses = [
+                    cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 0, null(), 0),
+                    cmlt_scene_update_mesh(s, 1, strided.as_ptr(), 8, 16, null(), 0),
+                    cmlt_scene_update_mesh(s, 1, nan.as_ptr(), 8, 0, null(), 0),
+                    cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 7, 0, null(), 0),
+                    cmlt_scene_update_mesh(s, 1, raised.as_ptr(), 8, 13, null(), 0),
+                    cmlt_scene_update_mesh(s, 9, raised.as_ptr(), 8, 0, null(), 0),
+                    cmlt_renderer_render(r, 0, 16, null_mut()),
+                ];
+            }
+        });
+        assert_eq!(
+            n, 0,
+            "estimator {estimator}: {n} allocations in mesh updates"
+        );
+        assert_eq!(&statuses[..2], &[CMLT_OK; 2]);
+        assert_eq!(&statuses[2..6], &[CMLT_ERROR_INVALID_ARGUMENT; 4]);
+        // A refused update leaves the scene as it was: the last good one
+        // (the strided copy) still stands, and it started a new frame.
+        expect(
+            statuses[6],
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_renderer_render",
+        );
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_scene_update_mesh(s, 1, POSITIONS.as_ptr(), 8, 0, null(), 0),
+                CMLT_OK,
+                "update_mesh",
+            );
+        }
         // SAFETY: handle from this test.
         unsafe { cmlt_renderer_release(r) };
     }
@@ -2475,7 +2525,7 @@ fn colours_and_roughness_follow_one_rule() {
 /// (`SceneError::TooFarFromOrigin`), with the bound in the message, and
 /// the scene stays editable.
 #[test]
-fn a_scene_far_from_the_origin_is_refused_at_commit() {
+fn a_scene_far_from_the_origin_is_refused_at_commit_and_update() {
     // Both quads moved 10⁷ along x (their extent is about 3).
     let mut far = POSITIONS;
     for p in far.chunks_mut(3) {
@@ -2507,4 +2557,207 @@ fn a_scene_far_from_the_origin_is_refused_at_commit() {
         assert!(e.contains("65536") && e.contains("origin"), "{e}");
         cmlt_scene_release(s);
     }
+    // Moving meshes there later is refused the same way: one mesh far away
+    // only widens the scene, the second leaves it unresolvable.
+    let s = scene(None);
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(
+            cmlt_scene_update_mesh(s, 0, far.as_ptr(), 8, 0, null(), 0),
+            CMLT_OK,
+            "update_mesh",
+        );
+        expect(
+            cmlt_scene_update_mesh(s, 1, far.as_ptr(), 8, 0, null(), 0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_scene_update_mesh",
+        );
+        let e = last_error();
+        assert!(e.contains("65536") && e.contains("origin"), "{e}");
+        expect(
+            cmlt_scene_update_mesh(s, 0, POSITIONS.as_ptr(), 8, 0, null(), 0),
+            CMLT_OK,
+            "update_mesh",
+        );
+        cmlt_scene_release(s);
+    }
+}
+
+/// A panic inside a call that holds an object's lock (the test hook
+/// stands in for a bug) poisons that lock: the call reports
+/// `CMLT_ERROR_INTERNAL`, and so does every later call that needs the
+/// object — it is dead, never `CMLT_ERROR_BUSY` forever — while other
+/// objects and the renderer's other workers go on, and release works.
+#[test]
+fn a_panic_under_a_lock_leaves_the_object_dead_not_busy() {
+    let dead = |status: cmlt_status, function: &str| {
+        expect(status, CMLT_ERROR_INTERNAL, function);
+        assert!(last_error().contains("unusable"), "{}", last_error());
+    };
+    let s = floor_and_light();
+    let other = floor_and_light();
+    let mut id = 0;
+    // SAFETY: valid pointers; handles from this test.
+    unsafe {
+        crate::error::PANIC_ONCE.set(true);
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_ERROR_INTERNAL,
+            "cmlt_scene_add_material",
+        );
+        assert!(last_error().contains("test hook"), "{}", last_error());
+        for _ in 0..2 {
+            dead(
+                cmlt_scene_add_material(s, &WHITE, &mut id),
+                "cmlt_scene_add_material",
+            );
+            dead(cmlt_scene_commit(s), "cmlt_scene_commit");
+        }
+        expect(
+            cmlt_scene_add_material(other, &WHITE, &mut id),
+            CMLT_OK,
+            "add_material",
+        );
+        cmlt_scene_release(s);
+        cmlt_scene_release(other);
+    }
+    let s = scene(None);
+    let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 2));
+    let mut px = vec![0.0f32; 16 * 12 * 3];
+    let mut stats = cmlt_stats::default();
+    // SAFETY: valid pointers; handles from this test.
+    unsafe {
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        crate::error::PANIC_ONCE.set(true);
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12, null_mut()),
+            CMLT_ERROR_INTERNAL,
+            "cmlt_renderer_render",
+        );
+        for _ in 0..2 {
+            dead(
+                cmlt_renderer_render(r, 0, 16 * 12, null_mut()),
+                "cmlt_renderer_render",
+            );
+            dead(
+                cmlt_renderer_resolve(
+                    r,
+                    CMLT_FORMAT_RGB32F,
+                    px.as_mut_ptr().cast(),
+                    0,
+                    px.len() * 4,
+                ),
+                "cmlt_renderer_resolve",
+            );
+            dead(
+                cmlt_renderer_get_stats(r, &mut stats),
+                "cmlt_renderer_get_stats",
+            );
+        }
+        // The other worker was not touched by the bug.
+        expect(
+            cmlt_renderer_render(r, 1, 16 * 12, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        cmlt_renderer_release(r);
+        cmlt_scene_release(s);
+    }
+}
+
+/// Huge worker, chain, bootstrap or pass counts and resolutions are
+/// refused by the memory query and by creation with a status and a
+/// message — out of memory, before anything is built — instead of
+/// aborting the process; `*out` stays NULL. A configuration whose bound
+/// overflows even 64 bits says so.
+#[test]
+fn huge_renderer_configurations_are_refused_not_aborted() {
+    let s = scene(None);
+    type Tweak = fn(&mut cmlt_renderer_config);
+    let cases: [(&str, Tweak); 6] = [
+        ("workers", |c| c.workers = u32::MAX),
+        ("chains", |c| c.chains = u32::MAX),
+        ("bootstrap", |c| c.bootstrap_samples = u32::MAX),
+        ("passes", |c| c.normalisation_passes = u32::MAX),
+        ("resolution × workers", |c| {
+            (c.width, c.height, c.workers) = (16384, 16384, 4096)
+        }),
+        ("chains × workers", |c| {
+            (c.chains, c.workers, c.max_depth) = (u32::MAX, u32::MAX, 1024)
+        }),
+    ];
+    for (what, tweak) in cases {
+        let mut c = config(CMLT_ESTIMATOR_CMLT, 2);
+        tweak(&mut c);
+        let (mut bytes, mut r) = (7usize, null_mut());
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_renderer_memory_requirements(s, &c, &mut bytes, null_mut()),
+                CMLT_ERROR_OUT_OF_MEMORY,
+                "cmlt_renderer_memory_requirements",
+            );
+            assert_eq!(bytes, 7, "{what}: the query wrote its output");
+            expect(
+                cmlt_renderer_new(s, &c, &CAMERA, &mut r),
+                CMLT_ERROR_OUT_OF_MEMORY,
+                "cmlt_renderer_new",
+            );
+            assert!(r.is_null(), "{what}");
+        }
+        if what == "chains × workers" {
+            assert!(last_error().contains("address space"), "{}", last_error());
+        }
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
+}
+
+/// The bound creation reserves first is an upper bound of what the
+/// renderer really takes (the memory query's measurement), and within 8×
+/// of it, across estimators, depths, chain, bootstrap and pass counts, k,
+/// worker counts and resolutions.
+#[test]
+fn the_memory_bound_covers_what_creation_allocates() {
+    let s = scene(None);
+    // SAFETY: a committed scene.
+    let committed = unsafe { &*s }.committed().unwrap();
+    for estimator in [
+        CMLT_ESTIMATOR_PT,
+        CMLT_ESTIMATOR_BDPT,
+        CMLT_ESTIMATOR_MLT,
+        CMLT_ESTIMATOR_CMLT,
+    ] {
+        for (workers, chains, depth, k, (w, h)) in [
+            (1, 16, 0, 4, (16, 12)),
+            (3, 256, 5, 64, (64, 48)),
+            (2, 1000, 64, 8, (7, 300)),
+            (4, 4, 1024, 1, (1, 1)),
+        ] {
+            let mut c = config(estimator, workers);
+            (c.chains, c.max_depth, c.k, c.width, c.height) = (chains, depth, k, w, h);
+            (c.bootstrap_samples, c.normalisation_passes) = (10 * chains, chains / 4 + 1);
+            let mut bytes = 0;
+            // SAFETY: valid pointers.
+            unsafe {
+                expect(
+                    cmlt_renderer_memory_requirements(s, &c, &mut bytes, null_mut()),
+                    CMLT_OK,
+                    "memory_requirements",
+                )
+            };
+            let cfg = crate::renderer::core_config(&c, &committed).unwrap();
+            let bound = cmlt_core::renderer::Renderer::memory_bound(&cfg, w, h).unwrap();
+            let case = format!(
+                "estimator {estimator}, {workers} workers, {chains} chains, depth {depth}, k {k}, {w}×{h}"
+            );
+            assert!(bound >= bytes as u64, "{case}: bound {bound} < {bytes} B");
+            assert!(
+                bound <= 8 * bytes as u64,
+                "{case}: bound {bound} ≫ {bytes} B"
+            );
+        }
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
 }

@@ -23,7 +23,7 @@ use cmlt_core::renderer::{
     Temporal,
 };
 
-use crate::alloc::measure_allocations;
+use crate::alloc::{check_oom, measure_allocations, try_reserve};
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::scene::{Accel, Committed, cmlt_camera, cmlt_scene};
 
@@ -233,7 +233,7 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
 }
 
 /// The core configuration of `c` over `scene`, checked.
-fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
+pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
     if c.width == 0 || c.height == 0 || c.width > 1 << 14 || c.height > 1 << 14 {
         return Err(Error::invalid("width and height must be in 1 ..= 16384"));
     }
@@ -285,19 +285,34 @@ fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererCo
     })
 }
 
+/// The C error of a core error; literal messages for those a frame can
+/// meet (a frame allocates nothing, not even an error message).
 fn render_error(e: RenderError) -> Error {
     match e {
-        RenderError::Config(_)
-        | RenderError::Resolution
-        | RenderError::Worker
-        | RenderError::EffectNotBuilt(_) => Error::invalid(e.to_string()),
-        RenderError::NotPrepared | RenderError::BootstrapIncomplete => {
-            Error::operation(e.to_string())
+        RenderError::Config(_) | RenderError::EffectNotBuilt(_) => Error::invalid(e.to_string()),
+        RenderError::TooLarge => Error::out_of_memory(e.to_string()),
+        RenderError::Resolution => {
+            Error::invalid("the camera's resolution differs from the renderer's")
         }
+        RenderError::Worker => Error::invalid("the worker does not belong to this renderer"),
+        RenderError::NotPrepared => Error::operation(
+            "prepare the renderer (after creating it, changing the camera or updating the \
+             scene) before rendering",
+        ),
+        RenderError::BootstrapIncomplete => Error::operation(
+            "every worker must run prepare_worker for this frame before finish_prepare",
+        ),
     }
 }
 
 /// Builds the renderer and its workers (everything a frame needs).
+///
+/// The core sizes its buffers with infallible allocations; so that none of
+/// them is ever asked for a block the allocator cannot give (which would
+/// abort), the allocator is first asked, fallibly, for the renderer's
+/// upper bound ([`Renderer::memory_bound`]) in one block, which is freed
+/// at once: a configuration too large for the allocator is refused with
+/// out-of-memory before anything else is allocated.
 fn build(
     scene: Arc<Committed>,
     config: &cmlt_renderer_config,
@@ -305,11 +320,19 @@ fn build(
 ) -> Result<cmlt_renderer> {
     let cfg = core_config(config, &scene)?;
     let camera = camera.camera(config.width, config.height)?;
+    let bound = Renderer::memory_bound(&cfg, config.width, config.height).map_err(render_error)?;
+    let mut probe = Vec::<u8>::new();
+    try_reserve(&mut probe, bound as usize)?;
+    drop(probe);
+    check_oom()?;
     let renderer = Renderer::new(cfg, camera).map_err(render_error)?;
-    let workers = (0..cfg.workers)
-        .map(|i| RenderWorker::new(&renderer, i).map(Mutex::new))
-        .collect::<std::result::Result<Vec<_>, _>>()
-        .map_err(render_error)?;
+    let mut workers = Vec::new();
+    try_reserve(&mut workers, cfg.workers as usize)?;
+    for i in 0..cfg.workers {
+        workers.push(Mutex::new(
+            RenderWorker::new(&renderer, i).map_err(render_error)?,
+        ));
+    }
     Ok(cmlt_renderer {
         scene,
         accumulator: Mutex::new(renderer.accumulator()),
@@ -322,7 +345,10 @@ fn build(
 /// configuration takes from the allocator (all of it, allocated in
 /// `cmlt_renderer_new`; nothing more is allocated while rendering) and the
 /// largest alignment it asks for. Measured by building the renderer once
-/// and freeing it. Either out pointer may be NULL.
+/// and freeing it. Either out pointer may be NULL. A configuration whose
+/// upper bound of memory overflows the address space, or which the
+/// allocator cannot give in one block, returns `CMLT_ERROR_OUT_OF_MEMORY`
+/// before anything is built (as `cmlt_renderer_new` does).
 ///
 /// # Safety
 /// `scene` and `config` are NULL or valid; the out pointers are NULL or
@@ -349,6 +375,7 @@ pub unsafe extern "C" fn cmlt_renderer_memory_requirements(
         let (built, usage) =
             measure_allocations(|| build(committed, config, &camera).map(Box::new));
         drop(built?);
+        check_oom()?;
         // SAFETY: the caller's contract.
         unsafe {
             if let Some(b) = out_bytes.as_mut() {
@@ -363,6 +390,11 @@ pub unsafe extern "C" fn cmlt_renderer_memory_requirements(
 }
 
 /// Creates a renderer of the committed `scene` looking through `camera`.
+/// Everything its frames need is allocated here. Before that the
+/// allocator is asked once, fallibly, for an upper bound of it all in one
+/// block (freed at once): `CMLT_ERROR_OUT_OF_MEMORY` when it cannot give
+/// it, or when the bound overflows the address space (a huge resolution,
+/// worker, chain or bootstrap count).
 ///
 /// # Safety
 /// `scene`, `config`, `camera` and `out` are NULL or valid.
@@ -383,8 +415,9 @@ pub unsafe extern "C" fn cmlt_renderer_new(
                 write(out, "out")?,
             )
         };
-        let r = build(scene.committed()?, config, camera)?;
-        *out = Box::into_raw(Box::new(r));
+        let r = Box::new(build(scene.committed()?, config, camera)?);
+        check_oom()?;
+        *out = Box::into_raw(r);
         Ok(())
     })
 }
@@ -423,7 +456,7 @@ pub unsafe extern "C" fn cmlt_renderer_set_camera(
         let mut inner = r
             .renderer
             .try_write()
-            .map_err(|_| Error::busy("workers are rendering"))?;
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
         let cam = camera.camera(inner.camera().width(), inner.camera().height())?;
         inner.set_camera(cam).map_err(render_error)
     })
@@ -438,21 +471,19 @@ fn with_worker(
     worker: u32,
     f: impl FnOnce(&Renderer, &mut RenderWorker) -> std::result::Result<u64, RenderError>,
 ) -> Result<u64> {
-    let slot = r.workers.get(worker as usize).ok_or_else(|| {
-        Error::invalid(format!(
-            "worker {worker} ≥ the renderer's {} workers",
-            r.workers.len()
-        ))
-    })?;
+    let slot = r
+        .workers
+        .get(worker as usize)
+        .ok_or(Error::invalid("worker ≥ the renderer's number of workers"))?;
     let inner = r
         .renderer
         .try_read()
-        .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
-    let mut w = slot.try_lock().map_err(|_| {
-        Error::busy(format!(
-            "worker {worker} is being rendered by another thread"
-        ))
-    })?;
+        .map_err(|e| Error::lock(e, "the renderer is being prepared or moved"))?;
+    // Literal messages: this runs inside frames, which allocate nothing.
+    let mut w = slot
+        .try_lock()
+        .map_err(|e| Error::lock(e, "the worker is being rendered by another thread"))?;
+    crate::error::bug_hook();
     f(&inner, &mut w).map_err(render_error)
 }
 
@@ -474,7 +505,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
         let mut inner = r
             .renderer
             .try_write()
-            .map_err(|_| Error::busy("workers are rendering"))?;
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
         let live = r.scene.live()?;
         inner.prepare(&live.scene, &live.accel);
         Ok(())
@@ -504,7 +535,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_begin(
         let mut inner = r
             .renderer
             .try_write()
-            .map_err(|_| Error::busy("workers are rendering"))?;
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
         let live = r.scene.live()?;
         let pending = inner.begin_prepare(&live.scene);
         if !out_pending.is_null() {
@@ -555,13 +586,13 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_finish(renderer: *mut cmlt_render
         let mut inner = r
             .renderer
             .try_write()
-            .map_err(|_| Error::busy("workers are rendering"))?;
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
         // One worker at a time (no list of guards: a frame allocates
         // nothing).
         for slot in r.workers.iter() {
             let w = slot
                 .try_lock()
-                .map_err(|_| Error::busy("a worker is being prepared or rendered"))?;
+                .map_err(|e| Error::lock(e, "a worker is being prepared or rendered"))?;
             inner.gather_prepared(&w).map_err(render_error)?;
         }
         inner.finish_gathered().map_err(render_error)
@@ -679,7 +710,7 @@ fn pixel_size(format: u32) -> Result<usize> {
     match format {
         CMLT_FORMAT_RGB32F => Ok(12),
         CMLT_FORMAT_RGBA8_SRGB => Ok(4),
-        f => Err(Error::invalid(format!("unknown pixel format {f}"))),
+        _ => Err(Error::invalid("unknown pixel format")),
     }
 }
 
@@ -707,10 +738,12 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
         }
         let px = pixel_size(format)?;
         // Exclusive: no worker renders while the image is read out.
-        let inner = r
-            .renderer
-            .try_write()
-            .map_err(|_| Error::busy("workers are rendering, or the renderer is being prepared"))?;
+        let inner = r.renderer.try_write().map_err(|e| {
+            Error::lock(
+                e,
+                "workers are rendering, or the renderer is being prepared",
+            )
+        })?;
         let (w, h) = (
             inner.camera().width() as usize,
             inner.camera().height() as usize,
@@ -718,9 +751,7 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
         let row = w * px;
         let stride = if row_stride == 0 { row } else { row_stride };
         if stride < row {
-            return Err(Error::invalid(format!(
-                "row_stride {stride} < {row} bytes of a row"
-            )));
+            return Err(Error::invalid("row_stride is less than a row's bytes"));
         }
         // Checked: a huge row_stride wrapped (h − 1) · stride around in
         // release builds, passed the size check and wrote out of bounds
@@ -728,15 +759,13 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
         let needed = (h - 1)
             .checked_mul(stride)
             .and_then(|b| b.checked_add(row))
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "row_stride {stride} × {h} rows overflows the address space"
-                ))
-            })?;
+            .ok_or(Error::invalid(
+                "row_stride × height overflows the address space",
+            ))?;
         if buffer_size < needed {
-            return Err(Error::invalid(format!(
-                "buffer_size {buffer_size} < {needed} bytes needed"
-            )));
+            return Err(Error::invalid(
+                "buffer_size is less than height rows at row_stride need",
+            ));
         }
         if format == CMLT_FORMAT_RGB32F && (!(pixels as usize).is_multiple_of(4) || stride % 4 != 0)
         {
@@ -747,11 +776,11 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
         let mut acc = r
             .accumulator
             .try_lock()
-            .map_err(|_| Error::busy("another thread is resolving"))?;
+            .map_err(|e| Error::lock(e, "another thread is resolving"))?;
         for slot in r.workers.iter() {
             let w = slot
                 .try_lock()
-                .map_err(|_| Error::busy("a worker is being rendered"))?;
+                .map_err(|e| Error::lock(e, "a worker is being rendered"))?;
             inner.accumulate(&mut acc, &w).map_err(render_error)?;
         }
         inner
@@ -796,12 +825,12 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
         let inner = r
             .renderer
             .try_read()
-            .map_err(|_| Error::busy("the renderer is being prepared or moved"))?;
+            .map_err(|e| Error::lock(e, "the renderer is being prepared or moved"))?;
         let mut s = RenderStats::default();
         for slot in r.workers.iter() {
             let w = slot
                 .try_lock()
-                .map_err(|_| Error::busy("a worker is being rendered"))?;
+                .map_err(|e| Error::lock(e, "a worker is being rendered"))?;
             s.merge(&inner.worker_stats(&w));
         }
         let live = r.scene.live()?;

@@ -17,9 +17,10 @@ use cmlt_core::math::{Affine2, Mat4, Rgb, Vec2, Vec3};
 use cmlt_core::scene::{
     Bitmap, BitmapId, Camera, ConductorFresnel, Detail, Distribution, Effect, FovAxis, Light,
     Material, MaterialId, MaterialKind, Mesh, PrincipledParams, RoughCoating, SHAPE_PRIM_BIT,
-    Scene, SceneBuilder, ShapeGroup, Texture, roughness_ok,
+    Scene, SceneBuilder, SceneError, ShapeGroup, Texture, roughness_ok,
 };
 
+use crate::alloc::{check_oom, try_reserve};
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::host::{HostIntersector, HostShapes, cmlt_intersector, cmlt_shapes};
 
@@ -339,7 +340,14 @@ impl Intersector for Accel {
 pub(crate) struct Live {
     pub scene: Scene,
     pub accel: Accel,
+    /// `cmlt_scene_update_mesh`'s copies of strided host positions and
+    /// normals, sized at commit for the largest mesh so that an update
+    /// allocates nothing (packed arrays are read in place).
+    scratch: [Vec<Vec3>; 2],
 }
+
+// Packed host arrays of 3 floats are read as `Vec3`s in place.
+const _: () = assert!(std::mem::size_of::<Vec3>() == 12 && std::mem::align_of::<Vec3>() == 4);
 
 /// A committed scene, shared by renderers: its structure is frozen; its
 /// meshes can move between frames.
@@ -360,25 +368,52 @@ impl Committed {
         accel: Accel,
         settings: Settings,
         rejected_surfaces: Arc<AtomicU64>,
-    ) -> Self {
-        Committed {
-            live: RwLock::new(Live { scene, accel }),
+    ) -> Result<Self> {
+        let largest = scene
+            .meshes
+            .iter()
+            .map(|m| m.positions.len())
+            .max()
+            .unwrap_or(0);
+        let mut scratch = [Vec::new(), Vec::new()];
+        for v in &mut scratch {
+            try_reserve(v, largest)?;
+        }
+        Ok(Committed {
+            live: RwLock::new(Live {
+                scene,
+                accel,
+                scratch,
+            }),
             settings,
             rejected_surfaces,
-        }
+        })
     }
 
     /// The scene and accel for reading, or busy while an update runs.
     pub fn live(&self) -> Result<RwLockReadGuard<'_, Live>> {
         self.live
             .try_read()
-            .map_err(|_| Error::busy("the scene is being updated"))
+            .map_err(|e| Error::lock(e, "the scene is being updated"))
     }
 
     /// Host shape points rejected so far.
     pub fn rejected_surfaces(&self) -> u64 {
         self.rejected_surfaces.load(Ordering::Relaxed)
     }
+}
+
+/// Reserves what one more element of any kind needs and fails with
+/// out-of-memory if any block of this call was refused: called last before
+/// an `add_*` changes the scene, so that nothing after it allocates.
+fn room(b: &mut Building) -> Result<()> {
+    b.builder
+        .try_reserve_one()
+        .map_err(|_| Error::out_of_memory("out of memory: the scene cannot grow"))?;
+    b.textures
+        .try_reserve(1)
+        .map_err(|_| Error::out_of_memory("out of memory: the scene cannot grow"))?;
+    check_oom()
 }
 
 struct Building {
@@ -412,7 +447,7 @@ impl cmlt_scene {
         let state = self
             .state
             .try_lock()
-            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+            .map_err(|e| Error::lock(e, "the scene is in use by another thread"))?;
         match &*state {
             State::Committed(c) => Ok(c.clone()),
             State::Building(_) => Err(Error::operation(
@@ -425,9 +460,12 @@ impl cmlt_scene {
         let mut state = self
             .state
             .try_lock()
-            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+            .map_err(|e| Error::lock(e, "the scene is in use by another thread"))?;
         match &mut *state {
-            State::Building(b) => f(b),
+            State::Building(b) => {
+                crate::error::bug_hook();
+                f(b)
+            }
             State::Committed(_) => Err(Error::operation(
                 "the scene is committed and can no longer change",
             )),
@@ -450,7 +488,7 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
     guard("cmlt_scene_new", || {
         // SAFETY: the caller's contract.
         let out = unsafe { write(out, "out") }?;
-        *out = Box::into_raw(Box::new(cmlt_scene {
+        let scene = Box::new(cmlt_scene {
             state: Mutex::new(State::Building(Box::new(Building {
                 builder: SceneBuilder::new(),
                 materials: 0,
@@ -462,7 +500,9 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
                 accel: CMLT_ACCEL_BVH,
                 rejected_surfaces: Arc::default(),
             }))),
-        }));
+        });
+        check_oom()?;
+        *out = Box::into_raw(scene);
         Ok(())
     })
 }
@@ -676,6 +716,7 @@ pub unsafe extern "C" fn cmlt_scene_add_material(
         };
         scene.building(|b| {
             let material = material_from_c(m, &b.textures)?;
+            room(b)?;
             let MaterialId(id) = b.builder.add_material(material);
             b.materials += 1;
             *out = id;
@@ -743,7 +784,8 @@ pub unsafe extern "C" fn cmlt_scene_add_texture(
             })
             .collect();
         let c = channels as usize;
-        let mut out_texels = Vec::with_capacity(width as usize * height as usize);
+        let mut out_texels = Vec::new();
+        try_reserve(&mut out_texels, width as usize * height as usize)?;
         for y in 0..height as usize {
             let r = &data[y * stride..y * stride + row];
             for t in r.chunks_exact(c) {
@@ -757,6 +799,7 @@ pub unsafe extern "C" fn cmlt_scene_add_texture(
             if b.textures.len() >= u32::MAX as usize - 1 {
                 return Err(Error::invalid("scene: too many textures"));
             }
+            room(b)?;
             let id = b.builder.add_bitmap(bitmap);
             b.textures.push(id);
             *out = b.textures.len() as u32;
@@ -971,6 +1014,7 @@ pub unsafe extern "C" fn cmlt_scene_add_light(
                 .map_err(|reason| Error::invalid(format!("light: {reason}")))?;
         }
         scene.building(|b| {
+            room(b)?;
             if let (Some((bitmap, to_world)), Light::Envmap { scale, .. }) = (envmap, light) {
                 light = Light::Envmap {
                     bitmap: b.builder.add_bitmap(bitmap),
@@ -1026,21 +1070,22 @@ unsafe fn gather<T: Copy + Default, const N: usize>(
         )));
     }
     let base = ptr.cast::<u8>();
-    Ok((0..count)
-        .map(|i| {
-            let mut e = [T::default(); N];
-            // SAFETY: element i lies inside the caller's array (checked
-            // sizes above); it is aligned for T (aligned base, stride a
-            // multiple of 4 = align_of::<T>()).
-            unsafe {
-                let p = base.add(i * stride).cast::<T>();
-                for (k, v) in e.iter_mut().enumerate() {
-                    *v = p.add(k).read();
-                }
+    let mut out = Vec::new();
+    try_reserve(&mut out, count)?;
+    out.extend((0..count).map(|i| {
+        let mut e = [T::default(); N];
+        // SAFETY: element i lies inside the caller's array (checked
+        // sizes above); it is aligned for T (aligned base, stride a
+        // multiple of 4 = align_of::<T>()).
+        unsafe {
+            let p = base.add(i * stride).cast::<T>();
+            for (k, v) in e.iter_mut().enumerate() {
+                *v = p.add(k).read();
             }
-            e
-        })
-        .collect())
+        }
+        e
+    }));
+    Ok(out)
 }
 
 /// Copies a mesh into the scene. Everything is checked first (pointers,
@@ -1108,6 +1153,7 @@ pub unsafe extern "C" fn cmlt_scene_add_mesh(
                     "scene: too many triangles (2^31 − 1 at most)",
                 ));
             }
+            room(b)?;
             b.triangles += mesh.indices.len() as u64;
             b.meshes += 1;
             b.builder.add_mesh(mesh);
@@ -1158,11 +1204,13 @@ pub unsafe extern "C" fn cmlt_scene_add_shapes(
             if first + g.count as u64 >= SHAPE_PRIM_BIT as u64 {
                 return Err(Error::invalid("scene: too many shapes (2^31 − 1 at most)"));
             }
-            b.builder.add_shapes(ShapeGroup {
+            let group = ShapeGroup {
                 count: g.count,
                 material: MaterialId(g.material),
                 surface: Arc::new(HostShapes::new(*g, b.rejected_surfaces.clone())),
-            });
+            };
+            room(b)?;
+            b.builder.add_shapes(group);
             b.shapes += g.count as u64;
             if !out_first_shape.is_null() {
                 // SAFETY: the caller's contract.
@@ -1266,7 +1314,7 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
         let mut state = scene
             .state
             .try_lock()
-            .map_err(|_| Error::busy("the scene is in use by another thread"))?;
+            .map_err(|e| Error::lock(e, "the scene is in use by another thread"))?;
         let State::Building(b) = &*state else {
             return Err(Error::operation("the scene is already committed"));
         };
@@ -1287,12 +1335,14 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
             Some(i) => Accel::Host(HostIntersector::new(i, b.triangles as u32, b.shapes as u32)),
             None => build_accel(accel_kind(b.accel)?, &built)?,
         };
-        *state = State::Committed(Arc::new(Committed::new(
+        let committed = Arc::new(Committed::new(
             built,
             accel,
             Settings::default(),
             b.rejected_surfaces.clone(),
-        )));
+        )?);
+        check_oom()?;
+        *state = State::Committed(committed);
         Ok(())
     })
 }
@@ -1306,7 +1356,15 @@ pub unsafe extern "C" fn cmlt_scene_commit(scene: *mut cmlt_scene) -> cmlt_statu
 /// the scene start a new frame at their next `cmlt_renderer_prepare`;
 /// until then `cmlt_renderer_render` returns `CMLT_ERROR_INVALID_OPERATION`.
 /// `CMLT_ERROR_BUSY` while a renderer of the scene prepares or renders.
-/// On error the scene is unchanged.
+/// On error the scene is unchanged. The moved scene must stay within the
+/// f32 bound `cmlt_scene_commit` checks (`CMLT_ERROR_INVALID_ARGUMENT`).
+///
+/// Part of the allocation-free frame loop with cmlt's BVH: packed arrays
+/// are read in place, strided ones copied into buffers sized at commit (24
+/// bytes per vertex of the largest mesh), error messages are literals. It
+/// allocates only to give normals to a mesh added without them, when an
+/// emitter's area becomes or stops being zero (its light distribution is
+/// rebuilt), and with Embree (its scene is rebuilt).
 ///
 /// # Safety
 /// `scene` is NULL or a valid handle; `positions` (and `normals`, unless
@@ -1322,50 +1380,62 @@ pub unsafe extern "C" fn cmlt_scene_update_mesh(
     normal_stride: usize,
 ) -> cmlt_status {
     guard("cmlt_scene_update_mesh", || {
+        // Part of the frame loop: nothing here allocates, error messages
+        // included (literals), with cmlt's BVH.
         // SAFETY: the caller's contract.
         let scene = unsafe { read(scene, "scene") }?;
         if positions.is_null() {
             return Err(Error::null("positions"));
         }
         let c = scene.committed()?;
-        // SAFETY: the caller's contract on the arrays.
-        let (p, n) = unsafe {
-            (
-                gather::<f32, 3>(positions, vertex_count, position_stride, "positions")?,
-                if normals.is_null() {
-                    None
-                } else {
-                    Some(gather::<f32, 3>(
-                        normals,
-                        vertex_count,
-                        normal_stride,
-                        "normals",
-                    )?)
-                },
-            )
-        };
-        let p: Vec<Vec3> = p.into_iter().map(Vec3::from_array).collect();
-        let n: Option<Vec<Vec3>> = n.map(|n| n.into_iter().map(Vec3::from_array).collect());
-        if n.iter().flatten().any(|v| v.length_squared() == 0.0) {
-            return Err(Error::invalid("normals: a shading normal has zero length"));
-        }
         let mut live = c
             .live
             .try_write()
-            .map_err(|_| Error::busy("renderers of this scene are preparing or rendering"))?;
-        let Live { scene, accel } = &mut *live;
+            .map_err(|e| Error::lock(e, "renderers of this scene are preparing or rendering"))?;
+        let Live {
+            scene,
+            accel,
+            scratch: [p_scratch, n_scratch],
+        } = &mut *live;
         let index = mesh as usize;
-        let old = scene
+        let count = scene
             .meshes
             .get(index)
-            .map(|m| (m.positions.clone(), m.normals.clone()));
-        scene
-            .update_mesh(index, &p, n.as_deref())
-            .map_err(|e| Error::invalid(e.to_string()))?;
+            .ok_or(Error::invalid("mesh: no mesh with this index"))?
+            .positions
+            .len();
+        if vertex_count != count {
+            return Err(Error::invalid(
+                "vertex_count differs from the mesh's number of vertices",
+            ));
+        }
+        // SAFETY: the caller's contract on the arrays.
+        let p = unsafe { vec3s(positions, count, position_stride, p_scratch) }?;
+        let n = if normals.is_null() {
+            None
+        } else {
+            // SAFETY: the caller's contract on the arrays.
+            Some(unsafe { vec3s(normals, count, normal_stride, n_scratch) }?)
+        };
+        if n.iter()
+            .flat_map(|n| n.iter())
+            .any(|v| v.length_squared() == 0.0)
+        {
+            return Err(Error::invalid("normals: a shading normal has zero length"));
+        }
+        // Embree's scene is rebuilt (allocating); should that fail, the
+        // mesh is put back so scene and accel agree again.
+        let old = match accel {
+            Accel::Built(b) if b.name() != "ours" => Some((
+                scene.meshes[index].positions.clone(),
+                scene.meshes[index].normals.clone(),
+            )),
+            _ => None,
+        };
+        scene.update_mesh(index, p, n).map_err(update_error)?;
         if let Accel::Built(built) = accel
             && let Err(e) = built.update(scene)
         {
-            // Put the mesh back so scene and accel agree again.
             if let Some((op, on)) = old {
                 let _ = scene.update_mesh(index, &op, Some(&on));
             }
@@ -1373,6 +1443,71 @@ pub unsafe extern "C" fn cmlt_scene_update_mesh(
         }
         Ok(())
     })
+}
+
+/// `count` host vectors of 3 floats at `stride` bytes (0 = packed): read in
+/// place when packed, else copied into `scratch` (which has room for
+/// `count`, so nothing is allocated). Literal error messages: a frame
+/// calls this.
+///
+/// # Safety
+/// `ptr` is non-NULL and points to `count` elements at that stride.
+unsafe fn vec3s(
+    ptr: *const f32,
+    count: usize,
+    stride: usize,
+    scratch: &mut Vec<Vec3>,
+) -> Result<&[Vec3]> {
+    let stride = if stride == 0 { 12 } else { stride };
+    if stride < 12 || stride % 4 != 0 {
+        return Err(Error::invalid(
+            "stride must be a multiple of 4 and at least 12",
+        ));
+    }
+    if !(ptr as usize).is_multiple_of(4) {
+        return Err(Error::invalid("array pointer is not 4-byte aligned"));
+    }
+    if count
+        .checked_mul(stride)
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(Error::invalid("array overflows the address space"));
+    }
+    if stride == 12 {
+        // SAFETY: `count` packed, aligned, initialised triples (the
+        // caller's contract) have Vec3's layout (asserted above).
+        return Ok(unsafe { std::slice::from_raw_parts(ptr.cast::<Vec3>(), count) });
+    }
+    if count > scratch.capacity() {
+        return Err(Error::invalid("more vertices than the mesh has"));
+    }
+    scratch.clear();
+    let base = ptr.cast::<u8>();
+    scratch.extend((0..count).map(|i| {
+        // SAFETY: element i lies inside the caller's array (checked sizes),
+        // 4-byte aligned (aligned base, stride a multiple of 4).
+        unsafe {
+            let e = base.add(i * stride).cast::<f32>();
+            Vec3::new(e.read(), e.add(1).read(), e.add(2).read())
+        }
+    }));
+    Ok(scratch)
+}
+
+/// A refused mesh update, with a literal message (no allocation).
+fn update_error(e: SceneError) -> Error {
+    match e {
+        SceneError::OutOfMemory => {
+            Error::out_of_memory("out of memory: no room for the mesh's new normals")
+        }
+        SceneError::NonFiniteVertex { .. } => Error::invalid("a position or normal is not finite"),
+        SceneError::TooFarFromOrigin { .. } => Error::invalid(
+            "the moved meshes lie farther from the origin than 65536 times their \
+             bounding box's diagonal: f32 cannot resolve them there",
+        ),
+        SceneError::AttributeCount { .. } => Error::invalid("normals must be one per position"),
+        e => Error::invalid(e.to_string()),
+    }
 }
 
 /// Loads a Mitsuba 3 XML scene file (the subset `cmlt render` reads) as a
@@ -1464,12 +1599,14 @@ unsafe fn finish_loaded(
     let scene = loaded.scene;
     let cam = scene.camera;
     let accel = build_accel(AccelKind::Ours, &scene)?;
-    *out = Box::into_raw(cmlt_scene::committed_from(Committed::new(
+    let handle = cmlt_scene::committed_from(Committed::new(
         scene,
         accel,
         loaded.settings,
         Arc::default(),
-    )));
+    )?);
+    check_oom()?;
+    *out = Box::into_raw(handle);
     // SAFETY: the caller's contract.
     unsafe {
         if let Some(c) = out_camera.as_mut() {

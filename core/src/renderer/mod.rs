@@ -213,6 +213,9 @@ pub enum RenderError {
     /// The camera needs an effect this build of the core left out (a
     /// thin lens without the `depth-of-field` feature).
     EffectNotBuilt(Effect),
+    /// The renderer and its workers would need more memory than the
+    /// address space holds ([`Renderer::memory_bound`] overflows).
+    TooLarge,
 }
 
 impl core::fmt::Display for RenderError {
@@ -234,6 +237,10 @@ impl core::fmt::Display for RenderError {
                 "the camera needs {}, which this build of cmlt leaves out (enable the `{}` feature)",
                 e.name(),
                 e.feature().unwrap_or("?")
+            ),
+            RenderError::TooLarge => f.write_str(
+                "the renderer would need more memory than the address space holds \
+                 (fewer workers, chains, bootstrap samples or pixels)",
             ),
         }
     }
@@ -404,6 +411,68 @@ impl Renderer {
             analysis: Analysis::all(),
             settings: config.settings,
         })
+    }
+
+    /// An upper bound of the bytes a renderer of `config` at `width ×
+    /// height` pixels and its `config.workers` workers allocate together,
+    /// in checked arithmetic: [`RenderError::TooLarge`] when it exceeds
+    /// `isize::MAX` (no allocation could hold it), so a host can refuse or
+    /// reserve before anything is allocated. Allocates nothing; the
+    /// configuration is not validated otherwise.
+    pub fn memory_bound(
+        config: &RendererConfig,
+        width: u32,
+        height: u32,
+    ) -> Result<u64, RenderError> {
+        use core::mem::size_of;
+        let depth = u64::from(mlt::path_depth(&config.settings, &config.mlt).min(MAX_DEPTH));
+        let workers = u64::from(config.workers);
+        let pixels = u64::from(width) * u64::from(height);
+        let c = |a: Option<u64>| a.ok_or(RenderError::TooLarge);
+        // Allocator bookkeeping a block may carry (a host's header, padding).
+        const BLOCK: u64 = 64;
+        // A subpath vertex, a path vertex and a primary-sample coordinate
+        // with its bookkeeping, rounded up.
+        let vertex = 512u64.max(size_of::<bdpt::PathVertex>() as u64);
+        let dims = PrimarySampler::dimensions_for_depth(depth as u32) as u64;
+        let sampler = dims * 32 + 4 * BLOCK;
+        let workspace = 2 * (depth + 2) * vertex + 4 * BLOCK;
+        // Every worker: its film (two RGB f64 layers), path storage, a
+        // bootstrap share; Metropolis ones a state, a sampler and a path per
+        // chain, the multiple-try candidates (k ≤ 64 of them).
+        let film = pixels * Film::BYTES_PER_PIXEL;
+        let mut worker = c(film.checked_add(
+            size_of::<RenderWorker>() as u64 + 4 * workspace + 2 * sampler + 16 * BLOCK,
+        ))?;
+        let metropolis = config.estimator.is_metropolis();
+        let seeds = c(u64::from(config.mlt.n_bootstrap).checked_mul(depth))?;
+        let passes = c(u64::from(config.mlt.b_passes).checked_mul(depth))?;
+        if metropolis {
+            let chains = u64::from(config.mlt.n_chains);
+            let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
+            let level2 = u64::from(config.mlt.k) * 8 * 1024 + 64 * 1024;
+            worker = c(chains
+                .checked_mul(chain)
+                .and_then(|b| b.checked_add(worker))
+                .and_then(|b| b.checked_add(level2))
+                .and_then(|b| b.checked_add(seeds.div_ceil(workers.max(1)) * 8))
+                .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
+        }
+        // The renderer: bootstrap tables and scratch (seeds, passes), one
+        // slot per worker, the accumulator (two RGB f64 layers per pixel).
+        // (The bootstrap's storage is made for every estimator.)
+        let renderer = c(seeds
+            .checked_mul(16)
+            .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
+            .and_then(|b| b.checked_add(workers * 64))
+            .and_then(|b| b.checked_add(pixels * size_of::<Layers>() as u64)))?;
+        let total = c(workers
+            .checked_mul(worker)
+            .and_then(|b| b.checked_add(renderer)))?;
+        if total > isize::MAX as u64 {
+            return Err(RenderError::TooLarge);
+        }
+        Ok(total)
     }
 
     /// The configuration (with the depth cap applied).

@@ -423,6 +423,50 @@ pub struct LightPointSample {
     pub pdf_area: f32,
 }
 
+/// The area of triangle `t` of `m` (0 when not finite), in f64 as the
+/// light distributions sum it.
+fn triangle_area(m: &Mesh, t: &[u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| m.positions[i as usize]);
+    let area = 0.5 * (b - a).cross(c - a).length() as f64;
+    if area.is_finite() { area } else { 0.0 }
+}
+
+/// The total area of `m`, summed in triangle order.
+fn mesh_area(m: &Mesh) -> f64 {
+    m.indices.iter().map(|t| triangle_area(m, t)).sum()
+}
+
+/// Centre and radius of the meshes' bounding sphere when some light is
+/// infinite (its power and sampling need them), else the unit sphere.
+fn bounding_sphere<'a>(
+    meshes: &[Mesh],
+    mut others: impl Iterator<Item = &'a Light>,
+) -> (Vec3, f32) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    if others.any(Light::is_infinite) {
+        for p in meshes.iter().flat_map(|m| m.positions.iter()) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+    }
+    if lo.x <= hi.x {
+        ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3))
+    } else {
+        (Vec3::ZERO, 1.0)
+    }
+}
+
+/// The power of a light that is not a mesh inside a bounding sphere of
+/// `radius`, as [`LightSet::with_bitmaps`] weighs it.
+fn other_power(envmaps: &[EnvMap], p: &Prepared, radius: f32) -> f64 {
+    match p.light {
+        Light::Envmap { .. } => {
+            PI as f64 * radius as f64 * radius as f64 * envmaps[p.env as usize].luminance_integral()
+        }
+        _ => p.power(radius),
+    }
+}
+
 /// Binary search of a cumulative distribution ending at 1: the first index
 /// whose cumulative value exceeds `u`, skipping zero-probability entries.
 fn sample_cdf(cdf: &[f32], u: f32) -> usize {
@@ -444,18 +488,7 @@ impl LightSet {
     /// name (validated by the caller: ids in range, texels finite and
     /// non-negative). Builds each map's sampling tables once.
     pub fn with_bitmaps(meshes: &[Mesh], others: &[Light], bitmaps: &[Bitmap]) -> Self {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        if others.iter().any(Light::is_infinite) {
-            for p in meshes.iter().flat_map(|m| m.positions.iter()) {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-            }
-        }
-        let (center, radius) = if lo.x <= hi.x {
-            ((lo + hi) * 0.5, ((hi - lo).length() * 0.5).max(1e-3))
-        } else {
-            (Vec3::ZERO, 1.0)
-        };
+        let (center, radius) = bounding_sphere(meshes, others.iter());
         let mut set = LightSet {
             mesh_light: alloc::vec![u32::MAX; meshes.len()],
             center,
@@ -468,9 +501,7 @@ impl LightSet {
             let mut acc = 0.0f64;
             let mut cdf = Vec::with_capacity(m.indices.len());
             for t in &m.indices {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                let area = 0.5 * (b - a).cross(c - a).length() as f64;
-                acc += if area.is_finite() { area } else { 0.0 };
+                acc += triangle_area(m, t);
                 cdf.push(acc);
             }
             let phi = PI as f64 * acc * le.luminance() as f64;
@@ -531,6 +562,78 @@ impl LightSet {
             }
         }
         set
+    }
+
+    /// Brings the set up to date after the positions of mesh `changed`
+    /// moved (topology, emission and the other lights as at
+    /// [`LightSet::with_bitmaps`]), in place and without allocating: that
+    /// mesh's triangle distribution, the scene's bounding sphere, every
+    /// light's power and the selection distribution, to the bit what a
+    /// rebuild computes. Returns false and changes nothing when the lights
+    /// that emit would change (an emitter's area became or stopped being
+    /// zero, an infinite light's power stopped being finite): only a
+    /// rebuild handles that.
+    pub fn refresh(&mut self, meshes: &[Mesh], changed: usize) -> bool {
+        // Which lights emit must stay as it is (the lists keep their size).
+        for (mi, m) in meshes.iter().enumerate() {
+            let Some(le) = m.emission else { continue };
+            let acc = mesh_area(m);
+            let emits = acc > 0.0 && PI as f64 * acc * le.luminance() as f64 > 0.0;
+            if emits != (self.mesh_light.get(mi).is_some_and(|&l| l != u32::MAX)) {
+                return false;
+            }
+        }
+        let (center, radius) = bounding_sphere(meshes, self.others.iter().map(|p| &p.light));
+        if self.others.iter().any(|p| {
+            let phi = other_power(&self.envmaps, p, radius);
+            !(phi > 0.0 && phi.is_finite())
+        }) {
+            return false;
+        }
+        self.center = center;
+        self.radius = radius;
+        // The moved emitter's triangle distribution, as `with_bitmaps`
+        // normalises it.
+        if let Some(&li) = self.mesh_light.get(changed)
+            && li != u32::MAX
+        {
+            let m = &meshes[changed];
+            let acc = mesh_area(m);
+            let light = &mut self.lights[li as usize];
+            light.area = acc as f32;
+            let mut run = 0.0f64;
+            for (c, t) in light.tri_cdf.iter_mut().zip(&m.indices) {
+                run += triangle_area(m, t);
+                *c = (run / acc) as f32;
+            }
+            if let Some(last) = light.tri_cdf.last_mut() {
+                *last = 1.0;
+            }
+        }
+        // Selection by power: area lights in mesh order, then the others.
+        let power = |i: usize| -> f64 {
+            match self.lights.get(i) {
+                Some(l) => {
+                    let m = &meshes[l.mesh as usize];
+                    let le = m.emission.unwrap_or_default();
+                    PI as f64 * mesh_area(m) * le.luminance() as f64
+                }
+                None => other_power(&self.envmaps, &self.others[i - self.lights.len()], radius),
+            }
+        };
+        let n = self.pmf.len();
+        let total: f64 = (0..n).map(power).sum();
+        let mut acc = 0.0;
+        for i in 0..n {
+            let p = power(i);
+            acc += p;
+            self.pmf[i] = (p / total) as f32;
+            self.cdf[i] = (acc / total) as f32;
+        }
+        if let Some(last) = self.cdf.last_mut() {
+            *last = 1.0;
+        }
+        true
     }
 
     /// Number of lights that can be sampled (area lights and others).
@@ -838,6 +941,54 @@ impl LightSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn quad(y: f32, scale: f32, emission: Option<Rgb>) -> Mesh {
+        Mesh {
+            positions: [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                .map(|(x, z)| Vec3::new(x * scale, y, z * scale * 0.5))
+                .to_vec(),
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            indices: alloc::vec![[0, 1, 2], [0, 2, 3]],
+            material: super::super::MaterialId(0),
+            emission,
+        }
+    }
+
+    /// Refreshing after a move gives, field for field, the light set a
+    /// rebuild gives (area, triangle and selection distributions, bounding
+    /// sphere), and refuses when an emitter's area becomes zero.
+    #[test]
+    fn refresh_after_a_move_equals_a_rebuild() {
+        let others = [
+            Light::Constant {
+                radiance: Rgb::splat(0.5),
+            },
+            spot(30.0, 20.0),
+        ];
+        let mut meshes = alloc::vec![
+            quad(0.0, 2.0, None),
+            quad(1.0, 0.3, Some(Rgb::splat(5.0))),
+            quad(0.5, 0.2, Some(Rgb::new(1.0, 2.0, 3.0))),
+        ];
+        let mut set = LightSet::new(&meshes, &others);
+        let before = alloc::format!("{set:?}");
+        for (mesh, scale, y) in [(1, 0.7, 1.5), (0, 3.0, -0.2), (2, 0.1, 0.4)] {
+            meshes[mesh] = quad(y, scale, meshes[mesh].emission);
+            assert!(set.refresh(&meshes, mesh));
+            let rebuilt = LightSet::new(&meshes, &others);
+            assert_eq!(alloc::format!("{set:?}"), alloc::format!("{rebuilt:?}"));
+        }
+        assert_ne!(alloc::format!("{set:?}"), before);
+        let kept = alloc::format!("{set:?}");
+        meshes[1] = quad(1.0, 0.0, meshes[1].emission);
+        assert!(!set.refresh(&meshes, 1), "an emitter lost its area");
+        assert_eq!(
+            alloc::format!("{set:?}"),
+            kept,
+            "a refused refresh changed the set"
+        );
+    }
 
     fn spot(cutoff: f32, beam: f32) -> Light {
         Light::Spot {

@@ -125,6 +125,9 @@ pub enum SceneError {
     },
     /// More triangles than scene-global numbering allows (2^31 − 1).
     TooManyTriangles,
+    /// The allocator refused storage the change needs (normals given to
+    /// a mesh that had none).
+    OutOfMemory,
     /// An update names a mesh that does not exist.
     UnknownMesh {
         /// Mesh index.
@@ -191,6 +194,7 @@ impl fmt::Display for SceneError {
                     "mesh {mesh}: triangle {triangle} refers to a vertex index out of range"
                 )
             }
+            SceneError::OutOfMemory => f.write_str("out of memory"),
             SceneError::AttributeCount { mesh } => {
                 write!(
                     f,
@@ -245,9 +249,9 @@ impl std::error::Error for SceneError {}
 
 /// Refuses meshes too far from the origin for their size
 /// ([`MAX_DISTANCE_TO_EXTENT`]); positions are finite (checked before).
-fn check_precision(meshes: &[Mesh]) -> Result<(), SceneError> {
+fn check_precision<'a>(positions: impl Iterator<Item = &'a Vec3>) -> Result<(), SceneError> {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for p in meshes.iter().flat_map(|m| m.positions.iter()) {
+    for p in positions {
         lo = lo.min(*p);
         hi = hi.max(*p);
     }
@@ -282,6 +286,17 @@ impl SceneBuilder {
     /// An empty builder.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Makes room for one more of each element, so that the next
+    /// `add_*` of each kind cannot allocate (a host that must not run out
+    /// of memory halfway through a change reserves first).
+    pub fn try_reserve_one(&mut self) -> Result<(), alloc::collections::TryReserveError> {
+        self.meshes.try_reserve(1)?;
+        self.materials.try_reserve(1)?;
+        self.bitmaps.try_reserve(1)?;
+        self.shapes.try_reserve(1)?;
+        self.lights.try_reserve(1)
     }
 
     /// Adds a material and returns its id.
@@ -394,7 +409,7 @@ impl SceneBuilder {
             m.validate(mi, self.materials.len())?;
             total += m.indices.len() as u64;
         }
-        check_precision(&self.meshes)?;
+        check_precision(self.meshes.iter().flat_map(|m| m.positions.iter()))?;
         // Triangle and shape indices share `Hit::prim`, split by its top bit.
         if total >= SHAPE_PRIM_BIT as u64 {
             return Err(SceneError::TooManyTriangles);
@@ -734,8 +749,13 @@ impl Scene {
     /// them): the scene update of an animated frame, e.g. a rigid
     /// transform the host applied. Topology, material and emission stay;
     /// counts must match the mesh's (normals: one per position). Everything is checked before anything changes, so on
-    /// error the scene is as it was. An emitting mesh's light distribution
-    /// is rebuilt (that allocates); nothing else does.
+    /// error the scene is as it was. Allocates nothing, except when normals
+    /// are given to a mesh built without them (fallibly:
+    /// [`SceneError::OutOfMemory`]) or when the set of emitting lights
+    /// changes (an emitter's area becomes or stops being zero), which
+    /// rebuilds the light set. The f32 precision bound of
+    /// [`SceneBuilder::build`] ([`SceneError::TooFarFromOrigin`]) is checked
+    /// again.
     ///
     /// Acceleration structures over the scene must follow (e.g.
     /// `Bvh::refit`); renderers notice the new [`Scene::revision`] at
@@ -764,14 +784,31 @@ impl Scene {
                 vertex: v % n.max(1),
             });
         }
+        // The moved scene must still be resolvable in f32, as at build.
+        check_precision(self.meshes.iter().enumerate().flat_map(|(i, m)| {
+            if i == mesh {
+                positions
+            } else {
+                &m.positions[..]
+            }
+        }))?;
         let m = &mut self.meshes[mesh];
+        if let Some(ns) = normals {
+            m.normals
+                .try_reserve_exact(ns.len().saturating_sub(m.normals.len()))
+                .map_err(|_| SceneError::OutOfMemory)?;
+        }
         m.positions.copy_from_slice(positions);
         if let Some(ns) = normals {
             m.normals.clear();
             m.normals.extend_from_slice(ns);
         }
-        // Infinite lights depend on the scene's bounds.
-        if m.emission.is_some() || self.light_list.iter().any(Light::is_infinite) {
+        // Infinite lights depend on the scene's bounds; an emitter's
+        // distribution on its triangles. Updated in place; rebuilt (which
+        // allocates) only when the set of emitting lights changes.
+        if (m.emission.is_some() || self.light_list.iter().any(Light::is_infinite))
+            && !self.lights.refresh(&self.meshes, mesh)
+        {
             self.lights = LightSet::with_bitmaps(&self.meshes, &self.light_list, &self.bitmaps);
         }
         self.revision += 1;
