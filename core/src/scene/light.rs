@@ -27,7 +27,7 @@ use glam::{Mat3, Vec2, Vec3};
 
 use super::effects::Effect;
 use super::envmap::{EnvMap, is_orthonormal};
-use super::store::Mesh;
+use super::scene::Mesh;
 use super::texture::{Bitmap, BitmapId};
 use crate::math::{Frame, PI, Rgb, warp};
 

@@ -21,12 +21,15 @@ pub mod texture;
 
 #[cfg(feature = "alloc")]
 pub mod shapes;
+// `Scene` and its builder in `scene/scene.rs`: the module is the type's
+// home, re-exported flat, so the path reads `scene::Scene`.
 #[cfg(feature = "alloc")]
-mod store;
+#[allow(clippy::module_inception)]
+mod scene;
+#[cfg(feature = "alloc")]
+pub use scene::*;
 #[cfg(feature = "alloc")]
 pub use shapes::{SHAPE_PRIM_BIT, ShapeGroup, ShapePoint, ShapeSurface};
-#[cfg(feature = "alloc")]
-pub use store::*;
 
 pub use camera::{Camera, CameraError, FovAxis};
 pub use detail::Detail;

@@ -1,4 +1,4 @@
-//! Owned scene storage and its validating builder.
+//! The scene's owned storage ([`Scene`]) and its validating builder.
 
 use alloc::vec::Vec;
 use core::fmt;
