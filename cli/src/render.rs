@@ -156,6 +156,17 @@ pub fn prepare<I: Intersector + Sync>(
     renderer.finish_prepare(&refs).map_err(|e| e.to_string())
 }
 
+/// The unscaled sums of all workers' films, layer by layer in worker
+/// order (what [`Renderer::resolve`] scales), for a render that is one
+/// part of a larger one ([`crate::state`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilmSums {
+    /// Camera-sample sums per pixel, RGB, row-major.
+    pub samples: Vec<[f64; 3]>,
+    /// Splat sums per pixel, RGB, row-major.
+    pub splats: Vec<[f64; 3]>,
+}
+
 /// Renders `scene` with `config` (one thread per `config.workers`) under
 /// `budget`. `progress(n)` reports `n` more passes (PT, BDPT) or mutations
 /// (MLT, CMLT) done.
@@ -166,9 +177,32 @@ pub fn render<I: Intersector + Sync>(
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
+    render_inner(scene, accel, config, budget, progress, false).map(|(out, _)| out)
+}
+
+/// [`render`], also handing back the workers' film sums.
+pub fn render_with_sums<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(RenderOutput, FilmSums), String> {
+    let (out, sums) = render_inner(scene, accel, config, budget, progress, true)?;
+    Ok((out, sums.expect("sums were asked for")))
+}
+
+fn render_inner<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+    keep_sums: bool,
+) -> Result<(RenderOutput, Option<FilmSums>), String> {
     let (w, h) = (scene.camera.width(), scene.camera.height());
-    // One film per thread and the merged image.
-    check_film_memory(w, h, config.workers as usize + 1)?;
+    // One film per thread and the merged image (and the two sum layers).
+    check_film_memory(w, h, config.workers as usize + 1 + keep_sums as usize)?;
     let start = Instant::now();
     let deadline = match budget {
         Budget::Seconds(s) => Some(deadline_after(start, s)?),
@@ -240,7 +274,8 @@ pub fn render<I: Intersector + Sync>(
     renderer
         .resolve(&refs, |i, c| pixels[i] = c)
         .map_err(|e| e.to_string())?;
-    Ok(RenderOutput {
+    let sums = keep_sums.then(|| film_sums(&refs));
+    let out = RenderOutput {
         image: Image {
             width: w as usize,
             height: h as usize,
@@ -250,7 +285,30 @@ pub fn render<I: Intersector + Sync>(
         bootstrap: metropolis.then(|| renderer.bootstrap().clone()),
         bootstrap_wall,
         wall,
-    })
+    };
+    Ok((out, sums))
+}
+
+/// The workers' films summed layer by layer in worker order, as
+/// [`Renderer::resolve`] sums them before scaling.
+fn film_sums(workers: &[&RenderWorker]) -> FilmSums {
+    let n = workers.first().map_or(0, |w| {
+        w.film().width() as usize * w.film().height() as usize
+    });
+    let mut sums = FilmSums {
+        samples: vec![[0.0; 3]; n],
+        splats: vec![[0.0; 3]; n],
+    };
+    for (i, (a, b)) in sums.samples.iter_mut().zip(&mut sums.splats).enumerate() {
+        for w in workers {
+            let (s, p) = w.film().pixel_parts(i);
+            for c in 0..3 {
+                a[c] += s[c];
+                b[c] += p[c];
+            }
+        }
+    }
+    sums
 }
 
 /// The work counters per effect, as `cmlt render` prints them: BSDF
