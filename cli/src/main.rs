@@ -298,19 +298,14 @@ fn run_merge(args: &MergeArgs) -> Result<(), String> {
         }
     }
     let t0 = Instant::now();
-    let parts: Vec<PartState> = args
-        .parts
-        .iter()
-        .map(|p| PartState::read(p))
-        .collect::<Result<_, _>>()?;
-    let read = t0.elapsed();
-    let merged = state::merge(&parts)?;
-    let n = parts[0].parts;
+    let merged = state::merge_files(&args.parts)?;
+    let first = PartState::read_header(&args.parts[0])?;
+    let n = first.parts;
     if !merged.missing.is_empty() {
         let list: Vec<String> = merged.missing.iter().map(|i| i.to_string()).collect();
         let notice = format!(
             "{} of {n} parts given; missing: {} (the image is the estimate of the parts present, at their budget)",
-            parts.len(),
+            args.parts.len(),
             list.join(", ")
         );
         if args.complete {
@@ -318,19 +313,20 @@ fn run_merge(args: &MergeArgs) -> Result<(), String> {
         }
         eprintln!("notice: {notice}");
     }
+    let seconds = t0.elapsed();
     output::write(
         &merged.image,
         &args.output,
         args.png.as_deref(),
-        parts.iter().map(|p| p.nonfinite).sum(),
+        merged.nonfinite,
     )?;
     let mean = merged.image.mean();
-    let metropolis = parts[0].estimator().is_some_and(|e| e.is_metropolis());
+    let metropolis = first.estimator().is_some_and(|e| e.is_metropolis());
     let pixels = (merged.image.width * merged.image.height).max(1) as f64;
     println!(
-        "merged {} of {n} parts ({}): {:.2} {} per pixel{}; read {:.3} s, merged {:.3} s; mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
-        parts.len(),
-        parts[0].estimator,
+        "merged {} of {n} parts ({}): {:.2} {} per pixel{}; read and merged in {:.3} s; mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
+        args.parts.len(),
+        first.estimator,
         merged.units as f64 / if metropolis { pixels } else { 1.0 },
         if metropolis { "mutations" } else { "samples" },
         if metropolis {
@@ -338,8 +334,7 @@ fn run_merge(args: &MergeArgs) -> Result<(), String> {
         } else {
             String::new()
         },
-        read.as_secs_f64(),
-        (t0.elapsed() - read).as_secs_f64(),
+        seconds.as_secs_f64(),
         mean.r,
         mean.g,
         mean.b,

@@ -37,6 +37,7 @@
 
 use std::path::Path;
 
+use cmlt::math::Rgb;
 use cmlt::mlt::image_scale;
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::sampler::mix64;
@@ -226,8 +227,97 @@ impl PartState {
         out
     }
 
+    /// This state without its film (what [`PartState::read_header`]
+    /// returns).
+    pub fn header(&self) -> PartState {
+        PartState {
+            part: self.part,
+            parts: self.parts,
+            frame: self.frame,
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            part_seed: self.part_seed,
+            scene_hash: self.scene_hash,
+            estimator: self.estimator.clone(),
+            settings: self.settings.clone(),
+            passes: self.passes,
+            mutations: self.mutations,
+            records: self.records,
+            nonfinite: self.nonfinite,
+            b: self.b,
+            tally_count: self.tally_count,
+            depth_b: self.depth_b.clone(),
+            seconds: self.seconds,
+            bootstrap_seconds: self.bootstrap_seconds,
+            samples: Vec::new(),
+            splats: Vec::new(),
+        }
+    }
+
+    /// Reads the header of the state file at `path` (everything but the
+    /// film), checking the magic, version and lengths but not the checksum,
+    /// which needs the whole file ([`PartState::read`]).
+    pub fn read_header(path: &Path) -> Result<Self, String> {
+        use std::io::Read;
+        let name = path.display().to_string();
+        let mut f = std::fs::File::open(path).map_err(|e| format!("{name}: cannot read: {e}"))?;
+        let len = f
+            .metadata()
+            .map_err(|e| format!("{name}: cannot read: {e}"))?
+            .len();
+        // A header is a few hundred bytes (the settings text, b per depth:
+        // at most 1024 depths).
+        let mut head = Vec::new();
+        f.by_ref()
+            .take(64 * 1024)
+            .read_to_end(&mut head)
+            .map_err(|e| format!("{name}: cannot read: {e}"))?;
+        Self::parse(&head, Some(len), &name)
+    }
+
+    /// Checks the checksum of the state file at `path`, reading it in
+    /// blocks (nothing is kept).
+    pub fn verify_file(path: &Path) -> Result<(), String> {
+        use std::io::Read;
+        let name = path.display();
+        let io = |e: std::io::Error| format!("{name}: cannot read: {e}");
+        let mut f = std::fs::File::open(path).map_err(io)?;
+        let len = f.metadata().map_err(io)?.len();
+        if len < (PREFIX + 8) as u64 {
+            return Err(format!(
+                "{name}: not a valid cmlt part state: truncated header"
+            ));
+        }
+        let mut h = Fnv64::default();
+        let mut left = len - 8;
+        let mut buf = vec![0u8; 1 << 20];
+        while left > 0 {
+            let k = left.min(buf.len() as u64) as usize;
+            f.read_exact(&mut buf[..k]).map_err(io)?;
+            h.write(&buf[..k]);
+            left -= k as u64;
+        }
+        let mut stored = [0u8; 8];
+        f.read_exact(&mut stored).map_err(io)?;
+        if h.finish() != u64::from_le_bytes(stored) {
+            return Err(format!(
+                "{name}: not a valid cmlt part state: checksum mismatch (the file is corrupt)"
+            ));
+        }
+        Ok(())
+    }
+
     /// Parses a state file's bytes; `name` labels the errors.
     pub fn from_bytes(bytes: &[u8], name: &str) -> Result<Self, String> {
+        Self::parse(bytes, None, name)
+    }
+
+    /// Parses a whole file (`file_len` None: checksum and film checked) or
+    /// the head of a file of `file_len` bytes (header only).
+    fn parse(bytes: &[u8], file_len: Option<u64>, name: &str) -> Result<Self, String> {
+        let whole = file_len.is_none();
+        let file_len = file_len.unwrap_or(bytes.len() as u64);
         let bad = |what: &str| format!("{name}: not a valid cmlt part state: {what}");
         if bytes.len() < 8 || &bytes[..8] != MAGIC {
             return Err(bad("wrong magic (not written by cmlt render --state)"));
@@ -245,20 +335,24 @@ impl PartState {
         let expected = (PREFIX as u64)
             .checked_add(len)
             .and_then(|n| n.checked_add(8));
-        if expected != Some(bytes.len() as u64) {
+        if expected != Some(file_len) {
             return Err(bad(&format!(
-                "{} bytes, the header announces {} (truncated or padded)",
-                bytes.len(),
+                "{file_len} bytes, the header announces {} (truncated or padded)",
                 expected.map_or("more than 2^64".to_string(), |n| n.to_string())
             )));
         }
-        let body_end = bytes.len() - 8;
-        let mut h = Fnv64::default();
-        h.write(&bytes[..body_end]);
-        let stored = u64::from_le_bytes(bytes[body_end..].try_into().unwrap());
-        if h.finish() != stored {
-            return Err(bad("checksum mismatch (the file is corrupt)"));
-        }
+        let body_end = if whole {
+            let body_end = bytes.len() - 8;
+            let mut h = Fnv64::default();
+            h.write(&bytes[..body_end]);
+            let stored = u64::from_le_bytes(bytes[body_end..].try_into().unwrap());
+            if h.finish() != stored {
+                return Err(bad("checksum mismatch (the file is corrupt)"));
+            }
+            body_end
+        } else {
+            bytes.len()
+        };
         let mut r = Reader {
             bytes: &bytes[PREFIX..body_end],
         };
@@ -293,14 +387,19 @@ impl PartState {
         s.seconds = r.f64()?;
         s.bootstrap_seconds = r.f64()?;
         let pixels = s.width as u64 * s.height as u64;
-        if pixels.checked_mul(48) != Some(r.bytes.len() as u64) {
+        // The film is the rest of the payload, up to the checksum.
+        let film = file_len.saturating_sub(8 + (body_end - r.bytes.len()) as u64);
+        if pixels.checked_mul(48) != Some(film) {
             return Err(bad(&format!(
-                "{}x{} pixels need {} bytes of film, the file has {}",
+                "{}x{} pixels need {} bytes of film, the file has {film}",
                 s.width,
                 s.height,
                 pixels.saturating_mul(48),
-                r.bytes.len()
             )));
+        }
+        if !whole {
+            s.check_header().map_err(|e| bad(&e))?;
+            return Ok(s);
         }
         for layer in [&mut s.samples, &mut s.splats] {
             *layer = (0..pixels)
@@ -311,8 +410,23 @@ impl PartState {
         Ok(s)
     }
 
-    /// Checks the header's values for consistency.
+    /// Checks the header's and the film's values.
     fn check(&self) -> Result<(), String> {
+        self.check_header()?;
+        if self
+            .samples
+            .iter()
+            .chain(&self.splats)
+            .flatten()
+            .any(|c| !c.is_finite())
+        {
+            return Err("a film sum is not finite".to_string());
+        }
+        Ok(())
+    }
+
+    /// Checks the header's values for consistency.
+    fn check_header(&self) -> Result<(), String> {
         if self.parts == 0 || self.part >= self.parts {
             return Err(format!("part {} of {}", self.part, self.parts));
         }
@@ -441,6 +555,8 @@ pub struct Merged {
     /// The part indices that were missing from 0..N (the image is still an
     /// unbiased estimate from the parts present, at a smaller budget).
     pub missing: Vec<u32>,
+    /// Non-finite samples the parts' films dropped.
+    pub nonfinite: u64,
 }
 
 /// Checks that `parts` belong to one render (same scene, estimator,
@@ -462,6 +578,62 @@ pub struct Merged {
 /// and each depth gets exactly the pooled b_d, the normalisation of one
 /// bootstrap with all parts' samples (its variance divided by N).
 pub fn merge(parts: &[PartState]) -> Result<Merged, String> {
+    let headers: Vec<&PartState> = parts.iter().collect();
+    let plan = plan(&headers)?;
+    let mut acc = Accumulator::new(&plan, parts[0].samples.len());
+    for (k, p) in parts.iter().enumerate() {
+        acc.add(&plan, k, p);
+    }
+    Ok(acc.finish(plan, parts[0].width, parts[0].height))
+}
+
+/// [`merge`] of the state files at `paths`, holding one part in memory at a
+/// time: every file's header is read and its checksum verified first, and
+/// the headers checked against each other (nothing is accumulated for
+/// parts that are corrupt or do not belong together); then each file is
+/// read again, whole, and added.
+pub fn merge_files(paths: &[impl AsRef<Path>]) -> Result<Merged, String> {
+    let headers: Vec<PartState> = paths
+        .iter()
+        .map(|p| {
+            let h = PartState::read_header(p.as_ref())?;
+            PartState::verify_file(p.as_ref())?;
+            Ok(h)
+        })
+        .collect::<Result<_, String>>()?;
+    let refs: Vec<&PartState> = headers.iter().collect();
+    let plan = plan(&refs)?;
+    let Some(first) = headers.first() else {
+        return Err("no parts to merge".to_string());
+    };
+    let mut acc = Accumulator::new(&plan, first.width as usize * first.height as usize);
+    for (k, path) in paths.iter().enumerate() {
+        let part = PartState::read(path.as_ref())?;
+        if part.header() != headers[k] {
+            return Err(format!(
+                "{}: changed while it was being merged",
+                path.as_ref().display()
+            ));
+        }
+        acc.add(&plan, k, &part);
+    }
+    Ok(acc.finish(plan, first.width, first.height))
+}
+
+/// What the checks found and how each part is scaled.
+struct Plan {
+    metropolis: bool,
+    /// Per part, the factor from its film sums to radiance (MLT, CMLT), or
+    /// 1 / passes of all parts (PT, BDPT).
+    scales: Vec<f64>,
+    b: f64,
+    units: u64,
+    missing: Vec<u32>,
+    nonfinite: u64,
+}
+
+/// Checks that the parts belong together and computes their scales.
+fn plan(parts: &[&PartState]) -> Result<Plan, String> {
     let Some(first) = parts.first() else {
         return Err("no parts to merge".to_string());
     };
@@ -515,94 +687,138 @@ pub fn merge(parts: &[PartState]) -> Result<Merged, String> {
         }
     }
     let missing: Vec<u32> = (0..first.parts).filter(|&i| !seen[i as usize]).collect();
-    let n = first.samples.len();
-    let pixels = n as u64;
+    let pixels = first.width as u64 * first.height as u64;
     let metropolis = first.is_metropolis();
-    // Per-part factors from film sums to radiance.
-    let (scales, b, units): (Vec<f64>, f64, u64) = if metropolis {
-        let records: u64 = parts.iter().map(|p| p.records).sum();
-        let mutations = parts.iter().map(|p| p.mutations).sum();
-        let mut scales: Vec<f64> = parts
-            .iter()
-            .map(|p| image_scale(p.b, pixels, records))
-            .collect();
-        let equal = parts
-            .iter()
-            .all(|p| p.records == first.records && p.tally_count == first.tally_count);
-        let b_pool = pooled_b(parts);
-        // With equal budgets b_pool is the records-weighted mean of the
-        // parts' b exactly; skipping the ratio then keeps one part's merge
-        // bit-identical to its own render.
-        if !equal && records > 0 {
-            let b_mean: f64 = parts
-                .iter()
-                .map(|p| p.records as f64 / records as f64 * p.b)
-                .sum();
-            if b_mean > 0.0 {
-                for s in &mut scales {
-                    *s *= b_pool / b_mean;
-                }
-            }
-        }
-        (scales, b_pool, mutations)
-    } else {
+    let nonfinite = parts.iter().map(|p| p.nonfinite).sum();
+    if !metropolis {
         let passes: u64 = parts.iter().map(|p| p.passes).sum();
         let inv = if passes == 0 {
             0.0
         } else {
             1.0 / passes as f64
         };
-        (vec![inv; parts.len()], 0.0, passes)
-    };
-    let mut pixels_out = Vec::with_capacity(n);
-    for i in 0..n {
-        let rgb = if metropolis {
-            // Each part's layers added, then scaled by its own factor.
-            let mut acc = [0.0f64; 3];
-            for (p, s) in parts.iter().zip(&scales) {
-                let (a, b) = (p.samples[i], p.splats[i]);
-                for c in 0..3 {
-                    acc[c] += (a[c] + b[c]) * s;
-                }
-            }
-            acc
-        } else {
-            // Layer by layer over the parts, as the renderer merges its
-            // workers' films, then the two layers and one scale.
-            let (mut a, mut b) = ([0.0f64; 3], [0.0f64; 3]);
-            for p in parts {
-                for c in 0..3 {
-                    a[c] += p.samples[i][c];
-                    b[c] += p.splats[i][c];
-                }
-            }
-            [
-                (a[0] + b[0]) * scales[0],
-                (a[1] + b[1]) * scales[0],
-                (a[2] + b[2]) * scales[0],
-            ]
-        };
-        pixels_out.push(cmlt::math::Rgb::new(
-            rgb[0] as f32,
-            rgb[1] as f32,
-            rgb[2] as f32,
-        ));
+        return Ok(Plan {
+            metropolis,
+            scales: vec![inv; parts.len()],
+            b: 0.0,
+            units: passes,
+            missing,
+            nonfinite,
+        });
     }
-    Ok(Merged {
-        image: Image {
-            width: first.width as usize,
-            height: first.height as usize,
-            pixels: pixels_out,
-        },
-        b,
-        units,
+    let records: u64 = parts.iter().map(|p| p.records).sum();
+    let mut scales: Vec<f64> = parts
+        .iter()
+        .map(|p| image_scale(p.b, pixels, records))
+        .collect();
+    let equal = parts
+        .iter()
+        .all(|p| p.records == first.records && p.tally_count == first.tally_count);
+    let b_pool = pooled_b(parts);
+    // With equal budgets b_pool is the records-weighted mean of the parts'
+    // b exactly; skipping the ratio then keeps one part's merge
+    // bit-identical to its own render.
+    if !equal && records > 0 {
+        let b_mean: f64 = parts
+            .iter()
+            .map(|p| p.records as f64 / records as f64 * p.b)
+            .sum();
+        if b_mean > 0.0 {
+            for s in &mut scales {
+                *s *= b_pool / b_mean;
+            }
+        }
+    }
+    Ok(Plan {
+        metropolis,
+        scales,
+        b: b_pool,
+        units: parts.iter().map(|p| p.mutations).sum(),
         missing,
+        nonfinite,
     })
+}
+
+/// The merged image being summed: for PT and BDPT the sample and splat
+/// layers apart (added at the end, as the renderer merges its workers'
+/// films), for MLT and CMLT the scaled totals in `a`.
+struct Accumulator {
+    a: Vec<[f64; 3]>,
+    b: Vec<[f64; 3]>,
+}
+
+impl Accumulator {
+    fn new(plan: &Plan, pixels: usize) -> Self {
+        Accumulator {
+            a: vec![[0.0; 3]; pixels],
+            b: if plan.metropolis {
+                Vec::new()
+            } else {
+                vec![[0.0; 3]; pixels]
+            },
+        }
+    }
+
+    /// Adds part `k` of the plan.
+    fn add(&mut self, plan: &Plan, k: usize, p: &PartState) {
+        if plan.metropolis {
+            let s = plan.scales[k];
+            for (acc, (x, y)) in self.a.iter_mut().zip(p.samples.iter().zip(&p.splats)) {
+                for c in 0..3 {
+                    acc[c] += (x[c] + y[c]) * s;
+                }
+            }
+        } else {
+            for (acc, x) in self.a.iter_mut().zip(&p.samples) {
+                for c in 0..3 {
+                    acc[c] += x[c];
+                }
+            }
+            for (acc, y) in self.b.iter_mut().zip(&p.splats) {
+                for c in 0..3 {
+                    acc[c] += y[c];
+                }
+            }
+        }
+    }
+
+    fn finish(self, plan: Plan, width: u32, height: u32) -> Merged {
+        let pixels = if plan.metropolis {
+            self.a
+                .iter()
+                .map(|t| Rgb::new(t[0] as f32, t[1] as f32, t[2] as f32))
+                .collect()
+        } else {
+            let s = plan.scales.first().copied().unwrap_or(0.0);
+            self.a
+                .iter()
+                .zip(&self.b)
+                .map(|(x, y)| {
+                    Rgb::new(
+                        ((x[0] + y[0]) * s) as f32,
+                        ((x[1] + y[1]) * s) as f32,
+                        ((x[2] + y[2]) * s) as f32,
+                    )
+                })
+                .collect()
+        };
+        Merged {
+            image: Image {
+                width: width as usize,
+                height: height as usize,
+                pixels,
+            },
+            b: plan.b,
+            units: plan.units,
+            missing: plan.missing,
+            nonfinite: plan.nonfinite,
+        }
+    }
 }
 
 /// b from all parts' bootstrap tallies: Σ_d (Σ_p c_p · b_{d,p}) / Σ_p c_p
 /// (each part's b_d is a mean over its c_p samples).
-pub fn pooled_b(parts: &[PartState]) -> f64 {
+pub fn pooled_b(parts: &[&PartState]) -> f64 {
     let count: f64 = parts.iter().map(|p| p.tally_count as f64).sum();
     if count == 0.0 {
         return 0.0;
@@ -774,6 +990,36 @@ mod tests {
                 assert!((m.image.pixels[px][c] as f64 - expect(px, c)).abs() < 1e-6);
             }
         }
+    }
+
+    #[test]
+    fn merging_files_one_at_a_time_equals_merging_in_memory() {
+        let dir = std::env::temp_dir().join(format!("cmlt-state-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for est in ["pt", "cmlt"] {
+            let mut b = part(1, 2, est, 3.0, 2.0);
+            b.records = 24;
+            b.tally_count = 30;
+            let parts = [part(0, 2, est, 1.0, 1.0), b];
+            let paths: Vec<_> = parts
+                .iter()
+                .map(|p| {
+                    let path = dir.join(format!("{est}-{}.state", p.part));
+                    p.write(&path).unwrap();
+                    assert_eq!(PartState::read_header(&path).unwrap(), p.header());
+                    path
+                })
+                .collect();
+            let (a, f) = (merge(&parts).unwrap(), merge_files(&paths).unwrap());
+            assert_eq!(a.image.pixels, f.image.pixels);
+            assert_eq!((a.b, a.units), (f.b, f.units));
+            // A file cut short is refused from its header on.
+            let bytes = std::fs::read(&paths[1]).unwrap();
+            std::fs::write(&paths[1], &bytes[..bytes.len() - 1]).unwrap();
+            assert!(PartState::read_header(&paths[1]).is_err());
+            assert!(merge_files(&paths).is_err());
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -131,9 +131,11 @@ def render(
     job: RenderJob,
     address: Optional[str] = None,
     progress: Optional[Callable[[int, int, float, int], None]] = _default_progress,
+    local_cpus: Optional[int] = None,
 ) -> dict:
     """Renders ``job`` on Ray: the cluster at ``address``, or a local Ray
-    instance (one already initialised by the caller is used as it is).
+    instance of ``local_cpus`` CPUs (default: all); one already initialised
+    by the caller is used as it is.
     Returns timings and sizes: ``parts_seconds`` (submission to the last
     state), ``merge_seconds``, ``state_bytes`` (per part), ``merge_output``
     (what ``cmlt merge`` printed)."""
@@ -142,7 +144,10 @@ def render(
     if job.parts < 1:
         raise ValueError("--parts must be at least 1")
     if not ray.is_initialized():
-        ray.init(address=address, log_to_driver=False)
+        if address:
+            ray.init(address=address, log_to_driver=False)
+        else:
+            ray.init(num_cpus=local_cpus, log_to_driver=False)
     # The task's code travels with it, so the nodes need the cmlt binary
     # but not this package.
     ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
@@ -218,6 +223,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--png", help="also write an sRGB PNG of the merged image")
     r.add_argument("--reference", help="print relMSE of the merged image against this EXR")
     r.add_argument("--address", help="Ray cluster address (default: a local Ray instance)")
+    r.add_argument("--local-cpus", type=int,
+                   help="CPUs of the local Ray instance (default: all; ignored with --address)")
     r.add_argument("--cmlt", default=os.environ.get("CMLT_BIN", "cmlt"),
                    help="the cmlt binary on every node (default: $CMLT_BIN or cmlt on PATH)")
     r.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
@@ -263,7 +270,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         retries=args.retries,
     )
     try:
-        info = render(job, address=args.address)
+        info = render(job, address=args.address, local_cpus=args.local_cpus)
     except (PartFailed, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
