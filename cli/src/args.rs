@@ -54,7 +54,7 @@ pub struct PartArgs {
     /// Render part I of N (I in 0..N): the same render with its own random
     /// streams (part 0 uses --seed itself), on its own budget; needs
     /// --state.
-    #[arg(long, value_parser = parse_part, requires = "state", conflicts_with = "frames")]
+    #[arg(long, value_parser = parse_part, requires = "state")]
     pub part: Option<(u32, u32)>,
     /// Write the part's mergeable state (film sums, counters, bootstrap
     /// tallies, settings) here for `cmlt merge`; the image is then written
@@ -255,8 +255,15 @@ pub struct FrameArgs {
     /// Render this many frames through the core's frame loop (one
     /// worker per thread), written as OUTPUT-0000.exr, … next to the
     /// output; the budget (--spp or --mutations-per-pixel) is per frame.
-    #[arg(long, conflicts_with = "time", value_parser = parse_frames)]
+    #[arg(long, value_parser = parse_frames)]
     pub frames: Option<usize>,
+    /// Frames: render only frame K (0-based) of the --frames sequence, as
+    /// one part (--part, --state): frames are then rendered, and split, on
+    /// any machines. The frame is the one the whole sequence renders when
+    /// the frames are independent (no --keep-chains or --b-window, which
+    /// carry state from frame to frame and are refused).
+    #[arg(long, requires = "frames", requires = "part")]
+    pub frame: Option<usize>,
     /// Frames: orbit the camera about the vertical through the point it
     /// looks at, --orbit-degrees over all frames.
     #[arg(long, requires = "frames")]

@@ -11,10 +11,11 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use cmlt::renderer::{Budget, RendererConfig};
+use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs};
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{render, render_with_sums};
+use cmlt_cli::render::{render, render_frame_with_sums};
 use cmlt_cli::state::{self, PartState};
 use cmlt_cli::{frames, image_io, load_scene_or_builtin, output};
 
@@ -109,13 +110,37 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             config.seed, args.estimator.seed
         );
     }
-    match args.frames.frames {
-        Some(n) => run_frames(args, &loaded, &accel, config, n, budget),
-        None => run_single(args, &loaded, &accel, config, budget, setup),
+    let fr = &args.frames;
+    match (fr.frames, fr.frame) {
+        (Some(n), Some(k)) => {
+            if k >= n {
+                return Err(format!("--frame {k} is beyond the {n} frames (0..{n})"));
+            }
+            if fr.keep_chains || fr.b_window > 1 {
+                return Err(
+                    "--frame renders one frame on its own: --keep-chains and --b-window carry state from frame to frame".to_string(),
+                );
+            }
+            let start = loaded.scene.camera;
+            let camera = if fr.orbit {
+                let pivot = frames::look_at_point(&start, &accel);
+                frames::orbit_camera(&start, pivot, fr.orbit_degrees, k, n)
+            } else {
+                start
+            };
+            let frame = Some((camera, k as u64));
+            run_single(args, &loaded, &accel, config, budget, setup, frame)
+        }
+        (Some(_), None) if part => {
+            Err("--part with --frames renders one frame: give --frame K".to_string())
+        }
+        (Some(n), None) => run_frames(args, &loaded, &accel, config, n, budget),
+        (None, _) => run_single(args, &loaded, &accel, config, budget, setup, None),
     }
 }
 
-/// One image, its summary, and the comparison with `--reference`.
+/// One image, its summary, and the comparison with `--reference`;
+/// `frame`: frame K of a sequence, through its camera.
 fn run_single(
     args: &RenderArgs,
     loaded: &LoadedScene,
@@ -123,6 +148,7 @@ fn run_single(
     config: RendererConfig,
     budget: Budget,
     setup: Duration,
+    frame: Option<(Camera, u64)>,
 ) -> Result<(), String> {
     let scene = &loaded.scene;
     let (w, h) = (scene.camera.width(), scene.camera.height());
@@ -181,7 +207,8 @@ fn run_single(
         (false, Budget::Seconds(_)) => output::progress_bar(o.quiet, None, "{pos}/{len} spp"),
     };
     let (out, sums) = if args.part.part.is_some() {
-        let (out, sums) = render_with_sums(scene, accel, config, budget, &|n| bar.inc(n))?;
+        let (out, sums) =
+            render_frame_with_sums(scene, accel, config, budget, &|n| bar.inc(n), frame)?;
         (out, Some(sums))
     } else {
         (render(scene, accel, config, budget, &|n| bar.inc(n))?, None)
@@ -211,7 +238,7 @@ fn run_single(
             state::Identity {
                 part,
                 parts,
-                frame: 0,
+                frame: frame.map_or(0, |(_, k)| k),
                 seed: args.estimator.seed,
                 scene_hash: state::scene_hash(
                     args.scene.scene.as_deref().unwrap_or("cornell-box"),

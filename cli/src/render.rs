@@ -20,7 +20,7 @@ use cmlt::math::Rgb;
 use cmlt::mlt::{Bootstrap, MltSettings, MltStats};
 pub use cmlt::renderer::Budget;
 use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
-use cmlt::scene::Scene;
+use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
 
@@ -177,7 +177,7 @@ pub fn render<I: Intersector + Sync>(
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
-    render_inner(scene, accel, config, budget, progress, false).map(|(out, _)| out)
+    render_inner(scene, accel, config, budget, progress, false, None).map(|(out, _)| out)
 }
 
 /// [`render`], also handing back the workers' film sums.
@@ -188,7 +188,23 @@ pub fn render_with_sums<I: Intersector + Sync>(
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(RenderOutput, FilmSums), String> {
-    let (out, sums) = render_inner(scene, accel, config, budget, progress, true)?;
+    render_frame_with_sums(scene, accel, config, budget, progress, None)
+}
+
+/// [`render_with_sums`] of frame `k` of a sequence through `camera`
+/// (`frame = Some((camera, k))`): the image [`crate::frames::render_frames`]
+/// renders as its frame `k` when the frames are independent (no kept chains
+/// or b window), since frame `k`'s random streams depend only on the seed
+/// and `k`.
+pub fn render_frame_with_sums<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+    frame: Option<(Camera, u64)>,
+) -> Result<(RenderOutput, FilmSums), String> {
+    let (out, sums) = render_inner(scene, accel, config, budget, progress, true, frame)?;
     Ok((out, sums.expect("sums were asked for")))
 }
 
@@ -199,6 +215,7 @@ fn render_inner<I: Intersector + Sync>(
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
     keep_sums: bool,
+    frame: Option<(Camera, u64)>,
 ) -> Result<(RenderOutput, Option<FilmSums>), String> {
     let (w, h) = (scene.camera.width(), scene.camera.height());
     // One film per thread and the merged image (and the two sum layers).
@@ -209,6 +226,14 @@ fn render_inner<I: Intersector + Sync>(
         Budget::PerPixel(_) => None,
     };
     let mut renderer = Renderer::new(config, scene.camera).map_err(|e| e.to_string())?;
+    if let Some((camera, k)) = frame {
+        // The frame loop starts every frame with `set_camera`, frame k
+        // being the renderer's (k + 1)-th; only the count and the last
+        // camera matter (nothing is rendered in between).
+        for _ in 0..=k {
+            renderer.set_camera(camera).map_err(|e| e.to_string())?;
+        }
+    }
     let mut workers: Vec<RenderWorker> = (0..config.workers)
         .map(|i| RenderWorker::new(&renderer, i))
         .collect::<Result<_, _>>()

@@ -348,3 +348,70 @@ fn cli_merges_parts_and_refuses_what_does_not_belong() {
     std::fs::write(&newer, &v).unwrap();
     refused(&[&a, &newer], "version 9");
 }
+
+#[test]
+fn one_frame_of_a_sequence_renders_as_parts() {
+    let bdpt = ["--method", "bdpt", "--spp", "2", "--frames", "3", "--orbit"];
+    // The whole sequence in one process.
+    let seq = tmp("seq.exr");
+    let o = cmlt()
+        .args([
+            "render",
+            "--quiet",
+            "--threads",
+            "1",
+            "-D",
+            "resx=16",
+            "-D",
+            "resy=16",
+        ])
+        .args(bdpt)
+        .arg("-o")
+        .arg(&seq)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Frame 2 alone, as the only part: the sequence's frame 2, bit for bit.
+    let f2 = tmp("f2.part");
+    part(&f2, "0/1", &[&bdpt[..], &["--frame", "2"]].concat());
+    let out = tmp("f2.exr");
+    let (ok, err, _) = merge_cli(&[&f2], &out);
+    assert!(ok, "{err}");
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        std::fs::read(tmp("seq-0002.exr")).unwrap()
+    );
+    // Parts of different frames do not merge.
+    let (a, b) = (tmp("f1a.part"), tmp("f2b.part"));
+    part(&a, "0/2", &[&bdpt[..], &["--frame", "1"]].concat());
+    part(&b, "1/2", &[&bdpt[..], &["--frame", "2"]].concat());
+    let (ok, err, written) = merge_cli(&[&a, &b], &out);
+    assert!(!ok && !written && err.contains("the frame"), "{err}");
+    // A frame that depends on the previous ones is refused.
+    let o = cmlt()
+        .args([
+            "render",
+            "--quiet",
+            "--threads",
+            "1",
+            "-D",
+            "resx=16",
+            "-D",
+            "resy=16",
+        ])
+        .args([
+            "--method",
+            "mlt",
+            "--spp",
+            "1",
+            "--frames",
+            "3",
+            "--keep-chains",
+        ])
+        .args(["--frame", "1", "--part", "0/1", "--state"])
+        .arg(tmp("kept.part"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--keep-chains"));
+}
