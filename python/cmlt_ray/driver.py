@@ -1,5 +1,6 @@
-"""The driver: submits the parts of one render as Ray tasks, gathers their
-states and merges them with ``cmlt merge``.
+"""The driver: submits the parts of one render (or of every frame of a
+sequence) as Ray tasks, gathers their states and merges them with
+``cmlt merge``.
 
 Every part runs the same ``cmlt render`` command line with its own
 ``--part I/N``: the parts differ only by their random streams (the CLI
@@ -74,9 +75,14 @@ class RenderJob:
     states_dir: Optional[str] = None
     #: Ray's ``max_retries`` per part.
     retries: int = DEFAULT_RETRIES
+    #: A sequence of this many frames (``cmlt render --frames``), each
+    #: rendered as ``parts`` parts and written as ``out-0007.exr``, …;
+    #: orbit options go in ``extra``.
+    frames: Optional[int] = None
 
-    def part_command(self, part: int, state: str) -> List[str]:
-        """The ``cmlt render`` command line of part ``part``."""
+    def part_command(self, part: int, state: str, frame: Optional[int] = None) -> List[str]:
+        """The ``cmlt render`` command line of part ``part`` (of frame
+        ``frame`` of ``frames``)."""
         # Parts run in temporary directories: paths relative to the
         # driver's directory are made absolute (the same on every node).
         cmlt = os.path.abspath(self.cmlt) if os.sep in self.cmlt else self.cmlt
@@ -90,6 +96,8 @@ class RenderJob:
         for d in self.defines:
             cmd += ["-D", d]
         cmd += list(self.extra)
+        if frame is not None:
+            cmd += ["--frames", str(self.frames), "--frame", str(frame)]
         cmd += ["--part", f"{part}/{self.parts}", "--state", state]
         return cmd
 
@@ -137,8 +145,8 @@ def render(
     instance of ``local_cpus`` CPUs (default: all); one already initialised
     by the caller is used as it is.
     Returns timings and sizes: ``parts_seconds`` (submission to the last
-    state), ``merge_seconds``, ``state_bytes`` (per part), ``merge_output``
-    (what ``cmlt merge`` printed)."""
+    state, merges excluded), ``merge_seconds``, ``state_bytes`` (per part,
+    in completion order), ``merge_output`` (what ``cmlt merge`` printed)."""
     import ray
 
     if job.parts < 1:
@@ -159,51 +167,74 @@ def render(
     own_dir = job.states_dir is None
     states_dir = Path(job.states_dir or tempfile.mkdtemp(prefix="cmlt-states-"))
     states_dir.mkdir(parents=True, exist_ok=True)
+    frames = list(range(job.frames)) if job.frames else [None]
+    total = len(frames) * job.parts
     try:
         t0 = time.monotonic()
         pending = {
-            task.remote(job.part_command(i, "STATE")): i for i in range(job.parts)
+            task.remote(job.part_command(i, "STATE", frame=f)): (f, i)
+            for f in frames
+            for i in range(job.parts)
         }
-        paths: List[Optional[Path]] = [None] * job.parts
-        sizes = [0] * job.parts
-        done = 0
+        paths = {f: [None] * job.parts for f in frames}
+        sizes: List[int] = []
+        outputs: List[str] = []
+        merge_seconds = 0.0
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             for ref in ready:
-                i = pending.pop(ref)
+                f, i = pending.pop(ref)
                 data = ray.get(ref)
                 if isinstance(data, str):
                     for other in pending:
                         ray.cancel(other)
-                    raise PartFailed(f"part {i}: {data}")
-                path = states_dir / f"part-{i:05}-of-{job.parts:05}.state"
+                    where = f"part {i}" if f is None else f"frame {f}, part {i}"
+                    raise PartFailed(f"{where}: {data}")
+                tag = "" if f is None else f"frame-{f:05}-"
+                path = states_dir / f"{tag}part-{i:05}-of-{job.parts:05}.state"
                 path.write_bytes(data)
-                paths[i] = path
-                sizes[i] = len(data)
-                done += 1
+                paths[f][i] = path
+                sizes.append(len(data))
                 if progress:
-                    progress(done, job.parts, time.monotonic() - t0, sum(sizes))
-        parts_seconds = time.monotonic() - t0
-        cmd = [job.part_command(0, "")[0], "merge", *[str(p) for p in paths], "-o", job.output]
-        if job.png:
-            cmd += ["--png", job.png]
-        if job.reference:
-            cmd += ["--reference", job.reference]
-        t1 = time.monotonic()
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        merge_seconds = time.monotonic() - t1
-        if proc.returncode != 0:
-            raise PartFailed(f"cmlt merge: {proc.stderr.strip()}")
+                    progress(len(sizes), total, time.monotonic() - t0, sum(sizes))
+                # A frame is merged as soon as its parts are in.
+                if all(p is not None for p in paths[f]):
+                    t1 = time.monotonic()
+                    outputs.append(_merge(job, paths[f], f))
+                    merge_seconds += time.monotonic() - t1
         return {
-            "parts_seconds": parts_seconds,
+            "parts_seconds": time.monotonic() - t0 - merge_seconds,
             "merge_seconds": merge_seconds,
             "state_bytes": sizes,
-            "merge_output": proc.stdout,
+            "merge_output": "".join(outputs),
             "states_dir": str(states_dir),
         }
     finally:
         if own_dir:
             shutil.rmtree(states_dir, ignore_errors=True)
+
+
+def frame_path(output: str, frame: Optional[int]) -> str:
+    """``out.exr`` for a single image, ``out-0007.exr`` for frame 7 (the
+    names ``cmlt render --frames`` writes)."""
+    if frame is None:
+        return output
+    root, ext = os.path.splitext(output)
+    return f"{root}-{frame:04}{ext}"
+
+
+def _merge(job: RenderJob, paths: Sequence[Path], frame: Optional[int]) -> str:
+    """Runs ``cmlt merge`` on one image's parts; returns what it printed."""
+    output = frame_path(job.output, frame)
+    cmd = [job.part_command(0, "")[0], "merge", *[str(p) for p in paths], "-o", output]
+    if job.png:
+        cmd += ["--png", frame_path(job.png, frame)]
+    if job.reference:
+        cmd += ["--reference", job.reference]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise PartFailed(f"cmlt merge: {proc.stderr.strip()}")
+    return proc.stdout
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -234,7 +265,8 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--retries", type=int, default=DEFAULT_RETRIES, help="Ray retries per part")
     r.add_argument("--states-dir", help="keep the part states in this directory")
     r.add_argument("--frames", type=int,
-                   help="not supported: cmlt render's frame loop has no parts (see docs/cluster.md)")
+                   help="render a sequence of this many independent frames, each as --parts tasks "
+                        "(out-0000.exr, ...; --render-args '--orbit' for an orbit)")
     r.add_argument("--render-args", default="", metavar="'OPTIONS'",
                    help="further cmlt render options for every part, one quoted string "
                         "(e.g. '--b-passes 8 --chains 128')")
@@ -244,13 +276,6 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """The command line; returns the exit status."""
     args = _parser().parse_args(argv)
-    if args.frames is not None:
-        print(
-            "error: --frames is not supported: `cmlt render --frames` runs the core's frame loop "
-            "in one process (frames may share chains and b) and cannot render one frame as parts",
-            file=sys.stderr,
-        )
-        return 2
     extra = shlex.split(args.render_args)
     job = RenderJob(
         scene=args.scene,
@@ -268,6 +293,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         reference=args.reference,
         states_dir=args.states_dir,
         retries=args.retries,
+        frames=args.frames,
     )
     try:
         info = render(job, address=args.address, local_cpus=args.local_cpus)
@@ -277,7 +303,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     sys.stdout.write(info["merge_output"])
     sizes = info["state_bytes"]
     print(
-        f"{args.parts} parts in {info['parts_seconds']:.2f} s, {sizes[0]} bytes per part, "
+        f"{len(sizes)} parts in {info['parts_seconds']:.2f} s, {sizes[0]} bytes per part, "
         f"merged in {info['merge_seconds']:.2f} s"
     )
     return 0

@@ -139,6 +139,34 @@ class DriverOnLocalRay(unittest.TestCase):
         self.assertIn("sigma", str(e.exception))
         self.assertFalse(out.exists())
 
+    def test_frames_are_split_into_parts_and_merged_per_frame(self):
+        # Two frames of an orbit, two parts each, merged per frame and
+        # compared with one process's render of the sequence at the same
+        # budget per frame: each merged frame is closer to its own frame
+        # than to the other one, and has its mean.
+        out = self.dir / "seq.exr"
+        states = self.dir / "frame-states"
+        job = self.job(output=str(out), method="bdpt", spp=4, reference=None, frames=2,
+                       extra=["--orbit", "--orbit-degrees", "60"], states_dir=str(states))
+        info = render(job, progress=None)
+        self.assertEqual(len(info["state_bytes"]), 4)
+        whole = self.dir / "whole.exr"
+        self.cmlt_run("render", str(SCENE), "--method", "bdpt", "--spp", "8", "--quiet",
+                      "--frames", "2", "--orbit", "--orbit-degrees", "60", "--threads", "1",
+                      *sum((["-D", d] for d in DEFINES), []), "-o", str(whole))
+        for f in range(2):
+            self.assertTrue((self.dir / f"seq-{f:04}.exr").is_file())
+            parts = sorted(str(p) for p in states.glob(f"frame-{f:05}-*"))
+            self.assertEqual(len(parts), 2)
+            err = {}
+            for g in range(2):
+                err[g], mean = scores(self.cmlt_run(
+                    "merge", *parts, "-o", str(self.dir / "check.exr"),
+                    "--reference", str(self.dir / f"whole-{g:04}.exr")))
+                if g == f:
+                    for r in mean:
+                        self.assertAlmostEqual(r, 1.0, delta=0.1)
+            self.assertLess(err[f], err[1 - f], f"frame {f}: {err}")
 
 if __name__ == "__main__":
     unittest.main()
