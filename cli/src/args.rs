@@ -41,6 +41,26 @@ pub struct RenderArgs {
     /// The frame loop (`--frames`).
     #[command(flatten)]
     pub frames: FrameArgs,
+    /// One part of a render split over processes (`--part`, `--state`).
+    #[command(flatten)]
+    pub part: PartArgs,
+}
+
+/// Rendering one part of an image split over processes or machines, to be
+/// combined by `cmlt merge`.
+#[derive(Args, Debug)]
+#[command(next_help_heading = "Parts (distributed rendering)")]
+pub struct PartArgs {
+    /// Render part I of N (I in 0..N): the same render with its own random
+    /// streams (part 0 uses --seed itself), on its own budget; needs
+    /// --state.
+    #[arg(long, value_parser = parse_part, requires = "state")]
+    pub part: Option<(u32, u32)>,
+    /// Write the part's mergeable state (film sums, counters, bootstrap
+    /// tallies, settings) here for `cmlt merge`; the image is then written
+    /// only when -o is given.
+    #[arg(long, requires = "part")]
+    pub state: Option<PathBuf>,
 }
 
 /// The scene and how it is traced.
@@ -213,9 +233,10 @@ impl MltArgs {
 #[derive(Args, Debug)]
 #[command(next_help_heading = "Output")]
 pub struct OutputArgs {
-    /// Output image (.exr linear, or .png sRGB).
-    #[arg(short, long, default_value = "cmlt.exr")]
-    pub output: PathBuf,
+    /// Output image (.exr linear, or .png sRGB; default cmlt.exr, none with
+    /// --state unless given).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
     /// Also write an sRGB PNG preview here.
     #[arg(long)]
     pub png: Option<PathBuf>,
@@ -234,8 +255,15 @@ pub struct FrameArgs {
     /// Render this many frames through the core's frame loop (one
     /// worker per thread), written as OUTPUT-0000.exr, … next to the
     /// output; the budget (--spp or --mutations-per-pixel) is per frame.
-    #[arg(long, conflicts_with = "time", value_parser = parse_frames)]
+    #[arg(long, value_parser = parse_frames)]
     pub frames: Option<usize>,
+    /// Frames: render only frame K (0-based) of the --frames sequence, as
+    /// one part (--part, --state): frames are then rendered, and split, on
+    /// any machines. The frame is the one the whole sequence renders when
+    /// the frames are independent (no --keep-chains or --b-window, which
+    /// carry state from frame to frame and are refused).
+    #[arg(long, requires = "frames", requires = "part")]
+    pub frame: Option<usize>,
     /// Frames: orbit the camera about the vertical through the point it
     /// looks at, --orbit-degrees over all frames.
     #[arg(long, requires = "frames")]
@@ -254,6 +282,18 @@ pub struct FrameArgs {
     /// Frames: reuse the same random sequences in every frame.
     #[arg(long, requires = "frames")]
     pub fixed_sequence: bool,
+}
+
+impl OutputArgs {
+    /// Where the image goes: `-o`, else `cmlt.exr` — or nowhere for a
+    /// part (`--state`) without `-o`.
+    pub fn image_path(&self, part: bool) -> Option<PathBuf> {
+        match (&self.output, part) {
+            (Some(p), _) => Some(p.clone()),
+            (None, false) => Some(PathBuf::from("cmlt.exr")),
+            (None, true) => None,
+        }
+    }
 }
 
 impl FrameArgs {
@@ -344,6 +384,26 @@ pub fn parse_frames(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
         Ok(n) if (1..=MAX_FRAMES).contains(&n) => Ok(n),
         _ => Err(format!("frames must be in 1..={MAX_FRAMES}, got {s}")),
+    }
+}
+
+/// `--part I/N`: 0 ≤ I < N ≤ [`crate::state::MAX_PARTS`].
+pub fn parse_part(s: &str) -> Result<(u32, u32), String> {
+    let err = || {
+        format!(
+            "expected I/N with 0 <= I < N <= {}, got '{s}'",
+            crate::state::MAX_PARTS
+        )
+    };
+    let (i, n) = s.split_once('/').ok_or_else(err)?;
+    let (i, n): (u32, u32) = (
+        i.trim().parse().map_err(|_| err())?,
+        n.trim().parse().map_err(|_| err())?,
+    );
+    if i < n && n <= crate::state::MAX_PARTS {
+        Ok((i, n))
+    } else {
+        Err(err())
     }
 }
 

@@ -189,6 +189,13 @@ pub fn check_output(path: &Path) -> Result<(), String> {
             path.display()
         ));
     }
+    check_writable(path)
+}
+
+/// Checks before a render that [`write_atomically`] can write `path`, of
+/// any name: an existing directory where a file can be created (tried with
+/// the temporary file, which is removed again). The target is not touched.
+pub fn check_writable(path: &Path) -> Result<(), String> {
     refuse_non_regular(path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,

@@ -1,7 +1,8 @@
 //! The cmlt front end as a library: the command line's options
 //! ([`args`]), image files, error metrics, the multi-threaded drivers over
-//! the core's renderer ([`render`], [`frames`]) and what `cmlt render`
-//! writes ([`output`]), over the scene loading (Mitsuba 3 XML) and
+//! the core's renderer ([`render`], [`frames`]), what `cmlt render`
+//! writes ([`output`]) and the mergeable state of a part of a render split
+//! over machines ([`state`], `cmlt merge`), over the scene loading (Mitsuba 3 XML) and
 //! run-time backend choice of `cmlt-mitsuba`, which it re-exports as
 //! [`scene`] and [`accel`]. The `cmlt` binary is a thin command-line layer
 //! over it; the benchmarks (crate `cmlt-bench`) and the tests use it
@@ -13,6 +14,7 @@ pub mod image_io;
 pub mod metrics;
 pub mod output;
 pub mod render;
+pub mod state;
 
 use std::path::Path;
 

@@ -7,13 +7,17 @@
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
 use cmlt::renderer::{Budget, RendererConfig};
+use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs};
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::render;
-use cmlt_cli::{frames, load_scene_or_builtin, output};
+use cmlt_cli::render::{render, render_frame_with_sums};
+use cmlt_cli::state::{self, PartState};
+use cmlt_cli::{frames, image_io, load_scene_or_builtin, output};
 
 #[derive(Parser)]
 #[command(
@@ -30,12 +34,36 @@ struct Cli {
 enum Command {
     /// Render a scene (the built-in Cornell box when no file is given).
     Render(Box<RenderArgs>),
+    /// Merge the states of parts rendered with `render --part I/N --state`
+    /// into one image.
+    Merge(MergeArgs),
+}
+
+/// `cmlt merge`'s options.
+#[derive(Args, Debug)]
+struct MergeArgs {
+    /// The part states (`render --part I/N --state FILE`), any order.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output image (.exr linear, or .png sRGB).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write an sRGB PNG preview here.
+    #[arg(long)]
+    png: Option<PathBuf>,
+    /// Compare with a reference OpenEXR and print relMSE and means.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Refuse to merge unless every index 0..N is present.
+    #[arg(long)]
+    complete: bool,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => run_render(&args),
+        Command::Merge(args) => run_merge(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -49,12 +77,14 @@ fn main() -> ExitCode {
 /// `cmlt render`: checks the outputs, loads the scene, builds the
 /// intersector, then renders one image or `--frames` frames.
 fn run_render(args: &RenderArgs) -> Result<(), String> {
-    output::check(&args.output)?;
+    let part = args.part.part.is_some();
+    output::check(&args.output, part)?;
+    if let Some(s) = &args.part.state {
+        image_io::check_writable(s)?;
+    }
     let t0 = Instant::now();
-    let loaded = load_scene_or_builtin(
-        args.scene.scene.as_deref().unwrap_or("cornell-box"),
-        &args.scene.define,
-    )?;
+    let scene_name = args.scene.scene.as_deref().unwrap_or("cornell-box");
+    let loaded = load_scene_or_builtin(scene_name, &args.scene.define)?;
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
@@ -71,15 +101,46 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
     } else {
         eprintln!("{}", scene.analysis(&scene.camera).report());
     }
-    let config = args.config(loaded.settings)?;
+    let mut config = args.config(loaded.settings)?;
     let budget = args.estimator.budget(loaded.spp);
-    match args.frames.frames {
-        Some(n) => run_frames(args, &loaded, &accel, config, n, budget),
-        None => run_single(args, &loaded, &accel, config, budget, setup),
+    if let Some((i, n)) = args.part.part {
+        config.seed = state::part_seed(args.estimator.seed, i);
+        eprintln!(
+            "part {i} of {n}: seed {} (base seed {})",
+            config.seed, args.estimator.seed
+        );
+    }
+    let fr = &args.frames;
+    match (fr.frames, fr.frame) {
+        (Some(n), Some(k)) => {
+            if k >= n {
+                return Err(format!("--frame {k} is beyond the {n} frames (0..{n})"));
+            }
+            if fr.keep_chains || fr.b_window > 1 {
+                return Err(
+                    "--frame renders one frame on its own: --keep-chains and --b-window carry state from frame to frame".to_string(),
+                );
+            }
+            let start = loaded.scene.camera;
+            let camera = if fr.orbit {
+                let pivot = frames::look_at_point(&start, &accel);
+                frames::orbit_camera(&start, pivot, fr.orbit_degrees, k, n)
+            } else {
+                start
+            };
+            let frame = Some((camera, k as u64));
+            run_single(args, &loaded, &accel, config, budget, setup, frame)
+        }
+        (Some(_), None) if part => {
+            Err("--part with --frames renders one frame: give --frame K".to_string())
+        }
+        (Some(n), None) => run_frames(args, &loaded, &accel, config, n, budget),
+        (None, _) => run_single(args, &loaded, &accel, config, budget, setup, None),
     }
 }
 
-/// One image, its summary, and the comparison with `--reference`.
+/// One image, its summary, and the comparison with `--reference`;
+/// `frame`: frame K of a sequence, through its camera.
 fn run_single(
     args: &RenderArgs,
     loaded: &LoadedScene,
@@ -87,6 +148,7 @@ fn run_single(
     config: RendererConfig,
     budget: Budget,
     setup: Duration,
+    frame: Option<(Camera, u64)>,
 ) -> Result<(), String> {
     let scene = &loaded.scene;
     let (w, h) = (scene.camera.width(), scene.camera.height());
@@ -144,13 +206,54 @@ fn run_single(
         (false, Budget::PerPixel(n)) => output::progress_bar(o.quiet, Some(n), "{pos}/{len} spp"),
         (false, Budget::Seconds(_)) => output::progress_bar(o.quiet, None, "{pos}/{len} spp"),
     };
-    let out = render(scene, accel, config, budget, &|n| bar.inc(n))?;
-    bar.finish_and_clear();
-    output::write(&out.image, &o.output, o.png.as_deref(), out.stats.nonfinite)?;
-    if metropolis {
-        output::print_metropolis(&out, &o.output, mlt.m > 0);
+    let (out, sums) = if args.part.part.is_some() {
+        let (out, sums) =
+            render_frame_with_sums(scene, accel, config, budget, &|n| bar.inc(n), frame)?;
+        (out, Some(sums))
     } else {
-        output::print_passes(&out, &o.output);
+        (render(scene, accel, config, budget, &|n| bar.inc(n))?, None)
+    };
+    bar.finish_and_clear();
+    let image = o.image_path(sums.is_some());
+    if let Some(p) = &image {
+        output::write(&out.image, p, o.png.as_deref(), out.stats.nonfinite)?;
+    } else if let Some(p) = &o.png {
+        output::write(&out.image, p, None, out.stats.nonfinite)?;
+    }
+    let shown = image
+        .clone()
+        .or_else(|| args.part.state.clone())
+        .unwrap_or_default();
+    if metropolis {
+        output::print_metropolis(&out, &shown, mlt.m > 0);
+    } else {
+        output::print_passes(&out, &shown);
+    }
+    if let (Some(sums), Some(path), Some((part, parts))) = (sums, &args.part.state, args.part.part)
+    {
+        let s = state::from_render(
+            &out,
+            sums,
+            &config,
+            state::Identity {
+                part,
+                parts,
+                frame: frame.map_or(0, |(_, k)| k),
+                seed: args.estimator.seed,
+                scene_hash: state::scene_hash(
+                    args.scene.scene.as_deref().unwrap_or("cornell-box"),
+                    &args.scene.define,
+                    scene.triangles(),
+                ),
+            },
+        );
+        let bytes = s.to_bytes();
+        image_io::write_atomically(path, &bytes)?;
+        println!(
+            "part {part} of {parts}: wrote {} ({} bytes)",
+            path.display(),
+            bytes.len()
+        );
     }
     if let Some(r) = &o.reference {
         output::compare_reference(&out.image, r)?;
@@ -191,7 +294,7 @@ fn run_frames(
             None => start,
         },
         |f, result| {
-            let path = frames::frame_path(&o.output, f);
+            let path = frames::frame_path(&o.image_path(false).unwrap_or_default(), f);
             output::write(&result.image, &path, None, 0)?;
             if let Some(p) = &o.png {
                 output::write(&result.image, &frames::frame_path(p, f), None, 0)?;
@@ -209,4 +312,63 @@ fn run_frames(
             Ok(())
         },
     )
+}
+
+/// `cmlt merge`: reads and checks every part, merges them, writes the
+/// image. Nothing is written when a part is unreadable or does not belong.
+fn run_merge(args: &MergeArgs) -> Result<(), String> {
+    image_io::check_output(&args.output)?;
+    if let Some(p) = &args.png {
+        image_io::check_output(p)?;
+        if !image_io::is_png(p) {
+            return Err(format!("{}: --png must end in .png", p.display()));
+        }
+    }
+    let t0 = Instant::now();
+    let merged = state::merge_files(&args.parts)?;
+    let first = PartState::read_header(&args.parts[0])?;
+    let n = first.parts;
+    if !merged.missing.is_empty() {
+        let list: Vec<String> = merged.missing.iter().map(|i| i.to_string()).collect();
+        let notice = format!(
+            "{} of {n} parts given; missing: {} (the image is the estimate of the parts present, at their budget)",
+            args.parts.len(),
+            list.join(", ")
+        );
+        if args.complete {
+            return Err(format!("--complete: {notice}"));
+        }
+        eprintln!("notice: {notice}");
+    }
+    let seconds = t0.elapsed();
+    output::write(
+        &merged.image,
+        &args.output,
+        args.png.as_deref(),
+        merged.nonfinite,
+    )?;
+    let mean = merged.image.mean();
+    let metropolis = first.estimator().is_some_and(|e| e.is_metropolis());
+    let pixels = (merged.image.width * merged.image.height).max(1) as f64;
+    println!(
+        "merged {} of {n} parts ({}): {:.2} {} per pixel{}; read and merged in {:.3} s; mean rgb ({:.5}, {:.5}, {:.5}); wrote {}",
+        args.parts.len(),
+        first.estimator,
+        merged.units as f64 / if metropolis { pixels } else { 1.0 },
+        if metropolis { "mutations" } else { "samples" },
+        if metropolis {
+            format!(", pooled b {:.5}", merged.b)
+        } else {
+            String::new()
+        },
+        seconds.as_secs_f64(),
+        mean.r,
+        mean.g,
+        mean.b,
+        args.output.display()
+    );
+    if let Some(r) = &args.reference {
+        output::compare_reference(&merged.image, r)?;
+    }
+    Ok(())
 }

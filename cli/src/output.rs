@@ -12,8 +12,10 @@ use crate::render::{RenderOutput, work_line};
 
 /// Refuses, before any work, outputs that could not be written (a render
 /// must not end in "cannot write") and a `--png` that is not a PNG.
-pub fn check(args: &OutputArgs) -> Result<(), String> {
-    image_io::check_output(&args.output)?;
+pub fn check(args: &OutputArgs, part: bool) -> Result<(), String> {
+    if let Some(p) = args.image_path(part) {
+        image_io::check_output(&p)?;
+    }
     if let Some(p) = &args.png {
         image_io::check_output(p)?;
         if !image_io::is_png(p) {

@@ -20,7 +20,7 @@ use cmlt::math::Rgb;
 use cmlt::mlt::{Bootstrap, MltSettings, MltStats};
 pub use cmlt::renderer::Budget;
 use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
-use cmlt::scene::Scene;
+use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
 
@@ -156,6 +156,17 @@ pub fn prepare<I: Intersector + Sync>(
     renderer.finish_prepare(&refs).map_err(|e| e.to_string())
 }
 
+/// The unscaled sums of all workers' films, layer by layer in worker
+/// order (what [`Renderer::resolve`] scales), for a render that is one
+/// part of a larger one ([`crate::state`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilmSums {
+    /// Camera-sample sums per pixel, RGB, row-major.
+    pub samples: Vec<[f64; 3]>,
+    /// Splat sums per pixel, RGB, row-major.
+    pub splats: Vec<[f64; 3]>,
+}
+
 /// Renders `scene` with `config` (one thread per `config.workers`) under
 /// `budget`. `progress(n)` reports `n` more passes (PT, BDPT) or mutations
 /// (MLT, CMLT) done.
@@ -166,15 +177,63 @@ pub fn render<I: Intersector + Sync>(
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
+    render_inner(scene, accel, config, budget, progress, false, None).map(|(out, _)| out)
+}
+
+/// [`render`], also handing back the workers' film sums.
+pub fn render_with_sums<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(RenderOutput, FilmSums), String> {
+    render_frame_with_sums(scene, accel, config, budget, progress, None)
+}
+
+/// [`render_with_sums`] of frame `k` of a sequence through `camera`
+/// (`frame = Some((camera, k))`): the image [`crate::frames::render_frames`]
+/// renders as its frame `k` when the frames are independent (no kept chains
+/// or b window), since frame `k`'s random streams depend only on the seed
+/// and `k`.
+pub fn render_frame_with_sums<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+    frame: Option<(Camera, u64)>,
+) -> Result<(RenderOutput, FilmSums), String> {
+    let (out, sums) = render_inner(scene, accel, config, budget, progress, true, frame)?;
+    Ok((out, sums.expect("sums were asked for")))
+}
+
+fn render_inner<I: Intersector + Sync>(
+    scene: &Scene,
+    accel: &I,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+    keep_sums: bool,
+    frame: Option<(Camera, u64)>,
+) -> Result<(RenderOutput, Option<FilmSums>), String> {
     let (w, h) = (scene.camera.width(), scene.camera.height());
-    // One film per thread and the merged image.
-    check_film_memory(w, h, config.workers as usize + 1)?;
+    // One film per thread and the merged image (and the two sum layers).
+    check_film_memory(w, h, config.workers as usize + 1 + keep_sums as usize)?;
     let start = Instant::now();
     let deadline = match budget {
         Budget::Seconds(s) => Some(deadline_after(start, s)?),
         Budget::PerPixel(_) => None,
     };
     let mut renderer = Renderer::new(config, scene.camera).map_err(|e| e.to_string())?;
+    if let Some((camera, k)) = frame {
+        // The frame loop starts every frame with `set_camera`, frame k
+        // being the renderer's (k + 1)-th; only the count and the last
+        // camera matter (nothing is rendered in between).
+        for _ in 0..=k {
+            renderer.set_camera(camera).map_err(|e| e.to_string())?;
+        }
+    }
     let mut workers: Vec<RenderWorker> = (0..config.workers)
         .map(|i| RenderWorker::new(&renderer, i))
         .collect::<Result<_, _>>()
@@ -240,7 +299,8 @@ pub fn render<I: Intersector + Sync>(
     renderer
         .resolve(&refs, |i, c| pixels[i] = c)
         .map_err(|e| e.to_string())?;
-    Ok(RenderOutput {
+    let sums = keep_sums.then(|| film_sums(&refs));
+    let out = RenderOutput {
         image: Image {
             width: w as usize,
             height: h as usize,
@@ -250,7 +310,30 @@ pub fn render<I: Intersector + Sync>(
         bootstrap: metropolis.then(|| renderer.bootstrap().clone()),
         bootstrap_wall,
         wall,
-    })
+    };
+    Ok((out, sums))
+}
+
+/// The workers' films summed layer by layer in worker order, as
+/// [`Renderer::resolve`] sums them before scaling.
+fn film_sums(workers: &[&RenderWorker]) -> FilmSums {
+    let n = workers.first().map_or(0, |w| {
+        w.film().width() as usize * w.film().height() as usize
+    });
+    let mut sums = FilmSums {
+        samples: vec![[0.0; 3]; n],
+        splats: vec![[0.0; 3]; n],
+    };
+    for (i, (a, b)) in sums.samples.iter_mut().zip(&mut sums.splats).enumerate() {
+        for w in workers {
+            let (s, p) = w.film().pixel_parts(i);
+            for c in 0..3 {
+                a[c] += s[c];
+                b[c] += p[c];
+            }
+        }
+    }
+    sums
 }
 
 /// The work counters per effect, as `cmlt render` prints them: BSDF

@@ -10,6 +10,8 @@
 //! - [`effects`]: the effect analysis of the shared scenes;
 //! - [`loader`]: the Mitsuba 3 XML loader and its malformed corpus;
 //! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
+//! - [`parts`]: renders split into parts and merged (`--part`, `cmlt
+//!   merge`) against single renders, and the merge's refusals;
 //! - [`references`]: PT and BDPT against Mitsuba 3's references.
 //!
 //! `embree_render` stays a separate binary: CI builds it with the `embree`
@@ -24,4 +26,5 @@ mod corpus;
 mod effects;
 mod loader;
 mod mlt;
+mod parts;
 mod references;
