@@ -159,7 +159,7 @@ pub struct PartState {
     /// The normalisation b this part's film was rendered with (MLT, CMLT;
     /// 0 otherwise).
     pub b: f64,
-    /// Samples behind each b_d: normalisation passes × pixels, or seed
+    /// Samples behind each b_d: normalisation passes × pixels, or bootstrap
     /// samples per depth when b comes from them (MLT, CMLT; 0 otherwise).
     pub tally_count: u64,
     /// b by path depth, `depth_b[d − 1]` for depth d (MLT, CMLT).
@@ -508,7 +508,7 @@ pub fn from_render(
         Some(boot) => {
             let m = &config.mlt;
             // Each b_d is a mean over the normalisation passes' pixels, or
-            // over the seed samples of its depth without passes.
+            // over the bootstrap samples of its depth without passes.
             let count = if m.b_passes > 0 {
                 m.b_passes as u64 * pixels
             } else {
