@@ -11,7 +11,8 @@ use cmlt::accel::brute::BruteForce;
 use cmlt::accel::bvh::{Bvh, Kernel};
 use cmlt::film::Film;
 use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
-use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::bdpt::PathStorage;
+use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
 use cmlt::math::{Rgb, Vec3};
 use cmlt::scene::{Material, SceneBuilder};
 
@@ -110,7 +111,7 @@ fn tiny_render_passes() {
             &mut tracer,
             &settings,
             method,
-            &mut Worker::new(),
+            &mut PathStorage::new(),
             1,
             0,
             &mut film,

@@ -110,31 +110,6 @@ impl Estimator {
     }
 }
 
-/// Per-worker state that lives across passes (subpath storage).
-#[derive(Default)]
-pub struct Worker {
-    bdpt: bdpt::Workspace,
-}
-
-impl Worker {
-    /// Fresh worker state.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Worker state around caller-sized BDPT storage (see
-    /// [`bdpt::Workspace::with_capacity`]).
-    pub fn with_workspace(bdpt: bdpt::Workspace) -> Self {
-        Worker { bdpt }
-    }
-
-    /// See [`bdpt::Workspace::set_strategy_filter`]: BDPT evaluates only
-    /// the strategies `(s, t)` the filter accepts, without MIS.
-    pub fn set_bdpt_strategy_filter(&mut self, only: Option<fn(usize, usize) -> bool>) {
-        self.bdpt.set_strategy_filter(only);
-    }
-}
-
 /// Renders pass `pass` — one sample in every pixel — into `film`, by path
 /// tracing for [`Estimator::Path`] and BDPT otherwise (the Metropolis
 /// estimators have no passes of their own; their normalisation passes are
@@ -148,7 +123,7 @@ pub fn render_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     method: Estimator,
-    worker: &mut Worker,
+    paths: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
     film: &mut Film,
@@ -165,16 +140,7 @@ pub fn render_pass<I: Intersector>(
                     let l = path::radiance(tracer, settings, ray, &mut rng);
                     film.add_sample(x, y, l);
                 }
-                _ => bdpt::sample(
-                    tracer,
-                    settings,
-                    &mut worker.bdpt,
-                    raster,
-                    x,
-                    y,
-                    &mut rng,
-                    film,
-                ),
+                _ => bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film),
             }
             tracer.stats.samples += 1;
         }

@@ -7,7 +7,8 @@ use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
-use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::bdpt::PathStorage;
+use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
 use cmlt::math::{Rgb, Vec3};
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
@@ -31,7 +32,7 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
 }
 
 fn render_mean(scene: &Scene, method: Estimator, settings: Settings, passes: u64) -> (Rgb, Film) {
-    render_mean_with(scene, method, settings, passes, Worker::new())
+    render_mean_with(scene, method, settings, passes, PathStorage::new())
 }
 
 fn render_mean_with(
@@ -39,7 +40,7 @@ fn render_mean_with(
     method: Estimator,
     settings: Settings,
     passes: u64,
-    mut worker: Worker,
+    mut paths: PathStorage,
 ) -> (Rgb, Film) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
@@ -50,7 +51,7 @@ fn render_mean_with(
             &mut tracer,
             &settings,
             method,
-            &mut worker,
+            &mut paths,
             7,
             pass,
             &mut film,
@@ -218,10 +219,10 @@ fn every_bdpt_strategy_alone_is_unbiased() {
     for aperture in [0.0f32, 0.3] {
         let scene = sphere_furnace(aperture);
         for (s, t, filter) in strategies {
-            let mut worker = Worker::new();
-            worker.set_bdpt_strategy_filter(Some(filter));
+            let mut paths = PathStorage::new();
+            paths.set_strategy_filter(Some(filter));
             let (mean, film) =
-                render_mean_with(&scene, Estimator::Bdpt, Settings::default(), 256, worker);
+                render_mean_with(&scene, Estimator::Bdpt, Settings::default(), 256, paths);
             assert_eq!(film.nonfinite(), 0);
             let expected = 0.5f32.powi((s + t) as i32 - 2);
             let rel = (mean.g - expected).abs() / expected;

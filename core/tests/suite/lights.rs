@@ -15,7 +15,8 @@ use crate::common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::geometry::Ray;
-use cmlt::integrator::{Estimator, Settings, Tracer, Worker, render_pass};
+use cmlt::integrator::bdpt::PathStorage;
+use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
 use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
 use cmlt::mlt::{self, MltSettings};
 use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
@@ -85,14 +86,14 @@ pub(super) fn render(
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
-    let mut worker = Worker::new();
+    let mut paths = PathStorage::new();
     let mut film = Film::new(scene.camera.width(), scene.camera.height());
     for pass in 0..passes {
         render_pass(
             &mut tracer,
             &settings,
             method,
-            &mut worker,
+            &mut paths,
             3,
             pass,
             &mut film,

@@ -11,7 +11,8 @@ use std::cell::Cell;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
-use cmlt::integrator::{self, Settings, Tracer, Worker};
+use cmlt::integrator::bdpt::PathStorage;
+use cmlt::integrator::{self, Settings, Tracer};
 use cmlt::math::{Mat4, Rgb, Vec3};
 use cmlt::mlt::{self, MltSettings};
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig, Temporal};
@@ -191,13 +192,13 @@ fn one_worker_equals_the_estimators_own_entry_points() {
                     integrator::Estimator::Bdpt
                 };
                 let mut film = Film::new(16, 12);
-                let mut worker = Worker::new();
+                let mut paths = PathStorage::new();
                 for pass in 0..6 {
                     integrator::render_pass(
                         &mut tracer,
                         &settings(),
                         method,
-                        &mut worker,
+                        &mut paths,
                         7,
                         pass,
                         &mut film,
