@@ -292,27 +292,57 @@ pub enum Splatting {
     AllCandidates,
 }
 
-/// Deliberately wrong variants, exercised by the negative-control tests
-/// through the very same code path; production code is always `Correct`.
-#[cfg_attr(not(test), allow(dead_code))]
+/// The step's rule: `Correct` in the library; the deliberately wrong
+/// variants exist only in test builds, where the negative-control tests
+/// run them through the very same code path (their branches are not
+/// compiled into the library).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Variant {
     /// Liu et al. / Algorithm 3.
     Correct,
     /// Algorithm 4, step d as printed: reference set drawn from x (but
     /// weighed from x*).
+    #[cfg(test)]
     ReferenceFromX,
     /// Algorithm 4, step e as printed: reference set drawn from x*, but
     /// weighed w(x, z_l).
+    #[cfg(test)]
     DenominatorFromX,
     /// Steps d and e both as printed.
+    #[cfg(test)]
     AsPrinted,
     /// Algorithm 4, step e-ii as printed: on rejection the side chain
     /// returns to the level-1 state x_i instead of keeping x_i^(j).
+    #[cfg(test)]
     RejectToStart,
     /// [`Splatting::Recycled`] with T(y→x) taken equal to T(x→y), as if
     /// every perturbation were symmetric.
+    #[cfg(test)]
     RecycledWithoutReverse,
+}
+
+impl Variant {
+    /// Whether a k = 1 step may take the plain Metropolis–Hastings path
+    /// (the variants that change the reference set need the general one).
+    #[inline(always)]
+    fn single_step(self) -> bool {
+        match self {
+            Variant::Correct => true,
+            #[cfg(test)]
+            Variant::RejectToStart => true,
+            #[cfg(test)]
+            _ => false,
+        }
+    }
+
+    /// Whether a rejected side-chain step returns to the level-1 state.
+    #[inline(always)]
+    fn rejects_to_start(self) -> bool {
+        #[cfg(test)]
+        return self == Variant::RejectToStart;
+        #[cfg(not(test))]
+        false
+    }
 }
 
 /// A chain state with its target value p (luminance, ≥ 0, finite).
@@ -449,6 +479,7 @@ pub struct MultipleTry<S, const K: usize> {
     splatting: Splatting,
     candidates: Candidates,
     lattice: Option<Lattice>,
+    #[cfg(test)]
     variant: Variant,
     y: [Option<S>; K],
     py: [f32; K],
@@ -471,6 +502,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             splatting,
             candidates: Candidates::Independent,
             lattice: None,
+            #[cfg(test)]
             variant: Variant::Correct,
             y: core::array::from_fn(|_| None),
             py: [0.0; K],
@@ -504,6 +536,16 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         self.candidates
     }
 
+    /// The rule this stepper runs: always [`Variant::Correct`] outside the
+    /// tests.
+    #[inline(always)]
+    fn variant(&self) -> Variant {
+        #[cfg(test)]
+        return self.variant;
+        #[cfg(not(test))]
+        Variant::Correct
+    }
+
     /// Selects a deliberately wrong variant (negative controls only; they
     /// apply to independent candidates).
     #[cfg(test)]
@@ -531,8 +573,8 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
     {
         const { assert!(P::DIM <= MAX_PROPOSAL_DIM) };
         let k = self.k;
-        let variant = self.variant;
-        if k == 1 && matches!(variant, Variant::Correct | Variant::RejectToStart) {
+        let variant = self.variant();
+        if k == 1 && variant.single_step() {
             return self.step_single(proposal, target, state, rng, splat);
         }
         let lattice = match self.candidates {
@@ -606,10 +648,12 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         // d): reference set z₁…z_{k−1} ~ T(x*→·), z_k = x; e): weighed
         // w(x*, z). The variants reproduce the printed typos.
         let draw_from = match variant {
+            #[cfg(test)]
             Variant::ReferenceFromX | Variant::AsPrinted => x,
             _ => x_star,
         };
         let weigh_from = match variant {
+            #[cfg(test)]
             Variant::DenominatorFromX | Variant::AsPrinted => x,
             _ => x_star,
         };
@@ -688,6 +732,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
                     if let Some(c) = &y[l] {
                         let t_xy = ty[l];
                         let t_yx = match variant {
+                            #[cfg(test)]
                             Variant::RecycledWithoutReverse => t_xy,
                             _ => proposal.density(c, x),
                         };
@@ -842,7 +887,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         for _ in 0..m {
             let st = self.step(proposal, target, &mut current, rng, splat);
             accepted += st.accepted as u32;
-            if !st.accepted && self.variant == Variant::RejectToStart {
+            if !st.accepted && self.variant().rejects_to_start() {
                 current = start.clone();
             }
         }
