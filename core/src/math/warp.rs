@@ -463,8 +463,8 @@ mod clamped_gaussian_tests {
             );
         }
         // Negative controls on the same samples: (a) the untruncated
-        // density (no 1/Z), (b) eq. 37's shape e^{−d²/σ} even with the
-        // seed's division by its integral over the disk.
+        // density (no 1/Z), (b) Segovia 2007's eq. 37 shape e^{−d²/σ} even with the
+        // paper's division by its integral over the disk.
         let g = ClampedGaussian2::new(1.0, 1.5).unwrap();
         let (chi2, dof) = chi2_against(&g, n, |d| (g.pdf(d) * g.mass()) as f64);
         eprintln!("negative control, no 1/Z: χ²={chi2:.1}");

@@ -98,7 +98,7 @@ pub struct MltSettings {
     /// Level 2: how the k candidates are drawn.
     pub candidates: Candidates,
     /// Level 2: what a multiple-try step records ([`Splatting::Recycled`]
-    /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], seed
+    /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], Segovia 2007's
     /// eq. 36, is biased and refused by [`MltSettings::validate`]).
     pub splatting: Splatting,
 }
@@ -119,7 +119,7 @@ impl Default for MltSettings {
             lens_sigma: 2.0,
             caustic_scale: 1.0,
             candidates: Candidates::Stratified,
-            splatting: Splatting::Recycled,
+            splatting: Splatting::default(),
         }
     }
 }

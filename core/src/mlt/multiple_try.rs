@@ -275,8 +275,7 @@ impl Lattice {
 /// How a step records its samples (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Splatting {
-    /// x* with weight a, x with 1 − a: unbiased; the default.
-    #[default]
+    /// x* with weight a, x with 1 − a: unbiased.
     ExpectedValue,
     /// Every candidate y_l with a₁(x, y_l)/k, x with 1 − Σ_l a₁(x, y_l)/k,
     /// where a₁ is the one-proposal Metropolis–Hastings acceptance
@@ -284,7 +283,9 @@ pub enum Splatting {
     /// expected-value records of k ordinary Metropolis–Hastings steps from
     /// x, one per candidate. Unbiased (see the module docs) and records k
     /// samples per step instead of one; the reference set is traced only to
-    /// move the chain.
+    /// move the chain. The default: 1.30× lower error than expected-value
+    /// splatting at k = 16, m = 4 (docs/accuracy.md).
+    #[default]
     Recycled,
     /// Segovia 2007's eq. 36: all k candidates and all k reference points, weighted
     /// by a·p(y_l)/F_y and (1 − a)·p(z_l)/F_z. Biased for k > 1 (kept for
