@@ -329,6 +329,10 @@ fn call(out: &mut Outcome, name: &'static str, f: &mut dyn FnMut() -> cmlt_statu
     false
 }
 
+/// A session to sweep: its name, the session, and the least number of
+/// calls a working run makes.
+type Session = (&'static str, fn() -> Outcome, usize);
+
 fn main() {
     let hooks = cmlt_allocator {
         user: null_mut(),
@@ -338,7 +342,7 @@ fn main() {
     // SAFETY: process-lifetime callbacks.
     assert_eq!(unsafe { cmlt_set_allocator(&hooks) }, CMLT_OK);
     let (mut passed, mut failed) = (0u64, 0u64);
-    let sessions: [(&str, fn() -> Outcome, usize); 2] = [
+    let sessions: [Session; 2] = [
         ("a scene built call by call", session, 19),
         ("the built-in scene", builtin_session, 5),
     ];
