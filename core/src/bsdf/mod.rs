@@ -106,6 +106,7 @@ pub enum TransportMode {
 /// work counters ([`crate::integrator::Stats`]) are kept by, and the
 /// [`crate::scene::Effect`] that model stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum Lobe {
     /// Lambertian reflection.
     Diffuse = 0,
@@ -221,11 +222,18 @@ pub struct Bsdf {
     /// Mitsuba's `twosided`: seen from below, the opaque models are
     /// evaluated with both directions mirrored to the upper hemisphere.
     two_sided: bool,
+    /// The model's kind, kept beside it (in what would be padding) so that
+    /// the work counters read one byte instead of matching the model.
+    lobe: Lobe,
     /// Under a normal or bump map: the surface's own shading normal in
     /// this (perturbed) frame (see [`Bsdf::with_unperturbed_normal`]);
     /// zero without one (a `Vec3`, not an `Option`, to keep `Bsdf` small).
     #[cfg(feature = "normal-mapping")]
     unperturbed: Vec3,
+    /// Whether `unperturbed` is set: one byte to test per query where
+    /// comparing the vector with zero costs three.
+    #[cfg(feature = "normal-mapping")]
+    perturbed: bool,
 }
 
 /// Mirrors a direction through the tangent plane (Mitsuba's `twosided`
@@ -387,10 +395,13 @@ impl Bsdf {
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
+            lobe: Self::lobe_of(&model),
             model,
             two_sided: material.two_sided,
             #[cfg(feature = "normal-mapping")]
             unperturbed: Vec3::ZERO,
+            #[cfg(feature = "normal-mapping")]
+            perturbed: false,
         };
         // A dielectric is one interface with an inside and an outside.
         bsdf.two_sided &= !bsdf.has_transmission();
@@ -407,6 +418,7 @@ impl Bsdf {
     #[cfg(feature = "normal-mapping")]
     pub fn with_unperturbed_normal(mut self, n: Vec3) -> Self {
         self.unperturbed = n;
+        self.perturbed = n != Vec3::ZERO;
         self
     }
 
@@ -416,7 +428,7 @@ impl Bsdf {
     #[cfg_attr(not(feature = "normal-mapping"), allow(unused_variables))]
     fn light_side_ok(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> bool {
         #[cfg(feature = "normal-mapping")]
-        if self.unperturbed != Vec3::ZERO {
+        if self.perturbed {
             let n = self.unperturbed;
             let l = if mode == TransportMode::Radiance {
                 wi
@@ -431,7 +443,13 @@ impl Bsdf {
     /// The kind of scattering of this BSDF's model.
     #[inline]
     pub fn lobe(&self) -> Lobe {
-        match self.model {
+        self.lobe
+    }
+
+    /// The kind of scattering of `model`.
+    #[inline]
+    fn lobe_of(model: &Model) -> Lobe {
+        match model {
             Model::Diffuse { .. } => Lobe::Diffuse,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { .. } => Lobe::Glossy,
@@ -523,6 +541,9 @@ impl Bsdf {
         if !self.light_side_ok(wo, wi, mode) {
             return Rgb::ZERO;
         }
+        // The models of the shared scenes inline; the rest out of line
+        // (`eval_other`), so that their code does not bloat every caller.
+        #[allow(unreachable_patterns)]
         match &self.model {
             Model::Diffuse { albedo } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -533,6 +554,18 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::eval_rough(mf, fresnel, *tint, wo, wi)
             }
+            _ => self.eval_other(wo, wi, mode),
+        }
+    }
+
+    /// [`Bsdf::eval`] of the models that are not diffuse or rough
+    /// conductors (zero for Dirac-only ones).
+    // A build without those models has only the fallback arm.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn eval_other(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "coating")]
             Model::Plastic(p) => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -557,7 +590,6 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 r.eval(wo, wi)
             }
-            #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
     }
@@ -567,6 +599,8 @@ impl Bsdf {
     /// to 1 minus the probability that `sample` fails for rough conductors.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        // Split as `eval` is.
+        #[allow(unreachable_patterns)]
         match &self.model {
             Model::Diffuse { .. } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -577,6 +611,17 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::pdf_rough(mf, wo, wi)
             }
+            _ => self.pdf_other(wo, wi),
+        }
+    }
+
+    /// [`Bsdf::pdf`] of the models that are not diffuse or rough
+    /// conductors (zero for Dirac-only ones).
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn pdf_other(&self, wo: Vec3, wi: Vec3) -> f32 {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "coating")]
             Model::Plastic(p) => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -599,7 +644,6 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 r.pdf(wo, wi)
             }
-            #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
     }
@@ -652,6 +696,9 @@ impl Bsdf {
     ) -> Option<BsdfSample> {
         let flip = self.two_sided && wo.z < 0.0;
         let wo_up = if flip { flip_z(wo) } else { wo };
+        // The models of the shared scenes inline, the rest out of line
+        // (`sample_other`), as in `eval`.
+        #[allow(unreachable_patterns)]
         let mut s = match &self.model {
             Model::Diffuse { albedo } => diffuse::sample(*albedo, wo_up, u),
             #[cfg(feature = "specular")]
@@ -663,6 +710,34 @@ impl Bsdf {
             // Never two-sided: both sides are handled by the Fresnel code.
             #[cfg(feature = "refraction")]
             Model::Dielectric { eta, tints } => dielectric::sample(*eta, *tints, wo, u_lobe, mode),
+            _ => self.sample_other(wo, wo_up, u_lobe, u, mode),
+        }?;
+        if flip {
+            s.wi = flip_z(s.wi);
+        }
+        if !self.light_side_ok(wo, s.wi, mode) {
+            return None;
+        }
+        // Last line of defence: a 1/cos θ of a direction a hair above the
+        // plane can overflow; such a sample is dropped, never returned as Inf.
+        (s.f.is_finite() && s.pdf.is_finite()).then_some(s)
+    }
+
+    /// [`Bsdf::sample`] of the models it does not inline, before the
+    /// two-sided flip back: `wo` as given, `wo_up` mirrored to the upper
+    /// hemisphere for two-sided models.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn sample_other(
+        &self,
+        wo: Vec3,
+        wo_up: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "refraction")]
             Model::ThinDielectric { eta, tints } => {
                 thin_dielectric::sample(*eta, tints.0, tints.1, wo, u_lobe)
@@ -677,15 +752,8 @@ impl Bsdf {
             Model::Principled(p) => p.sample(wo_up, u_lobe, u, mode),
             #[cfg(feature = "rough-diffuse")]
             Model::RoughDiffuse(r) => r.sample(wo_up, u),
-        }?;
-        if flip {
-            s.wi = flip_z(s.wi);
+            // The inlined models never get here.
+            _ => None,
         }
-        if !self.light_side_ok(wo, s.wi, mode) {
-            return None;
-        }
-        // Last line of defence: a 1/cos θ of a direction a hair above the
-        // plane can overflow; such a sample is dropped, never returned as Inf.
-        (s.f.is_finite() && s.pdf.is_finite()).then_some(s)
     }
 }
