@@ -252,38 +252,82 @@ impl Bsdf {
     ///
     /// A model left out of the build (see the module docs) resolves to
     /// black diffuse.
-    #[inline]
+    // Forced: with the plain hint the compiler kept it out of line and
+    // every shading point paid a call and a copy of the `Bsdf`.
+    #[inline(always)]
     pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
-        // With every model built the fallback arm is unreachable.
+        // The models of the shared scenes (diffuse, conductors, the clear
+        // dielectric) are built inline, so that the caller writes the
+        // `Bsdf` in place (an out-of-line constructor returns it through
+        // memory and the caller copies it on); the rest out of line
+        // (`new_other`), as in `eval` and `sample`. Their lobes and
+        // two-sidedness are known per arm: only the dielectric transmits.
         #[allow(unreachable_patterns)]
-        let model = match &material.kind {
-            MaterialKind::Diffuse { reflectance } => Model::Diffuse {
-                albedo: texture(reflectance),
-            },
+        let (model, lobe, two_sided) = match &material.kind {
+            MaterialKind::Diffuse { reflectance } => (
+                Model::Diffuse {
+                    albedo: texture(reflectance),
+                },
+                Lobe::Diffuse,
+                material.two_sided,
+            ),
             #[cfg(feature = "specular")]
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,
-            } => Model::Conductor {
-                fresnel: *fresnel,
-                tint: texture(specular_reflectance),
-            },
+            } => (
+                Model::Conductor {
+                    fresnel: *fresnel,
+                    tint: texture(specular_reflectance),
+                },
+                Lobe::SpecularReflection,
+                material.two_sided,
+            ),
             #[cfg(feature = "glossy")]
             MaterialKind::RoughConductor {
                 distribution,
                 alpha,
                 fresnel,
                 specular_reflectance,
-            } => Model::RoughConductor {
-                mf: Microfacet::new(*distribution, *alpha),
-                fresnel: *fresnel,
-                tint: texture(specular_reflectance),
-            },
+            } => (
+                Model::RoughConductor {
+                    mf: Microfacet::new(*distribution, *alpha),
+                    fresnel: *fresnel,
+                    tint: texture(specular_reflectance),
+                },
+                Lobe::Glossy,
+                material.two_sided,
+            ),
             #[cfg(feature = "refraction")]
-            MaterialKind::Dielectric { eta } => Model::Dielectric {
-                eta: *eta,
-                tints: (Rgb::ONE, Rgb::ONE),
-            },
+            MaterialKind::Dielectric { eta } => (
+                Model::Dielectric {
+                    eta: *eta,
+                    tints: (Rgb::ONE, Rgb::ONE),
+                },
+                Lobe::Refraction,
+                false,
+            ),
+            _ => return Self::new_other(material, texture),
+        };
+        debug_assert_eq!(lobe, Self::lobe_of(&model));
+        Bsdf {
+            model,
+            two_sided,
+            lobe,
+            #[cfg(feature = "normal-mapping")]
+            unperturbed: Vec3::ZERO,
+            #[cfg(feature = "normal-mapping")]
+            perturbed: false,
+        }
+    }
+
+    /// [`Bsdf::new`] of the models it does not build inline.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn new_other(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
+        // With every model built the fallback arm is unreachable.
+        #[allow(unreachable_patterns)]
+        let model = match &material.kind {
             #[cfg(feature = "refraction")]
             MaterialKind::TintedDielectric {
                 eta,
@@ -536,7 +580,9 @@ impl Bsdf {
     /// matters for rough transmission, where refracted radiance carries the
     /// 1/η² that importance lacks: eval(wo, wi, Importance) =
     /// eval(wi, wo, Radiance) (the adjoint BSDF).
-    #[inline]
+    // Forced: the inlined arms are a few instructions, the call to them
+    // (which the plain hint left) as many again.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         if !self.light_side_ok(wo, wi, mode) {
             return Rgb::ZERO;

@@ -210,7 +210,9 @@ impl<'a, I: Intersector> Tracer<'a, I> {
 
     /// Closest surface along `ray`, resolved for shading. Degenerate
     /// triangles are treated as misses.
-    #[inline]
+    // Forced, as `shade`: out of line, every hit's `Shading` was built on
+    // the stack and copied to the caller.
+    #[inline(always)]
     pub fn trace(&mut self, ray: &Ray) -> Option<Shading> {
         self.stats.rays += 1;
         #[cfg(feature = "alpha-masks")]
@@ -228,7 +230,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// `sp.ns` with its normal, so that every estimator's cosines and
     /// BSDF queries use the perturbed frame, as Mitsuba's wrappers
     /// evaluate the nested BSDF in it.
-    #[inline]
+    #[inline(always)]
     pub fn shade(&self, sp: SurfacePoint) -> Shading {
         let scene = self.scene;
         let material = scene.material(&sp);
@@ -400,7 +402,9 @@ impl<'a, I: Intersector> Tracer<'a, I> {
 
     /// Whether a segment spawned by [`offset::spawn_rays_between`] is
     /// blocked (a segment it refused is: it is tangent to a surface).
-    #[inline]
+    // Forced: out of line, each shadow ray paid a call for a few
+    // instructions of glue around the any-hit query.
+    #[inline(always)]
     pub fn occluded_segment(&mut self, seg: Option<offset::SegmentRays>) -> bool {
         let Some(seg) = seg else { return true };
         self.stats.shadow_rays += 1;
