@@ -106,6 +106,7 @@ pub enum TransportMode {
 /// work counters ([`crate::integrator::Stats`]) are kept by, and the
 /// [`crate::scene::Effect`] that model stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 pub enum Lobe {
     /// Lambertian reflection.
     Diffuse = 0,
@@ -221,11 +222,18 @@ pub struct Bsdf {
     /// Mitsuba's `twosided`: seen from below, the opaque models are
     /// evaluated with both directions mirrored to the upper hemisphere.
     two_sided: bool,
+    /// The model's kind, kept beside it (in what would be padding) so that
+    /// the work counters read one byte instead of matching the model.
+    lobe: Lobe,
     /// Under a normal or bump map: the surface's own shading normal in
     /// this (perturbed) frame (see [`Bsdf::with_unperturbed_normal`]);
     /// zero without one (a `Vec3`, not an `Option`, to keep `Bsdf` small).
     #[cfg(feature = "normal-mapping")]
     unperturbed: Vec3,
+    /// Whether `unperturbed` is set: one byte to test per query where
+    /// comparing the vector with zero costs three.
+    #[cfg(feature = "normal-mapping")]
+    perturbed: bool,
 }
 
 /// Mirrors a direction through the tangent plane (Mitsuba's `twosided`
@@ -244,38 +252,82 @@ impl Bsdf {
     ///
     /// A model left out of the build (see the module docs) resolves to
     /// black diffuse.
-    #[inline]
+    // Forced: with the plain hint the compiler kept it out of line and
+    // every shading point paid a call and a copy of the `Bsdf`.
+    #[inline(always)]
     pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
-        // With every model built the fallback arm is unreachable.
+        // The models of the shared scenes (diffuse, conductors, the clear
+        // dielectric) are built inline, so that the caller writes the
+        // `Bsdf` in place (an out-of-line constructor returns it through
+        // memory and the caller copies it on); the rest out of line
+        // (`new_other`), as in `eval` and `sample`. Their lobes and
+        // two-sidedness are known per arm: only the dielectric transmits.
         #[allow(unreachable_patterns)]
-        let model = match &material.kind {
-            MaterialKind::Diffuse { reflectance } => Model::Diffuse {
-                albedo: texture(reflectance),
-            },
+        let (model, lobe, two_sided) = match &material.kind {
+            MaterialKind::Diffuse { reflectance } => (
+                Model::Diffuse {
+                    albedo: texture(reflectance),
+                },
+                Lobe::Diffuse,
+                material.two_sided,
+            ),
             #[cfg(feature = "specular")]
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,
-            } => Model::Conductor {
-                fresnel: *fresnel,
-                tint: texture(specular_reflectance),
-            },
+            } => (
+                Model::Conductor {
+                    fresnel: *fresnel,
+                    tint: texture(specular_reflectance),
+                },
+                Lobe::SpecularReflection,
+                material.two_sided,
+            ),
             #[cfg(feature = "glossy")]
             MaterialKind::RoughConductor {
                 distribution,
                 alpha,
                 fresnel,
                 specular_reflectance,
-            } => Model::RoughConductor {
-                mf: Microfacet::new(*distribution, *alpha),
-                fresnel: *fresnel,
-                tint: texture(specular_reflectance),
-            },
+            } => (
+                Model::RoughConductor {
+                    mf: Microfacet::new(*distribution, *alpha),
+                    fresnel: *fresnel,
+                    tint: texture(specular_reflectance),
+                },
+                Lobe::Glossy,
+                material.two_sided,
+            ),
             #[cfg(feature = "refraction")]
-            MaterialKind::Dielectric { eta } => Model::Dielectric {
-                eta: *eta,
-                tints: (Rgb::ONE, Rgb::ONE),
-            },
+            MaterialKind::Dielectric { eta } => (
+                Model::Dielectric {
+                    eta: *eta,
+                    tints: (Rgb::ONE, Rgb::ONE),
+                },
+                Lobe::Refraction,
+                false,
+            ),
+            _ => return Self::new_other(material, texture),
+        };
+        debug_assert_eq!(lobe, Self::lobe_of(&model));
+        Bsdf {
+            model,
+            two_sided,
+            lobe,
+            #[cfg(feature = "normal-mapping")]
+            unperturbed: Vec3::ZERO,
+            #[cfg(feature = "normal-mapping")]
+            perturbed: false,
+        }
+    }
+
+    /// [`Bsdf::new`] of the models it does not build inline.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn new_other(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
+        // With every model built the fallback arm is unreachable.
+        #[allow(unreachable_patterns)]
+        let model = match &material.kind {
             #[cfg(feature = "refraction")]
             MaterialKind::TintedDielectric {
                 eta,
@@ -387,10 +439,13 @@ impl Bsdf {
             _ => Model::Diffuse { albedo: Rgb::ZERO },
         };
         let mut bsdf = Bsdf {
+            lobe: Self::lobe_of(&model),
             model,
             two_sided: material.two_sided,
             #[cfg(feature = "normal-mapping")]
             unperturbed: Vec3::ZERO,
+            #[cfg(feature = "normal-mapping")]
+            perturbed: false,
         };
         // A dielectric is one interface with an inside and an outside.
         bsdf.two_sided &= !bsdf.has_transmission();
@@ -407,6 +462,7 @@ impl Bsdf {
     #[cfg(feature = "normal-mapping")]
     pub fn with_unperturbed_normal(mut self, n: Vec3) -> Self {
         self.unperturbed = n;
+        self.perturbed = n != Vec3::ZERO;
         self
     }
 
@@ -416,7 +472,7 @@ impl Bsdf {
     #[cfg_attr(not(feature = "normal-mapping"), allow(unused_variables))]
     fn light_side_ok(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> bool {
         #[cfg(feature = "normal-mapping")]
-        if self.unperturbed != Vec3::ZERO {
+        if self.perturbed {
             let n = self.unperturbed;
             let l = if mode == TransportMode::Radiance {
                 wi
@@ -431,7 +487,13 @@ impl Bsdf {
     /// The kind of scattering of this BSDF's model.
     #[inline]
     pub fn lobe(&self) -> Lobe {
-        match self.model {
+        self.lobe
+    }
+
+    /// The kind of scattering of `model`.
+    #[inline]
+    fn lobe_of(model: &Model) -> Lobe {
+        match model {
             Model::Diffuse { .. } => Lobe::Diffuse,
             #[cfg(feature = "glossy")]
             Model::RoughConductor { .. } => Lobe::Glossy,
@@ -518,11 +580,16 @@ impl Bsdf {
     /// matters for rough transmission, where refracted radiance carries the
     /// 1/η² that importance lacks: eval(wo, wi, Importance) =
     /// eval(wi, wo, Radiance) (the adjoint BSDF).
-    #[inline]
+    // Forced: the inlined arms are a few instructions, the call to them
+    // (which the plain hint left) as many again.
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
         if !self.light_side_ok(wo, wi, mode) {
             return Rgb::ZERO;
         }
+        // The models of the shared scenes inline; the rest out of line
+        // (`eval_other`), so that their code does not bloat every caller.
+        #[allow(unreachable_patterns)]
         match &self.model {
             Model::Diffuse { albedo } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -533,6 +600,18 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::eval_rough(mf, fresnel, *tint, wo, wi)
             }
+            _ => self.eval_other(wo, wi, mode),
+        }
+    }
+
+    /// [`Bsdf::eval`] of the models that are not diffuse or rough
+    /// conductors (zero for Dirac-only ones).
+    // A build without those models has only the fallback arm.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn eval_other(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Rgb {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "coating")]
             Model::Plastic(p) => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -557,7 +636,6 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 r.eval(wo, wi)
             }
-            #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => Rgb::ZERO,
         }
     }
@@ -567,6 +645,8 @@ impl Bsdf {
     /// to 1 minus the probability that `sample` fails for rough conductors.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        // Split as `eval` is.
+        #[allow(unreachable_patterns)]
         match &self.model {
             Model::Diffuse { .. } => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -577,6 +657,17 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 conductor::pdf_rough(mf, wo, wi)
             }
+            _ => self.pdf_other(wo, wi),
+        }
+    }
+
+    /// [`Bsdf::pdf`] of the models that are not diffuse or rough
+    /// conductors (zero for Dirac-only ones).
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn pdf_other(&self, wo: Vec3, wi: Vec3) -> f32 {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "coating")]
             Model::Plastic(p) => {
                 let (wo, wi) = self.orient(wo, wi);
@@ -599,7 +690,6 @@ impl Bsdf {
                 let (wo, wi) = self.orient(wo, wi);
                 r.pdf(wo, wi)
             }
-            #[cfg(any(feature = "specular", feature = "refraction"))]
             _ => 0.0,
         }
     }
@@ -652,6 +742,9 @@ impl Bsdf {
     ) -> Option<BsdfSample> {
         let flip = self.two_sided && wo.z < 0.0;
         let wo_up = if flip { flip_z(wo) } else { wo };
+        // The models of the shared scenes inline, the rest out of line
+        // (`sample_other`), as in `eval`.
+        #[allow(unreachable_patterns)]
         let mut s = match &self.model {
             Model::Diffuse { albedo } => diffuse::sample(*albedo, wo_up, u),
             #[cfg(feature = "specular")]
@@ -663,6 +756,34 @@ impl Bsdf {
             // Never two-sided: both sides are handled by the Fresnel code.
             #[cfg(feature = "refraction")]
             Model::Dielectric { eta, tints } => dielectric::sample(*eta, *tints, wo, u_lobe, mode),
+            _ => self.sample_other(wo, wo_up, u_lobe, u, mode),
+        }?;
+        if flip {
+            s.wi = flip_z(s.wi);
+        }
+        if !self.light_side_ok(wo, s.wi, mode) {
+            return None;
+        }
+        // Last line of defence: a 1/cos θ of a direction a hair above the
+        // plane can overflow; such a sample is dropped, never returned as Inf.
+        (s.f.is_finite() && s.pdf.is_finite()).then_some(s)
+    }
+
+    /// [`Bsdf::sample`] of the models it does not inline, before the
+    /// two-sided flip back: `wo` as given, `wo_up` mirrored to the upper
+    /// hemisphere for two-sided models.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn sample_other(
+        &self,
+        wo: Vec3,
+        wo_up: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        #[allow(unreachable_patterns)]
+        match &self.model {
             #[cfg(feature = "refraction")]
             Model::ThinDielectric { eta, tints } => {
                 thin_dielectric::sample(*eta, tints.0, tints.1, wo, u_lobe)
@@ -677,15 +798,8 @@ impl Bsdf {
             Model::Principled(p) => p.sample(wo_up, u_lobe, u, mode),
             #[cfg(feature = "rough-diffuse")]
             Model::RoughDiffuse(r) => r.sample(wo_up, u),
-        }?;
-        if flip {
-            s.wi = flip_z(s.wi);
+            // The inlined models never get here.
+            _ => None,
         }
-        if !self.light_side_ok(wo, s.wi, mode) {
-            return None;
-        }
-        // Last line of defence: a 1/cos θ of a direction a hair above the
-        // plane can overflow; such a sample is dropped, never returned as Inf.
-        (s.f.is_finite() && s.pdf.is_finite()).then_some(s)
     }
 }

@@ -39,7 +39,7 @@ use glam::{Vec2, Vec3};
 use super::Settings;
 use super::tracer::{Shading, Tracer};
 use crate::accel::Intersector;
-use crate::bsdf::TransportMode;
+use crate::bsdf::{Bsdf, TransportMode};
 use crate::film::Film;
 use crate::geometry::{Ray, offset};
 use crate::math::{Frame, INV_PI, Rgb, warp};
@@ -50,17 +50,22 @@ use crate::scene::{Camera, EmitterSample, Light, Scene, SurfacePoint};
 /// roulette ends paths long before this in any scene that absorbs light.
 const UNBOUNDED_DEPTH: u32 = 1024;
 
+/// What a vertex is. One byte without payload, in an order that makes
+/// every test of `Vertex` a range check (the light index of a point or
+/// directional light lives in the vertex's `sp.prim`, which such a vertex
+/// has no other use for), so that `Vertex` stays small to copy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
 enum Kind {
     Camera,
     /// A point on an area light.
     Light,
     Surface,
-    /// Point or spot light `i` of the scene's other lights (a delta
+    /// A point or spot light of the scene's other lights (a delta
     /// position).
-    PointLight(u32),
-    /// Directional light `i` (at infinity, a delta direction).
-    Directional(u32),
+    PointLight,
+    /// A directional light (at infinity, a delta direction).
+    Directional,
     /// The environment (every non-delta light at infinity).
     Environment,
 }
@@ -71,8 +76,9 @@ struct Vertex {
     kind: Kind,
     /// Position and normals (a camera vertex uses the viewing direction).
     sp: SurfacePoint,
-    /// BSDF and frame (surface vertices only).
-    shading: Option<Shading>,
+    /// BSDF and frame (surface vertices only): with `sp`, the vertex's
+    /// [`Shading`] (see [`Vertex::shading`]).
+    local: Option<Local>,
     /// Throughput of the subpath up to and including this vertex.
     beta: Rgb,
     /// Area density of generating this vertex from its predecessor.
@@ -83,7 +89,26 @@ struct Vertex {
     delta: bool,
 }
 
+/// The BSDF and shading frame of a surface vertex, kept apart from its
+/// surface point so that a `Vertex` holds that point once: subpaths are
+/// copied vertex by vertex, and a smaller vertex copies faster.
+#[derive(Clone, Copy, Debug)]
+struct Local {
+    bsdf: Bsdf,
+    frame: Frame,
+}
+
 impl Vertex {
+    /// The shaded point of a surface vertex.
+    #[inline]
+    fn shading(&self) -> Option<Shading> {
+        self.local.map(|l| Shading {
+            sp: self.sp,
+            bsdf: l.bsdf,
+            frame: l.frame,
+        })
+    }
+
     fn on_surface(&self) -> bool {
         matches!(self.kind, Kind::Light | Kind::Surface)
     }
@@ -91,13 +116,13 @@ impl Vertex {
     /// A vertex at infinity: `sp.ng` is the direction towards it.
     #[inline]
     fn is_infinite(&self) -> bool {
-        matches!(self.kind, Kind::Directional(_) | Kind::Environment)
+        matches!(self.kind, Kind::Directional | Kind::Environment)
     }
 
     /// A light no ray can hit (s = 0 cannot sample it).
     #[inline]
     fn is_delta_light(&self) -> bool {
-        matches!(self.kind, Kind::PointLight(_) | Kind::Directional(_))
+        matches!(self.kind, Kind::PointLight | Kind::Directional)
     }
 
     /// Unit direction from `self` towards `other`.
@@ -125,7 +150,7 @@ impl Vertex {
 
     fn connectible(&self) -> bool {
         match self.kind {
-            Kind::Surface => !self.shading.is_some_and(|s| s.bsdf.is_delta()),
+            Kind::Surface => !self.local.is_some_and(|l| l.bsdf.is_delta()),
             _ => true,
         }
     }
@@ -153,8 +178,8 @@ impl Vertex {
     /// BSDF times the shading-normal correction for adjoint transport
     /// (Veach 1997, §5.3), from `prev` to `next` through `self`.
     fn f(&self, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
-        match &self.shading {
-            Some(sh) => scatter(sh, prev, next, mode),
+        match &self.local {
+            Some(l) => scatter_at(&self.sp, &l.bsdf, &l.frame, prev, next, mode),
             None => Rgb::ZERO,
         }
     }
@@ -173,11 +198,11 @@ impl Vertex {
                 let w = self.dir_to(next);
                 self.area_density_at(camera.pdf_ray(self.sp.p, w).1, next)
             }
-            Kind::Light | Kind::PointLight(_) | Kind::Directional(_) | Kind::Environment => {
+            Kind::Light | Kind::PointLight | Kind::Directional | Kind::Environment => {
                 lights_pdf(self, next)
             }
             Kind::Surface => {
-                let (Some(sh), Some(prev)) = (&self.shading, prev) else {
+                let (Some(sh), Some(prev)) = (&self.local, prev) else {
                     return 0.0;
                 };
                 let wp = sh.frame.to_local(self.dir_to(prev));
@@ -193,14 +218,26 @@ impl Vertex {
 /// §5.3) for `Importance`; zero for Dirac lobes. The one definition of a
 /// non-specular vertex's factor in f(x̄), shared by BDPT and the path-space
 /// perturbations.
+#[inline]
 pub fn scatter(sh: &Shading, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
-    let wo = (prev - sh.sp.p).normalize();
-    let wi = (next - sh.sp.p).normalize();
-    let f = sh
-        .bsdf
-        .eval(sh.frame.to_local(wo), sh.frame.to_local(wi), mode);
+    scatter_at(&sh.sp, &sh.bsdf, &sh.frame, prev, next, mode)
+}
+
+/// [`scatter`] of a shaded point given by its parts.
+#[inline]
+fn scatter_at(
+    sp: &SurfacePoint,
+    bsdf: &Bsdf,
+    frame: &Frame,
+    prev: Vec3,
+    next: Vec3,
+    mode: TransportMode,
+) -> Rgb {
+    let wo = (prev - sp.p).normalize();
+    let wi = (next - sp.p).normalize();
+    let f = bsdf.eval(frame.to_local(wo), frame.to_local(wi), mode);
     if mode == TransportMode::Importance {
-        f * shading_correction(&sh.sp, wo, wi)
+        f * shading_correction(sp, wo, wi)
     } else {
         f
     }
@@ -210,7 +247,7 @@ pub fn scatter(sh: &Shading, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb
 /// statistics; `f` itself has no tracer to count in).
 #[inline]
 fn count_eval<I: Intersector>(tr: &mut Tracer<'_, I>, v: &Vertex) {
-    if let Some(sh) = &v.shading {
+    if let Some(sh) = &v.local {
         tr.stats.bsdf_evals.add(sh.bsdf.lobe());
     }
 }
@@ -235,7 +272,8 @@ fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
         // An area light's point, or the emitting surface vertex a camera
         // subpath reached (s = 0): below.
         Kind::Light | Kind::Surface | Kind::Camera => {}
-        Kind::PointLight(i) => {
+        Kind::PointLight => {
+            let i = light.sp.prim;
             let w = to.sp.p - light.sp.p;
             let d2 = w.length_squared();
             if d2 == 0.0 {
@@ -248,7 +286,7 @@ fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
             }
             return pdf;
         }
-        Kind::Directional(_) | Kind::Environment => {
+        Kind::Directional | Kind::Environment => {
             let mut pdf = scene.lights.pdf_disk();
             if to.on_surface() {
                 pdf *= to.sp.ng.dot(light.sp.ng).abs();
@@ -325,8 +363,8 @@ pub fn strategy_path(ws: &PathStorage, out: &mut Vec<PathVertex>) -> bool {
     // in this path.
     let as_path = |v: &Vertex, end: bool| PathVertex {
         sp: v.sp,
-        shading: v.shading,
-        mixed_delta: !end && v.delta && v.shading.is_some_and(|s| !s.bsdf.is_delta()),
+        shading: v.shading(),
+        mixed_delta: !end && v.delta && v.local.is_some_and(|l| !l.bsdf.is_delta()),
     };
     for (i, v) in ws.camera[..t].iter().enumerate() {
         match (i, t, &sampled) {
@@ -430,7 +468,10 @@ fn random_walk<I: Intersector, S: Sampler>(
         let mut v = Vertex {
             kind: Kind::Surface,
             sp: hit.sp,
-            shading: Some(hit),
+            local: Some(Local {
+                bsdf: hit.bsdf,
+                frame: hit.frame,
+            }),
             beta,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
@@ -518,7 +559,7 @@ fn at_infinity(kind: Kind, from: Vec3, d: Vec3, center: Vec3, r: f32) -> Vertex 
     Vertex {
         kind,
         sp,
-        shading: None,
+        local: None,
         beta: Rgb::ZERO,
         pdf_fwd: 0.0,
         pdf_rev: 0.0,
@@ -533,14 +574,17 @@ fn other_light_vertex(scene: &Scene, index: usize, p: Vec3, from: Vec3, d: Vec3)
     let (center, r) = scene.lights.bounding_sphere();
     match scene.lights.others().nth(index) {
         Some(Light::Directional { .. }) => {
-            at_infinity(Kind::Directional(index as u32), from, d, center, r)
+            let mut v = at_infinity(Kind::Directional, from, d, center, r);
+            v.sp.prim = index as u32;
+            v
         }
         Some(Light::Constant { .. } | Light::Envmap { .. }) => {
             at_infinity(Kind::Environment, from, d, center, r)
         }
         _ => {
-            let mut v = at_infinity(Kind::PointLight(index as u32), p, d, p, 0.0);
+            let mut v = at_infinity(Kind::PointLight, p, d, p, 0.0);
             v.sp.p = p;
+            v.sp.prim = index as u32;
             v
         }
     }
@@ -559,7 +603,7 @@ fn camera_vertex(p: Vec3, forward: Vec3) -> Vertex {
     Vertex {
         kind: Kind::Camera,
         sp,
-        shading: None,
+        local: None,
         beta: Rgb::ONE,
         pdf_fwd: 0.0,
         pdf_rev: 0.0,
@@ -711,7 +755,7 @@ fn light_subpath<I: Intersector, S: Sampler>(
     ws.light.push(Vertex {
         kind: Kind::Light,
         sp: lp,
-        shading: None,
+        local: None,
         beta: le,
         pdf_fwd: pdf_area,
         pdf_rev: 0.0,
@@ -763,7 +807,7 @@ fn other_light_subpath<I: Intersector, S: Sampler>(
     // in solid angle, as the escaped camera ray's origin density
     // (`InfiniteLightDensity`; zero for a delta direction).
     v.pdf_fwd = match v.kind {
-        Kind::PointLight(_) => pmf * e.pdf_pos,
+        Kind::PointLight => pmf * e.pdf_pos,
         Kind::Environment => lights.pdf_environment(-e.dir),
         _ => 0.0,
     };
@@ -983,7 +1027,7 @@ fn connect<I: Intersector, S: Sampler>(
         sampled = Some(Vertex {
             kind: Kind::Light,
             sp: lp,
-            shading: None,
+            local: None,
             beta: le / pdf_area,
             pdf_fwd: pdf_area,
             pdf_rev: 0.0,
@@ -1092,7 +1136,7 @@ fn connect_other<I: Intersector>(
     // As in `other_light_subpath`; unused for delta lights, which s = 0
     // never samples.
     v.pdf_fwd = match v.kind {
-        Kind::PointLight(_) => pmf,
+        Kind::PointLight => pmf,
         Kind::Environment => scene.lights.pdf_environment(dir),
         _ => 0.0,
     };

@@ -210,7 +210,9 @@ impl<'a, I: Intersector> Tracer<'a, I> {
 
     /// Closest surface along `ray`, resolved for shading. Degenerate
     /// triangles are treated as misses.
-    #[inline]
+    // Forced, as `shade`: out of line, every hit's `Shading` was built on
+    // the stack and copied to the caller.
+    #[inline(always)]
     pub fn trace(&mut self, ray: &Ray) -> Option<Shading> {
         self.stats.rays += 1;
         #[cfg(feature = "alpha-masks")]
@@ -228,34 +230,36 @@ impl<'a, I: Intersector> Tracer<'a, I> {
     /// `sp.ns` with its normal, so that every estimator's cosines and
     /// BSDF queries use the perturbed frame, as Mitsuba's wrappers
     /// evaluate the nested BSDF in it.
-    #[inline]
+    #[inline(always)]
     pub fn shade(&self, sp: SurfacePoint) -> Shading {
         let scene = self.scene;
         let material = scene.material(&sp);
-        let bsdf = Bsdf::new(material, |t| t.eval(sp.uv, &scene.bitmaps));
+        // One `Shading` built at one exit, so that it is written in place
+        // (early returns of whole `Shading`s made every call copy one).
+        #[allow(unused_mut)]
+        let mut sh = Shading {
+            sp,
+            bsdf: Bsdf::new(material, |t| t.eval(sp.uv, &scene.bitmaps)),
+            frame: Frame::from_normal(sp.ns),
+        };
         #[cfg(feature = "normal-mapping")]
         if self.analysis.effects.contains(Effect::NormalMapping)
             && material.detail.perturbs_frame()
             && let Some(frame) = self.detail_frame(&sp, &material.detail)
         {
-            let bsdf = bsdf.with_unperturbed_normal(frame.to_local(sp.ns));
-            let mut sp = sp;
-            sp.ns = frame.n;
-            return Shading { sp, bsdf, frame };
+            sh.bsdf = sh.bsdf.with_unperturbed_normal(frame.to_local(sp.ns));
+            sh.sp.ns = frame.n;
+            sh.frame = frame;
+            return sh;
         }
         // An anisotropic principled lobe is oriented by the first tangent,
         // which Mitsuba takes along ∂p/∂u (its `initialize_sh_frame`).
         #[cfg(feature = "principled")]
         if self.analysis.effects.contains(Effect::Principled) && material.is_anisotropic() {
             let (dp_du, _) = scene.uv_tangents(&sp);
-            let frame = detail::tangent_frame(sp.ns, dp_du);
-            return Shading { sp, bsdf, frame };
+            sh.frame = detail::tangent_frame(sp.ns, dp_du);
         }
-        Shading {
-            sp,
-            bsdf,
-            frame: Frame::from_normal(sp.ns),
-        }
+        sh
     }
 
     /// The shading frame a normal or bump map gives at `sp` (`None` when
@@ -398,7 +402,9 @@ impl<'a, I: Intersector> Tracer<'a, I> {
 
     /// Whether a segment spawned by [`offset::spawn_rays_between`] is
     /// blocked (a segment it refused is: it is tangent to a surface).
-    #[inline]
+    // Forced: out of line, each shadow ray paid a call for a few
+    // instructions of glue around the any-hit query.
+    #[inline(always)]
     pub fn occluded_segment(&mut self, seg: Option<offset::SegmentRays>) -> bool {
         let Some(seg) = seg else { return true };
         self.stats.shadow_rays += 1;

@@ -846,7 +846,9 @@ impl Scene {
     /// per unit area, or one of the other lights ([`LightSet::others`]),
     /// which the caller samples further. `None` when nothing emits or the
     /// chosen point is degenerate.
-    #[inline]
+    // Forced: out of line, the surface point came back through memory and
+    // was copied into the caller's `EmitterSample`.
+    #[inline(always)]
     pub fn sample_emitter(&self, u_select: f32, u: Vec2) -> Option<EmitterSample> {
         match self.lights.choose(u_select, u)? {
             Chosen::Area(ls) => {
