@@ -733,6 +733,10 @@ impl Bsdf {
         not(all(feature = "refraction", feature = "coating")),
         allow(unused_variables)
     )]
+    // Forced, as `eval`: out of line its prologue and epilogue (registers
+    // saved for the out-of-line models' call) cost as much as a diffuse
+    // sample's own arithmetic.
+    #[inline(always)]
     pub fn sample(
         &self,
         wo: Vec3,
