@@ -37,6 +37,7 @@
 pub mod bootstrap;
 pub mod caustic;
 pub mod chain;
+pub mod lanes;
 pub mod lens;
 pub mod level2;
 pub mod multiple_try;
