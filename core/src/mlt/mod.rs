@@ -49,6 +49,7 @@ pub use bootstrap::Bootstrap;
 pub use chain::{Chain, PathSample, Splat, Step};
 pub use level2::Level2;
 pub use multiple_try::{Candidates, Splatting};
+use path::Applicable;
 pub use primary::PrimarySampler;
 
 use alloc::vec::Vec;
@@ -84,8 +85,10 @@ pub struct MltSettings {
     /// needs a finite set of depths to bootstrap over. Paths longer than
     /// this are missing (energy of order albedo^cap).
     pub depth_cap: u32,
-    /// Level 2: side-chain length m (multiple-try steps per level-1
-    /// mutation); 0 = plain MLT.
+    /// Level 2: the level-2 share s — records each level-1 mutation adds
+    /// beyond its own — and the side-chain length m(c) of the classes that
+    /// get a side chain (lens and caustic paths of at least
+    /// `side_chain_min_depth` segments); 0 = plain MLT. See [`level2`].
     pub m: u32,
     /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
     /// [`level2::MAX_K`].
@@ -102,6 +105,14 @@ pub struct MltSettings {
     /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], seed
     /// eq. 36, is biased and refused by [`MltSettings::validate`]).
     pub splatting: Splatting,
+    /// Level 2: parallel one-proposal side chains (lanes) per level-1
+    /// state, traced together as packets, 1 ≤ lanes ≤ [`level2::MAX_K`];
+    /// more than one needs k = 1. See [`lanes`].
+    pub lanes: u32,
+    /// Level 2: paths of fewer segments get no side chain (their level-1
+    /// records carry the level-2 share); 0 or 1 = every lens and caustic
+    /// path gets one.
+    pub side_chain_min_depth: u32,
 }
 
 impl Default for MltSettings {
@@ -121,6 +132,8 @@ impl Default for MltSettings {
             caustic_scale: 1.0,
             candidates: Candidates::Stratified,
             splatting: Splatting::Recycled,
+            lanes: 1,
+            side_chain_min_depth: 0,
         }
     }
 }
@@ -174,6 +187,12 @@ impl MltSettings {
         if !(self.caustic_scale > 0.0 && self.caustic_scale.is_finite()) {
             return Err("caustic scale must be positive and finite");
         }
+        if !(1..=level2::MAX_K as u32).contains(&self.lanes) {
+            return Err("lanes must be in 1..=64");
+        }
+        if self.lanes > 1 && self.k > 1 {
+            return Err("parallel lanes need k = 1 (one proposal per lane)");
+        }
         if self.splatting == Splatting::AllCandidates {
             return Err("eq. 36 splatting is biased; use recycled or expected-value splatting");
         }
@@ -226,8 +245,10 @@ pub struct MltStats {
     pub caustic_steps: u64,
     /// Level 2: caustic-perturbation steps accepted.
     pub caustic_accepted: u64,
-    /// Level 2: side-chain steps of paths no perturbation applies to (the
-    /// state is recorded where it is).
+    /// Level 2: share records (units of one mutation's weight) carried by
+    /// level-1 records of states without a side chain (no perturbation
+    /// applies, or too shallow), or recorded where a side chain could not
+    /// start.
     pub identity_steps: u64,
     /// Level 2: candidates evaluated (k per step, reference points not
     /// counted).
@@ -393,6 +414,12 @@ pub struct MltWorker {
     /// the workspace when a proposal is accepted).
     level2: Option<Level2>,
     paths: Vec<Vec<PathVertex>>,
+    /// Level 2: the class of each chain's current path and its side-chain
+    /// length ([`Level2::classify`]).
+    classes: Vec<(Applicable, u32)>,
+    /// Level 2: the path of the latest proposal, classified for its
+    /// level-1 record's weight and swapped in when it is accepted.
+    proposal_path: Vec<PathVertex>,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -429,7 +456,8 @@ impl MltWorker {
         let depth = path_depth(settings, mlt);
         let max_vertices = depth as usize + 1;
         let level2 = Level2::new(mlt, camera.width(), camera.height(), camera.pixel_angle());
-        let paths = if level2.is_some() {
+        let l2 = level2.is_some();
+        let paths = if l2 {
             (0..n).map(|_| Vec::with_capacity(max_vertices)).collect()
         } else {
             Vec::new()
@@ -447,6 +475,8 @@ impl MltWorker {
             stats: MltStats::default(),
             level2,
             paths,
+            classes: Vec::with_capacity(if l2 { n } else { 0 }),
+            proposal_path: Vec::with_capacity(if l2 { max_vertices } else { 0 }),
         }
     }
 
@@ -474,11 +504,13 @@ impl MltWorker {
             stats,
             level2,
             paths,
+            classes,
             start_tries,
             ..
         } = self;
         spare.extend(chains.drain(..).map(|(c, _)| c.into_sampler()));
         seeds.clear();
+        classes.clear();
         *stats = MltStats::default();
         let workers = workers.max(1);
         let total = mlt.n_chains as u64 * workers;
@@ -506,8 +538,10 @@ impl MltWorker {
             };
             sampler.restart(bootstrap.seed_of(index));
             let initial = target::evaluate(tracer, settings, ws, depth, &mut sampler);
-            if level2.is_some() {
-                bdpt::strategy_path(ws, &mut paths[chains.len()]);
+            if let Some(l2) = level2 {
+                let path = &mut paths[chains.len()];
+                bdpt::strategy_path(ws, path);
+                classes.push(l2.classify(tracer, path));
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
@@ -540,6 +574,7 @@ impl MltWorker {
             stats,
             level2,
             paths,
+            classes,
             start_tries,
             ..
         } = self;
@@ -564,8 +599,9 @@ impl MltWorker {
                     chain.restart(bootstrap.seed_of(index), cs, &mut evaluate);
                 }
             }
-            if level2.is_some() {
+            if let Some(l2) = level2 {
                 bdpt::strategy_path(ws, &mut paths[ci]);
+                classes[ci] = l2.classify(tracer, &paths[ci]);
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
@@ -605,6 +641,8 @@ impl MltWorker {
             stats,
             level2,
             paths,
+            classes,
+            proposal_path,
             ..
         } = self;
         for _ in 0..rounds {
@@ -612,29 +650,52 @@ impl MltWorker {
                 let depth = *depth;
                 let w = weights[ci];
                 let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
-                for sp in st.splats() {
-                    film.add_splat(sp.raster, sp.value * w);
-                }
                 stats.record(&st);
-                if let Some(l2) = level2 {
-                    // The workspace still holds the proposal's subpaths
-                    // (nothing traced since): copy its path only when the
-                    // chain moved there, not on every proposal.
-                    if st.accepted {
-                        bdpt::strategy_path(ws, &mut paths[ci]);
+                let Some(l2) = level2 else {
+                    for sp in st.splats() {
+                        film.add_splat(sp.raster, sp.value * w);
                     }
+                    continue;
+                };
+                // A state of a class without side chain carries the
+                // level-2 share in its level-1 record (see `level2`): the
+                // proposal's class is needed whenever it is recorded. The
+                // workspace still holds its subpaths (nothing traced
+                // since).
+                let share = l2.m() as f32;
+                let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
+                let mut y_class = (Applicable::Neither, 0);
+                if let Some(sp) = st.proposal {
+                    bdpt::strategy_path(ws, proposal_path);
+                    y_class = l2.classify(tracer, proposal_path);
+                    film.add_splat(sp.raster, sp.value * (w * carry(y_class.1)));
+                }
+                if let Some(sp) = st.current {
+                    film.add_splat(sp.raster, sp.value * (w * carry(classes[ci].1)));
+                }
+                // Accepted implies a > 0, so the proposal was classified.
+                if st.accepted {
+                    core::mem::swap(&mut paths[ci], proposal_path);
+                    classes[ci] = y_class;
+                }
+                let (class, length) = &classes[ci];
+                if *length > 0 {
                     let mut rng =
                         SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);
                     l2.side_chain(
                         tracer,
                         &paths[ci],
+                        class,
+                        *length,
                         &chain.current(),
                         &mut rng,
                         stats,
                         &mut |r, v| film.add_splat(r, v * w),
                     );
-                    stats.records += l2.m() as u64;
+                } else {
+                    stats.identity_steps += l2.m() as u64;
                 }
+                stats.records += l2.m() as u64;
             }
         }
         rounds * chains.len() as u64
