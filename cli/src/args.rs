@@ -179,6 +179,10 @@ pub struct MltArgs {
     /// records carry the side chain's share instead).
     #[arg(long, default_value_t = MltSettings::cmlt().side_chain_min_depth)]
     pub side_chain_min_depth: u32,
+    /// CMLT: the weight of a level-1 mutation's side chain, in records of
+    /// one mutation (0 = --m).
+    #[arg(long, default_value_t = MltSettings::cmlt().share)]
+    pub share: u32,
 }
 
 impl MltArgs {
@@ -207,6 +211,7 @@ impl MltArgs {
             splatting: self.splatting,
             lanes: self.lanes,
             side_chain_min_depth: self.side_chain_min_depth,
+            share: self.share,
             ..base
         };
         mlt.validate().map_err(|e| {

@@ -526,5 +526,8 @@ fn cmlt_without_side_chains_is_mlt() {
             worst = worst.max(d);
         }
     }
-    assert!(worst < 1e-4, "CMLT without side chains differs from MLT by {worst}");
+    assert!(
+        worst < 1e-4,
+        "CMLT without side chains differs from MLT by {worst}"
+    );
 }

@@ -219,21 +219,21 @@ impl<S: Clone + Default, const K: usize> Lanes<S, K> {
                     u = u_first;
                 }
                 // Record both with their expected weights, then move.
-                if ai > 0.0 {
-                    if let Some(c) = &y[i] {
-                        splat(c, ai * w);
-                    }
+                if ai > 0.0
+                    && let Some(c) = &y[i]
+                {
+                    splat(c, ai * w);
                 }
                 if ai < 1.0 && px[i] > 0.0 {
                     splat(&x[i], (1.0 - ai) * w);
                 }
                 // a = 1 always accepts (u < 1), a = 0 never does.
-                if u < ai {
-                    if let Some(c) = y[i].take() {
-                        x[i] = c;
-                        px[i] = py[i];
-                        counts.accepted += 1;
-                    }
+                if u < ai
+                    && let Some(c) = y[i].take()
+                {
+                    x[i] = c;
+                    px[i] = py[i];
+                    counts.accepted += 1;
                 }
             }
             counts.steps += n as u64;

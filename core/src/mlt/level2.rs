@@ -8,7 +8,7 @@
 //! ## Side chains only where they pay: the level-2 share
 //!
 //! Every level-1 mutation adds records of total luminance 1 + s, where s
-//! (the level-2 share, [`super::MltSettings::m`]) is fixed: the image
+//! (the level-2 share, [`super::MltSettings::share`]) is fixed: the image
 //! scale counts 1 + s records per mutation ([`super::MltStats::records`]).
 //! The share goes to the *class* c of the level-1 state — the perturbation
 //! that applies to its path (lens, caustic or none) and its depth — in one
@@ -71,6 +71,7 @@ pub const MAX_K: usize = 64;
 /// and the perturbations' parameters.
 pub struct Level2 {
     share: u32,
+    length: u32,
     min_depth: u32,
     k: usize,
     lens: MultipleTry<LensState, MAX_K>,
@@ -104,7 +105,8 @@ impl Level2 {
             CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
         let lanes = mlt.lanes as usize;
         Some(Level2 {
-            share: mlt.m,
+            share: mlt.share(),
+            length: mlt.m,
             min_depth: mlt.side_chain_min_depth,
             k,
             lens: MultipleTry::new(k, mlt.splatting)
@@ -120,14 +122,14 @@ impl Level2 {
 
     /// The level-2 share s: records each level-1 mutation adds beyond its
     /// own one (see the module docs).
-    pub fn m(&self) -> u32 {
+    pub fn share(&self) -> u32 {
         self.share
     }
 
     /// The class of the complete path `path`: the perturbation that applies
-    /// to it, and its side-chain length m(c) — the share s for a lens or
-    /// caustic path of at least the minimum depth, 0 otherwise (then the
-    /// path's level-1 records carry the share).
+    /// to it, and its side-chain length m(c) — [`MltSettings::m`] for a
+    /// lens or caustic path of at least the minimum depth, 0 otherwise
+    /// (then the path's level-1 records carry the share).
     pub fn classify<I: Intersector>(
         &self,
         tracer: &Tracer<'_, I>,
@@ -139,7 +141,7 @@ impl Level2 {
         }
         match classify(tracer, path) {
             Applicable::Neither => (Applicable::Neither, 0),
-            class => (class, self.share),
+            class => (class, self.length),
         }
     }
 
@@ -162,7 +164,7 @@ impl Level2 {
     ) {
         let share = self.share as f32;
         let identity = |stats: &mut MltStats, splat: &mut dyn FnMut(Vec2, Rgb)| {
-            stats.identity_steps += length as u64;
+            stats.identity_steps += share as u64;
             let y = current.target();
             if y > 0.0 {
                 splat(current.raster, current.l * (share / y));

@@ -85,10 +85,9 @@ pub struct MltSettings {
     /// needs a finite set of depths to bootstrap over. Paths longer than
     /// this are missing (energy of order albedo^cap).
     pub depth_cap: u32,
-    /// Level 2: the level-2 share s — records each level-1 mutation adds
-    /// beyond its own — and the side-chain length m(c) of the classes that
-    /// get a side chain (lens and caustic paths of at least
-    /// `side_chain_min_depth` segments); 0 = plain MLT. See [`level2`].
+    /// Level 2: the side-chain length m(c) of the classes that get a side
+    /// chain (lens and caustic paths of at least `side_chain_min_depth`
+    /// segments); 0 = plain MLT. See [`level2`].
     pub m: u32,
     /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
     /// [`level2::MAX_K`].
@@ -113,6 +112,12 @@ pub struct MltSettings {
     /// records carry the level-2 share); 0 or 1 = every lens and caustic
     /// path gets one.
     pub side_chain_min_depth: u32,
+    /// Level 2: the level-2 share s, the weight (in records of one
+    /// mutation) each level-1 mutation's side chain adds beyond its own
+    /// record, or carries in its level-1 record when its state gets no
+    /// side chain; 0 = m. Changes the variance, not the mean. See
+    /// [`level2`].
+    pub share: u32,
 }
 
 impl Default for MltSettings {
@@ -134,6 +139,7 @@ impl Default for MltSettings {
             splatting: Splatting::Recycled,
             lanes: 1,
             side_chain_min_depth: 0,
+            share: 0,
         }
     }
 }
@@ -156,9 +162,19 @@ impl MltSettings {
         }
     }
 
-    /// Records each level-1 mutation adds with its side chain: 1 + m.
+    /// The level-2 share s: `share`, or m when `share` is 0 (0 for plain
+    /// MLT).
+    pub fn share(&self) -> u32 {
+        match (self.m, self.share) {
+            (0, _) => 0,
+            (m, 0) => m,
+            (_, s) => s,
+        }
+    }
+
+    /// Records each level-1 mutation adds with its level-2 share: 1 + s.
     pub fn records_per_mutation(&self) -> u64 {
-        1 + self.m as u64
+        1 + self.share() as u64
     }
 
     /// Checks every parameter's range; the message names the first bad one.
@@ -207,8 +223,8 @@ pub fn path_depth(settings: &Settings, mlt: &MltSettings) -> u32 {
 }
 
 /// The factor turning the splat layer into radiance: b · pixels / N for
-/// N records ([`MltStats::records`]: level-1 mutations plus level-2
-/// side-chain steps; 0 when N = 0).
+/// N records ([`MltStats::records`]: level-1 mutations times 1 + s, the
+/// level-2 share; 0 when N = 0).
 pub fn image_scale(b: f64, pixels: u64, records: u64) -> f64 {
     if records == 0 {
         0.0
@@ -235,13 +251,15 @@ pub struct MltStats {
     /// Proposals with zero (or non-finite) contribution.
     pub zero_proposals: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
-    /// mutations plus side-chain steps (what [`image_scale`] divides by).
+    /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
+    /// divides by).
     pub records: u64,
-    /// Level 2: lens-perturbation steps (multiple-try steps).
+    /// Level 2: lens-perturbation steps (lane steps, or multiple-try steps
+    /// when k > 1).
     pub lens_steps: u64,
     /// Level 2: lens-perturbation steps accepted.
     pub lens_accepted: u64,
-    /// Level 2: caustic-perturbation steps.
+    /// Level 2: caustic-perturbation steps (as `lens_steps`).
     pub caustic_steps: u64,
     /// Level 2: caustic-perturbation steps accepted.
     pub caustic_accepted: u64,
@@ -662,7 +680,7 @@ impl MltWorker {
                 // proposal's class is needed whenever it is recorded. The
                 // workspace still holds its subpaths (nothing traced
                 // since).
-                let share = l2.m() as f32;
+                let share = l2.share() as f32;
                 let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
                 let mut y_class = (Applicable::Neither, 0);
                 if let Some(sp) = st.proposal {
@@ -693,9 +711,9 @@ impl MltWorker {
                         &mut |r, v| film.add_splat(r, v * w),
                     );
                 } else {
-                    stats.identity_steps += l2.m() as u64;
+                    stats.identity_steps += l2.share() as u64;
                 }
-                stats.records += l2.m() as u64;
+                stats.records += l2.share() as u64;
             }
         }
         rounds * chains.len() as u64
