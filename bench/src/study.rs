@@ -30,6 +30,12 @@ pub struct Measurement {
     pub samples: f64,
     /// Relative MSE against the reference ([`metrics::rel_mse`]).
     pub rel_mse: f64,
+    /// Relative MSE of the 4 × 4-pixel block averages ([`block_rel_mse`]):
+    /// the error at the scale of a few pixels, where level 2's side chains
+    /// act.
+    pub rel_mse_4: f64,
+    /// Relative MSE of the 16 × 16-pixel block averages.
+    pub rel_mse_16: f64,
     /// RMSE against the reference.
     pub rmse: f64,
     /// Mean of each channel of the image.
@@ -107,6 +113,17 @@ impl Study {
     }
 }
 
+/// Relative MSE ([`metrics::rel_mse`]) between the `n × n`-pixel block
+/// averages of `img` and `reference` (the box-filtered images at 1/n the
+/// resolution; a partial block at the right or bottom edge is left out).
+/// NaN when the image is smaller than one block.
+pub fn block_rel_mse(img: &Image, reference: &Image, n: usize) -> f64 {
+    if img.width < n || img.height < n {
+        return f64::NAN;
+    }
+    metrics::rel_mse(&img.downsample(n), &reference.downsample(n))
+}
+
 /// Scores `img` against `reference` (same size) into a [`Measurement`] with
 /// the given cost figures.
 pub fn score(
@@ -121,8 +138,42 @@ pub fn score(
         wall_s,
         samples,
         rel_mse: metrics::rel_mse(img, reference),
+        rel_mse_4: block_rel_mse(img, reference, 4),
+        rel_mse_16: block_rel_mse(img, reference, 16),
         rmse: metrics::rmse(img, reference),
         mean: [mean.r as f64, mean.g as f64, mean.b as f64],
         mrays_per_s,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use cmlt::math::Rgb;
+
+    fn image(w: usize, h: usize, f: impl Fn(usize, usize) -> f32) -> Image {
+        Image {
+            width: w,
+            height: h,
+            pixels: (0..w * h).map(|i| Rgb::splat(f(i % w, i / w))).collect(),
+        }
+    }
+
+    #[test]
+    fn block_error_sees_low_frequencies_only() {
+        let reference = image(32, 20, |_, _| 1.0);
+        // A checkerboard of ±0.5: large per-pixel error that cancels in
+        // every even block.
+        let checker = image(32, 20, |x, y| if (x + y) % 2 == 0 { 1.5 } else { 0.5 });
+        assert!(metrics::rel_mse(&checker, &reference) > 0.2);
+        assert!(block_rel_mse(&checker, &reference, 4) < 1e-12);
+        // A uniform offset of 0.5 is the same error at every scale; the
+        // partial bottom row of 16-blocks (20 = 16 + 4) is left out.
+        let offset = image(32, 20, |_, _| 1.5);
+        let e = metrics::rel_mse(&offset, &reference);
+        for n in [4, 16] {
+            assert!((block_rel_mse(&offset, &reference, n) - e).abs() < 1e-9);
+        }
+        assert!(block_rel_mse(&offset, &reference, 64).is_nan());
     }
 }
