@@ -21,9 +21,10 @@ use cmlt_cli::render::Budget;
 /// budgets; `samples` is samples per pixel (PT, BDPT, peers) or mutations
 /// per pixel (MLT, CMLT).
 /// `rel_mse_4` and `rel_mse_16` are the relMSE of 4 × 4 and 16 × 16-pixel
-/// block averages ([`super::study::block_rel_mse`]); files written before
-/// they existed (11 columns) still read, with NaN there.
-pub const CSV_HEADER: &str = "method,budget_s,wall_s,seed,samples,rel_mse,rmse,mean_r,mean_g,mean_b,mrays_per_s,rel_mse_4,rel_mse_16";
+/// block averages ([`super::study::block_rel_mse`]), `cpu_s` the render's
+/// CPU seconds; files written before they existed (11 columns) still read,
+/// with NaN there.
+pub const CSV_HEADER: &str = "method,budget_s,wall_s,seed,samples,rel_mse,rmse,mean_r,mean_g,mean_b,mrays_per_s,rel_mse_4,rel_mse_16,cpu_s";
 
 /// The header of files written before the block-averaged columns.
 const CSV_HEADER_11: &str =
@@ -77,7 +78,7 @@ impl Row {
     fn to_csv(&self) -> String {
         let m = &self.m;
         format!(
-            "{},{},{:.4},{},{},{:.6e},{:.6e},{:.6},{:.6},{:.6},{:.3},{:.6e},{:.6e}",
+            "{},{},{:.4},{},{},{:.6e},{:.6e},{:.6},{:.6},{:.6},{:.3},{:.6e},{:.6e},{:.3}",
             self.method,
             self.budget_s.map_or(String::new(), |b| b.to_string()),
             m.wall_s,
@@ -91,15 +92,17 @@ impl Row {
             m.mean[2],
             m.mrays_per_s,
             m.rel_mse_4,
-            m.rel_mse_16
+            m.rel_mse_16,
+            m.cpu_s
         )
     }
 
     fn from_csv(line: &str) -> Result<Row, String> {
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if f.len() != 11 && f.len() != 13 {
+        let full = f.len() == 14;
+        if f.len() != 11 && !full {
             return Err(format!(
-                "expected 11 or 13 fields, got {}: '{line}'",
+                "expected 11 or 14 fields, got {}: '{line}'",
                 f.len()
             ));
         }
@@ -118,8 +121,9 @@ impl Row {
                 rmse: num(6)?,
                 mean: [num(7)?, num(8)?, num(9)?],
                 mrays_per_s: num(10)?,
-                rel_mse_4: if f.len() == 13 { num(11)? } else { f64::NAN },
-                rel_mse_16: if f.len() == 13 { num(12)? } else { f64::NAN },
+                rel_mse_4: if full { num(11)? } else { f64::NAN },
+                rel_mse_16: if full { num(12)? } else { f64::NAN },
+                cpu_s: if full { num(13)? } else { f64::NAN },
             },
         })
     }
@@ -186,6 +190,8 @@ pub struct Point {
     pub rel_mse_4: f64,
     /// Mean relative MSE of 16 × 16-pixel block averages.
     pub rel_mse_16: f64,
+    /// Mean CPU seconds.
+    pub cpu_s: f64,
     /// Mean of the image's channel means (bias shows here).
     pub mean: [f64; 3],
     /// Seeds averaged.
@@ -261,6 +267,7 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
                 p.rel_mse += r.m.rel_mse;
                 p.rel_mse_4 += r.m.rel_mse_4;
                 p.rel_mse_16 += r.m.rel_mse_16;
+                p.cpu_s += r.m.cpu_s;
                 for c in 0..3 {
                     p.mean[c] += r.m.mean[c];
                 }
@@ -272,6 +279,7 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
                 rel_mse: r.m.rel_mse,
                 rel_mse_4: r.m.rel_mse_4,
                 rel_mse_16: r.m.rel_mse_16,
+                cpu_s: r.m.cpu_s,
                 mean: r.m.mean,
                 seeds: 1,
             }),
@@ -284,6 +292,7 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
             p.rel_mse /= n;
             p.rel_mse_4 /= n;
             p.rel_mse_16 /= n;
+            p.cpu_s /= n;
             for m in &mut p.mean {
                 *m /= n;
             }
@@ -379,8 +388,8 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
                 let m = study.measure(*estimator, mlt, budget, opts.threads, seed)?;
                 writeln!(
                     out,
-                    "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5} (4x4 {:.5}, 16x16 {:.5}), mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s",
-                    m.wall_s, m.samples, m.rel_mse, m.rel_mse_4, m.rel_mse_16, m.mean[0], m.mean[1], m.mean[2], m.mrays_per_s
+                    "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5} (4x4 {:.5}, 16x16 {:.5}), mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s, {:.2} CPU s",
+                    m.wall_s, m.samples, m.rel_mse, m.rel_mse_4, m.rel_mse_16, m.mean[0], m.mean[1], m.mean[2], m.mrays_per_s, m.cpu_s
                 )
                 .map_err(io)?;
                 rows.push(Row {
@@ -457,7 +466,11 @@ pub fn summarize(
 /// Prints, for every method other than `base`, the equal-budget ratio of
 /// `base`'s mean relMSE to its own (above 1: lower error than `base` in
 /// the same time, the speed-up when error ∝ 1/time), per budget, per pixel
-/// and at 4 × 4 and 16 × 16-pixel blocks.
+/// and at 4 × 4 and 16 × 16-pixel blocks; then the same per-pixel ratio
+/// per CPU second, (relMSE·CPU s of `base`) / (relMSE·CPU s), the speed-up
+/// at equal work, which other jobs on the machine disturb much less than
+/// the wall time (relMSE ∝ 1/work, as for any unbiased Monte Carlo
+/// average past its start-up).
 pub fn ratios(curves: &[Curve], base: &str, out: &mut dyn Write) -> Result<(), String> {
     let io = |e: std::io::Error| e.to_string();
     let Some(b) = curves.iter().find(|c| c.method == base) else {
@@ -465,7 +478,7 @@ pub fn ratios(curves: &[Curve], base: &str, out: &mut dyn Write) -> Result<(), S
     };
     writeln!(
         out,
-        "relMSE ratio {base} / method at equal budget (pixels, 4x4 blocks, 16x16 blocks; seeds):"
+        "relMSE ratio {base} / method at equal budget (pixels, 4x4 blocks, 16x16 blocks; per CPU s; seeds):"
     )
     .map_err(io)?;
     for c in curves.iter().filter(|c| c.method != base) {
@@ -475,12 +488,13 @@ pub fn ratios(curves: &[Curve], base: &str, out: &mut dyn Write) -> Result<(), S
             };
             writeln!(
                 out,
-                "  {:<40} budget {:>6}: {:.3}  {:.3}  {:.3}  ({} seeds)",
+                "  {:<40} budget {:>6}: {:.3}  {:.3}  {:.3}  {:.3}  ({} seeds)",
                 c.method,
                 p.budget,
                 q.rel_mse / p.rel_mse,
                 q.rel_mse_4 / p.rel_mse_4,
                 q.rel_mse_16 / p.rel_mse_16,
+                (q.rel_mse * q.cpu_s) / (p.rel_mse * p.cpu_s),
                 p.seeds.min(q.seeds)
             )
             .map_err(io)?;
@@ -504,6 +518,7 @@ mod tests {
                 rel_mse,
                 rel_mse_4: rel_mse / 4.0,
                 rel_mse_16: rel_mse / 16.0,
+                cpu_s: wall_s * 2.0,
                 rmse: 0.1,
                 mean: [0.5; 3],
                 mrays_per_s: 1.0,
@@ -548,7 +563,10 @@ mod tests {
         ratios(&curves(&rows), "base", &mut out).unwrap();
         let text = String::from_utf8(out).unwrap();
         // Means 0.3 and 0.1: a ratio of 3 at every scale.
-        assert!(text.contains("3.000  3.000  3.000  (2 seeds)"), "{text}");
+        assert!(
+            text.contains("3.000  3.000  3.000  3.000  (2 seeds)"),
+            "{text}"
+        );
         assert!(ratios(&curves(&rows), "nobody", &mut Vec::new()).is_err());
     }
 
@@ -597,12 +615,13 @@ mod tests {
         assert_eq!(back.m.samples, 123.5);
         assert!((back.m.rel_mse - 0.0123).abs() < 1e-9);
         assert!((back.m.rel_mse_16 - 0.0123 / 16.0).abs() < 1e-9);
+        assert_eq!(back.m.cpu_s, 16.5);
         r.budget_s = None;
         assert_eq!(Row::from_csv(&r.to_csv()).unwrap().budget_s, None);
         // A row of the 11 columns before the block errors still reads.
         let old = "mlt,8,8.1,0,12.5,1.0e-2,1.0e-1,0.5,0.5,0.5,2.0";
         let back = Row::from_csv(old).unwrap();
         assert_eq!(back.m.rel_mse, 1.0e-2);
-        assert!(back.m.rel_mse_4.is_nan());
+        assert!(back.m.rel_mse_4.is_nan() && back.m.cpu_s.is_nan());
     }
 }

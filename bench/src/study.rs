@@ -25,6 +25,11 @@ pub struct Measurement {
     /// Wall-clock seconds of the render (bootstrap included, scene loading
     /// and BVH build excluded).
     pub wall_s: f64,
+    /// CPU seconds the process spent during the render, all threads
+    /// ([`process_cpu_s`]; NaN where it cannot be read): the work done,
+    /// which other jobs on a shared machine change much less than the
+    /// wall time.
+    pub cpu_s: f64,
     /// Samples per pixel (PT, BDPT) or mutations per pixel (MLT, CMLT),
     /// over all threads.
     pub samples: f64,
@@ -100,16 +105,41 @@ impl Study {
             workers: threads as u32,
             ..RendererConfig::default()
         };
+        let cpu0 = process_cpu_s();
         let start = Instant::now();
         let out = render(&self.loaded.scene, &self.accel, config, budget, &|_| {})?;
         let wall_s = start.elapsed().as_secs_f64();
-        Ok(score(
+        let mut m = score(
             &out.image,
             &self.reference,
             wall_s,
             out.per_pixel(),
             out.mrays_per_sec(),
-        ))
+        );
+        m.cpu_s = process_cpu_s() - cpu0;
+        Ok(m)
+    }
+}
+
+/// CPU seconds (user and system) this process has used, its finished
+/// threads included: fields 14 and 15 of `/proc/self/stat`, in clock ticks
+/// of 1/100 s (Linux's USER_HZ). NaN where that file is missing.
+pub fn process_cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // The command name (field 2) may hold spaces; the fields after its
+    // closing parenthesis start at field 3.
+    let Some((_, rest)) = stat.rsplit_once(')') else {
+        return f64::NAN;
+    };
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    match (
+        f.get(11).map(|v| v.parse::<f64>()),
+        f.get(12).map(|v| v.parse::<f64>()),
+    ) {
+        (Some(Ok(u)), Some(Ok(s))) => (u + s) / 100.0,
+        _ => f64::NAN,
     }
 }
 
@@ -136,6 +166,7 @@ pub fn score(
     let mean = img.mean();
     Measurement {
         wall_s,
+        cpu_s: f64::NAN,
         samples,
         rel_mse: metrics::rel_mse(img, reference),
         rel_mse_4: block_rel_mse(img, reference, 4),
@@ -175,5 +206,20 @@ mod tests {
             assert!((block_rel_mse(&offset, &reference, n) - e).abs() < 1e-9);
         }
         assert!(block_rel_mse(&offset, &reference, 64).is_nan());
+    }
+
+    #[test]
+    fn process_cpu_time_counts_work() {
+        let t0 = process_cpu_s();
+        let start = Instant::now();
+        let mut x = 0u64;
+        while start.elapsed().as_secs_f64() < 0.3 {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+        }
+        std::hint::black_box(x);
+        let dt = process_cpu_s() - t0;
+        // Busy for 0.3 s of wall time: some CPU time (10 ms ticks) must
+        // show, however loaded the machine.
+        assert!(dt > 0.0 && dt.is_finite(), "{dt}");
     }
 }
