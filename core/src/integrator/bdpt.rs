@@ -276,7 +276,7 @@ fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
 /// Reusable subpath storage of one worker (no allocation per sample once
 /// warmed up).
 #[derive(Default)]
-pub struct Workspace {
+pub struct PathStorage {
     camera: Vec<Vertex>,
     light: Vec<Vertex>,
     only: Option<fn(usize, usize) -> bool>,
@@ -315,7 +315,7 @@ impl PathVertex {
 /// that returned a contribution into `out` (cleared first), camera end
 /// first; false (and `out` empty) when the last call had none. Valid until
 /// `ws` is used again.
-pub fn strategy_path(ws: &Workspace, out: &mut Vec<PathVertex>) -> bool {
+pub fn strategy_path(ws: &PathStorage, out: &mut Vec<PathVertex>) -> bool {
     out.clear();
     let Some((s, t, sampled)) = ws.last else {
         return false;
@@ -343,7 +343,7 @@ pub fn strategy_path(ws: &Workspace, out: &mut Vec<PathVertex>) -> bool {
     true
 }
 
-impl Workspace {
+impl PathStorage {
     /// Empty storage.
     pub fn new() -> Self {
         Self::default()
@@ -353,7 +353,7 @@ impl Workspace {
     /// never allocates (a renderer's frame must not).
     pub fn with_capacity(depth: u32) -> Self {
         let n = depth as usize + 2;
-        Workspace {
+        PathStorage {
             camera: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
             ..Self::default()
@@ -573,7 +573,7 @@ fn camera_vertex(p: Vec3, forward: Vec3) -> Vertex {
 pub fn sample<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     settings: &Settings,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     raster: Vec2,
     px: u32,
     py: u32,
@@ -603,7 +603,7 @@ pub fn sample<I: Intersector, S: Sampler>(
 pub fn sample_each<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     settings: &Settings,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     raster: Vec2,
     rng: &mut S,
     mut emit: impl FnMut(usize, usize, Rgb, Option<Vec2>),
@@ -650,7 +650,7 @@ pub fn sample_each<I: Intersector, S: Sampler>(
 #[allow(clippy::too_many_arguments)]
 fn camera_subpath<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     raster: Vec2,
     u_lens: Vec2,
     max_vertices: usize,
@@ -679,7 +679,7 @@ fn camera_subpath<I: Intersector, S: Sampler>(
 /// so the stream layout does not depend on the outcome.
 fn light_subpath<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     max_vertices: usize,
     rr_depth: u32,
     rng: &mut S,
@@ -737,7 +737,7 @@ fn light_subpath<I: Intersector, S: Sampler>(
 #[inline(never)]
 fn other_light_subpath<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     index: usize,
     pmf: f32,
     u_pos: Vec2,
@@ -829,7 +829,7 @@ pub struct StrategySample {
 pub fn sample_strategy<I: Intersector, S: Sampler>(
     tr: &mut Tracer<'_, I>,
     settings: &Settings,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     depth: usize,
     rng: &mut S,
 ) -> StrategySample {
@@ -896,7 +896,7 @@ pub fn sample_strategy<I: Intersector, S: Sampler>(
 /// (s = 1, t = 1).
 fn connect<I: Intersector, S: Sampler>(
     tr: &mut Tracer<'_, I>,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     s: usize,
     t: usize,
     rng: &mut S,
@@ -1032,7 +1032,7 @@ fn connect<I: Intersector, S: Sampler>(
 fn finish(
     scene: &Scene,
     camera: &Camera,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     sampled: Option<Vertex>,
     s: usize,
     t: usize,
@@ -1056,7 +1056,7 @@ fn finish(
 #[inline(never)]
 fn connect_other<I: Intersector>(
     tr: &mut Tracer<'_, I>,
-    ws: &Workspace,
+    ws: &PathStorage,
     t: usize,
     index: usize,
     pmf: f32,
@@ -1104,7 +1104,7 @@ fn connect_other<I: Intersector>(
 fn mis_weight(
     scene: &crate::scene::Scene,
     camera: &crate::scene::Camera,
-    ws: &mut Workspace,
+    ws: &mut PathStorage,
     sampled: Option<Vertex>,
     s: usize,
     t: usize,

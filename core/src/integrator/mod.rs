@@ -117,7 +117,7 @@ impl Estimator {
 /// Per-worker state that lives across passes (subpath storage).
 #[derive(Default)]
 pub struct Worker {
-    bdpt: bdpt::Workspace,
+    bdpt: bdpt::PathStorage,
 }
 
 impl Worker {
@@ -127,12 +127,12 @@ impl Worker {
     }
 
     /// Worker state around caller-sized BDPT storage (see
-    /// [`bdpt::Workspace::with_capacity`]).
-    pub fn with_workspace(bdpt: bdpt::Workspace) -> Self {
+    /// [`bdpt::PathStorage::with_capacity`]).
+    pub fn with_workspace(bdpt: bdpt::PathStorage) -> Self {
         Worker { bdpt }
     }
 
-    /// See [`bdpt::Workspace::set_strategy_filter`]: BDPT evaluates only
+    /// See [`bdpt::PathStorage::set_strategy_filter`]: BDPT evaluates only
     /// the strategies `(s, t)` the filter accepts, without MIS.
     pub fn set_bdpt_strategy_filter(&mut self, only: Option<fn(usize, usize) -> bool>) {
         self.bdpt.set_strategy_filter(only);

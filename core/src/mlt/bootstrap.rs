@@ -72,7 +72,7 @@ pub fn evaluate_seeds<I: Intersector>(
     out: &mut Vec<f32>,
 ) {
     out.reserve(range.end.saturating_sub(range.start) as usize);
-    let mut ws = bdpt::Workspace::new();
+    let mut ws = bdpt::PathStorage::new();
     let mut sampler = PrimarySampler::new(0, mlt.sigma, mlt.large_step_prob);
     evaluate_seeds_with(
         tracer,
@@ -96,7 +96,7 @@ pub fn evaluate_seeds_with<I: Intersector>(
     mlt: &MltSettings,
     seed: u64,
     range: Range<u64>,
-    ws: &mut bdpt::Workspace,
+    ws: &mut bdpt::PathStorage,
     sampler: &mut PrimarySampler,
     out: &mut Vec<f32>,
 ) {
@@ -119,7 +119,7 @@ pub fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     mlt: &MltSettings,
-    ws: &mut bdpt::Workspace,
+    ws: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
     sums: &mut [f64],
@@ -155,15 +155,15 @@ pub fn add_pass(sums: &mut [f64], pass: &[f64]) {
     }
 }
 
-/// Storage the bootstrap evaluates with, kept across re-runs: the seed
+/// Storage the bootstrap evaluates with, kept across re-runs: the bootstrap
 /// samples' values, the passes' per-depth sums (all passes', and one
-/// pass's), a BDPT workspace and a primary sampler, each sized for the
+/// pass's), BDPT path storage and a primary sampler, each sized for the
 /// deepest path.
 pub struct BootstrapScratch {
     pub(crate) values: Vec<f32>,
     pub(crate) sums: Vec<f64>,
     pass: Vec<f64>,
-    ws: bdpt::Workspace,
+    ws: bdpt::PathStorage,
     sampler: PrimarySampler,
 }
 
@@ -175,7 +175,7 @@ impl BootstrapScratch {
             values: Vec::with_capacity(Bootstrap::seed_count(settings, mlt) as usize),
             sums: Vec::with_capacity(depth as usize),
             pass: Vec::with_capacity(depth as usize),
-            ws: bdpt::Workspace::with_capacity(depth),
+            ws: bdpt::PathStorage::with_capacity(depth),
             sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
         }
     }
@@ -434,7 +434,7 @@ impl Bootstrap {
     }
 
     /// Index of the `j`-th sample of `depth` past the bootstrap's own:
-    /// [`Bootstrap::depth_of`] and [`Bootstrap::seed_of`] treat it as a seed
+    /// [`Bootstrap::depth_of`] and [`Bootstrap::seed_of`] treat it as a bootstrap
     /// sample of that depth. Chains search these when none of their
     /// depth's seed samples contributes. Distinct for distinct `j` below
     /// 2⁴⁸ (indices wrap beyond).

@@ -413,7 +413,7 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// Mutations run in *rounds*, one per chain, so that every chain of a
 /// worker has made the same number of mutations: chains of different
 /// depths must be weighted equally for the normalisation to hold.
-pub struct MltWorker {
+pub struct WorkerChains {
     chains: Vec<(Chain, u32)>,
     /// Splat weight of each chain: its depth's share of b over its share
     /// of the chains ([`depth_weights`]).
@@ -426,10 +426,10 @@ pub struct MltWorker {
     spare: Vec<PrimarySampler>,
     /// Seed of each chain (its level-2 random streams derive from it).
     seeds: Vec<u64>,
-    ws: bdpt::Workspace,
+    ws: bdpt::PathStorage,
     stats: MltStats,
     /// Level 2, when m > 0, with each chain's current path (copied from
-    /// the workspace when a proposal is accepted).
+    /// the path storage when a proposal is accepted).
     level2: Option<Level2>,
     paths: Vec<Vec<PathVertex>>,
     /// Level 2: the class of each chain's current path and its side-chain
@@ -443,7 +443,7 @@ pub struct MltWorker {
 /// Stream index of level 2's random numbers (per chain and iteration).
 const LEVEL2_STREAM: u64 = 0x4C32;
 
-impl MltWorker {
+impl WorkerChains {
     /// Starts `mlt.n_chains` chains for worker `worker` of `workers` in a
     /// render seeded by `seed`: each gets its depth from the systematic
     /// sample, starts at a seed sample of that depth picked with
@@ -467,7 +467,7 @@ impl MltWorker {
 
     /// A worker without chains holding all the storage its chains will
     /// need for `settings` and `mlt` with `camera`'s resolution: after
-    /// this, [`MltWorker::restart`] and [`MltWorker::run`] allocate
+    /// this, [`WorkerChains::restart`] and [`WorkerChains::run`] allocate
     /// nothing.
     pub fn with_capacity(settings: &Settings, mlt: &MltSettings, camera: &Camera) -> Self {
         let n = mlt.n_chains as usize;
@@ -480,7 +480,7 @@ impl MltWorker {
         } else {
             Vec::new()
         };
-        MltWorker {
+        WorkerChains {
             chains: Vec::with_capacity(n),
             weights: Vec::with_capacity(n),
             n_chains: mlt.n_chains,
@@ -489,7 +489,7 @@ impl MltWorker {
                 .map(|_| PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth))
                 .collect(),
             seeds: Vec::with_capacity(n),
-            ws: bdpt::Workspace::with_capacity(depth),
+            ws: bdpt::PathStorage::with_capacity(depth),
             stats: MltStats::default(),
             level2,
             paths,
@@ -499,7 +499,7 @@ impl MltWorker {
     }
 
     /// Drops every chain and starts new ones from `bootstrap` exactly as
-    /// [`MltWorker::new`] does (same chains for the same arguments),
+    /// [`WorkerChains::new`] does (same chains for the same arguments),
     /// reusing their storage; the counters start again from zero. What a
     /// renderer calls when the camera or the scene changed. `tracer`'s
     /// camera must have the resolution the worker was made for.
@@ -514,7 +514,7 @@ impl MltWorker {
         worker: u64,
         workers: u64,
     ) {
-        let MltWorker {
+        let WorkerChains {
             chains,
             spare,
             seeds,
@@ -572,7 +572,7 @@ impl MltWorker {
 
     /// Keeps every chain and evaluates its current state again through
     /// `tracer` (a new camera or scene): the temporal alternative to
-    /// [`MltWorker::restart`] (the chains keep their depths and random
+    /// [`WorkerChains::restart`] (the chains keep their depths and random
     /// streams). A chain whose state no longer contributes restarts from a
     /// seed sample of its depth in `bootstrap` (the new frame's, seeded by
     /// `seed`; see `start_sample`): left at zero it would record nothing
@@ -585,7 +585,7 @@ impl MltWorker {
         bootstrap: &Bootstrap,
         seed: u64,
     ) {
-        let MltWorker {
+        let WorkerChains {
             chains,
             seeds,
             ws,
@@ -651,7 +651,7 @@ impl MltWorker {
         film: &mut Film,
         rounds: u64,
     ) -> u64 {
-        let MltWorker {
+        let WorkerChains {
             chains,
             weights,
             seeds,
@@ -743,7 +743,7 @@ impl MltWorker {
 /// weight 1 is right in expectation, and no weight could restore a depth
 /// that got no chain. The weights sum to about n, so the image's scale
 /// ([`image_scale`]) is unchanged. Chains kept from another frame
-/// ([`MltWorker::reevaluate`]) get the weights of the new b_d for the
+/// ([`WorkerChains::reevaluate`]) get the weights of the new b_d for the
 /// depths they have.
 fn depth_weights(chains: &[(Chain, u32)], bootstrap: &Bootstrap, n: u32, weights: &mut Vec<f32>) {
     weights.clear();
@@ -804,7 +804,7 @@ pub fn render<I: Intersector>(
     let camera = tracer.camera;
     let pixels = camera.width() as u64 * camera.height() as u64;
     let bootstrap = Bootstrap::run(tracer, settings, mlt, seed);
-    let mut worker = MltWorker::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);
+    let mut worker = WorkerChains::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);
     let mut film = Film::new(camera.width(), camera.height());
     let rounds = if mutations_per_pixel == 0 {
         0

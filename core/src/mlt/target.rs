@@ -16,7 +16,7 @@ use crate::integrator::{Settings, Tracer, bdpt};
 pub fn evaluate<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
-    ws: &mut bdpt::Workspace,
+    ws: &mut bdpt::PathStorage,
     depth: u32,
     sampler: &mut PrimarySampler,
 ) -> PathSample {

@@ -22,7 +22,7 @@
 //!     }
 //! ```
 //!
-//! Worker `i` of `W` evaluates the `i`-th contiguous share of the seed
+//! Worker `i` of `W` evaluates the `i`-th contiguous share of the bootstrap
 //! samples and the normalisation passes `i, i + W, …`; `finish_prepare`
 //! joins them in index order, so the bootstrap (and the image) is bit for
 //! bit the one `prepare` computes, whatever the number of workers.
@@ -77,7 +77,7 @@ use crate::film::Film;
 use crate::integrator::{self, Settings, Stats, Tracer, Worker, bdpt};
 use crate::math::Rgb;
 use crate::mlt::bootstrap::{self, BootstrapScratch};
-use crate::mlt::{self, Bootstrap, MltSettings, MltStats, MltWorker, PrimarySampler};
+use crate::mlt::{self, Bootstrap, MltSettings, MltStats, WorkerChains, PrimarySampler};
 use crate::sampler::mix64;
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
@@ -128,9 +128,9 @@ pub struct RendererConfig {
 }
 
 /// Frames after the first whose chains are kept evaluate
-/// `n_bootstrap / KEPT_SEED_SHARE` seed samples per depth (see
+/// `n_bootstrap / KEPT_BOOTSTRAP_SHARE` seed samples per depth (see
 /// [`Renderer::prepare`]).
-pub const KEPT_SEED_SHARE: u32 = 16;
+pub const KEPT_BOOTSTRAP_SHARE: u32 = 16;
 
 /// Largest [`Temporal::b_window`].
 pub const MAX_B_WINDOW: u32 = 64;
@@ -143,10 +143,10 @@ pub struct Temporal {
     /// MLT: keep every chain across frames. With an unchanged camera the
     /// chains simply go on; after a camera change each chain's current
     /// primary-sample point is evaluated again under the new camera
-    /// ([`MltWorker::reevaluate`]) instead of restarting from the
+    /// ([`WorkerChains::reevaluate`]) instead of restarting from the
     /// bootstrap's samples, so the chains stay (near) stationary and
     /// their depths keep the first frame's split by b_d. Frames after the
-    /// first then evaluate only a share ([`KEPT_SEED_SHARE`]) of the seed
+    /// first then evaluate only a share ([`KEPT_BOOTSTRAP_SHARE`]) of the bootstrap
     /// samples, which restart the chains the new view leaves at zero.
     pub keep_chains: bool,
     /// MLT: the normalisation used for a frame is the mean of the last
@@ -271,7 +271,7 @@ pub struct Renderer {
     /// The generation whose bootstrap the workers are evaluating between
     /// `begin_prepare` and `finish_prepare`.
     pending: Option<u64>,
-    /// The Metropolis settings of the pending bootstrap (fewer seed
+    /// The Metropolis settings of the pending bootstrap (fewer bootstrap
     /// samples for kept chains, see `prepare`).
     boot_mlt: MltSettings,
     /// The workers' normalisation-pass sums gathered by
@@ -317,7 +317,7 @@ pub struct RenderWorker {
     scene_revision: Option<u64>,
     film: Film,
     bdpt: Worker,
-    mlt: Option<MltWorker>,
+    mlt: Option<WorkerChains>,
     /// This worker's share of a split bootstrap (MLT, CMLT).
     boot: Option<WorkerBootstrap>,
     /// Passes this worker has rendered since the last reset.
@@ -336,7 +336,7 @@ struct WorkerBootstrap {
     values: Vec<f32>,
     passes: Vec<f64>,
     stats: Stats,
-    ws: bdpt::Workspace,
+    ws: bdpt::PathStorage,
     sampler: PrimarySampler,
 }
 
@@ -536,12 +536,12 @@ impl Renderer {
         let c = &self.config;
         // Kept chains need seed samples only to restart the few the new
         // view leaves at zero (and those search further when none of
-        // theirs contributes: `MltWorker::reevaluate`), so a frame after
+        // theirs contributes: `WorkerChains::reevaluate`), so a frame after
         // the first draws a share of them. b comes from the normalisation
         // passes then, not from the seed samples.
         self.boot_mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
             MltSettings {
-                n_bootstrap: (c.mlt.n_bootstrap / KEPT_SEED_SHARE).max(1),
+                n_bootstrap: (c.mlt.n_bootstrap / KEPT_BOOTSTRAP_SHARE).max(1),
                 ..c.mlt
             }
         } else {
@@ -624,7 +624,7 @@ impl Renderer {
 
     /// Joins the workers' shares of the bootstrap (`workers`: all of the
     /// renderer's, in any order, each after its
-    /// [`Renderer::prepare_worker`] for this frame) in index order: seed
+    /// [`Renderer::prepare_worker`] for this frame) in index order: bootstrap
     /// samples by index, pass sums in pass order, exactly as `prepare`
     /// combines them. Then the renderer is ready for `render`. Does nothing
     /// when no bootstrap is pending. Allocates nothing. The same as
@@ -1138,8 +1138,8 @@ impl RenderWorker {
             camera: None,
             scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
-            bdpt: Worker::with_workspace(bdpt::Workspace::with_capacity(depth)),
-            mlt: metropolis.then(|| MltWorker::with_capacity(&c.settings, &c.mlt, camera)),
+            bdpt: Worker::with_workspace(bdpt::PathStorage::with_capacity(depth)),
+            mlt: metropolis.then(|| WorkerChains::with_capacity(&c.settings, &c.mlt, camera)),
             boot: metropolis.then(|| {
                 // The largest share of a bootstrap: the seed samples of a
                 // first frame, and every W-th pass.
@@ -1151,7 +1151,7 @@ impl RenderWorker {
                     values: Vec::with_capacity(seeds as usize),
                     passes: Vec::with_capacity(passes as usize),
                     stats: Stats::default(),
-                    ws: bdpt::Workspace::with_capacity(depth),
+                    ws: bdpt::PathStorage::with_capacity(depth),
                     sampler: PrimarySampler::with_capacity(
                         0,
                         c.mlt.sigma,

@@ -10,7 +10,7 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Settings, Tracer};
 use cmlt::math::{Rgb, Vec3};
-use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, MltWorker, PrimarySampler, target};
+use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, WorkerChains, PrimarySampler, target};
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -110,7 +110,7 @@ fn mlt_furnace_is_two() {
         assert!((m[c] - 2.0).abs() / 2.0 < 0.01, "mean {m:?}, expected 2");
     }
     // Every depth's share of b is its share of the furnace series,
-    // Le·a^(d−1), in both estimates: the single-strategy evaluation (seed
+    // Le·a^(d−1), in both estimates: the single-strategy evaluation (bootstrap
     // samples) and BDPT tallied by depth (normalisation passes) are
     // unbiased per depth.
     for (what, bds) in [
@@ -223,7 +223,7 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
     let mut tracer = Tracer::new(&scene, &accel);
     let (st, m) = (settings(), mlt_settings());
     let boot = Bootstrap::run(&mut tracer, &st, &m, 21);
-    let mut ws = cmlt::integrator::bdpt::Workspace::new();
+    let mut ws = cmlt::integrator::bdpt::PathStorage::new();
     let mut film = Film::new(16, 12);
     let mut mutations = 0u64;
     for c in 0..64u64 {
@@ -281,9 +281,9 @@ fn workers_split_the_same_chains_deterministically() {
     let mut tracer = Tracer::new(&scene, &accel);
     let (st, m) = (settings(), mlt_settings());
     let boot = Bootstrap::run(&mut tracer, &st, &m, 2);
-    let mut one = MltWorker::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
-    let mut two = MltWorker::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
-    let mut other = MltWorker::new(&mut tracer, &st, &m, &boot, 2, 1, 2);
+    let mut one = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
+    let mut two = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
+    let mut other = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 1, 2);
     let (mut f1, mut f2, mut f3) = (Film::new(16, 12), Film::new(16, 12), Film::new(16, 12));
     assert_eq!(one.run(&mut tracer, &st, &mut f1, 10), 640);
     two.run(&mut tracer, &st, &mut f2, 3);
@@ -467,7 +467,7 @@ fn few_chains_per_depth_still_give_each_depth_its_share() {
 
 #[test]
 fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
-    // A small bright sphere seen directly inside a grey box: with one seed
+    // A small bright sphere seen directly inside a grey box: with one bootstrap
     // sample per depth, depth 1's seed almost surely misses the sphere,
     // yet the passes give depth 1 most of b. Its chains must start on the
     // sphere (they search further samples): each MLT record carries
@@ -514,7 +514,7 @@ fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
 /// (emitter hit, connection).
 #[test]
 fn lens_start_from_stored_path_equals_its_retrace() {
-    use cmlt::integrator::bdpt::{Workspace, sample_strategy, strategy_path};
+    use cmlt::integrator::bdpt::{PathStorage, sample_strategy, strategy_path};
     use cmlt::mlt::lens::{LensState, LensTarget};
     use cmlt::mlt::multiple_try::Target;
     use cmlt::mlt::path::{Applicable, classify};
@@ -525,7 +525,7 @@ fn lens_start_from_stored_path_equals_its_retrace() {
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(&scene, &accel);
     let s = settings();
-    let mut ws = Workspace::with_capacity(8);
+    let mut ws = PathStorage::with_capacity(8);
     let mut path = Vec::new();
     let (mut compared, mut through_mirror, mut agree) = (0u32, 0u32, 0u32);
     for i in 0..20_000u64 {
