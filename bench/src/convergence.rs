@@ -13,13 +13,21 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::study::{Measurement, Study};
+use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::render::Budget;
 
 /// The CSV header of [`write_csv`]. `budget_s` is empty for sample-count
 /// budgets; `samples` is samples per pixel (PT, BDPT, peers) or mutations
 /// per pixel (MLT, CMLT).
-pub const CSV_HEADER: &str =
+/// `rel_mse_4` and `rel_mse_16` are the relMSE of 4 × 4 and 16 × 16-pixel
+/// block averages ([`super::study::block_rel_mse`]), `cpu_s` the render's
+/// CPU seconds; files written before they existed (11 columns) still read,
+/// with NaN there.
+pub const CSV_HEADER: &str = "method,budget_s,wall_s,seed,samples,rel_mse,rmse,mean_r,mean_g,mean_b,mrays_per_s,rel_mse_4,rel_mse_16,cpu_s";
+
+/// The header of files written before the block-averaged columns.
+const CSV_HEADER_11: &str =
     "method,budget_s,wall_s,seed,samples,rel_mse,rmse,mean_r,mean_g,mean_b,mrays_per_s";
 
 /// Settings of one convergence study.
@@ -70,7 +78,7 @@ impl Row {
     fn to_csv(&self) -> String {
         let m = &self.m;
         format!(
-            "{},{},{:.4},{},{},{:.6e},{:.6e},{:.6},{:.6},{:.6},{:.3}",
+            "{},{},{:.4},{},{},{:.6e},{:.6e},{:.6},{:.6},{:.6},{:.3},{:.6e},{:.6e},{:.3}",
             self.method,
             self.budget_s.map_or(String::new(), |b| b.to_string()),
             m.wall_s,
@@ -82,14 +90,21 @@ impl Row {
             m.mean[0],
             m.mean[1],
             m.mean[2],
-            m.mrays_per_s
+            m.mrays_per_s,
+            m.rel_mse_4,
+            m.rel_mse_16,
+            m.cpu_s
         )
     }
 
     fn from_csv(line: &str) -> Result<Row, String> {
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if f.len() != 11 {
-            return Err(format!("expected 11 fields, got {}: '{line}'", f.len()));
+        let full = f.len() == 14;
+        if f.len() != 11 && !full {
+            return Err(format!(
+                "expected 11 or 14 fields, got {}: '{line}'",
+                f.len()
+            ));
         }
         let num = |i: usize| -> Result<f64, String> {
             f[i].parse::<f64>()
@@ -106,6 +121,9 @@ impl Row {
                 rmse: num(6)?,
                 mean: [num(7)?, num(8)?, num(9)?],
                 mrays_per_s: num(10)?,
+                rel_mse_4: if full { num(11)? } else { f64::NAN },
+                rel_mse_16: if full { num(12)? } else { f64::NAN },
+                cpu_s: if full { num(13)? } else { f64::NAN },
             },
         })
     }
@@ -145,7 +163,8 @@ pub fn append_csv(path: &Path, row: &Row) -> Result<(), String> {
 pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(CSV_HEADER) {
+    let header = lines.next().map(str::trim);
+    if header != Some(CSV_HEADER) && header != Some(CSV_HEADER_11) {
         return Err(format!(
             "{}: the first line is not '{CSV_HEADER}'",
             path.display()
@@ -167,6 +186,12 @@ pub struct Point {
     pub wall_s: f64,
     /// Mean relative MSE.
     pub rel_mse: f64,
+    /// Mean relative MSE of 4 × 4-pixel block averages.
+    pub rel_mse_4: f64,
+    /// Mean relative MSE of 16 × 16-pixel block averages.
+    pub rel_mse_16: f64,
+    /// Mean CPU seconds.
+    pub cpu_s: f64,
     /// Mean of the image's channel means (bias shows here).
     pub mean: [f64; 3],
     /// Seeds averaged.
@@ -240,6 +265,9 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
             Some(p) => {
                 p.wall_s += r.m.wall_s;
                 p.rel_mse += r.m.rel_mse;
+                p.rel_mse_4 += r.m.rel_mse_4;
+                p.rel_mse_16 += r.m.rel_mse_16;
+                p.cpu_s += r.m.cpu_s;
                 for c in 0..3 {
                     p.mean[c] += r.m.mean[c];
                 }
@@ -249,6 +277,9 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
                 budget,
                 wall_s: r.m.wall_s,
                 rel_mse: r.m.rel_mse,
+                rel_mse_4: r.m.rel_mse_4,
+                rel_mse_16: r.m.rel_mse_16,
+                cpu_s: r.m.cpu_s,
                 mean: r.m.mean,
                 seeds: 1,
             }),
@@ -259,6 +290,9 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
             let n = p.seeds as f64;
             p.wall_s /= n;
             p.rel_mse /= n;
+            p.rel_mse_4 /= n;
+            p.rel_mse_16 /= n;
+            p.cpu_s /= n;
             for m in &mut p.mean {
                 *m /= n;
             }
@@ -268,17 +302,59 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
     out
 }
 
+/// A method of the study: an estimator's name with its defaults (`pt`,
+/// `bdpt`, `mlt`, `cmlt`), or a Metropolis method with settings changed,
+/// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:sigma=8` (any subset, in any
+/// order; `depth` is the side-chain minimum depth, `sigma` the lens σ in
+/// pixels) — how the parameter study compares settings in one run.
+pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
+    let mut parts = spec.split(':');
+    let name = parts.next().unwrap_or_default();
+    let e = Estimator::from_name(name)
+        .ok_or_else(|| format!("unknown method '{name}' (expected pt, bdpt, mlt or cmlt)"))?;
+    let mut mlt = RendererConfig::for_estimator(e).mlt;
+    for kv in parts {
+        if !e.is_metropolis() {
+            return Err(format!("'{spec}': only mlt and cmlt take settings"));
+        }
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("'{spec}': '{kv}' is not key=value"))?;
+        let int = || {
+            v.parse::<u32>()
+                .map_err(|e| format!("'{spec}': {k} '{v}': {e}"))
+        };
+        match k {
+            "lanes" => mlt.lanes = int()?,
+            "m" => mlt.m = int()?,
+            "share" => mlt.share = int()?,
+            "depth" => mlt.side_chain_min_depth = int()?,
+            "k" => mlt.k = int()?,
+            "sigma" => {
+                mlt.lens_sigma = v
+                    .parse::<f32>()
+                    .map_err(|e| format!("'{spec}': sigma '{v}': {e}"))?
+            }
+            _ => {
+                return Err(format!(
+                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, sigma)"
+                ));
+            }
+        }
+    }
+    mlt.validate().map_err(|e| format!("'{spec}': {e}"))?;
+    Ok((e, mlt))
+}
+
 /// Runs the study, printing one line per render to `out`; returns the rows
-/// in order (method, budget, seed).
+/// in order (budget, seed, method). The methods take turns at each budget
+/// and seed, so that a change in the machine's load during the run falls
+/// on all of them alike (equal-time comparisons on a shared machine).
 pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
     let estimators = opts
         .methods
         .iter()
-        .map(|m| {
-            Estimator::from_name(m)
-                .map(|e| (m.clone(), e, RendererConfig::for_estimator(e).mlt))
-                .ok_or_else(|| format!("unknown method '{m}' (expected pt, bdpt, mlt or cmlt)"))
-        })
+        .map(|m| method_settings(m).map(|(e, mlt)| (m.clone(), e, mlt)))
         .collect::<Result<Vec<_>, _>>()?;
     if opts.budgets.iter().any(|b| !(b.is_finite() && *b > 0.0)) {
         return Err("budgets must be positive numbers".to_string());
@@ -296,24 +372,24 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
     )
     .map_err(io)?;
     let mut rows = Vec::new();
-    for (name, estimator, mlt) in &estimators {
-        for &b in &opts.budgets {
-            let (budget, budget_s) = if opts.samples {
-                (Budget::PerPixel(b.round().max(1.0) as u64), None)
-            } else {
-                (Budget::Seconds(b), Some(b))
-            };
-            let seeds = if b <= opts.seeds_up_to {
-                opts.seeds.max(1)
-            } else {
-                1
-            };
-            for seed in 0..seeds {
+    for &b in &opts.budgets {
+        let (budget, budget_s) = if opts.samples {
+            (Budget::PerPixel(b.round().max(1.0) as u64), None)
+        } else {
+            (Budget::Seconds(b), Some(b))
+        };
+        let seeds = if b <= opts.seeds_up_to {
+            opts.seeds.max(1)
+        } else {
+            1
+        };
+        for seed in 0..seeds {
+            for (name, estimator, mlt) in &estimators {
                 let m = study.measure(*estimator, mlt, budget, opts.threads, seed)?;
                 writeln!(
                     out,
-                    "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5}, mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s",
-                    m.wall_s, m.samples, m.rel_mse, m.mean[0], m.mean[1], m.mean[2], m.mrays_per_s
+                    "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5} (4x4 {:.5}, 16x16 {:.5}), mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s, {:.2} CPU s",
+                    m.wall_s, m.samples, m.rel_mse, m.rel_mse_4, m.rel_mse_16, m.mean[0], m.mean[1], m.mean[2], m.mrays_per_s, m.cpu_s
                 )
                 .map_err(io)?;
                 rows.push(Row {
@@ -387,6 +463,46 @@ pub fn summarize(
     Ok(())
 }
 
+/// Prints, for every method other than `base`, the equal-budget ratio of
+/// `base`'s mean relMSE to its own (above 1: lower error than `base` in
+/// the same time, the speed-up when error ∝ 1/time), per budget, per pixel
+/// and at 4 × 4 and 16 × 16-pixel blocks; then the same per-pixel ratio
+/// per CPU second, (relMSE·CPU s of `base`) / (relMSE·CPU s), the speed-up
+/// at equal work, which other jobs on the machine disturb much less than
+/// the wall time (relMSE ∝ 1/work, as for any unbiased Monte Carlo
+/// average past its start-up).
+pub fn ratios(curves: &[Curve], base: &str, out: &mut dyn Write) -> Result<(), String> {
+    let io = |e: std::io::Error| e.to_string();
+    let Some(b) = curves.iter().find(|c| c.method == base) else {
+        return Err(format!("no method '{base}' in the data"));
+    };
+    writeln!(
+        out,
+        "relMSE ratio {base} / method at equal budget (pixels, 4x4 blocks, 16x16 blocks; per CPU s; seeds):"
+    )
+    .map_err(io)?;
+    for c in curves.iter().filter(|c| c.method != base) {
+        for p in &c.points {
+            let Some(q) = b.points.iter().find(|q| q.budget == p.budget) else {
+                continue;
+            };
+            writeln!(
+                out,
+                "  {:<40} budget {:>6}: {:.3}  {:.3}  {:.3}  {:.3}  ({} seeds)",
+                c.method,
+                p.budget,
+                q.rel_mse / p.rel_mse,
+                q.rel_mse_4 / p.rel_mse_4,
+                q.rel_mse_16 / p.rel_mse_16,
+                (q.rel_mse * q.cpu_s) / (p.rel_mse * p.cpu_s),
+                p.seeds.min(q.seeds)
+            )
+            .map_err(io)?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -400,11 +516,58 @@ mod tests {
                 wall_s,
                 samples: 1.0,
                 rel_mse,
+                rel_mse_4: rel_mse / 4.0,
+                rel_mse_16: rel_mse / 16.0,
+                cpu_s: wall_s * 2.0,
                 rmse: 0.1,
                 mean: [0.5; 3],
                 mrays_per_s: 1.0,
             },
         }
+    }
+
+    #[test]
+    fn method_settings_change_only_what_they_name() {
+        let (e, base) = method_settings("cmlt").unwrap();
+        assert_eq!(e, Estimator::Cmlt);
+        assert_eq!(base, MltSettings::cmlt());
+        let (_, s) = method_settings("cmlt:lanes=4:share=8:depth=3:sigma=2.5").unwrap();
+        assert_eq!(
+            s,
+            MltSettings {
+                lanes: 4,
+                share: 8,
+                side_chain_min_depth: 3,
+                lens_sigma: 2.5,
+                ..MltSettings::cmlt()
+            }
+        );
+        assert_eq!(
+            method_settings("mlt:m=0").unwrap().1,
+            MltSettings::default()
+        );
+        for bad in ["cmlt:lanes", "cmlt:x=1", "bdpt:m=1", "cmlt:k=0", "foo"] {
+            assert!(method_settings(bad).is_err(), "{bad} was accepted");
+        }
+    }
+
+    #[test]
+    fn ratios_divide_the_base_by_each_method() {
+        let rows = [
+            row("base", 1.0, 0, 1.0, 0.4),
+            row("base", 1.0, 1, 1.0, 0.2),
+            row("x", 1.0, 0, 1.0, 0.1),
+            row("x", 1.0, 1, 1.0, 0.1),
+        ];
+        let mut out = Vec::new();
+        ratios(&curves(&rows), "base", &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        // Means 0.3 and 0.1: a ratio of 3 at every scale.
+        assert!(
+            text.contains("3.000  3.000  3.000  3.000  (2 seeds)"),
+            "{text}"
+        );
+        assert!(ratios(&curves(&rows), "nobody", &mut Vec::new()).is_err());
     }
 
     #[test]
@@ -451,7 +614,14 @@ mod tests {
         assert_eq!(back.seed, 3);
         assert_eq!(back.m.samples, 123.5);
         assert!((back.m.rel_mse - 0.0123).abs() < 1e-9);
+        assert!((back.m.rel_mse_16 - 0.0123 / 16.0).abs() < 1e-9);
+        assert_eq!(back.m.cpu_s, 16.5);
         r.budget_s = None;
         assert_eq!(Row::from_csv(&r.to_csv()).unwrap().budget_s, None);
+        // A row of the 11 columns before the block errors still reads.
+        let old = "mlt,8,8.1,0,12.5,1.0e-2,1.0e-1,0.5,0.5,0.5,2.0";
+        let back = Row::from_csv(old).unwrap();
+        assert_eq!(back.m.rel_mse, 1.0e-2);
+        assert!(back.m.rel_mse_4.is_nan() && back.m.cpu_s.is_nan());
     }
 }

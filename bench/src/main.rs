@@ -167,7 +167,10 @@ enum BenchCommand {
         /// render's size: box-filtered down).
         #[arg(long)]
         reference: PathBuf,
-        /// Methods (pt, bdpt, mlt, cmlt; CMLT with its defaults).
+        /// Methods (pt, bdpt, mlt, cmlt; CMLT with its defaults), or a
+        /// Metropolis method with settings changed, e.g.
+        /// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:sigma=8`. With two or
+        /// more, the first is the base of the printed relMSE ratios.
         #[arg(long, value_delimiter = ',', default_value = "pt,bdpt,mlt,cmlt")]
         methods: Vec<String>,
         /// Budgets in seconds (or samples per pixel with --samples).
@@ -573,6 +576,9 @@ fn run(cli: Cli) -> Result<(), String> {
             let ref_mean = image_io::read_exr(&opts.reference)?.mean();
             let ref_mean = [ref_mean.r as f64, ref_mean.g as f64, ref_mean.b as f64];
             convergence::summarize(&curves, Some(ref_mean), None, &mut std::io::stdout())?;
+            if let Some(base) = opts.methods.first().filter(|_| opts.methods.len() > 1) {
+                convergence::ratios(&curves, base, &mut std::io::stdout())?;
+            }
             if let Some(prefix) = &plot {
                 for p in draw::convergence(&curves, &title, prefix)? {
                     println!("wrote {}", p.display());

@@ -191,6 +191,18 @@ pub struct MltArgs {
     /// selected candidate with a, the current state with 1 − a).
     #[arg(long, default_value = "recycled", value_parser = parse_splatting)]
     pub splatting: Splatting,
+    /// CMLT: parallel one-proposal side chains per level-1 state, traced
+    /// together as packets, 1..=64 (needs --k 1 above 1).
+    #[arg(long, default_value_t = MltSettings::cmlt().lanes)]
+    pub lanes: u32,
+    /// CMLT: paths of fewer segments get no side chain (their level-1
+    /// records carry the side chain's share instead).
+    #[arg(long, default_value_t = MltSettings::cmlt().side_chain_min_depth)]
+    pub side_chain_min_depth: u32,
+    /// CMLT: the weight of a level-1 mutation's side chain, in records of
+    /// one mutation (0 = --m).
+    #[arg(long, default_value_t = MltSettings::cmlt().share)]
+    pub share: u32,
 }
 
 impl MltArgs {
@@ -217,12 +229,15 @@ impl MltArgs {
             caustic_scale: self.caustic_scale,
             candidates: self.candidates,
             splatting: self.splatting,
+            lanes: self.lanes,
+            side_chain_min_depth: self.side_chain_min_depth,
+            share: self.share,
             ..base
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --k {}, --lens-sigma {}, --caustic-scale {})",
-                self.large_step, self.sigma, self.chains, mlt.k, self.lens_sigma, self.caustic_scale
+                "{e} (--large-step {}, --sigma {}, --chains {}, --k {}, --lens-sigma {}, --caustic-scale {}, --lanes {})",
+                self.large_step, self.sigma, self.chains, mlt.k, self.lens_sigma, self.caustic_scale, self.lanes
             )
         })?;
         Ok(mlt)

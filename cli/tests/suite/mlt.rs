@@ -461,3 +461,73 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     check_reference("glossy-room", 2, &mlt, 128, 2.5);
     check_reference("glossy-room", 2, &cmlt, 32, 2.0);
 }
+
+/// CMLT with parallel lanes and side chains only on paths of at least
+/// four segments converges to the reference (the class-dependent lengths
+/// keep it unbiased), and replays bit for bit.
+#[test]
+fn cmlt_lanes_and_class_lengths_match_reference() {
+    let cmlt = MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        n_chains: 64,
+        k: 1,
+        m: 2,
+        lanes: 4,
+        side_chain_min_depth: 4,
+        lens_sigma: 2.0,
+        ..MltSettings::cmlt()
+    };
+    let (_, _, _, out) = check_means("veach-bidir", 8, &cmlt, 8);
+    let mlt = out.stats.mlt;
+    // Both kinds of state occur: shallow ones carry their share, deep
+    // ones run their lanes.
+    assert!(mlt.lens_steps > 0 && mlt.identity_steps > 0, "{mlt:?}");
+    check_reference("veach-bidir", 8, &cmlt, 4, 2.5);
+    let (loaded, _) = load_reduced("veach-bidir", 16);
+    let (a, oa) = render(&loaded, &cmlt, 4, 2, 3);
+    let (b, ob) = render(&loaded, &cmlt, 4, 2, 3);
+    assert_eq!(oa.stats.mlt, ob.stats.mlt);
+    let bits = |i: &Image| -> Vec<[u32; 3]> {
+        i.pixels
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    assert_eq!(bits(&a), bits(&b));
+}
+
+/// Where no path gets a side chain, CMLT is plain MLT: every level-1
+/// record carries the share, so the image is MLT's up to rounding (the
+/// records of m repeated states it used to add would differ by the
+/// chains' noise).
+#[test]
+fn cmlt_without_side_chains_is_mlt() {
+    let (loaded, _) = load_reduced("veach-bidir", 16);
+    let mlt = MltSettings {
+        n_bootstrap: 500,
+        b_passes: 4,
+        n_chains: 16,
+        ..MltSettings::default()
+    };
+    let cmlt = MltSettings {
+        m: 3,
+        side_chain_min_depth: 1_000,
+        ..mlt
+    };
+    let (a, oa) = render(&loaded, &mlt, 8, 2, 5);
+    let (b, ob) = render(&loaded, &cmlt, 8, 2, 5);
+    assert_eq!(ob.stats.mlt.lens_steps, 0);
+    assert_eq!(ob.stats.mlt.records, 4 * oa.stats.mlt.records);
+    let mut worst = 0.0f32;
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        for c in 0..3 {
+            let d = (p[c] - q[c]).abs() / p[c].abs().max(1e-3);
+            worst = worst.max(d);
+        }
+    }
+    assert!(
+        worst < 1e-4,
+        "CMLT without side chains differs from MLT by {worst}"
+    );
+}

@@ -1,22 +1,57 @@
 //! Level 2 of CMLT (Segovia 2007, Algorithm 4, step 1, with the typos of
 //! its acceptance corrected as [`super::multiple_try`] says): from a
-//! level-1 state, a side chain of m multiple-try steps with the
-//! perturbation its path admits ([`super::path`]), the k candidates of
-//! each step traced together as packets.
+//! level-1 state, a side chain of m(c) steps with the perturbation its
+//! path admits ([`super::path`]): n parallel one-proposal lanes
+//! ([`super::lanes`]) when k = 1, else multiple-try steps of k candidates;
+//! either way the candidates of a step are traced together as packets.
 //!
-//! Every side-chain step records total luminance 1 (expected-value
-//! splatting, [`super::multiple_try`]), like a level-1 mutation, so a
-//! level-1 mutation followed by its side chain adds 1 + m records and the
-//! image scale counts them all ([`super::MltStats::records`]). A path no
-//! perturbation applies to (or, for the caustic perturbation, whose
-//! retrace fails numerically at the start) is recorded m times where it
-//! is: the identity kernel, which keeps every path's share of the records
-//! right. The lens perturbation's start is valued from the level-1 path's
-//! vertices ([`LensTarget::evaluate_path`]), not retraced.
+//! ## Side chains only where they pay: the level-2 share
+//!
+//! Every level-1 mutation adds records of total luminance 1 + s, where s
+//! (the level-2 share, [`super::MltSettings::share`]) is fixed: the image
+//! scale counts 1 + s records per mutation ([`super::MltStats::records`]).
+//! The share goes to the *class* c of the level-1 state — the perturbation
+//! that applies to its path (lens, caustic or none) and its depth — in one
+//! of two ways:
+//! - a class with side-chain length m(c) > 0 runs a side chain of m(c)
+//!   steps (n lanes each) whose records weigh s / (m(c)·n) each, s in all;
+//! - a class with m(c) = 0 (no perturbation applies, or a path too shallow
+//!   for a side chain to pay, [`super::MltSettings::side_chain_min_depth`])
+//!   runs none: its level-1 records carry the share themselves, the
+//!   proposal y weighing a·(1 + s) and the current state x
+//!   (1 − a)·(1 + s) when their class has m = 0 (else a and 1 − a).
+//!
+//! Why this is unbiased. Let π be level 1's stationary distribution over
+//! paths and g(z) = 1 when m(class(z)) = 0. Level 1's expected-value
+//! record a·δ_y + (1 − a)·δ_x is the conditional expectation of δ_{x′}
+//! (x′ the state after the step) given x and y, for any weight that is a
+//! function of the state; so with x ~ π the level-1 records have mean
+//! π + s·g·π. The side chain starts from x′ ~ π; given its class c, x′ is
+//! distributed as π_c, π restricted to c and normalised. The lens and
+//! caustic perturbations keep the path's depth and its pattern of specular
+//! vertices and lobes, a candidate that breaks the pattern fails (zero
+//! target: [`super::path::retrace`]), and the fixed vertices stay fixed:
+//! every state a side chain can reach has its start's class, so its
+//! target is π_c (up to a constant) and every lane step is π_c-invariant
+//! ([`super::lanes`], [`super::multiple_try`]). Its records therefore
+//! have mean s·π_c, and over the classes with m(c) > 0, weighted by their
+//! probabilities π(c), s·(1 − g)·π. In all: π + s·g·π + s·(1 − g)·π =
+//! (1 + s)·π per mutation, which the image scale divides by. The lengths
+//! m(c) are free: they change only the variance and the cost. A negative
+//! control in `lanes/tests.rs` shows that weight 1 per record (instead of
+//! s/m(c)) with lengths that differ between classes, or a side chain that
+//! leaves its class, is biased.
+//!
+//! The lens perturbation's start is valued from the level-1 path's
+//! vertices ([`LensTarget::evaluate_path`]), not retraced. A start that
+//! fails (a camera that cannot see x₁, or a retrace of the caustic chain
+//! that fails by rounding) records its share where it is: the identity
+//! kernel, also π_c-invariant.
 
 use glam::Vec2;
 
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
+use super::lanes::{LaneCounts, Lanes};
 use super::lens::{LensProposal, LensState, LensTarget};
 use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Target};
 use super::path::{Applicable, classify};
@@ -27,16 +62,22 @@ use crate::integrator::bdpt::PathVertex;
 use crate::math::Rgb;
 use crate::sampler::Sampler;
 
-/// Largest k (candidates per multiple-try step).
+/// Largest k (candidates per multiple-try step) and largest number of
+/// lanes.
 pub const MAX_K: usize = 64;
 
-/// A worker's level-2 machinery: the two multiple-try steppers (scratch
-/// for up to [`MAX_K`] candidates each, no allocation per step) and the
-/// perturbations' parameters.
+/// A worker's level-2 machinery: the lanes and the multiple-try steppers
+/// (scratch for up to [`MAX_K`] candidates each, no allocation per step)
+/// and the perturbations' parameters.
 pub struct Level2 {
-    m: u32,
+    share: u32,
+    length: u32,
+    min_depth: u32,
+    k: usize,
     lens: MultipleTry<LensState, MAX_K>,
     caustic: MultipleTry<CausticState, MAX_K>,
+    lens_lanes: Lanes<LensState, MAX_K>,
+    caustic_lanes: Lanes<CausticState, MAX_K>,
     lens_proposal: LensProposal,
     caustic_proposal: CausticProposal,
 }
@@ -62,45 +103,77 @@ impl Level2 {
         let s = sigma * pixel_angle * mlt.caustic_scale;
         let caustic_proposal =
             CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
+        let lanes = mlt.lanes as usize;
         Some(Level2 {
-            m: mlt.m,
+            share: mlt.share(),
+            length: mlt.m,
+            min_depth: mlt.side_chain_min_depth,
+            k,
             lens: MultipleTry::new(k, mlt.splatting)
                 .with_candidates(mlt.candidates, LensProposal::DIM),
             caustic: MultipleTry::new(k, mlt.splatting)
                 .with_candidates(mlt.candidates, CausticProposal::DIM),
+            lens_lanes: Lanes::new(lanes, LensProposal::DIM),
+            caustic_lanes: Lanes::new(lanes, CausticProposal::DIM),
             lens_proposal,
             caustic_proposal,
         })
     }
 
-    /// Side-chain length m.
-    pub fn m(&self) -> u32 {
-        self.m
+    /// The level-2 share s: records each level-1 mutation adds beyond its
+    /// own one (see the module docs).
+    pub fn share(&self) -> u32 {
+        self.share
     }
 
-    /// Runs the side chain of the level-1 state `current` (whose complete
-    /// path is `path`), recording through `splat(raster, value)` with
-    /// values of luminance equal to the record's weight. Level 1 is left
-    /// alone.
+    /// The class of the complete path `path`: the perturbation that applies
+    /// to it, and its side-chain length m(c) — [`MltSettings::m`] for a
+    /// lens or caustic path of at least the minimum depth, 0 otherwise
+    /// (then the path's level-1 records carry the share).
+    pub fn classify<I: Intersector>(
+        &self,
+        tracer: &Tracer<'_, I>,
+        path: &[PathVertex],
+    ) -> (Applicable, u32) {
+        let depth = path.len().saturating_sub(1) as u32;
+        if depth < self.min_depth {
+            return (Applicable::Neither, 0);
+        }
+        match classify(tracer, path) {
+            Applicable::Neither => (Applicable::Neither, 0),
+            class => (class, self.length),
+        }
+    }
+
+    /// Runs the side chain of length `length` (> 0, from
+    /// [`Level2::classify`]) of the level-1 state `current`, whose complete
+    /// path is `path` and whose class is `class`, recording through
+    /// `splat(raster, value)` values of total luminance s (the share).
+    /// Level 1 is left alone.
     #[allow(clippy::too_many_arguments)]
     pub fn side_chain<I: Intersector, R: Sampler>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
         path: &[PathVertex],
+        class: &Applicable,
+        length: u32,
         current: &PathSample,
         rng: &mut R,
         stats: &mut MltStats,
         splat: &mut impl FnMut(Vec2, Rgb),
     ) {
-        let m = self.m;
+        let share = self.share as f32;
         let identity = |stats: &mut MltStats, splat: &mut dyn FnMut(Vec2, Rgb)| {
-            stats.identity_steps += m as u64;
+            stats.identity_steps += share as u64;
             let y = current.target();
             if y > 0.0 {
-                splat(current.raster, current.l * (m as f32 / y));
+                splat(current.raster, current.l * (share / y));
             }
         };
-        match classify(tracer, path) {
+        if length == 0 {
+            return identity(stats, splat);
+        }
+        match class {
             Applicable::Neither => identity(stats, splat),
             Applicable::Lens(anchor) => {
                 let camera = tracer.camera;
@@ -113,10 +186,7 @@ impl Level2 {
                 else {
                     return identity(stats, splat);
                 };
-                let mut target = LensTarget {
-                    tracer,
-                    anchor: &anchor,
-                };
+                let mut target = LensTarget { tracer, anchor };
                 // The start is the level-1 path itself: its value comes
                 // from its vertices, without retracing (one path
                 // evaluation fewer per side chain).
@@ -126,26 +196,26 @@ impl Level2 {
                 else {
                     return identity(stats, splat);
                 };
-                let out = side_chain(
+                let out = run(
+                    self.k,
                     &mut self.lens,
+                    &mut self.lens_lanes,
                     &self.lens_proposal,
                     &mut target,
                     start,
-                    m,
+                    length,
+                    share,
                     rng,
                     &mut |s: &LensState, w| splat(s.raster, s.value * (w / s.value.luminance())),
                 );
-                stats.lens_steps += m as u64;
+                stats.lens_steps += out.steps;
                 stats.lens_accepted += out.accepted;
-                stats.l2_candidates += out.candidates;
+                stats.l2_candidates += out.steps * self.k as u64;
                 stats.l2_zero_candidates += out.zero;
             }
             Applicable::Caustic(anchor) => {
                 let dir = (anchor.toward - anchor.origin.sp.p).normalize();
-                let mut target = CausticTarget {
-                    tracer,
-                    anchor: &anchor,
-                };
+                let mut target = CausticTarget { tracer, anchor };
                 let start = CausticState {
                     dir,
                     ..CausticState::default()
@@ -153,18 +223,21 @@ impl Level2 {
                 let Some(start) = evaluate_start(&mut target, start) else {
                     return identity(stats, splat);
                 };
-                let out = side_chain(
+                let out = run(
+                    self.k,
                     &mut self.caustic,
+                    &mut self.caustic_lanes,
                     &self.caustic_proposal,
                     &mut target,
                     start,
-                    m,
+                    length,
+                    share,
                     rng,
                     &mut |s: &CausticState, w| splat(s.raster, s.value * (w / s.value.luminance())),
                 );
-                stats.caustic_steps += m as u64;
+                stats.caustic_steps += out.steps;
                 stats.caustic_accepted += out.accepted;
-                stats.l2_candidates += out.candidates;
+                stats.l2_candidates += out.steps * self.k as u64;
                 stats.l2_zero_candidates += out.zero;
             }
         }
@@ -188,34 +261,35 @@ fn positive_state<S>(p: f32, s: S) -> Option<ChainState<S>> {
     (st.p > 0.0).then_some(st)
 }
 
-/// Counters of one side chain.
-struct SideChainCounts {
-    accepted: u64,
-    candidates: u64,
-    zero: u64,
-}
-
-/// Runs m multiple-try steps from the evaluated start `state`.
-fn side_chain<S: Clone, P: Proposal<S>, T: Target<S>, R: Sampler>(
+/// Runs a side chain of `m` steps carrying `share` from the evaluated
+/// start `state`: the lanes when k = 1, else multiple-try steps (each of
+/// which records total weight 1, scaled here to share/m). A multiple-try
+/// step counts as one step (of k candidates).
+#[allow(clippy::too_many_arguments)]
+fn run<S: Clone + Default, P: Proposal<S>, T: Target<S>, R: Sampler>(
+    k: usize,
     mtm: &mut MultipleTry<S, MAX_K>,
+    lanes: &mut Lanes<S, MAX_K>,
     proposal: &P,
     target: &mut T,
     mut state: ChainState<S>,
     m: u32,
+    share: f32,
     rng: &mut R,
     splat: &mut impl FnMut(&S, f32),
-) -> SideChainCounts {
-    let k = mtm.k() as u64;
-    let mut c = SideChainCounts {
-        accepted: 0,
-        candidates: 0,
-        zero: 0,
-    };
+) -> LaneCounts {
+    if k == 1 {
+        return lanes.run(proposal, target, &state, m, share, rng, splat);
+    }
+    let scale = share / m as f32;
+    let mut c = LaneCounts::default();
     for _ in 0..m {
-        let st = mtm.step(proposal, target, &mut state, rng, splat);
+        let st = mtm.step(proposal, target, &mut state, rng, &mut |s: &S, w| {
+            splat(s, w * scale)
+        });
         c.accepted += st.accepted as u64;
-        c.candidates += k;
-        c.zero += k - st.nonzero as u64;
+        c.steps += 1;
+        c.zero += k as u64 - st.nonzero as u64;
     }
     c
 }

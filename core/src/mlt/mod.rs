@@ -37,6 +37,7 @@
 pub mod bootstrap;
 pub mod caustic;
 pub mod chain;
+pub mod lanes;
 pub mod lens;
 pub mod level2;
 pub mod multiple_try;
@@ -48,6 +49,7 @@ pub use bootstrap::Bootstrap;
 pub use chain::{Chain, PathSample, Splat, Step};
 pub use level2::Level2;
 pub use multiple_try::{Candidates, Splatting};
+use path::Applicable;
 pub use primary::PrimarySampler;
 
 use alloc::vec::Vec;
@@ -83,8 +85,9 @@ pub struct MltSettings {
     /// needs a finite set of depths to bootstrap over. Paths longer than
     /// this are missing (energy of order albedo^cap).
     pub depth_cap: u32,
-    /// Level 2: side-chain length m (multiple-try steps per level-1
-    /// mutation); 0 = plain MLT.
+    /// Level 2: the side-chain length m(c) of the classes that get a side
+    /// chain (lens and caustic paths of at least `side_chain_min_depth`
+    /// segments); 0 = plain MLT. See [`level2`].
     pub m: u32,
     /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
     /// [`level2::MAX_K`].
@@ -101,6 +104,20 @@ pub struct MltSettings {
     /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], Segovia 2007's
     /// eq. 36, is biased and refused by [`MltSettings::validate`]).
     pub splatting: Splatting,
+    /// Level 2: parallel one-proposal side chains (lanes) per level-1
+    /// state, traced together as packets, 1 ≤ lanes ≤ [`level2::MAX_K`];
+    /// more than one needs k = 1. See [`lanes`].
+    pub lanes: u32,
+    /// Level 2: paths of fewer segments get no side chain (their level-1
+    /// records carry the level-2 share); 0 or 1 = every lens and caustic
+    /// path gets one.
+    pub side_chain_min_depth: u32,
+    /// Level 2: the level-2 share s, the weight (in records of one
+    /// mutation) each level-1 mutation's side chain adds beyond its own
+    /// record, or carries in its level-1 record when its state gets no
+    /// side chain; 0 = m. Changes the variance, not the mean. See
+    /// [`level2`].
+    pub share: u32,
 }
 
 impl Default for MltSettings {
@@ -120,6 +137,9 @@ impl Default for MltSettings {
             caustic_scale: 1.0,
             candidates: Candidates::Stratified,
             splatting: Splatting::default(),
+            lanes: 1,
+            side_chain_min_depth: 0,
+            share: 0,
         }
     }
 }
@@ -142,9 +162,19 @@ impl MltSettings {
         }
     }
 
-    /// Records each level-1 mutation adds with its side chain: 1 + m.
+    /// The level-2 share s: `share`, or m when `share` is 0 (0 for plain
+    /// MLT).
+    pub fn share(&self) -> u32 {
+        match (self.m, self.share) {
+            (0, _) => 0,
+            (m, 0) => m,
+            (_, s) => s,
+        }
+    }
+
+    /// Records each level-1 mutation adds with its level-2 share: 1 + s.
     pub fn records_per_mutation(&self) -> u64 {
-        1 + self.m as u64
+        1 + self.share() as u64
     }
 
     /// Checks every parameter's range; the message names the first bad one.
@@ -173,6 +203,12 @@ impl MltSettings {
         if !(self.caustic_scale > 0.0 && self.caustic_scale.is_finite()) {
             return Err("caustic scale must be positive and finite");
         }
+        if !(1..=level2::MAX_K as u32).contains(&self.lanes) {
+            return Err("lanes must be in 1..=64");
+        }
+        if self.lanes > 1 && self.k > 1 {
+            return Err("parallel lanes need k = 1 (one proposal per lane)");
+        }
         if self.splatting == Splatting::AllCandidates {
             return Err("eq. 36 splatting is biased; use recycled or expected-value splatting");
         }
@@ -187,8 +223,8 @@ pub fn path_depth(settings: &Settings, mlt: &MltSettings) -> u32 {
 }
 
 /// The factor turning the splat layer into radiance: b · pixels / N for
-/// N records ([`MltStats::records`]: level-1 mutations plus level-2
-/// side-chain steps; 0 when N = 0).
+/// N records ([`MltStats::records`]: level-1 mutations times 1 + s, the
+/// level-2 share; 0 when N = 0).
 pub fn image_scale(b: f64, pixels: u64, records: u64) -> f64 {
     if records == 0 {
         0.0
@@ -215,18 +251,22 @@ pub struct MltStats {
     /// Proposals with zero (or non-finite) contribution.
     pub zero_proposals: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
-    /// mutations plus side-chain steps (what [`image_scale`] divides by).
+    /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
+    /// divides by).
     pub records: u64,
-    /// Level 2: lens-perturbation steps (multiple-try steps).
+    /// Level 2: lens-perturbation steps (lane steps, or multiple-try steps
+    /// when k > 1).
     pub lens_steps: u64,
     /// Level 2: lens-perturbation steps accepted.
     pub lens_accepted: u64,
-    /// Level 2: caustic-perturbation steps.
+    /// Level 2: caustic-perturbation steps (as `lens_steps`).
     pub caustic_steps: u64,
     /// Level 2: caustic-perturbation steps accepted.
     pub caustic_accepted: u64,
-    /// Level 2: side-chain steps of paths no perturbation applies to (the
-    /// state is recorded where it is).
+    /// Level 2: share records (units of one mutation's weight) carried by
+    /// level-1 records of states without a side chain (no perturbation
+    /// applies, or too shallow), or recorded where a side chain could not
+    /// start.
     pub identity_steps: u64,
     /// Level 2: candidates evaluated (k per step, reference points not
     /// counted).
@@ -392,6 +432,12 @@ pub struct WorkerChains {
     /// the path storage when a proposal is accepted).
     level2: Option<Level2>,
     paths: Vec<Vec<PathVertex>>,
+    /// Level 2: the class of each chain's current path and its side-chain
+    /// length ([`Level2::classify`]).
+    classes: Vec<(Applicable, u32)>,
+    /// Level 2: the path of the latest proposal, classified for its
+    /// level-1 record's weight and swapped in when it is accepted.
+    proposal_path: Vec<PathVertex>,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -428,7 +474,8 @@ impl WorkerChains {
         let depth = path_depth(settings, mlt);
         let max_vertices = depth as usize + 1;
         let level2 = Level2::new(mlt, camera.width(), camera.height(), camera.pixel_angle());
-        let paths = if level2.is_some() {
+        let l2 = level2.is_some();
+        let paths = if l2 {
             (0..n).map(|_| Vec::with_capacity(max_vertices)).collect()
         } else {
             Vec::new()
@@ -446,6 +493,8 @@ impl WorkerChains {
             stats: MltStats::default(),
             level2,
             paths,
+            classes: Vec::with_capacity(if l2 { n } else { 0 }),
+            proposal_path: Vec::with_capacity(if l2 { max_vertices } else { 0 }),
         }
     }
 
@@ -473,11 +522,13 @@ impl WorkerChains {
             stats,
             level2,
             paths,
+            classes,
             start_tries,
             ..
         } = self;
         spare.extend(chains.drain(..).map(|(c, _)| c.into_sampler()));
         seeds.clear();
+        classes.clear();
         *stats = MltStats::default();
         let workers = workers.max(1);
         let total = mlt.n_chains as u64 * workers;
@@ -505,8 +556,10 @@ impl WorkerChains {
             };
             sampler.restart(bootstrap.seed_of(index));
             let initial = target::evaluate(tracer, settings, ws, depth, &mut sampler);
-            if level2.is_some() {
-                bdpt::strategy_path(ws, &mut paths[chains.len()]);
+            if let Some(l2) = level2 {
+                let path = &mut paths[chains.len()];
+                bdpt::strategy_path(ws, path);
+                classes.push(l2.classify(tracer, path));
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
@@ -539,6 +592,7 @@ impl WorkerChains {
             stats,
             level2,
             paths,
+            classes,
             start_tries,
             ..
         } = self;
@@ -563,8 +617,9 @@ impl WorkerChains {
                     chain.restart(bootstrap.seed_of(index), cs, &mut evaluate);
                 }
             }
-            if level2.is_some() {
+            if let Some(l2) = level2 {
                 bdpt::strategy_path(ws, &mut paths[ci]);
+                classes[ci] = l2.classify(tracer, &paths[ci]);
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
@@ -604,6 +659,8 @@ impl WorkerChains {
             stats,
             level2,
             paths,
+            classes,
+            proposal_path,
             ..
         } = self;
         for _ in 0..rounds {
@@ -611,29 +668,52 @@ impl WorkerChains {
                 let depth = *depth;
                 let w = weights[ci];
                 let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
-                for sp in st.splats() {
-                    film.add_splat(sp.raster, sp.value * w);
-                }
                 stats.record(&st);
-                if let Some(l2) = level2 {
-                    // The path storage still holds the proposal's subpaths
-                    // (nothing traced since): copy its path only when the
-                    // chain moved there, not on every proposal.
-                    if st.accepted {
-                        bdpt::strategy_path(ws, &mut paths[ci]);
+                let Some(l2) = level2 else {
+                    for sp in st.splats() {
+                        film.add_splat(sp.raster, sp.value * w);
                     }
+                    continue;
+                };
+                // A state of a class without side chain carries the
+                // level-2 share in its level-1 record (see `level2`): the
+                // proposal's class is needed whenever it is recorded. The
+                // path storage still holds its subpaths (nothing traced
+                // since).
+                let share = l2.share() as f32;
+                let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
+                let mut y_class = (Applicable::Neither, 0);
+                if let Some(sp) = st.proposal {
+                    bdpt::strategy_path(ws, proposal_path);
+                    y_class = l2.classify(tracer, proposal_path);
+                    film.add_splat(sp.raster, sp.value * (w * carry(y_class.1)));
+                }
+                if let Some(sp) = st.current {
+                    film.add_splat(sp.raster, sp.value * (w * carry(classes[ci].1)));
+                }
+                // Accepted implies a > 0, so the proposal was classified.
+                if st.accepted {
+                    core::mem::swap(&mut paths[ci], proposal_path);
+                    classes[ci] = y_class;
+                }
+                let (class, length) = &classes[ci];
+                if *length > 0 {
                     let mut rng =
                         SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);
                     l2.side_chain(
                         tracer,
                         &paths[ci],
+                        class,
+                        *length,
                         &chain.current(),
                         &mut rng,
                         stats,
                         &mut |r, v| film.add_splat(r, v * w),
                     );
-                    stats.records += l2.m() as u64;
+                } else {
+                    stats.identity_steps += l2.share() as u64;
                 }
+                stats.records += l2.share() as u64;
             }
         }
         rounds * chains.len() as u64

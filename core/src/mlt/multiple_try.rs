@@ -378,7 +378,7 @@ pub fn sanitize_target(p: f32) -> f32 {
 /// the sampler had (numerically) no mass, so weight 0 is the harmless
 /// choice. Computed in f64: p/T overflows f32 for T near f32's subnormals.
 #[inline]
-fn weight(p_to: f32, t_from_to: f32) -> f64 {
+pub(super) fn weight(p_to: f32, t_from_to: f32) -> f64 {
     if p_to > 0.0 && t_from_to > 0.0 && t_from_to.is_finite() {
         p_to as f64 / t_from_to as f64
     } else {
@@ -393,7 +393,7 @@ fn weight(p_to: f32, t_from_to: f32) -> f64 {
 /// as weight 0 instead would accept exactly the moves whose reverse is
 /// (almost) impossible.
 #[inline]
-fn reference_weight(p_to: f32, t_from_to: f32) -> Option<f64> {
+pub(super) fn reference_weight(p_to: f32, t_from_to: f32) -> Option<f64> {
     if p_to > 0.0 && !(t_from_to > 0.0 && t_from_to.is_finite()) {
         None
     } else {
@@ -928,4 +928,4 @@ fn draw<S, P: Proposal<S>, R: Sampler + ?Sized>(proposal: &P, from: &S, rng: &mu
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

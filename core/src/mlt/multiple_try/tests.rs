@@ -22,7 +22,7 @@ use crate::sampler::SampleStream;
 /// The toy target on [0, 1)²: a linear ramp, a block with hard edges, a
 /// hole where p = 0, and 0 outside the square (another hard edge):
 /// p = 1 + 3x + 8·[x < ½, y ≥ 0.6], except p = 0 for x ≥ 0.8, y < 0.2.
-fn p(v: Vec2) -> f32 {
+pub(crate) fn p(v: Vec2) -> f32 {
     if !(v.x >= 0.0 && v.x < 1.0 && v.y >= 0.0 && v.y < 1.0) {
         return 0.0;
     }
@@ -33,19 +33,19 @@ fn p(v: Vec2) -> f32 {
 }
 
 /// ∫p = 2.5 (ramp) + 1.6 (block) − 0.148 (hole).
-const B: f64 = 3.952;
+pub(crate) const B: f64 = 3.952;
 /// Histogram resolution: edges of the block and hole fall on cell edges.
-const N: usize = 10;
+pub(crate) const N: usize = 10;
 
 /// Probability of cell (i, j) under p/B: p is linear in x and constant in
 /// y inside each cell, so the midpoint rule is exact.
-fn cell_mass(i: usize, j: usize) -> f64 {
+pub(crate) fn cell_mass(i: usize, j: usize) -> f64 {
     let h = 1.0 / N as f64;
     let c = Vec2::new(((i as f64 + 0.5) * h) as f32, ((j as f64 + 0.5) * h) as f32);
     h * h * p(c) as f64 / B
 }
 
-fn cell(v: Vec2) -> usize {
+pub(crate) fn cell(v: Vec2) -> usize {
     assert!(
         (0.0..1.0).contains(&v.x) && (0.0..1.0).contains(&v.y),
         "{v}"
@@ -56,7 +56,7 @@ fn cell(v: Vec2) -> usize {
 }
 
 /// An exact sample of p/B by rejection (sup p = 1 + 1.5 + 8 = 10.5).
-fn sample_target(s: &mut SampleStream) -> ChainState<Vec2> {
+pub(crate) fn sample_target(s: &mut SampleStream) -> ChainState<Vec2> {
     loop {
         let v = s.next_2d();
         let pv = p(v);
@@ -67,14 +67,14 @@ fn sample_target(s: &mut SampleStream) -> ChainState<Vec2> {
 }
 
 /// Upper 1e-4 quantile of χ² (Wilson–Hilferty).
-fn chi2_quantile_1e4(dof: f64) -> f64 {
+pub(crate) fn chi2_quantile_1e4(dof: f64) -> f64 {
     let a = 2.0 / (9.0 * dof);
     dof * (1.0 - a + 3.719 * a.sqrt()).powi(3)
 }
 
 /// Symmetric random walk: a clamped Gaussian offset (not wrapped; states
 /// leaving the square have p = 0).
-struct Walk(ClampedGaussian2);
+pub(crate) struct Walk(ClampedGaussian2);
 
 impl Proposal<Vec2> for Walk {
     const DIM: usize = 2;
@@ -91,7 +91,7 @@ impl Proposal<Vec2> for Walk {
 
 /// Non-symmetric: σ grows with x (0.02 … 0.32); the truncation radius is
 /// fixed so the support stays symmetric (eq. 31).
-struct StateSigma;
+pub(crate) struct StateSigma;
 
 impl StateSigma {
     fn g(from: Vec2) -> ClampedGaussian2 {
@@ -114,7 +114,7 @@ impl Proposal<Vec2> for StateSigma {
 
 /// Independence proposal q(y) = (¼ + y.x)/¾ on the square, whatever x;
 /// `None` for u.y ≥ 0.9 (a failing perturbation) to exercise that path.
-struct Independence;
+pub(crate) struct Independence;
 
 impl Proposal<Vec2> for Independence {
     const DIM: usize = 2;
@@ -141,13 +141,13 @@ impl Proposal<Vec2> for Independence {
     }
 }
 
-fn walk() -> Walk {
+pub(crate) fn walk() -> Walk {
     Walk(ClampedGaussian2::new(0.2, 0.45).unwrap())
 }
 
 /// [`Walk`] declared [`Proposal::SYMMETRIC`] (as the lens perturbation
 /// is): a one-candidate step then takes a = min(1, p(y)/p(x)).
-struct SymmetricWalk(Walk);
+pub(crate) struct SymmetricWalk(pub(crate) Walk);
 
 impl Proposal<Vec2> for SymmetricWalk {
     const DIM: usize = 2;
@@ -224,7 +224,7 @@ fn chi2_with<P: Proposal<Vec2>>(
     pearson(&counts, chains as f64)
 }
 
-fn pearson(counts: &[u64; N * N], n: f64) -> (f64, f64) {
+pub(crate) fn pearson(counts: &[u64; N * N], n: f64) -> (f64, f64) {
     let (mut chi2, mut dof) = (0.0, -1.0);
     for (c, &o) in counts.iter().enumerate() {
         let e = cell_mass(c % N, c / N) * n;
@@ -241,7 +241,7 @@ fn pearson(counts: &[u64; N * N], n: f64) -> (f64, f64) {
 
 /// Two-sided per-cell z bound for a family-wise level of 1e-4 over ~100
 /// cells (Bonferroni: valid whatever the correlation between cells).
-const Z_MAX: f64 = 4.9;
+pub(crate) const Z_MAX: f64 = 4.9;
 
 /// Runs `chains` independent side chains of `m` steps from exact samples
 /// of p, splatting with `splatting`. Each chain's splat totals per cell
