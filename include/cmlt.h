@@ -47,6 +47,14 @@
 // (`Estimator::Cmlt`).
 #define CMLT_ESTIMATOR_CMLT 3
 
+// CMLT: each step records every candidate with its one-proposal
+// acceptance and the current state with the rest (unbiased; the default).
+#define CMLT_SPLATTING_RECYCLED 0
+
+// CMLT: each step records the chosen candidate with its acceptance a and
+// the current state with 1 − a (unbiased).
+#define CMLT_SPLATTING_EXPECTED_VALUE 1
+
 // Linear RGB, 3 × `float` per pixel.
 #define CMLT_FORMAT_RGB32F 0
 
@@ -299,7 +307,7 @@ typedef struct cmlt_renderer_config {
   // Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
   uint32_t workers;
   // Longest path in segments; 0 = the scene's setting (unbounded paths
-  // are capped at 32).
+  // are capped at `depth_cap`).
   uint32_t max_depth;
   // Seed of all random numbers.
   uint64_t seed;
@@ -333,6 +341,25 @@ typedef struct cmlt_renderer_config {
   // scene analysis off; the CLI's `--all-effects`). 0 by default: only
   // what the scene needs is simulated.
   uint32_t all_effects;
+  // Longest path in segments when the scene's depth is unbounded and
+  // `max_depth` is 0 (1 ..= 1024; 32 by default).
+  uint32_t depth_cap;
+  // CMLT: the caustic perturbation's angular σ is `lens_sigma` pixel
+  // angles times this factor (> 0, finite).
+  float caustic_scale;
+  // CMLT: what a multiple-try step records, a `CMLT_SPLATTING_*` value.
+  uint32_t splatting;
+  // CMLT: parallel one-proposal side chains per level-1 state, traced
+  // together as packets (1 ..= 64; more than 1 needs k = 1).
+  uint32_t lanes;
+  // CMLT: paths of fewer segments get no side chain (their level-1
+  // records carry its share); 0 or 1 = every lens and caustic path
+  // gets one.
+  uint32_t side_chain_min_depth;
+  // CMLT: the level-2 share, the weight (in records of one mutation)
+  // each level-1 mutation's side chain adds beyond its own record; 0 =
+  // m. Changes the variance, not the mean.
+  uint32_t share;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -614,6 +614,47 @@ fn renderer_inputs_and_call_order_are_checked() {
                     ..good
                 },
             ),
+            (
+                "depth cap 0",
+                cmlt_renderer_config {
+                    depth_cap: 0,
+                    ..good
+                },
+            ),
+            (
+                "depth cap 2000",
+                cmlt_renderer_config {
+                    depth_cap: 2000,
+                    ..good
+                },
+            ),
+            (
+                "NaN caustic scale",
+                cmlt_renderer_config {
+                    caustic_scale: f32::NAN,
+                    ..good
+                },
+            ),
+            (
+                "zero caustic scale",
+                cmlt_renderer_config {
+                    caustic_scale: 0.0,
+                    ..good
+                },
+            ),
+            (
+                "splatting 2 (the biased eq. 36 has no constant)",
+                cmlt_renderer_config {
+                    splatting: 2,
+                    ..good
+                },
+            ),
+            ("no lanes", cmlt_renderer_config { lanes: 0, ..good }),
+            ("65 lanes", cmlt_renderer_config { lanes: 65, ..good }),
+            (
+                "2 lanes with k = 4",
+                cmlt_renderer_config { lanes: 2, ..good },
+            ),
         ] {
             let st = cmlt_renderer_new(s, &bad, &CAMERA, &mut r);
             assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
@@ -2757,6 +2798,44 @@ fn the_memory_bound_covers_what_creation_allocates() {
                 "{case}: bound {bound} ≫ {bytes} B"
             );
         }
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
+}
+
+/// `cmlt_renderer_config_default` mirrors every MLT setting of the core's
+/// defaults for the estimator (CMLT's measured defaults included), so a C
+/// host that starts from it renders what `cmlt render --method …` does.
+#[test]
+fn config_default_is_the_cores_default() {
+    let s = scene(None);
+    // SAFETY: a committed scene.
+    let committed = unsafe { &*s }.committed().unwrap();
+    for estimator in [
+        CMLT_ESTIMATOR_PT,
+        CMLT_ESTIMATOR_BDPT,
+        CMLT_ESTIMATOR_MLT,
+        CMLT_ESTIMATOR_CMLT,
+    ] {
+        let mut c = std::mem::MaybeUninit::uninit();
+        // SAFETY: valid out pointer.
+        let mut c = unsafe {
+            expect(
+                cmlt_renderer_config_default(estimator, c.as_mut_ptr()),
+                CMLT_OK,
+                "config_default",
+            );
+            c.assume_init()
+        };
+        (c.width, c.height) = (16, 12);
+        let e = cmlt_core::renderer::Estimator::from_u32(estimator).unwrap();
+        let cfg = crate::renderer::core_config(&c, &committed).unwrap();
+        let mut expected = cmlt_core::renderer::RendererConfig::for_estimator(e).mlt;
+        if estimator != CMLT_ESTIMATOR_CMLT {
+            // The C config's m is CMLT's alone (1 by default, unused).
+            expected.m = 0;
+        }
+        assert_eq!(cfg.mlt, expected, "estimator {estimator}");
     }
     // SAFETY: handle from this test.
     unsafe { cmlt_scene_release(s) };

@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex, RwLock};
 use cmlt_core::integrator::LobeCounts;
 use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
-use cmlt_core::mlt::{Candidates, MltSettings};
+use cmlt_core::mlt::{Candidates, MltSettings, Splatting};
 use cmlt_core::renderer::{
     Accumulator, Estimator, RenderError, RenderStats, RenderWorker, Renderer, RendererConfig,
     Temporal,
@@ -47,6 +47,13 @@ const _: () = assert!(
         && CMLT_ESTIMATOR_CMLT == Estimator::Cmlt as u32
 );
 
+/// CMLT: each step records every candidate with its one-proposal
+/// acceptance and the current state with the rest (unbiased; the default).
+pub const CMLT_SPLATTING_RECYCLED: u32 = 0;
+/// CMLT: each step records the chosen candidate with its acceptance a and
+/// the current state with 1 − a (unbiased).
+pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
+
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
 /// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255.
@@ -66,7 +73,7 @@ pub struct cmlt_renderer_config {
     /// Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
     pub workers: u32,
     /// Longest path in segments; 0 = the scene's setting (unbounded paths
-    /// are capped at 32).
+    /// are capped at `depth_cap`).
     pub max_depth: u32,
     /// Seed of all random numbers.
     pub seed: u64,
@@ -100,6 +107,25 @@ pub struct cmlt_renderer_config {
     /// scene analysis off; the CLI's `--all-effects`). 0 by default: only
     /// what the scene needs is simulated.
     pub all_effects: u32,
+    /// Longest path in segments when the scene's depth is unbounded and
+    /// `max_depth` is 0 (1 ..= 1024; 32 by default).
+    pub depth_cap: u32,
+    /// CMLT: the caustic perturbation's angular σ is `lens_sigma` pixel
+    /// angles times this factor (> 0, finite).
+    pub caustic_scale: f32,
+    /// CMLT: what a multiple-try step records, a `CMLT_SPLATTING_*` value.
+    pub splatting: u32,
+    /// CMLT: parallel one-proposal side chains per level-1 state, traced
+    /// together as packets (1 ..= 64; more than 1 needs k = 1).
+    pub lanes: u32,
+    /// CMLT: paths of fewer segments get no side chain (their level-1
+    /// records carry its share); 0 or 1 = every lens and caustic path
+    /// gets one.
+    pub side_chain_min_depth: u32,
+    /// CMLT: the level-2 share, the weight (in records of one mutation)
+    /// each level-1 mutation's side chain adds beyond its own record; 0 =
+    /// m. Changes the variance, not the mean.
+    pub share: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -227,6 +253,15 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
             b_window: 0,
             fixed_sequence: 0,
             all_effects: 0,
+            depth_cap: mlt.depth_cap,
+            caustic_scale: mlt.caustic_scale,
+            splatting: match mlt.splatting {
+                Splatting::ExpectedValue => CMLT_SPLATTING_EXPECTED_VALUE,
+                _ => CMLT_SPLATTING_RECYCLED,
+            },
+            lanes: mlt.lanes,
+            side_chain_min_depth: mlt.side_chain_min_depth,
+            share: mlt.share,
         };
         Ok(())
     })
@@ -245,6 +280,15 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
     if c.max_depth > 1024 {
         return Err(Error::invalid("max_depth must be at most 1024"));
     }
+    if c.depth_cap == 0 || c.depth_cap > 1024 {
+        return Err(Error::invalid("depth_cap must be in 1 ..= 1024"));
+    }
+    // The biased eq. 36 splatting has no C constant: only the unbiased two.
+    let splatting = match c.splatting {
+        CMLT_SPLATTING_RECYCLED => Splatting::Recycled,
+        CMLT_SPLATTING_EXPECTED_VALUE => Splatting::ExpectedValue,
+        other => return Err(Error::invalid(format!("unknown splatting {other}"))),
+    };
     let mut settings = scene.settings;
     if c.max_depth > 0 {
         settings.max_depth = Some(c.max_depth);
@@ -263,7 +307,12 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         } else {
             Candidates::Independent
         },
-        ..MltSettings::default()
+        depth_cap: c.depth_cap,
+        caustic_scale: c.caustic_scale,
+        splatting,
+        lanes: c.lanes,
+        side_chain_min_depth: c.side_chain_min_depth,
+        share: c.share,
     };
     if estimator.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(
