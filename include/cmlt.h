@@ -767,8 +767,9 @@ const char *cmlt_status_name(uint32_t status);
 
 // `*out` = the defaults for `estimator`: 1 worker, seed 0, the scene's
 // depth; MLT with pbrt's step sizes, 256 chains, 2000 bootstrap samples,
-// 4 normalisation passes; CMLT adds k = 1, m = 1, lens σ = 8 px (the
-// measured defaults of `MltSettings::cmlt`). Width and height are 0: set
+// 4 normalisation passes; CMLT adds k = 1, m = 1, lens σ = 8 px and side
+// chains only on paths of at least 6 segments (the measured defaults of
+// `MltSettings::cmlt`). Width and height are 0: set
 // them.
 //
 // # Safety

@@ -152,12 +152,19 @@ impl MltSettings {
     /// costs 2k − 1 path evaluations while k candidates around one image
     /// point lower the error little more than one does (equal-mutation
     /// measurements in `docs/accuracy.md`). k = 1, m = 1 was best; σ = 2
-    /// and 8 px were within one render's noise of each other.
+    /// and 8 px were within one render's noise of each other. The level-2
+    /// study (`docs/accuracy/level2-study.sh`: lanes, share, minimum depth,
+    /// σ on veach-ajar, veach-bidir, caustic-pool and cornell-box) found
+    /// one lane and a share equal to m best, and side chains only for
+    /// paths of at least 6 segments best or within noise of the best on
+    /// all four: short paths are cheap for level 1 to find again, so a
+    /// side chain there costs more than it saves.
     pub fn cmlt() -> Self {
         MltSettings {
             m: 1,
             k: 1,
             lens_sigma: 8.0,
+            side_chain_min_depth: 6,
             ..Self::default()
         }
     }
