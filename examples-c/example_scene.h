@@ -146,6 +146,9 @@ static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pi
     config.k = 8; /* bundles of 8: from 5 live rays on they go as packets */
     config.m = 2;
     config.lens_sigma = 2.0f;
+    /* Side chains on every path: the defaults keep them for paths of 6 or
+       more segments, and this scene's are at most 6. */
+    config.side_chain_min_depth = 0;
     check(cmlt_renderer_new(scene, &config, &cam, &r), "cmlt_renderer_new");
     check(cmlt_renderer_prepare(r), "cmlt_renderer_prepare");
     check(cmlt_renderer_render(r, 0, per_pixel * W * H, NULL), "cmlt_renderer_render");
