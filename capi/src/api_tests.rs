@@ -2754,6 +2754,45 @@ fn huge_renderer_configurations_are_refused_not_aborted() {
     unsafe { cmlt_scene_release(s) };
 }
 
+/// A configuration refused by creation is refused by the memory query too,
+/// before any bound is computed from it: an out-of-range k once made both
+/// compute a bound of terabytes, which creation then asked the allocator
+/// for (an AddressSanitizer abort under the fuzzer).
+#[test]
+fn invalid_configurations_get_no_memory_bound() {
+    let s = scene(None);
+    for (what, tweak) in [
+        (
+            "k",
+            (|c| c.k = 0x6868_6868) as fn(&mut cmlt_renderer_config),
+        ),
+        ("lanes", |c| c.lanes = u32::MAX),
+        ("no workers", |c| c.workers = 0),
+        ("m = 0", |c| c.m = 0),
+    ] {
+        let mut c = config(CMLT_ESTIMATOR_CMLT, 2);
+        tweak(&mut c);
+        let (mut bytes, mut r) = (7usize, null_mut());
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_renderer_memory_requirements(s, &c, &mut bytes, null_mut()),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_memory_requirements",
+            );
+            assert_eq!(bytes, 7, "{what}: the query wrote its output");
+            expect(
+                cmlt_renderer_new(s, &c, &CAMERA, &mut r),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_new",
+            );
+            assert!(r.is_null(), "{what}");
+        }
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
+}
+
 /// The bound creation reserves first is an upper bound of what the
 /// renderer really takes (the memory query's measurement), and within 8×
 /// of it, across estimators, depths, chain, bootstrap and pass counts, k,

@@ -360,28 +360,8 @@ impl Renderer {
     /// A renderer for `camera`'s resolution. Unbounded `max_depth` is
     /// capped at `config.mlt.depth_cap` (see the module docs).
     pub fn new(config: RendererConfig, camera: Camera) -> Result<Self, RenderError> {
-        if config.workers == 0 {
-            return Err(RenderError::Config("at least one worker is needed"));
-        }
         check_lens(&camera)?;
-        if config.estimator.is_metropolis() {
-            config.mlt.validate().map_err(RenderError::Config)?;
-        }
-        if config.estimator == Estimator::Cmlt && config.mlt.m == 0 {
-            return Err(RenderError::Config("CMLT needs m ≥ 1 side-chain steps"));
-        }
-        if config.temporal.b_window > MAX_B_WINDOW {
-            return Err(RenderError::Config("the b window is at most 64 frames"));
-        }
-        if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
-            return Err(RenderError::Config("the depth cap must be at least 1"));
-        }
-        // Storage is sized for the deepest path up front: an absurd depth
-        // from a host (u32::MAX) aborted the process in the allocator
-        // instead of being refused. The C API's limit.
-        if mlt::path_depth(&config.settings, &config.mlt) > MAX_DEPTH {
-            return Err(RenderError::Config("path depth must be at most 1024"));
-        }
+        Self::check_config(&config)?;
         let mut config = config;
         config.settings.max_depth = Some(mlt::path_depth(&config.settings, &config.mlt));
         Ok(Renderer {
@@ -413,18 +393,49 @@ impl Renderer {
         })
     }
 
+    /// Refuses a configuration [`Renderer::new`] cannot build (the camera
+    /// aside): checked before anything is sized from it, so no bound or
+    /// allocation is ever computed from an unchecked field.
+    fn check_config(config: &RendererConfig) -> Result<(), RenderError> {
+        if config.workers == 0 {
+            return Err(RenderError::Config("at least one worker is needed"));
+        }
+        if config.estimator.is_metropolis() {
+            config.mlt.validate().map_err(RenderError::Config)?;
+        }
+        if config.estimator == Estimator::Cmlt && config.mlt.m == 0 {
+            return Err(RenderError::Config("CMLT needs m ≥ 1 side-chain steps"));
+        }
+        if config.temporal.b_window > MAX_B_WINDOW {
+            return Err(RenderError::Config("the b window is at most 64 frames"));
+        }
+        if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
+            return Err(RenderError::Config("the depth cap must be at least 1"));
+        }
+        // Storage is sized for the deepest path up front: an absurd depth
+        // from a host (u32::MAX) aborted the process in the allocator
+        // instead of being refused. The C API's limit.
+        if mlt::path_depth(&config.settings, &config.mlt) > MAX_DEPTH {
+            return Err(RenderError::Config("path depth must be at most 1024"));
+        }
+        Ok(())
+    }
+
     /// An upper bound of the bytes a renderer of `config` at `width ×
     /// height` pixels and its `config.workers` workers allocate together,
     /// in checked arithmetic: [`RenderError::TooLarge`] when it exceeds
     /// `isize::MAX` (no allocation could hold it), so a host can refuse or
     /// reserve before anything is allocated. Allocates nothing; the
-    /// configuration is not validated otherwise.
+    /// configuration is checked first as [`Renderer::new`] checks it
+    /// (a bound from an unchecked field, say k = 2³⁰, would be a request no
+    /// allocator can meet).
     pub fn memory_bound(
         config: &RendererConfig,
         width: u32,
         height: u32,
     ) -> Result<u64, RenderError> {
         use core::mem::size_of;
+        Self::check_config(config)?;
         let depth = u64::from(mlt::path_depth(&config.settings, &config.mlt).min(MAX_DEPTH));
         let workers = u64::from(config.workers);
         let pixels = u64::from(width) * u64::from(height);
