@@ -43,7 +43,7 @@
 // (`Estimator::Mlt`).
 #define CMLT_ESTIMATOR_MLT 2
 
-// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
+// Coherent MLT: MLT plus multiple-try lens, caustic and multi-chain perturbations
 // (`Estimator::Cmlt`).
 #define CMLT_ESTIMATOR_CMLT 3
 
@@ -353,7 +353,7 @@ typedef struct cmlt_renderer_config {
   // together as packets (1 ..= 64; more than 1 needs k = 1).
   uint32_t lanes;
   // CMLT: paths of fewer segments get no side chain (their level-1
-  // records carry its share); 0 or 1 = every lens and caustic path
+  // records carry its share); 0 or 1 = every lens, caustic and multi-chain path
   // gets one.
   uint32_t side_chain_min_depth;
   // CMLT: the level-2 share, the weight (in records of one mutation)
@@ -440,6 +440,12 @@ typedef struct cmlt_stats {
   // BSDF evaluations of the same lobe kinds, indexed as
   // `bsdf_samples_more`.
   uint64_t bsdf_evals_more[4];
+  // Level-2 multi-chain-perturbation steps (paths E S+ D S+ …: a
+  // caustic or a light seen through glass or in a mirror; appended to
+  // keep the layout).
+  uint64_t multi_chain_steps;
+  // Fraction of multi-chain steps accepted.
+  double multi_chain_acceptance;
 } cmlt_stats;
 
 // A material. Fields a type does not use are ignored.

@@ -837,7 +837,10 @@ fn renderer_inputs_and_call_order_are_checked() {
         expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
         assert!(stats.mutations >= 16 * 12 * 4 && stats.rays > 0 && stats.b > 0.0);
         assert_eq!(stats.nonfinite, 0);
-        assert!(stats.lens_steps + stats.caustic_steps > 0 || stats.mutations > 0);
+        assert!(
+            stats.lens_steps + stats.caustic_steps + stats.multi_chain_steps > 0
+                || stats.mutations > 0
+        );
 
         // A host clock that allows two steps of one round each.
         unsafe extern "C" fn two_steps(user: *mut c_void, _done: u64) -> u32 {

@@ -34,7 +34,7 @@ pub const CMLT_ESTIMATOR_BDPT: u32 = 1;
 /// Metropolis light transport: Kelemen mutations over BDPT
 /// (`Estimator::Mlt`).
 pub const CMLT_ESTIMATOR_MLT: u32 = 2;
-/// Coherent MLT: MLT plus multiple-try lens and caustic perturbations
+/// Coherent MLT: MLT plus multiple-try lens, caustic and multi-chain perturbations
 /// (`Estimator::Cmlt`).
 pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
 
@@ -119,8 +119,8 @@ pub struct cmlt_renderer_config {
     /// together as packets (1 ..= 64; more than 1 needs k = 1).
     pub lanes: u32,
     /// CMLT: paths of fewer segments get no side chain (their level-1
-    /// records carry its share); 0 or 1 = every lens and caustic path
-    /// gets one.
+    /// records carry its share); 0 or 1 = every lens, caustic and
+    /// multi-chain path gets one.
     pub side_chain_min_depth: u32,
     /// CMLT: the level-2 share, the weight (in records of one mutation)
     /// each level-1 mutation's side chain adds beyond its own record; 0 =
@@ -185,6 +185,12 @@ pub struct cmlt_stats {
     /// BSDF evaluations of the same lobe kinds, indexed as
     /// `bsdf_samples_more`.
     pub bsdf_evals_more: [u64; 4],
+    /// Level-2 multi-chain-perturbation steps (paths E S+ D S+ …: a
+    /// caustic or a light seen through glass or in a mirror; appended to
+    /// keep the layout).
+    pub multi_chain_steps: u64,
+    /// Fraction of multi-chain steps accepted.
+    pub multi_chain_acceptance: f64,
 }
 
 /// The first four lobe counts and the rest (the C struct keeps its first
@@ -914,6 +920,8 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
             lens_samples: s.tracer.lens_samples,
             bsdf_samples_more: split_lobes(&s.tracer.bsdf_samples).1,
             bsdf_evals_more: split_lobes(&s.tracer.bsdf_evals).1,
+            multi_chain_steps: m.multi_chain_steps,
+            multi_chain_acceptance: m.multi_chain_acceptance(),
         };
         Ok(())
     })

@@ -99,7 +99,7 @@ pub struct EstimatorArgs {
     /// Estimator: pt (path tracing with next-event estimation and MIS),
     /// bdpt (bidirectional path tracing with MIS), mlt (primary-sample-space
     /// Metropolis light transport over BDPT) or cmlt (coherent MLT: MLT plus
-    /// multiple-try lens and caustic perturbations traced as packets;
+    /// multiple-try lens, caustic and multi-chain perturbations traced as packets;
     /// --k, --m, --lens-sigma).
     #[arg(long, default_value = "pt", value_parser = parse_estimator)]
     pub method: Estimator,

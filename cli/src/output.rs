@@ -94,11 +94,13 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
     );
     if level2 {
         println!(
-            "level 2: {} lens steps ({:.1}% accepted), {} caustic steps ({:.1}% accepted), {} identity steps; zero candidates {:.1}%; {} packets, {:.2} lanes/packet, {:.1}% of rays in packets",
+            "level 2: {} lens steps ({:.1}% accepted), {} caustic steps ({:.1}% accepted), {} multi-chain steps ({:.1}% accepted), {} identity steps; zero candidates {:.1}%; {} packets, {:.2} lanes/packet, {:.1}% of rays in packets",
             m.lens_steps,
             100.0 * m.lens_acceptance(),
             m.caustic_steps,
             100.0 * m.caustic_acceptance(),
+            m.multi_chain_steps,
+            100.0 * m.multi_chain_acceptance(),
             m.identity_steps,
             100.0 * m.l2_zero_fraction(),
             t.packets,

@@ -353,8 +353,8 @@ pub fn work_line(stats: &Stats, mlt: Option<&MltStats>) -> String {
     line += &stats.lens_samples.to_string();
     if let Some(m) = mlt {
         line += &format!(
-            "; perturbation steps: lens {}, caustic {}",
-            m.lens_steps, m.caustic_steps
+            "; perturbation steps: lens {}, caustic {}, multi-chain {}",
+            m.lens_steps, m.caustic_steps, m.multi_chain_steps
         );
     }
     line

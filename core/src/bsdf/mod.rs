@@ -699,7 +699,7 @@ impl Bsdf {
     /// and the lobe's throughput f·|cos θi| (Fresnel reflectance F, or
     /// (1 − F) times 1/η² for refracted radiance) — what a path through a
     /// specular vertex carries when the lobe is fixed rather than sampled
-    /// (the lens and caustic perturbations retrace a specular chain this
+    /// (the level-2 perturbations retrace a specular chain this
     /// way). `None` for non-delta BSDFs, for a lobe the model lacks (a
     /// conductor's refraction) and where the lobe carries nothing (total
     /// internal reflection has no refraction).

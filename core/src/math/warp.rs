@@ -68,7 +68,7 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 
 /// A 2-D isotropic Gaussian offset of standard deviation σ, truncated to
 /// the disk of radius `r_max` ("clamped Gaussian", Segovia 2007, eq. 37, §2.4.1):
-/// the perturbation density T of the lens and caustic perturbations.
+/// the perturbation density T of the lens, caustic and multi-chain perturbations.
 ///
 /// ## Which truncation, and why the radius
 ///

@@ -119,75 +119,76 @@ impl<I: Intersector> Target<LensState> for LensTarget<'_, '_, I> {
     }
 }
 
-impl<I: Intersector> LensTarget<'_, '_, I> {
-    /// The value of a path whose camera part ends at x′_t (position and
-    /// shading `sp`, `sh`; `None` for a light point without a BSDF), reached
-    /// from `prev` with specular throughput `beta`, completed by the
-    /// anchor's fixed end; with [`LensEnd::Connect`] also the segment to
-    /// x_{t+1} whose visibility the value assumes (`None` when the
-    /// connection cannot be made; the value is then zero). Zero when the
-    /// path carries nothing.
-    fn end_value(
-        &mut self,
-        sp: &SurfacePoint,
-        sh: Option<&Shading>,
-        prev: Vec3,
-        beta: Rgb,
-    ) -> (Rgb, Option<offset::SegmentRays>) {
-        match &self.anchor.end {
-            LensEnd::Emitter => {
-                let wo = (prev - sp.p).normalize();
-                (beta * self.tracer.scene.emitted(sp, wo), None)
+/// The value of a path whose camera part ends at x′_t (position and
+/// shading `sp`, `sh`; `None` for a light point without a BSDF), reached
+/// from `prev` with specular throughput `beta`, completed by the
+/// fixed end `end`; with [`LensEnd::Connect`] also the segment to
+/// x_{t+1} whose visibility the value assumes (`None` when the
+/// connection cannot be made; the value is then zero). Zero when the
+/// path carries nothing.
+pub(super) fn end_value<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    end: &LensEnd,
+    sp: &SurfacePoint,
+    sh: Option<&Shading>,
+    prev: Vec3,
+    beta: Rgb,
+) -> (Rgb, Option<offset::SegmentRays>) {
+    match end {
+        LensEnd::Emitter => {
+            let wo = (prev - sp.p).normalize();
+            (beta * tracer.scene.emitted(sp, wo), None)
+        }
+        LensEnd::Connect { next, after, tail } => {
+            let Some(h) = sh else {
+                return (Rgb::ZERO, None);
+            };
+            let d = next.sp.p - sp.p;
+            let d2 = d.length_squared();
+            if !(d2 > 0.0) {
+                return (Rgb::ZERO, None);
             }
-            LensEnd::Connect { next, after, tail } => {
-                let Some(h) = sh else {
-                    return (Rgb::ZERO, None);
-                };
-                let d = next.sp.p - sp.p;
-                let d2 = d.length_squared();
-                if !(d2 > 0.0) {
-                    return (Rgb::ZERO, None);
+            let dn = d / libm::sqrtf(d2);
+            let f_t = scatter(h, prev, next.sp.p, TransportMode::Radiance);
+            tracer.stats.bsdf_evals.add(h.bsdf.lobe());
+            // x_{t+1}'s factor: emission towards x′_t (BDPT s = 1
+            // uses the emitter's geometric cosine), or its BSDF in
+            // light-transport direction.
+            let (f_next, cos_next) = match (after, &next.shading) {
+                (None, _) => (
+                    tracer.scene.emitted(&next.sp, -dn),
+                    next.sp.ng.dot(dn).abs(),
+                ),
+                (Some(after), Some(nsh)) => {
+                    tracer.stats.bsdf_evals.add(nsh.bsdf.lobe());
+                    (
+                        scatter(nsh, *after, sp.p, TransportMode::Importance),
+                        next.sp.ns.dot(dn).abs(),
+                    )
                 }
-                let dn = d / libm::sqrtf(d2);
-                let f_t = scatter(h, prev, next.sp.p, TransportMode::Radiance);
-                self.tracer.stats.bsdf_evals.add(h.bsdf.lobe());
-                // x_{t+1}'s factor: emission towards x′_t (BDPT s = 1
-                // uses the emitter's geometric cosine), or its BSDF in
-                // light-transport direction.
-                let (f_next, cos_next) = match (after, &next.shading) {
-                    (None, _) => (
-                        self.tracer.scene.emitted(&next.sp, -dn),
-                        next.sp.ng.dot(dn).abs(),
-                    ),
-                    (Some(after), Some(nsh)) => {
-                        self.tracer.stats.bsdf_evals.add(nsh.bsdf.lobe());
-                        (
-                            scatter(nsh, *after, sp.p, TransportMode::Importance),
-                            next.sp.ns.dot(dn).abs(),
-                        )
-                    }
-                    (Some(_), None) => return (Rgb::ZERO, None),
-                };
-                let g = sp.ns.dot(dn).abs() * cos_next / d2;
-                let v = beta * f_t * f_next * *tail * g;
-                if v.is_black() || !v.is_finite() {
-                    return (Rgb::ZERO, None);
-                }
-                match offset::spawn_rays_between(
-                    sp.p,
-                    sp.p_error,
-                    sp.ng,
-                    next.sp.p,
-                    next.sp.p_error,
-                    next.sp.ng,
-                ) {
-                    Some(seg) => (v, Some(seg)),
-                    None => (Rgb::ZERO, None),
-                }
+                (Some(_), None) => return (Rgb::ZERO, None),
+            };
+            let g = sp.ns.dot(dn).abs() * cos_next / d2;
+            let v = beta * f_t * f_next * *tail * g;
+            if v.is_black() || !v.is_finite() {
+                return (Rgb::ZERO, None);
+            }
+            match offset::spawn_rays_between(
+                sp.p,
+                sp.p_error,
+                sp.ng,
+                next.sp.p,
+                next.sp.p_error,
+                next.sp.ng,
+            ) {
+                Some(seg) => (v, Some(seg)),
+                None => (Rgb::ZERO, None),
             }
         }
     }
+}
 
+impl<I: Intersector> LensTarget<'_, '_, I> {
     /// The target at the level-1 path itself (`path`, whose camera ray
     /// crosses the image at `raster`), evaluated from its stored vertices
     /// instead of retraced: every segment of a level-1 path was traced or
@@ -210,7 +211,14 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
             )?;
             beta *= w;
         }
-        let (v, _) = self.end_value(&x_t.sp, x_t.shading.as_ref(), path[t - 1].sp.p, beta);
+        let (v, _) = end_value(
+            self.tracer,
+            &self.anchor.end,
+            &x_t.sp,
+            x_t.shading.as_ref(),
+            path[t - 1].sp.p,
+            beta,
+        );
         Some(LensState {
             raster,
             value: if v.is_finite() { v } else { Rgb::ZERO },
@@ -240,7 +248,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
         let mut shadow: [Option<Ray>; N] = [None; N];
         for i in 0..n {
             let Some(e) = &ends[i] else { continue };
-            let (v, seg) = self.end_value(&e.hit.sp, Some(&e.hit), e.prev, e.beta);
+            let (v, seg) = end_value(self.tracer, &a.end, &e.hit.sp, Some(&e.hit), e.prev, e.beta);
             value[i] = v;
             // Only the main ray: see the module docs ("No tail ray").
             shadow[i] = seg.map(|seg| seg.main);

@@ -11,7 +11,7 @@
 //! (the level-2 share, [`super::MltSettings::share`]) is fixed: the image
 //! scale counts 1 + s records per mutation ([`super::MltStats::records`]).
 //! The share goes to the *class* c of the level-1 state — the perturbation
-//! that applies to its path (lens, caustic or none) and its depth — in one
+//! that applies to its path (lens, caustic, multi-chain or none) and its depth — in one
 //! of two ways:
 //! - a class with side-chain length m(c) > 0 runs a side chain of m(c)
 //!   steps (n lanes each) whose records weigh s / (m(c)·n) each, s in all;
@@ -27,10 +27,11 @@
 //! (x′ the state after the step) given x and y, for any weight that is a
 //! function of the state; so with x ~ π the level-1 records have mean
 //! π + s·g·π. The side chain starts from x′ ~ π; given its class c, x′ is
-//! distributed as π_c, π restricted to c and normalised. The lens and
-//! caustic perturbations keep the path's depth and its pattern of specular
-//! vertices and lobes, a candidate that breaks the pattern fails (zero
-//! target: [`super::path::retrace`]), and the fixed vertices stay fixed:
+//! distributed as π_c, π restricted to c and normalised. The lens,
+//! caustic and multi-chain perturbations keep the path's depth and its
+//! pattern of specular vertices and lobes, a candidate that breaks the
+//! pattern fails (zero target: [`super::path::retrace`]), and the fixed
+//! vertices stay fixed:
 //! every state a side chain can reach has its start's class, so its
 //! target is π_c (up to a constant) and every lane step is π_c-invariant
 //! ([`super::lanes`], [`super::multiple_try`]). Its records therefore
@@ -53,6 +54,7 @@ use glam::Vec2;
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
 use super::lanes::{LaneCounts, Lanes};
 use super::lens::{LensProposal, LensState, LensTarget};
+use super::multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
 use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Target};
 use super::path::{Applicable, classify};
 use super::{MltSettings, MltStats, PathSample};
@@ -76,10 +78,13 @@ pub struct Level2 {
     k: usize,
     lens: MultipleTry<LensState, MAX_K>,
     caustic: MultipleTry<CausticState, MAX_K>,
+    multi: MultipleTry<MultiChainState, MAX_K>,
     lens_lanes: Lanes<LensState, MAX_K>,
     caustic_lanes: Lanes<CausticState, MAX_K>,
+    multi_lanes: Lanes<MultiChainState, MAX_K>,
     lens_proposal: LensProposal,
     caustic_proposal: CausticProposal,
+    multi_proposal: MultiChainProposal,
 }
 
 /// Truncation radius of the perturbation offsets, in standard deviations:
@@ -113,10 +118,17 @@ impl Level2 {
                 .with_candidates(mlt.candidates, LensProposal::DIM),
             caustic: MultipleTry::new(k, mlt.splatting)
                 .with_candidates(mlt.candidates, CausticProposal::DIM),
+            multi: MultipleTry::new(k, mlt.splatting)
+                .with_candidates(mlt.candidates, MultiChainProposal::DIM),
             lens_lanes: Lanes::new(lanes, LensProposal::DIM),
             caustic_lanes: Lanes::new(lanes, CausticProposal::DIM),
+            multi_lanes: Lanes::new(lanes, MultiChainProposal::DIM),
             lens_proposal,
             caustic_proposal,
+            // The direction leaving x_t moves by the caustic perturbation's
+            // angle: both are directions at a non-specular vertex whose
+            // change the specular chain carries to the image.
+            multi_proposal: MultiChainProposal::new(lens_proposal, caustic_proposal),
         })
     }
 
@@ -128,7 +140,7 @@ impl Level2 {
 
     /// The class of the complete path `path`: the perturbation that applies
     /// to it, and its side-chain length m(c) — [`MltSettings::m`] for a
-    /// lens or caustic path of at least the minimum depth, 0 otherwise
+    /// lens, caustic or multi-chain path of at least the minimum depth, 0 otherwise
     /// (then the path's level-1 records carry the share).
     pub fn classify<I: Intersector>(
         &self,
@@ -237,6 +249,51 @@ impl Level2 {
                 );
                 stats.caustic_steps += out.steps;
                 stats.caustic_accepted += out.accepted;
+                stats.l2_candidates += out.steps * self.k as u64;
+                stats.l2_zero_candidates += out.zero;
+            }
+            Applicable::MultiChain(anchor) => {
+                let camera = tracer.camera;
+                let t = anchor.first.len() + 1;
+                let (Some(raster), Some(x_t), Some(x_next)) = (
+                    path.get(1)
+                        .and_then(|x1| {
+                            camera.importance(anchor.p_lens, (x1.sp.p - anchor.p_lens).normalize())
+                        })
+                        .map(|(_, r)| r),
+                    path.get(t),
+                    path.get(t + 1),
+                ) else {
+                    return identity(stats, splat);
+                };
+                let mut target = MultiChainTarget { tracer, anchor };
+                // Retraced, not valued from the vertices: the direction
+                // leaving x_t is a coordinate of the state, and the start
+                // must be valued in the same measure as the candidates.
+                let start = MultiChainState {
+                    raster,
+                    dir: (x_next.sp.p - x_t.sp.p).normalize(),
+                    value: Rgb::ZERO,
+                };
+                let Some(start) = evaluate_start(&mut target, start) else {
+                    return identity(stats, splat);
+                };
+                let out = run(
+                    self.k,
+                    &mut self.multi,
+                    &mut self.multi_lanes,
+                    &self.multi_proposal,
+                    &mut target,
+                    start,
+                    length,
+                    share,
+                    rng,
+                    &mut |s: &MultiChainState, w| {
+                        splat(s.raster, s.value * (w / s.value.luminance()))
+                    },
+                );
+                stats.multi_chain_steps += out.steps;
+                stats.multi_chain_accepted += out.accepted;
                 stats.l2_candidates += out.steps * self.k as u64;
                 stats.l2_zero_candidates += out.zero;
             }

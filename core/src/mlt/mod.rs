@@ -40,6 +40,7 @@ pub mod chain;
 pub mod lanes;
 pub mod lens;
 pub mod level2;
+pub mod multi_chain;
 pub mod multiple_try;
 pub mod path;
 pub mod primary;
@@ -86,7 +87,7 @@ pub struct MltSettings {
     /// this are missing (energy of order albedo^cap).
     pub depth_cap: u32,
     /// Level 2: the side-chain length m(c) of the classes that get a side
-    /// chain (lens and caustic paths of at least `side_chain_min_depth`
+    /// chain (lens, caustic and multi-chain paths of at least `side_chain_min_depth`
     /// segments); 0 = plain MLT. See [`level2`].
     pub m: u32,
     /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
@@ -109,8 +110,8 @@ pub struct MltSettings {
     /// more than one needs k = 1. See [`lanes`].
     pub lanes: u32,
     /// Level 2: paths of fewer segments get no side chain (their level-1
-    /// records carry the level-2 share); 0 or 1 = every lens and caustic
-    /// path gets one.
+    /// records carry the level-2 share); 0 or 1 = every lens, caustic and
+    /// multi-chain path gets one.
     pub side_chain_min_depth: u32,
     /// Level 2: the level-2 share s, the weight (in records of one
     /// mutation) each level-1 mutation's side chain adds beyond its own
@@ -270,6 +271,10 @@ pub struct MltStats {
     pub caustic_steps: u64,
     /// Level 2: caustic-perturbation steps accepted.
     pub caustic_accepted: u64,
+    /// Level 2: multi-chain-perturbation steps (as `lens_steps`).
+    pub multi_chain_steps: u64,
+    /// Level 2: multi-chain-perturbation steps accepted.
+    pub multi_chain_accepted: u64,
     /// Level 2: share records (units of one mutation's weight) carried by
     /// level-1 records of states without a side chain (no perturbation
     /// applies, or too shallow), or recorded where a side chain could not
@@ -297,6 +302,8 @@ impl MltStats {
         self.lens_accepted += o.lens_accepted;
         self.caustic_steps += o.caustic_steps;
         self.caustic_accepted += o.caustic_accepted;
+        self.multi_chain_steps += o.multi_chain_steps;
+        self.multi_chain_accepted += o.multi_chain_accepted;
         self.identity_steps += o.identity_steps;
         self.l2_candidates += o.l2_candidates;
         self.l2_zero_candidates += o.l2_zero_candidates;
@@ -310,6 +317,11 @@ impl MltStats {
     /// Fraction of caustic-perturbation steps accepted (0 when none).
     pub fn caustic_acceptance(&self) -> f64 {
         ratio(self.caustic_accepted, self.caustic_steps)
+    }
+
+    /// Fraction of multi-chain-perturbation steps accepted (0 when none).
+    pub fn multi_chain_acceptance(&self) -> f64 {
+        ratio(self.multi_chain_accepted, self.multi_chain_steps)
     }
 
     /// Fraction of level-1 proposals with zero contribution.

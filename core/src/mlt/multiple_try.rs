@@ -4,7 +4,7 @@
 //!
 //! The module is generic over the state type `S` and the perturbation
 //! ([`Proposal`]); the target p is a closure returning the luminance of a
-//! state (≥ 0). Path-space lens and caustic perturbations implement
+//! state (≥ 0). Path-space lens, caustic and multi-chain perturbations implement
 //! [`Proposal`] later; the tests here run it on 2-D toy targets.
 //!
 //! ## One step (Segovia 2007, Algorithm 3; Algorithm 4, steps b–g, corrected)

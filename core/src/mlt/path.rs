@@ -14,14 +14,23 @@
 //!   moves; the ray is retraced through the same lobes towards the camera
 //!   to a new x′₁, which is joined to the unchanged lens point.
 //!
-//! Both preserve the path's pattern of specular and non-specular vertices
-//! and its lobes (reflection or refraction), and a candidate that breaks it
-//! is a failed perturbation. The pattern decides which one applies — they
-//! exclude each other (lens needs x_{t+1} non-specular, caustic needs x₂
-//! specular, with t = 1 in that case) — so the choice is the same for every
-//! state a side chain can reach, as invariance requires. Paths fitting
-//! neither (e.g. E S D S L, a caustic seen in a mirror; Veach's multi-chain
-//! perturbation) stay put: their side chain is the identity kernel.
+//! - **Multi-chain** (Veach 1997, §11.4.3.3): x₁ … x_{t−1} specular with
+//!   t ≥ 2, x_{t+1} … x_{u−1} specular, x_u the next non-specular vertex or
+//!   the emitter, and (when x_u is not the emitter) x_{u+1} non-specular —
+//!   E S+ D S+ (L | D D), a caustic seen through water or in a mirror. The
+//!   image point and the direction leaving x_t move; both chains are
+//!   retraced ([`super::multi_chain`]) and x′_u is completed as the lens
+//!   perturbation completes x′_t.
+//!
+//! All three preserve the path's pattern of specular and non-specular
+//! vertices and its lobes (reflection or refraction), and a candidate that
+//! breaks it is a failed perturbation. The pattern decides which one
+//! applies — they exclude each other (lens needs x_{t+1} non-specular;
+//! caustic and multi-chain need it specular, caustic with t = 1,
+//! multi-chain with t ≥ 2) — so the choice is the same for every state a
+//! side chain can reach, as invariance requires. Paths fitting none (a
+//! third specular chain, E S D S D S L) stay put: their side chain is the
+//! identity kernel.
 //!
 //! So do paths through the Dirac lobe of a mixed BSDF (smooth plastic's
 //! coating, [`crate::integrator::bdpt::PathVertex::mixed_delta`]): such a
@@ -198,6 +207,19 @@ pub struct CausticAnchor {
     pub tail: Rgb,
 }
 
+/// What the multi-chain perturbation keeps fixed.
+#[derive(Clone, Copy, Debug)]
+pub struct MultiChainAnchor {
+    /// The lens point x₀.
+    pub p_lens: Vec3,
+    /// Lobes of x₁ … x_{t−1} (the camera's chain).
+    pub first: SpecularChain,
+    /// Lobes of x_{t+1} … x_{u−1} (the chain behind x_t).
+    pub second: SpecularChain,
+    /// How the new x′_u is completed.
+    pub end: LensEnd,
+}
+
 /// The perturbation that applies to a path, with what it keeps fixed.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
@@ -206,6 +228,8 @@ pub enum Applicable {
     Lens(LensAnchor),
     /// The caustic perturbation.
     Caustic(CausticAnchor),
+    /// The multi-chain perturbation.
+    MultiChain(MultiChainAnchor),
     /// Neither: the side chain stays at the level-1 state.
     Neither,
 }
@@ -282,9 +306,9 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
         });
     }
     // t + 1 is specular: a caustic if t = 1 and the chain ends on a
-    // non-specular vertex or the emitter.
+    // non-specular vertex or the emitter, else a multi-chain path.
     if t != 1 {
-        return Applicable::Neither;
+        return multi_chain(tr, path, t, spec, p_lens);
     }
     let Some(j) = (2..=k).find(|&i| !spec(i)) else {
         return Applicable::Neither;
@@ -304,6 +328,49 @@ pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Appl
         before: (j < k).then(|| path[j + 1].sp.p),
         chain,
         tail,
+    })
+}
+
+/// The multi-chain anchor of a path whose first non-specular vertex x_t
+/// (t ≥ 2) is followed by a specular x_{t+1}; `Neither` when the second
+/// chain ends on a specular emitter or is followed by a third chain.
+fn multi_chain<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    path: &[PathVertex],
+    t: usize,
+    spec: impl Fn(usize) -> bool,
+    p_lens: Vec3,
+) -> Applicable {
+    let k = path.len() - 1;
+    let Some(u) = (t + 2..=k).find(|&i| !spec(i)) else {
+        return Applicable::Neither;
+    };
+    let (Some(first), Some(second)) = (
+        SpecularChain::of(path, 1..t),
+        SpecularChain::of(path, t + 1..u),
+    ) else {
+        return Applicable::Neither;
+    };
+    let end = if u == k {
+        LensEnd::Emitter
+    } else if !spec(u + 1) {
+        LensEnd::Connect {
+            next: path[u + 1],
+            after: (u + 1 < k).then(|| path[u + 2].sp.p),
+            tail: if u + 1 < k {
+                tail_colour(tr, path, u + 2)
+            } else {
+                Rgb::ONE
+            },
+        }
+    } else {
+        return Applicable::Neither;
+    };
+    Applicable::MultiChain(MultiChainAnchor {
+        p_lens,
+        first,
+        second,
+        end,
     })
 }
 
