@@ -43,8 +43,8 @@
 // (`Estimator::Mlt`).
 #define CMLT_ESTIMATOR_MLT 2
 
-// Coherent MLT: MLT plus multiple-try lens, caustic and multi-chain perturbations
-// (`Estimator::Cmlt`).
+// Coherent MLT: MLT plus lens, caustic and multi-chain perturbations
+// traced as packets (`Estimator::Cmlt`).
 #define CMLT_ESTIMATOR_CMLT 3
 
 // CMLT: each step records every candidate with its one-proposal
@@ -353,8 +353,8 @@ typedef struct cmlt_renderer_config {
   // together as packets (1 ..= 64; more than 1 needs k = 1).
   uint32_t lanes;
   // CMLT: paths of fewer segments get no side chain (their level-1
-  // records carry its share); 0 or 1 = every lens, caustic and multi-chain path
-  // gets one.
+  // records carry its share); 0 or 1 = every lens, caustic and
+  // multi-chain path gets one.
   uint32_t side_chain_min_depth;
   // CMLT: the level-2 share, the weight (in records of one mutation)
   // each level-1 mutation's side chain adds beyond its own record; 0 =

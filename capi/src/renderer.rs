@@ -34,8 +34,8 @@ pub const CMLT_ESTIMATOR_BDPT: u32 = 1;
 /// Metropolis light transport: Kelemen mutations over BDPT
 /// (`Estimator::Mlt`).
 pub const CMLT_ESTIMATOR_MLT: u32 = 2;
-/// Coherent MLT: MLT plus multiple-try lens, caustic and multi-chain perturbations
-/// (`Estimator::Cmlt`).
+/// Coherent MLT: MLT plus lens, caustic and multi-chain perturbations
+/// traced as packets (`Estimator::Cmlt`).
 pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
 
 // The constants are the core's `Estimator` discriminants (literals here so

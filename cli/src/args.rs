@@ -99,8 +99,8 @@ pub struct EstimatorArgs {
     /// Estimator: pt (path tracing with next-event estimation and MIS),
     /// bdpt (bidirectional path tracing with MIS), mlt (primary-sample-space
     /// Metropolis light transport over BDPT) or cmlt (coherent MLT: MLT plus
-    /// multiple-try lens, caustic and multi-chain perturbations traced as packets;
-    /// --k, --m, --lens-sigma).
+    /// lens, caustic and multi-chain perturbations traced as packets; --k,
+    /// --m, --lens-sigma).
     #[arg(long, default_value = "pt", value_parser = parse_estimator)]
     pub method: Estimator,
     /// Samples per pixel, at least 1 (default: the scene's

@@ -67,7 +67,7 @@ pub enum Estimator {
     /// Metropolis light transport: Kelemen mutations in primary sample
     /// space over BDPT's strategies (level 1 only: `MltSettings::m` = 0).
     Mlt = 2,
-    /// Coherent MLT (Segovia 2007): MLT plus multiple-try lens and caustic
+    /// Coherent MLT (Segovia 2007): MLT plus lens, caustic and multi-chain
     /// perturbations traced as packets (level 2: `MltSettings::m` ≥ 1).
     Cmlt = 3,
 }
