@@ -11,8 +11,8 @@
 //! (the level-2 share, [`super::MltSettings::share`]) is fixed: the image
 //! scale counts 1 + s records per mutation ([`super::MltStats::records`]).
 //! The share goes to the *class* c of the level-1 state — the perturbation
-//! that applies to its path (lens, caustic, multi-chain or none) and its depth — in one
-//! of two ways:
+//! that applies to its path (lens, caustic, multi-chain or none) and its
+//! depth — in one of two ways:
 //! - a class with side-chain length m(c) > 0 runs a side chain of m(c)
 //!   steps (n lanes each) whose records weigh s / (m(c)·n) each, s in all;
 //! - a class with m(c) = 0 (no perturbation applies, or a path too shallow
@@ -31,12 +31,11 @@
 //! caustic and multi-chain perturbations keep the path's depth and its
 //! pattern of specular vertices and lobes, a candidate that breaks the
 //! pattern fails (zero target: [`super::path::retrace`]), and the fixed
-//! vertices stay fixed:
-//! every state a side chain can reach has its start's class, so its
-//! target is π_c (up to a constant) and every lane step is π_c-invariant
-//! ([`super::lanes`], [`super::multiple_try`]). Its records therefore
-//! have mean s·π_c, and over the classes with m(c) > 0, weighted by their
-//! probabilities π(c), s·(1 − g)·π. In all: π + s·g·π + s·(1 − g)·π =
+//! vertices stay fixed: every state a side chain can reach has its start's
+//! class, so its target is π_c (up to a constant) and every lane step is
+//! π_c-invariant ([`super::lanes`], [`super::multiple_try`]). Its records
+//! therefore have mean s·π_c, and over the classes with m(c) > 0, weighted
+//! by their probabilities π(c), s·(1 − g)·π. In all: π + s·g·π + s·(1 − g)·π =
 //! (1 + s)·π per mutation, which the image scale divides by. The lengths
 //! m(c) are free: they change only the variance and the cost. A negative
 //! control in `lanes/tests.rs` shows that weight 1 per record (instead of
@@ -140,8 +139,8 @@ impl Level2 {
 
     /// The class of the complete path `path`: the perturbation that applies
     /// to it, and its side-chain length m(c) — [`MltSettings::m`] for a
-    /// lens, caustic or multi-chain path of at least the minimum depth, 0 otherwise
-    /// (then the path's level-1 records carry the share).
+    /// lens, caustic or multi-chain path of at least the minimum depth, 0
+    /// otherwise (then the path's level-1 records carry the share).
     pub fn classify<I: Intersector>(
         &self,
         tracer: &Tracer<'_, I>,
