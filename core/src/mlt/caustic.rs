@@ -19,7 +19,7 @@
 use glam::{Vec2, Vec3};
 
 use super::multiple_try::{Proposal, Target};
-use super::path::{CausticAnchor, MAX_LANES, Retraced, retrace};
+use super::path::{Bundled, CausticAnchor, Retraced, evaluate_in_bundles, retrace};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -125,23 +125,12 @@ pub struct CausticTarget<'r, 'a, I: Intersector> {
 
 impl<I: Intersector> Target<CausticState> for CausticTarget<'_, '_, I> {
     fn evaluate(&mut self, states: &mut [Option<CausticState>], p: &mut [f32]) {
-        for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
-            // Scratch for the lanes at hand: a one-candidate step sets up
-            // one lane, not 16.
-            match states.len() {
-                0..=1 => self.evaluate_chunk::<1>(states, p),
-                2..=4 => self.evaluate_chunk::<4>(states, p),
-                5..=8 => self.evaluate_chunk::<8>(states, p),
-                _ => self.evaluate_chunk::<MAX_LANES>(states, p),
-            }
-        }
+        evaluate_in_bundles(self, states, p);
     }
 }
 
-impl<I: Intersector> CausticTarget<'_, '_, I> {
-    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
-    /// `N` lanes.
-    fn evaluate_chunk<const N: usize>(
+impl<I: Intersector> Bundled<CausticState> for CausticTarget<'_, '_, I> {
+    fn evaluate_bundle<const N: usize>(
         &mut self,
         states: &mut [Option<CausticState>],
         p: &mut [f32],

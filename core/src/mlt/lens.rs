@@ -33,7 +33,7 @@
 use glam::{Vec2, Vec3};
 
 use super::multiple_try::{Proposal, Target};
-use super::path::{LensAnchor, LensEnd, MAX_LANES, Retraced, retrace};
+use super::path::{Bundled, LensAnchor, LensEnd, Retraced, evaluate_in_bundles, retrace};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -106,16 +106,7 @@ pub struct LensTarget<'r, 'a, I: Intersector> {
 
 impl<I: Intersector> Target<LensState> for LensTarget<'_, '_, I> {
     fn evaluate(&mut self, states: &mut [Option<LensState>], p: &mut [f32]) {
-        for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
-            // Scratch for the lanes at hand: a one-candidate step sets up
-            // one lane, not 16.
-            match states.len() {
-                0..=1 => self.evaluate_chunk::<1>(states, p),
-                2..=4 => self.evaluate_chunk::<4>(states, p),
-                5..=8 => self.evaluate_chunk::<8>(states, p),
-                _ => self.evaluate_chunk::<MAX_LANES>(states, p),
-            }
-        }
+        evaluate_in_bundles(self, states, p);
     }
 }
 
@@ -188,6 +179,46 @@ pub(super) fn end_value<I: Intersector>(
     }
 }
 
+/// The values of a bundle whose lanes reached x′_t at `ends` (`None`: a
+/// failed lane), each with its end's specular throughput times `beta[i]`,
+/// completed by `end` ([`end_value`]); with [`LensEnd::Connect`] the
+/// connection rays to x_{t+1} are traced as one occlusion packet and a
+/// blocked lane is zero. Only the main ray: see the module docs ("No tail
+/// ray").
+pub(super) fn end_values<I: Intersector, const N: usize>(
+    tracer: &mut Tracer<'_, I>,
+    end: &LensEnd,
+    ends: &[Option<Retraced>],
+    beta: &[Rgb],
+) -> [Rgb; N] {
+    let n = ends.len();
+    let mut value = [Rgb::ZERO; N];
+    let mut shadow: [Option<Ray>; N] = [None; N];
+    for i in 0..n {
+        let Some(e) = &ends[i] else { continue };
+        let (v, seg) = end_value(
+            tracer,
+            end,
+            &e.hit.sp,
+            Some(&e.hit),
+            e.prev,
+            beta[i] * e.beta,
+        );
+        value[i] = v;
+        shadow[i] = seg.map(|seg| seg.main);
+    }
+    if matches!(end, LensEnd::Connect { .. }) {
+        let mut blocked = [false; N];
+        tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);
+        for i in 0..n {
+            if shadow[i].is_none() || blocked[i] {
+                value[i] = Rgb::ZERO;
+            }
+        }
+    }
+    value
+}
+
 impl<I: Intersector> LensTarget<'_, '_, I> {
     /// The target at the level-1 path itself (`path`, whose camera ray
     /// crosses the image at `raster`), evaluated from its stored vertices
@@ -224,10 +255,10 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
             value: if v.is_finite() { v } else { Rgb::ZERO },
         })
     }
+}
 
-    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
-    /// `N` lanes.
-    fn evaluate_chunk<const N: usize>(&mut self, states: &mut [Option<LensState>], p: &mut [f32]) {
+impl<I: Intersector> Bundled<LensState> for LensTarget<'_, '_, I> {
+    fn evaluate_bundle<const N: usize>(&mut self, states: &mut [Option<LensState>], p: &mut [f32]) {
         let n = states.len();
         let camera = self.tracer.camera;
         let a = self.anchor;
@@ -243,25 +274,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
             TransportMode::Radiance,
             &mut ends[..n],
         );
-        let mut value = [Rgb::ZERO; N];
-        // Connection rays to x_{t+1}, traced as one occlusion packet.
-        let mut shadow: [Option<Ray>; N] = [None; N];
-        for i in 0..n {
-            let Some(e) = &ends[i] else { continue };
-            let (v, seg) = end_value(self.tracer, &a.end, &e.hit.sp, Some(&e.hit), e.prev, e.beta);
-            value[i] = v;
-            // Only the main ray: see the module docs ("No tail ray").
-            shadow[i] = seg.map(|seg| seg.main);
-        }
-        if matches!(a.end, LensEnd::Connect { .. }) {
-            let mut blocked = [false; N];
-            self.tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);
-            for i in 0..n {
-                if shadow[i].is_none() || blocked[i] {
-                    value[i] = Rgb::ZERO;
-                }
-            }
-        }
+        let value = end_values::<I, N>(self.tracer, &a.end, &ends[..n], &[Rgb::ONE; N][..n]);
         for i in 0..n {
             if let Some(s) = &mut states[i] {
                 s.value = if value[i].is_finite() {

@@ -48,7 +48,7 @@
 //! that fails by rounding) records its share where it is: the identity
 //! kernel, also π_c-invariant.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
 use super::lanes::{LaneCounts, Lanes};
@@ -187,14 +187,7 @@ impl Level2 {
         match class {
             Applicable::Neither => identity(stats, splat),
             Applicable::Lens(anchor) => {
-                let camera = tracer.camera;
-                let Some(raster) = path
-                    .get(1)
-                    .and_then(|x1| {
-                        camera.importance(anchor.p_lens, (x1.sp.p - anchor.p_lens).normalize())
-                    })
-                    .map(|(_, r)| r)
-                else {
+                let Some(raster) = start_raster(tracer, anchor.p_lens, path) else {
                     return identity(stats, splat);
                 };
                 let mut target = LensTarget { tracer, anchor };
@@ -252,14 +245,9 @@ impl Level2 {
                 stats.l2_zero_candidates += out.zero;
             }
             Applicable::MultiChain(anchor) => {
-                let camera = tracer.camera;
                 let t = anchor.first.len() + 1;
                 let (Some(raster), Some(x_t), Some(x_next)) = (
-                    path.get(1)
-                        .and_then(|x1| {
-                            camera.importance(anchor.p_lens, (x1.sp.p - anchor.p_lens).normalize())
-                        })
-                        .map(|(_, r)| r),
+                    start_raster(tracer, anchor.p_lens, path),
                     path.get(t),
                     path.get(t + 1),
                 ) else {
@@ -298,6 +286,20 @@ impl Level2 {
             }
         }
     }
+}
+
+/// Where the level-1 path `path` crosses the image, seen from the lens
+/// point `p_lens` (`None` when the camera cannot see x₁).
+fn start_raster<I: Intersector>(
+    tracer: &Tracer<'_, I>,
+    p_lens: Vec3,
+    path: &[PathVertex],
+) -> Option<Vec2> {
+    let x1 = path.get(1)?;
+    let (_, raster) = tracer
+        .camera
+        .importance(p_lens, (x1.sp.p - p_lens).normalize())?;
+    Some(raster)
 }
 
 /// The side chain's starting state evaluated by the same target as its

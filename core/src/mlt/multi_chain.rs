@@ -11,8 +11,8 @@
 //! zero), so the perturbation continues: the camera ray is retraced
 //! through the first chain to x′_t, a direction ω′ leaving x′_t is traced
 //! through the second chain to x′_u, and x′_u is completed as the lens
-//! perturbation completes x′_t ([`LensEnd`]: it must emit, or it is joined
-//! to the fixed non-specular x_{u+1}).
+//! perturbation completes x′_t ([`super::path::LensEnd`]: it must emit,
+//! or it is joined to the fixed non-specular x_{u+1}).
 //!
 //! State: (raster position, ω), ω the unit direction leaving x_t. Veach
 //! derives the second chain's change from the first one's; here the two
@@ -43,9 +43,9 @@
 use glam::{Vec2, Vec3};
 
 use super::caustic::{CausticProposal, CausticState};
-use super::lens::{LensProposal, LensState, end_value};
+use super::lens::{LensProposal, LensState, end_values};
 use super::multiple_try::{Proposal, Target};
-use super::path::{LensEnd, MAX_LANES, MultiChainAnchor, Retraced, retrace};
+use super::path::{Bundled, MultiChainAnchor, Retraced, evaluate_in_bundles, retrace};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -139,23 +139,12 @@ pub struct MultiChainTarget<'r, 'a, I: Intersector> {
 
 impl<I: Intersector> Target<MultiChainState> for MultiChainTarget<'_, '_, I> {
     fn evaluate(&mut self, states: &mut [Option<MultiChainState>], p: &mut [f32]) {
-        for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
-            // Scratch for the lanes at hand: a one-candidate step sets up
-            // one lane, not 16.
-            match states.len() {
-                0..=1 => self.evaluate_chunk::<1>(states, p),
-                2..=4 => self.evaluate_chunk::<4>(states, p),
-                5..=8 => self.evaluate_chunk::<8>(states, p),
-                _ => self.evaluate_chunk::<MAX_LANES>(states, p),
-            }
-        }
+        evaluate_in_bundles(self, states, p);
     }
 }
 
-impl<I: Intersector> MultiChainTarget<'_, '_, I> {
-    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
-    /// `N` lanes.
-    fn evaluate_chunk<const N: usize>(
+impl<I: Intersector> Bundled<MultiChainState> for MultiChainTarget<'_, '_, I> {
+    fn evaluate_bundle<const N: usize>(
         &mut self,
         states: &mut [Option<MultiChainState>],
         p: &mut [f32],
@@ -202,30 +191,7 @@ impl<I: Intersector> MultiChainTarget<'_, '_, I> {
             TransportMode::Radiance,
             &mut ends[..n],
         );
-        let mut value = [Rgb::ZERO; N];
-        let mut shadow: [Option<Ray>; N] = [None; N];
-        for i in 0..n {
-            let Some(e) = &ends[i] else { continue };
-            let (v, seg) = end_value(
-                self.tracer,
-                &a.end,
-                &e.hit.sp,
-                Some(&e.hit),
-                e.prev,
-                beta[i] * e.beta,
-            );
-            value[i] = v;
-            shadow[i] = seg.map(|seg| seg.main);
-        }
-        if matches!(a.end, LensEnd::Connect { .. }) {
-            let mut blocked = [false; N];
-            self.tracer.occluded_bundle(&shadow[..n], &mut blocked[..n]);
-            for i in 0..n {
-                if shadow[i].is_none() || blocked[i] {
-                    value[i] = Rgb::ZERO;
-                }
-            }
-        }
+        let value = end_values::<I, N>(self.tracer, &a.end, &ends[..n], &beta[..n]);
         for i in 0..n {
             if let Some(s) = &mut states[i] {
                 s.value = if value[i].is_finite() {

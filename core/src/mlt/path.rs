@@ -75,6 +75,32 @@ pub const MAX_CHAIN: usize = 32;
 /// per-call scratch small (it is initialised on every call).
 pub const MAX_LANES: usize = 16;
 
+/// A path-space target evaluated one bundle of at most [`MAX_LANES`]
+/// states at a time ([`evaluate_in_bundles`]).
+pub(super) trait Bundled<S> {
+    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
+    /// `N` lanes.
+    fn evaluate_bundle<const N: usize>(&mut self, states: &mut [Option<S>], p: &mut [f32]);
+}
+
+/// [`super::multiple_try::Target::evaluate`] for a [`Bundled`] target:
+/// bundles of [`MAX_LANES`], each with scratch for the lanes at hand (a
+/// one-candidate step sets up one lane, not 16).
+pub(super) fn evaluate_in_bundles<S, T: Bundled<S>>(
+    target: &mut T,
+    states: &mut [Option<S>],
+    p: &mut [f32],
+) {
+    for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
+        match states.len() {
+            0..=1 => target.evaluate_bundle::<1>(states, p),
+            2..=4 => target.evaluate_bundle::<4>(states, p),
+            5..=8 => target.evaluate_bundle::<8>(states, p),
+            _ => target.evaluate_bundle::<MAX_LANES>(states, p),
+        }
+    }
+}
+
 /// A run of specular vertices to retrace, each with the lobe the original
 /// path took there (true = reflection).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
