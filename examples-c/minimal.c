@@ -115,7 +115,7 @@ int main(int argc, char **argv) {
     }
     fclose(f);
     free(preview);
-    printf("mean %.6f %.6f %.6f\n", mean[0] / (size * size), mean[1] / (size * size), mean[2] / (size * size));
+    printf("mean %.9g %.9g %.9g\n", mean[0] / (size * size), mean[1] / (size * size), mean[2] / (size * size));
     printf("rays %llu nonfinite %llu\n", (unsigned long long)(stats.rays + stats.shadow_rays),
            (unsigned long long)stats.nonfinite);
     free(pixels);

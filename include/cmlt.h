@@ -360,6 +360,12 @@ typedef struct cmlt_renderer_config {
   // each level-1 mutation's side chain adds beyond its own record; 0 =
   // m. Changes the variance, not the mean.
   uint32_t share;
+  // MLT: least number of normalisation samples (passes × pixels): a
+  // small image gets more than `normalisation_passes` passes (at most
+  // 1024 from this floor), so that the normalisation's error does not
+  // grow as the image shrinks; 0 = exactly `normalisation_passes`. At
+  // most 2²⁴.
+  uint32_t normalisation_min_samples;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -304,9 +304,9 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
 
 /// A method of the study: an estimator's name with its defaults (`pt`,
 /// `bdpt`, `mlt`, `cmlt`), or a Metropolis method with settings changed,
-/// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:sigma=8` (any subset, in any
-/// order; `depth` is the side-chain minimum depth, `sigma` the lens σ in
-/// pixels) — how the parameter study compares settings in one run.
+/// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:passes=32:sigma=8` (any subset,
+/// in any order; `depth` is the side-chain minimum depth, `passes` the
+/// normalisation passes, `sigma` the lens σ in pixels) — how the parameter study compares settings in one run.
 pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
     let mut parts = spec.split(':');
     let name = parts.next().unwrap_or_default();
@@ -330,6 +330,7 @@ pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
             "share" => mlt.share = int()?,
             "depth" => mlt.side_chain_min_depth = int()?,
             "k" => mlt.k = int()?,
+            "passes" => mlt.b_passes = int()?,
             "sigma" => {
                 mlt.lens_sigma = v
                     .parse::<f32>()
@@ -337,7 +338,7 @@ pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
             }
             _ => {
                 return Err(format!(
-                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, sigma)"
+                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma)"
                 ));
             }
         }

@@ -109,7 +109,8 @@ enum BenchCommand {
         #[arg(long, default_value_t = 16)]
         b_window: u32,
         /// BDPT passes per frame that estimate b (the frame's mean
-        /// luminance).
+        /// luminance): exactly these, without the small-image floor
+        /// (`MltSettings::b_min_samples`), so that b's error is K passes'.
         #[arg(long, default_value_t = MltSettings::default().b_passes)]
         b_passes: u32,
         /// Also measure an orbit (every switch on) against BDPT references.
@@ -351,7 +352,11 @@ fn run(cli: Cli) -> Result<(), String> {
                 return Err("bench flicker measures --method mlt or cmlt".into());
             }
             let mlt = RendererConfig::for_estimator(method).mlt;
-            let mlt = MltSettings { b_passes, ..mlt };
+            let mlt = MltSettings {
+                b_passes,
+                b_min_samples: 0,
+                ..mlt
+            };
             let base = RendererConfig {
                 estimator: method,
                 settings: loaded.settings,

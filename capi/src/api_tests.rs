@@ -153,6 +153,7 @@ fn config(estimator: u32, workers: u32) -> cmlt_renderer_config {
         c.chains = 16;
         c.bootstrap_samples = 100;
         c.normalisation_passes = 1;
+        c.normalisation_min_samples = 0;
         c.k = 4;
         c.m = 2;
         c
@@ -2173,7 +2174,10 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
     let s = scene(None);
     for estimator in [CMLT_ESTIMATOR_PT, CMLT_ESTIMATOR_MLT, CMLT_ESTIMATOR_CMLT] {
         let mut c = config(estimator, 3);
+        // 4 passes asked for, 20 from the small-image floor: split 7/7/6
+        // over the three workers.
         c.normalisation_passes = 4;
+        c.normalisation_min_samples = 20 * 16 * 12;
         let (one, split) = (renderer(s, &c), renderer(s, &c));
         // SAFETY: valid renderers and out pointers; workers in range.
         unsafe {

@@ -126,6 +126,12 @@ pub struct cmlt_renderer_config {
     /// each level-1 mutation's side chain adds beyond its own record; 0 =
     /// m. Changes the variance, not the mean.
     pub share: u32,
+    /// MLT: least number of normalisation samples (passes × pixels): a
+    /// small image gets more than `normalisation_passes` passes (at most
+    /// 1024 from this floor), so that the normalisation's error does not
+    /// grow as the image shrinks; 0 = exactly `normalisation_passes`. At
+    /// most 2²⁴.
+    pub normalisation_min_samples: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -269,6 +275,7 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
             lanes: mlt.lanes,
             side_chain_min_depth: mlt.side_chain_min_depth,
             share: mlt.share,
+            normalisation_min_samples: mlt.b_min_samples,
         };
         Ok(())
     })
@@ -303,6 +310,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
     let mlt = MltSettings {
         n_bootstrap: c.bootstrap_samples,
         b_passes: c.normalisation_passes,
+        b_min_samples: c.normalisation_min_samples,
         n_chains: c.chains,
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,

@@ -166,6 +166,12 @@ pub struct MltArgs {
     /// from the bootstrap samples as pbrt does.
     #[arg(long, default_value_t = MltSettings::default().b_passes)]
     pub b_passes: u32,
+    /// MLT: least number of normalisation samples (passes × pixels): a
+    /// small image gets more passes than --b-passes (at most 1024 from
+    /// this floor), so that b's error does not grow as the image shrinks;
+    /// 0 = exactly --b-passes; at most 16777216.
+    #[arg(long, default_value_t = MltSettings::default().b_min_samples)]
+    pub b_min_samples: u32,
     /// CMLT: candidates per multiple-try step, 1..=64 (default: the
     /// CMLT default for --method cmlt, 1 for mlt).
     #[arg(long)]
@@ -220,6 +226,7 @@ impl MltArgs {
         let mlt = MltSettings {
             n_bootstrap: self.bootstrap,
             b_passes: self.b_passes,
+            b_min_samples: self.b_min_samples,
             n_chains: self.chains,
             large_step_prob: self.large_step,
             sigma: self.sigma,

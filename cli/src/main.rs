@@ -172,7 +172,7 @@ fn run_single(
             mlt.large_step_prob,
             mlt.sigma,
             mlt.n_bootstrap,
-            mlt.b_passes,
+            mlt.normalisation_passes(u64::from(w) * u64::from(h)),
             if mlt.m > 0 {
                 format!(
                     ", k {} m {} lens sigma {} px, caustic scale {}, {:?} candidates, {:?} splatting",

@@ -510,7 +510,7 @@ pub fn from_render(
             // Each b_d is a mean over the normalisation passes' pixels, or
             // over the bootstrap samples of its depth without passes.
             let count = if m.b_passes > 0 {
-                m.b_passes as u64 * pixels
+                u64::from(m.normalisation_passes(pixels)) * pixels
             } else {
                 m.n_bootstrap as u64
             };

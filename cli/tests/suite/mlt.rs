@@ -123,6 +123,7 @@ fn cornell_box_mlt_matches_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 128,
         ..MltSettings::default()
     };
@@ -139,6 +140,7 @@ fn surface_detail_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -146,6 +148,7 @@ fn surface_detail_mlt_and_cmlt_match_reference() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 8,
         m: 4,
@@ -165,6 +168,7 @@ fn cmlt_matches_references() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 8,
         m: 4,
@@ -196,6 +200,7 @@ fn lights_punctual_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -215,6 +220,7 @@ fn envmap_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -229,6 +235,7 @@ fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
     let mlt = MltSettings {
         n_bootstrap: 200,
         b_passes: 3,
+        b_min_samples: 0,
         n_chains: 8,
         ..MltSettings::default()
     };
@@ -327,6 +334,7 @@ fn plastics_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -334,6 +342,7 @@ fn plastics_mlt_and_cmlt_match_reference() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 8,
         m: 4,
@@ -353,6 +362,7 @@ fn principled_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -360,6 +370,7 @@ fn principled_mlt_and_cmlt_match_reference() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 8,
         m: 4,
@@ -379,6 +390,7 @@ fn rough_glass_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -387,6 +399,7 @@ fn rough_glass_mlt_and_cmlt_match_reference() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 8,
         m: 4,
@@ -414,6 +427,7 @@ fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
         // The pool's b comes from BDPT passes that reach the floor only by
         // hitting the lamp: more passes keep its noise down.
         b_passes: 256,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -459,12 +473,14 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     let mlt = MltSettings {
         n_chains: 256,
         b_passes: 1024,
+        b_min_samples: 0,
         n_bootstrap: 1_000,
         ..mlt
     };
     let cmlt = MltSettings {
         n_chains: 256,
         b_passes: 1024,
+        b_min_samples: 0,
         n_bootstrap: 1_000,
         ..cmlt
     };
@@ -480,6 +496,7 @@ fn cmlt_lanes_and_class_lengths_match_reference() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         k: 1,
         m: 2,
@@ -517,6 +534,7 @@ fn cmlt_without_side_chains_is_mlt() {
     let mlt = MltSettings {
         n_bootstrap: 500,
         b_passes: 4,
+        b_min_samples: 0,
         n_chains: 16,
         ..MltSettings::default()
     };

@@ -178,6 +178,7 @@ fn two_parts_merge_like_twice_the_budget_mlt_cmlt() {
     let mlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -189,6 +190,7 @@ fn two_parts_merge_like_twice_the_budget_mlt_cmlt() {
     let cmlt = MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..cmlt
     };

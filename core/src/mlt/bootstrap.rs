@@ -12,7 +12,8 @@
 //!   Y_i / Σ_{depth d} Y: a resampled approximation of the target, so chains
 //!   start (close to) stationary. A sample is replayed from its seed, so
 //!   only its luminance is stored.
-//! - **Normalisation passes** (optional, `MltSettings::b_passes`): passes of
+//! - **Normalisation passes** (optional, `MltSettings::b_passes`, more on a
+//!   small image: [`MltSettings::normalisation_passes`]): passes of
 //!   ordinary BDPT, one sample per pixel, stratified over the image, with
 //!   every strategy MIS-weighted; the luminance of each contribution is
 //!   tallied by its depth s + t − 1. These estimate the same b_d (both are
@@ -263,21 +264,22 @@ impl Bootstrap {
         sums.resize(depths, 0.0);
         // Each pass sums on its own and the passes are added in pass order,
         // as a split across workers adds them: the same b either way.
-        for pass in 0..mlt.b_passes as u64 {
+        let camera = tracer.camera;
+        let pixels = camera.width() as u64 * camera.height() as u64;
+        for pass in 0..u64::from(mlt.normalisation_passes(pixels)) {
             one.clear();
             one.resize(depths, 0.0);
             evaluate_pass(tracer, settings, mlt, ws, seed, pass, one);
             add_pass(sums, one);
         }
-        let camera = tracer.camera;
-        let pixels = camera.width() as u64 * camera.height() as u64;
         self.fill(settings, mlt, seed, values, sums, pixels);
     }
 
     /// Builds the bootstrap from the target values of all bootstrap samples in
     /// index order (as [`evaluate_seeds`] produces them, possibly in pieces)
-    /// and the per-depth luminance sums of all `mlt.b_passes` normalisation
-    /// passes over `pixels` pixels (ignored when `b_passes` is 0: then b_d
+    /// and the per-depth luminance sums of all
+    /// [`MltSettings::normalisation_passes`] passes over `pixels` pixels
+    /// (ignored when `b_passes` is 0: then b_d
     /// comes from the bootstrap samples, as in pbrt).
     ///
     /// # Panics
@@ -344,9 +346,10 @@ impl Bootstrap {
             seed_depth_b[d] = if n > 0 { acc / n as f64 } else { 0.0 };
         }
         depth_b.clear();
-        if mlt.b_passes > 0 {
+        let passes = mlt.normalisation_passes(pixels);
+        if passes > 0 {
             assert!(pass_sums.len() >= depths, "pass sums missing");
-            let norm = 1.0 / (mlt.b_passes as f64 * pixels.max(1) as f64);
+            let norm = 1.0 / (passes as f64 * pixels.max(1) as f64);
             depth_b.extend(pass_sums[..depths].iter().map(|s| s * norm));
         } else {
             depth_b.extend_from_slice(seed_depth_b);

@@ -76,6 +76,13 @@ pub struct MltSettings {
     /// estimate b by depth; 0 = estimate b from the bootstrap samples as pbrt
     /// does (much noisier: see [`bootstrap`]).
     pub b_passes: u32,
+    /// Least number of normalisation samples (passes × pixels): a small
+    /// image gets more than `b_passes` passes, up to
+    /// [`MAX_FLOOR_PASSES`], so that b's error does not grow as the image
+    /// shrinks ([`MltSettings::normalisation_passes`]); 0 = exactly
+    /// `b_passes`. Ignored when `b_passes` is 0. At most
+    /// [`MAX_B_MIN_SAMPLES`].
+    pub b_min_samples: u32,
     /// Independent chains per worker (pbrt: 1000 in total).
     pub n_chains: u32,
     /// Probability of a large step (pbrt: 0.3).
@@ -122,12 +129,14 @@ pub struct MltSettings {
 }
 
 impl Default for MltSettings {
-    /// 2 000 bootstrap samples per depth, 4 normalisation passes, 256 chains
-    /// per worker, large steps 0.3, σ = 0.01, depth cap 32.
+    /// 2 000 bootstrap samples per depth, 4 normalisation passes and at
+    /// least 65 536 normalisation samples, 256 chains per worker, large
+    /// steps 0.3, σ = 0.01, depth cap 32.
     fn default() -> Self {
         MltSettings {
             n_bootstrap: 2_000,
             b_passes: 4,
+            b_min_samples: DEFAULT_B_MIN_SAMPLES,
             n_chains: 256,
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
@@ -180,6 +189,27 @@ impl MltSettings {
         }
     }
 
+    /// The normalisation passes a bootstrap over `pixels` pixels runs:
+    /// `b_passes`, or more on a small image, ⌈`b_min_samples` / pixels⌉
+    /// but at most [`MAX_FLOOR_PASSES`]; 0 when `b_passes` is 0.
+    ///
+    /// Why a floor: b scales the whole image, and its relative error falls
+    /// with the number of BDPT samples behind it, not with the image's
+    /// size. Four passes over caustic-pool's 48×48 pixels (9 216 samples)
+    /// left b between 0.50× and 1.13× of its converged value over 8
+    /// seeds — an image up to twice too dark, an error no number of
+    /// mutations removes; 32 passes (73 728 samples) 0.88–1.04×, at
+    /// 0.1 s of bootstrap (docs/accuracy.md, "The normalisation floor").
+    pub fn normalisation_passes(&self, pixels: u64) -> u32 {
+        if self.b_passes == 0 {
+            return 0;
+        }
+        let floor = u64::from(self.b_min_samples)
+            .div_ceil(pixels.max(1))
+            .min(u64::from(MAX_FLOOR_PASSES)) as u32;
+        self.b_passes.max(floor)
+    }
+
     /// Records each level-1 mutation adds with its level-2 share: 1 + s.
     pub fn records_per_mutation(&self) -> u64 {
         1 + self.share() as u64
@@ -198,6 +228,9 @@ impl MltSettings {
         // already refused 0; the Rust API let it through).
         if self.n_bootstrap == 0 {
             return Err("at least one bootstrap sample per depth is needed");
+        }
+        if self.b_min_samples > MAX_B_MIN_SAMPLES {
+            return Err("the normalisation floor must be at most 16 777 216 samples");
         }
         if self.n_chains == 0 {
             return Err("at least one chain per worker is needed");
@@ -223,6 +256,19 @@ impl MltSettings {
         Ok(())
     }
 }
+
+/// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, the four
+/// default passes over a 128 × 128 image; smaller images get more passes.
+pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
+
+/// Largest [`MltSettings::b_min_samples`].
+pub const MAX_B_MIN_SAMPLES: u32 = 1 << 24;
+
+/// Most passes the floor of [`MltSettings::normalisation_passes`] adds: the
+/// passes' per-depth sums are kept pass by pass (so that a split across
+/// workers adds them in the same order), which bounds their memory on a
+/// tiny image.
+pub const MAX_FLOOR_PASSES: u32 = 1024;
 
 /// The largest path depth (segments) MLT samples: `max_depth`, or
 /// `depth_cap` when unbounded.

@@ -370,7 +370,7 @@ impl Renderer {
             pending: None,
             boot_mlt: config.mlt,
             boot_passes: Vec::with_capacity(if config.estimator.is_metropolis() {
-                config.mlt.b_passes as usize
+                config.mlt.normalisation_passes(camera_pixels(&camera)) as usize
                     * mlt::path_depth(&config.settings, &config.mlt) as usize
             } else {
                 0
@@ -457,7 +457,13 @@ impl Renderer {
         ))?;
         let metropolis = config.estimator.is_metropolis();
         let seeds = c(u64::from(config.mlt.n_bootstrap).checked_mul(depth))?;
-        let passes = c(u64::from(config.mlt.b_passes).checked_mul(depth))?;
+        // Only a Metropolis renderer keeps the passes' sums (a small image
+        // gets up to `MAX_FLOOR_PASSES` of them).
+        let passes = if metropolis {
+            c(u64::from(config.mlt.normalisation_passes(pixels)).checked_mul(depth))?
+        } else {
+            0
+        };
         if metropolis {
             let chains = u64::from(config.mlt.n_chains);
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
@@ -471,7 +477,7 @@ impl Renderer {
         }
         // The renderer: bootstrap tables and scratch (seeds, passes), one
         // slot per worker, the accumulator (two RGB f64 layers per pixel).
-        // (The bootstrap's storage is made for every estimator.)
+        // (The bootstrap's tables are made for every estimator.)
         let renderer = c(seeds
             .checked_mul(16)
             .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
@@ -634,8 +640,8 @@ impl Renderer {
         self.scratch.values.clear();
         self.scratch.values.resize(n, 0.0);
         self.boot_passes.clear();
-        self.boot_passes
-            .resize(self.boot_mlt.b_passes as usize * depths, 0.0);
+        let passes = self.boot_mlt.normalisation_passes(self.pixels()) as usize;
+        self.boot_passes.resize(passes * depths, 0.0);
         self.pending = Some(self.generation);
         true
     }
@@ -684,7 +690,8 @@ impl Renderer {
         );
         let depths = mlt::path_depth(&self.settings, mlt) as usize;
         boot.passes.clear();
-        for pass in (i..mlt.b_passes as u64).step_by(w as usize) {
+        let passes = mlt.normalisation_passes(self.pixels());
+        for pass in (i..u64::from(passes)).step_by(w as usize) {
             let at = boot.passes.len();
             boot.passes.resize(at + depths, 0.0);
             bootstrap::evaluate_pass(
@@ -1103,7 +1110,7 @@ impl Renderer {
     }
 
     fn pixels(&self) -> u64 {
-        self.camera.width() as u64 * self.camera.height() as u64
+        camera_pixels(&self.camera)
     }
 
     /// Whether `w`'s film belongs to the current accumulation.
@@ -1122,6 +1129,11 @@ impl Renderer {
             _ => 1.0 / t.passes as f64,
         }
     }
+}
+
+/// Pixels of `camera`'s image.
+fn camera_pixels(camera: &Camera) -> u64 {
+    u64::from(camera.width()) * u64::from(camera.height())
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's
@@ -1225,7 +1237,8 @@ impl RenderWorker {
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
                 let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);
-                let passes = (c.mlt.b_passes as u64).div_ceil(w) * depth as u64;
+                let passes = (c.mlt.normalisation_passes(camera_pixels(camera)) as u64).div_ceil(w)
+                    * depth as u64;
                 WorkerBootstrap {
                     generation: None,
                     values: Vec::with_capacity(seeds as usize),

@@ -120,6 +120,7 @@ pub(super) fn mlt_settings(k: u32, m: u32) -> MltSettings {
     MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
+        b_min_samples: 0,
         n_chains: 64,
         k,
         m,

@@ -41,6 +41,7 @@ fn mlt_settings() -> MltSettings {
     MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     }
@@ -428,6 +429,7 @@ fn cmlt_multi_chain_furnace_is_two() {
         let s = MltSettings {
             lanes,
             b_passes: 1024,
+            b_min_samples: 0,
             ..cmlt_settings(k, 4)
         };
         let (img, r) = render(&scene, &s, 5, 160);
@@ -550,6 +552,7 @@ fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
     let s = MltSettings {
         n_bootstrap: 1,
         b_passes: 16,
+        b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
     };
@@ -645,4 +648,49 @@ fn lens_start_from_stored_path_equals_its_retrace() {
         agree as f64 >= 0.999 * compared as f64,
         "{agree} of {compared}"
     );
+}
+
+/// The normalisation floor: on the 16×12 furnace a floor of 10 passes'
+/// samples makes the bootstrap run 10 passes instead of 4 — the same b,
+/// bit for bit, as 10 passes asked for, a different one from 4 — and it
+/// stays out of the way where it should (no passes asked for, a large
+/// image, the cap on a tiny one, the range check).
+#[test]
+fn normalisation_floor_raises_the_passes_of_a_small_image() {
+    let scene = diffuse_furnace(1.0);
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let st = settings();
+    let pixels = 16 * 12;
+    let with = |b_passes, b_min_samples| MltSettings {
+        n_bootstrap: 64,
+        b_passes,
+        b_min_samples,
+        ..MltSettings::default()
+    };
+    let floored = with(4, 10 * pixels as u32);
+    assert_eq!(floored.normalisation_passes(pixels), 10);
+    let b = |m: &MltSettings, tracer: &mut Tracer<'_, Bvh>| Bootstrap::run(tracer, &st, m, 5).b();
+    let b_floored = b(&floored, &mut tracer);
+    assert_eq!(b_floored.to_bits(), b(&with(10, 0), &mut tracer).to_bits());
+    assert_ne!(b_floored.to_bits(), b(&with(4, 0), &mut tracer).to_bits());
+    // A partial pass's worth rounds up; more passes asked for than the
+    // floor needs are kept; none asked for stays none.
+    assert_eq!(
+        with(4, 10 * pixels as u32 + 1).normalisation_passes(pixels),
+        11
+    );
+    assert_eq!(
+        with(16, 10 * pixels as u32).normalisation_passes(pixels),
+        16
+    );
+    assert_eq!(with(0, 1 << 16).normalisation_passes(pixels), 0);
+    assert_eq!(with(4, 1 << 16).normalisation_passes(512 * 512), 4);
+    assert_eq!(
+        with(1, mlt::MAX_B_MIN_SAMPLES).normalisation_passes(1),
+        mlt::MAX_FLOOR_PASSES
+    );
+    assert!(with(4, mlt::MAX_B_MIN_SAMPLES).validate().is_ok());
+    assert!(with(4, mlt::MAX_B_MIN_SAMPLES + 1).validate().is_err());
 }

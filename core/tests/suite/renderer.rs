@@ -127,6 +127,7 @@ fn mlt_settings(k: u32, m: u32) -> MltSettings {
     MltSettings {
         n_bootstrap: 500,
         b_passes: 2,
+        b_min_samples: 0,
         n_chains: 24,
         k,
         m,
@@ -656,6 +657,7 @@ fn bootstrap_spread_over_workers_equals_prepare_bit_for_bit() {
     let mlt = MltSettings {
         n_bootstrap: 333,
         b_passes: 5,
+        b_min_samples: 0,
         ..mlt_settings(2, 1)
     };
     for workers in [1, 2, 3] {

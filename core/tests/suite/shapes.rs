@@ -122,6 +122,7 @@ fn render(
     let mlt = MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
+        b_min_samples: 0,
         n_chains: 64,
         k: if cmlt { 4 } else { 1 },
         m: if cmlt { 2 } else { 0 },

@@ -49,6 +49,7 @@ pub fn small_mlt() -> MltSettings {
     MltSettings {
         n_bootstrap: 256,
         b_passes: 2,
+        b_min_samples: 0,
         n_chains: 32,
         ..MltSettings::default()
     }
