@@ -48,6 +48,8 @@
 //! that fails by rounding) records its share where it is: the identity
 //! kernel, also π_c-invariant.
 
+use alloc::vec::Vec;
+
 use glam::{Vec2, Vec3};
 
 use super::caustic::{CausticProposal, CausticState, CausticTarget};
@@ -59,7 +61,7 @@ use super::path::{Applicable, classify};
 use super::{MltSettings, MltStats, PathSample};
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::PathVertex;
+use crate::integrator::bdpt::{self, PathVertex};
 use crate::math::Rgb;
 use crate::sampler::Sampler;
 
@@ -154,6 +156,30 @@ impl Level2 {
             Applicable::Neither => (Applicable::Neither, 0),
             class => (class, self.length),
         }
+    }
+
+    /// [`Level2::classify`] of the path of depth `depth` (segments) that
+    /// `ws` holds from the latest target evaluation, copied into `path`
+    /// only when a side chain could run on it: a path shallower than the
+    /// minimum depth is classless without a look (what most level-1
+    /// mutations are, so they skip the copy and the classification).
+    pub fn classify_stored<I: Intersector>(
+        &self,
+        tracer: &Tracer<'_, I>,
+        ws: &bdpt::PathStorage,
+        depth: u32,
+        path: &mut Vec<PathVertex>,
+    ) -> (Applicable, u32) {
+        if depth < self.min_depth {
+            return (Applicable::Neither, 0);
+        }
+        bdpt::strategy_path(ws, path);
+        debug_assert_eq!(
+            path.len(),
+            depth as usize + 1,
+            "a depth-d path has d + 1 vertices"
+        );
+        self.classify(tracer, path)
     }
 
     /// Runs the side chain of length `length` (> 0, from

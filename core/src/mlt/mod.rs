@@ -622,9 +622,7 @@ impl WorkerChains {
             sampler.restart(bootstrap.seed_of(index));
             let initial = target::evaluate(tracer, settings, ws, depth, &mut sampler);
             if let Some(l2) = level2 {
-                let path = &mut paths[chains.len()];
-                bdpt::strategy_path(ws, path);
-                classes.push(l2.classify(tracer, path));
+                classes.push(l2.classify_stored(tracer, ws, depth, &mut paths[chains.len()]));
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
@@ -683,8 +681,7 @@ impl WorkerChains {
                 }
             }
             if let Some(l2) = level2 {
-                bdpt::strategy_path(ws, &mut paths[ci]);
-                classes[ci] = l2.classify(tracer, &paths[ci]);
+                classes[ci] = l2.classify_stored(tracer, ws, depth, &mut paths[ci]);
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
@@ -749,14 +746,14 @@ impl WorkerChains {
                 let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
                 let mut y_class = (Applicable::Neither, 0);
                 if let Some(sp) = st.proposal {
-                    bdpt::strategy_path(ws, proposal_path);
-                    y_class = l2.classify(tracer, proposal_path);
+                    y_class = l2.classify_stored(tracer, ws, depth, proposal_path);
                     film.add_splat(sp.raster, sp.value * (w * carry(y_class.1)));
                 }
                 if let Some(sp) = st.current {
                     film.add_splat(sp.raster, sp.value * (w * carry(classes[ci].1)));
                 }
-                // Accepted implies a > 0, so the proposal was classified.
+                // Accepted implies a > 0, so the proposal was classified
+                // (and its path copied, if it can have a side chain).
                 if st.accepted {
                     core::mem::swap(&mut paths[ci], proposal_path);
                     classes[ci] = y_class;
