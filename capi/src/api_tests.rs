@@ -2774,6 +2774,9 @@ fn invalid_configurations_get_no_memory_bound() {
             (|c| c.k = 0x6868_6868) as fn(&mut cmlt_renderer_config),
         ),
         ("lanes", |c| c.lanes = u32::MAX),
+        ("normalisation floor", |c| {
+            c.normalisation_min_samples = u32::MAX
+        }),
         ("no workers", |c| c.workers = 0),
         ("m = 0", |c| c.m = 0),
     ] {
