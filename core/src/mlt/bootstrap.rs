@@ -264,8 +264,7 @@ impl Bootstrap {
         sums.resize(depths, 0.0);
         // Each pass sums on its own and the passes are added in pass order,
         // as a split across workers adds them: the same b either way.
-        let camera = tracer.camera;
-        let pixels = camera.width() as u64 * camera.height() as u64;
+        let pixels = tracer.camera.pixel_count();
         for pass in 0..u64::from(mlt.normalisation_passes(pixels)) {
             one.clear();
             one.resize(depths, 0.0);

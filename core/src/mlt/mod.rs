@@ -864,7 +864,7 @@ pub fn render<I: Intersector>(
     mutations_per_pixel: u64,
 ) -> MltRender {
     let camera = tracer.camera;
-    let pixels = camera.width() as u64 * camera.height() as u64;
+    let pixels = camera.pixel_count();
     let bootstrap = Bootstrap::run(tracer, settings, mlt, seed);
     let mut worker = WorkerChains::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);
     let mut film = Film::new(camera.width(), camera.height());

@@ -370,7 +370,7 @@ impl Renderer {
             pending: None,
             boot_mlt: config.mlt,
             boot_passes: Vec::with_capacity(if config.estimator.is_metropolis() {
-                config.mlt.normalisation_passes(camera_pixels(&camera)) as usize
+                config.mlt.normalisation_passes(camera.pixel_count()) as usize
                     * mlt::path_depth(&config.settings, &config.mlt) as usize
             } else {
                 0
@@ -1110,7 +1110,7 @@ impl Renderer {
     }
 
     fn pixels(&self) -> u64 {
-        camera_pixels(&self.camera)
+        self.camera.pixel_count()
     }
 
     /// Whether `w`'s film belongs to the current accumulation.
@@ -1129,11 +1129,6 @@ impl Renderer {
             _ => 1.0 / t.passes as f64,
         }
     }
-}
-
-/// Pixels of `camera`'s image.
-fn camera_pixels(camera: &Camera) -> u64 {
-    u64::from(camera.width()) * u64::from(camera.height())
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's
@@ -1237,7 +1232,7 @@ impl RenderWorker {
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
                 let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);
-                let passes = (c.mlt.normalisation_passes(camera_pixels(camera)) as u64).div_ceil(w)
+                let passes = (c.mlt.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
                     generation: None,

@@ -188,6 +188,11 @@ impl Camera {
         self.height
     }
 
+    /// Pixels of the image, width · height.
+    pub fn pixel_count(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
+    }
+
     /// Camera position (lens centre).
     pub fn position(&self) -> Vec3 {
         self.pos
