@@ -11,7 +11,7 @@ mod common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::math::{Mat4, Rgb};
-use cmlt::mlt::MltSettings;
+use cmlt::mlt::{CmltSettings, MltSettings};
 use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Camera, ConductorFresnel, Detail, Distribution, Effect, EffectSet, FovAxis, Material,
@@ -284,18 +284,13 @@ fn renderer_mean(
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     let cfg = RendererConfig {
         estimator,
-        mlt: MltSettings {
-            n_bootstrap: 200,
-            n_chains: 32,
-            ..MltSettings::cmlt()
-        },
         seed: 5,
         all_effects,
         ..RendererConfig::default()
     };
     let mut r = Renderer::new(cfg, scene.camera).unwrap();
     let mut w = RenderWorker::new(&r, 0).unwrap();
-    r.prepare(scene, &bvh);
+    common::prepare(&mut r, std::slice::from_mut(&mut w), scene, &bvh);
     r.render(&mut w, scene, &bvh, budget).unwrap();
     let mut sum = 0.0f64;
     let mut n = 0;
@@ -312,22 +307,27 @@ fn surfaces_that_do_not_scatter_cap_paths_at_one_segment_with_the_same_image() {
     // A black box that emits: every pixel sees emission directly and
     // nothing more, which the analysis turns into depth 1.
     let scene = build(Material::diffuse(Rgb::ZERO), 0.0).unwrap();
-    for estimator in [Estimator::Path, Estimator::Bdpt, Estimator::Mlt] {
+    let cmlt = Estimator::Cmlt(CmltSettings {
+        mlt: MltSettings {
+            n_bootstrap: 200,
+            n_chains: 32,
+            ..MltSettings::default()
+        },
+        ..CmltSettings::default()
+    });
+    for estimator in [Estimator::Path, Estimator::Bdpt, cmlt] {
+        let kind = estimator.kind();
         let budget = 4 * 16;
         let (on, a) = renderer_mean(&scene, estimator, false, budget);
         let (off, all) = renderer_mean(&scene, estimator, true, budget);
-        assert!(a.emitters_only && !all.emitters_only, "{estimator:?}");
-        assert!(on > 0.0, "{estimator:?}");
-        // Emission seen directly is exact for PT and BDPT; MLT's b is
+        assert!(a.emitters_only && !all.emitters_only, "{kind:?}");
+        assert!(on > 0.0, "{kind:?}");
+        // Emission seen directly is exact for PT and BDPT; CMLT's b is
         // estimated, so allow noise.
-        let tol = if estimator == Estimator::Mlt {
-            0.05
-        } else {
-            1e-5
-        };
+        let tol = if kind.is_metropolis() { 0.05 } else { 1e-5 };
         assert!(
             (on - off).abs() <= tol * off,
-            "{estimator:?}: {on} with the analysis, {off} with every effect"
+            "{kind:?}: {on} with the analysis, {off} with every effect"
         );
     }
 }

@@ -2,18 +2,17 @@
 //! miri`): BVH construction and traversal with the scalar kernel forced
 //! (Miri runs no SIMD intrinsics), single rays, packets with partial
 //! lane masks and an interleaved stream against the brute-force reference, and one tiny render pass
-//! of each estimator. Natively it is just a fast test.
+//! of PT and BDPT through the renderer. Natively it is just a fast test.
 
 mod common;
 
 use cmlt::accel::Intersector;
 use cmlt::accel::brute::BruteForce;
 use cmlt::accel::bvh::{Bvh, Kernel};
-use cmlt::film::Film;
 use cmlt::geometry::{HitPacket, LaneMask, Ray, RayPacket};
-use cmlt::integrator::bdpt::PathStorage;
-use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
+use cmlt::integrator::Settings;
 use cmlt::math::{Rgb, Vec3};
+use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Material, SceneBuilder};
 
 fn scalar(tris: &[[Vec3; 3]]) -> Bvh {
@@ -104,19 +103,20 @@ fn tiny_render_passes() {
         max_depth: Some(3),
         ..Settings::default()
     };
-    for method in [Estimator::Path, Estimator::Bdpt] {
-        let mut tracer = Tracer::new(&scene, &bvh);
-        let mut film = Film::new(2, 2);
-        render_pass(
-            &mut tracer,
-            &settings,
-            method,
-            &mut PathStorage::new(),
-            1,
-            0,
-            &mut film,
-        );
-        assert!(film.resolve().iter().all(|c| c.is_finite()));
-        assert_eq!(film.nonfinite(), 0);
+    for estimator in [Estimator::Path, Estimator::Bdpt] {
+        let config = RendererConfig {
+            estimator,
+            settings,
+            seed: 1,
+            ..RendererConfig::default()
+        };
+        let mut r = Renderer::new(config, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        common::prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        assert_eq!(r.render_steps(&mut w, &scene, &bvh, 1).unwrap(), 4);
+        let mut finite = true;
+        r.resolve(&[&w], |_, c| finite &= c.is_finite()).unwrap();
+        assert!(finite, "{estimator:?}");
+        assert_eq!(r.stats(&[&w]).nonfinite, 0);
     }
 }

@@ -49,7 +49,7 @@ use core::ops::Range;
 use glam::Vec2;
 
 use super::primary::PrimarySampler;
-use super::{MltSettings, path_depth, target};
+use super::{MltSettings, depths, target};
 use crate::accel::Intersector;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
@@ -62,46 +62,21 @@ pub fn sample_seed(seed: u64, index: u64) -> u64 {
     mix64(mix64(seed ^ 0xB007_57A9_0000_0000) ^ index)
 }
 
-/// Evaluates bootstrap samples `range` (indices into 0 … n·D) and appends their
-/// target values Y_i to `out`, in index order.
-pub fn evaluate_seeds<I: Intersector>(
-    tracer: &mut Tracer<'_, I>,
-    settings: &Settings,
-    mlt: &MltSettings,
-    seed: u64,
-    range: Range<u64>,
-    out: &mut Vec<f32>,
-) {
-    out.reserve(range.end.saturating_sub(range.start) as usize);
-    let mut ws = bdpt::PathStorage::new();
-    let mut sampler = PrimarySampler::new(0, mlt.sigma, mlt.large_step_prob);
-    evaluate_seeds_with(
-        tracer,
-        settings,
-        mlt,
-        seed,
-        range,
-        &mut ws,
-        &mut sampler,
-        out,
-    );
-}
-
-/// [`evaluate_seeds`] with caller-owned storage: allocates nothing when
-/// `out` has room and `ws` and `sampler` are large enough for the deepest
-/// path (what a renderer re-running the bootstrap every frame needs).
-#[allow(clippy::too_many_arguments)]
+/// Evaluates bootstrap samples `range` (indices into 0 … n·D) and appends
+/// their target values Y_i to `out`, in index order, with caller-owned
+/// storage: allocates nothing when `out` has room and `ws` and `sampler`
+/// are large enough for the deepest path (a renderer's worker re-running
+/// its share of the bootstrap every frame).
 pub fn evaluate_seeds_with<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
-    mlt: &MltSettings,
     seed: u64,
     range: Range<u64>,
     ws: &mut bdpt::PathStorage,
     sampler: &mut PrimarySampler,
     out: &mut Vec<f32>,
 ) {
-    let depths = path_depth(settings, mlt) as u64;
+    let depths = depths(settings) as u64;
     if depths == 0 {
         return;
     }
@@ -119,13 +94,12 @@ pub fn evaluate_seeds_with<I: Intersector>(
 pub fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
-    mlt: &MltSettings,
     ws: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
     sums: &mut [f64],
 ) {
-    let depths = path_depth(settings, mlt);
+    let depths = depths(settings);
     let capped = Settings {
         max_depth: Some(depths),
         ..*settings
@@ -156,32 +130,6 @@ pub fn add_pass(sums: &mut [f64], pass: &[f64]) {
     }
 }
 
-/// Storage the bootstrap evaluates with, kept across re-runs: the bootstrap
-/// samples' values, the passes' per-depth sums (all passes', and one
-/// pass's), BDPT path storage and a primary sampler, each sized for the
-/// deepest path.
-pub struct BootstrapScratch {
-    pub(crate) values: Vec<f32>,
-    pub(crate) sums: Vec<f64>,
-    pass: Vec<f64>,
-    ws: bdpt::PathStorage,
-    sampler: PrimarySampler,
-}
-
-impl BootstrapScratch {
-    /// Storage for the bootstrap of `settings` and `mlt`.
-    pub fn new(settings: &Settings, mlt: &MltSettings) -> Self {
-        let depth = path_depth(settings, mlt);
-        BootstrapScratch {
-            values: Vec::with_capacity(Bootstrap::seed_count(settings, mlt) as usize),
-            sums: Vec::with_capacity(depth as usize),
-            pass: Vec::with_capacity(depth as usize),
-            ws: bdpt::PathStorage::with_capacity(depth),
-            sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
-        }
-    }
-}
-
 /// The bootstrap's result: b by depth and the bootstrap samples chains start
 /// from.
 #[derive(Clone, Debug, PartialEq)]
@@ -204,27 +152,14 @@ pub struct Bootstrap {
 impl Bootstrap {
     /// Number of bootstrap samples: `n_bootstrap` per path depth.
     pub fn seed_count(settings: &Settings, mlt: &MltSettings) -> u64 {
-        mlt.n_bootstrap as u64 * path_depth(settings, mlt) as u64
-    }
-
-    /// Evaluates the whole bootstrap on one worker.
-    pub fn run<I: Intersector>(
-        tracer: &mut Tracer<'_, I>,
-        settings: &Settings,
-        mlt: &MltSettings,
-        seed: u64,
-    ) -> Self {
-        let mut scratch = BootstrapScratch::new(settings, mlt);
-        let mut boot = Self::with_capacity(settings, mlt);
-        boot.rerun(tracer, settings, mlt, seed, &mut scratch);
-        boot
+        mlt.n_bootstrap as u64 * depths(settings) as u64
     }
 
     /// An empty bootstrap (b = 0, no bootstrap samples) with room for the
-    /// bootstrap of `settings` and `mlt`, so that [`Bootstrap::rerun`] and
-    /// [`Bootstrap::fill`] allocate nothing.
+    /// bootstrap of `settings` and `mlt`, so that [`Bootstrap::fill`]
+    /// allocates nothing.
     pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
-        let depths = path_depth(settings, mlt) as usize;
+        let depths = depths(settings) as usize;
         Bootstrap {
             seed: 0,
             depths: depths as u32,
@@ -237,70 +172,17 @@ impl Bootstrap {
         }
     }
 
-    /// Evaluates the whole bootstrap again on one worker (for a new camera
-    /// or scene), reusing this bootstrap's and `scratch`'s storage: nothing
-    /// is allocated when both were made for the same `settings` and `mlt`.
-    /// The result equals [`Bootstrap::run`]'s.
-    pub fn rerun<I: Intersector>(
-        &mut self,
-        tracer: &mut Tracer<'_, I>,
-        settings: &Settings,
-        mlt: &MltSettings,
-        seed: u64,
-        scratch: &mut BootstrapScratch,
-    ) {
-        let BootstrapScratch {
-            values,
-            sums,
-            pass: one,
-            ws,
-            sampler,
-        } = scratch;
-        values.clear();
-        let n = Self::seed_count(settings, mlt);
-        evaluate_seeds_with(tracer, settings, mlt, seed, 0..n, ws, sampler, values);
-        let depths = path_depth(settings, mlt) as usize;
-        sums.clear();
-        sums.resize(depths, 0.0);
-        // Each pass sums on its own and the passes are added in pass order,
-        // as a split across workers adds them: the same b either way.
-        let pixels = tracer.camera.pixel_count();
-        for pass in 0..u64::from(mlt.normalisation_passes(pixels)) {
-            one.clear();
-            one.resize(depths, 0.0);
-            evaluate_pass(tracer, settings, mlt, ws, seed, pass, one);
-            add_pass(sums, one);
-        }
-        self.fill(settings, mlt, seed, values, sums, pixels);
-    }
-
-    /// Builds the bootstrap from the target values of all bootstrap samples in
-    /// index order (as [`evaluate_seeds`] produces them, possibly in pieces)
-    /// and the per-depth luminance sums of all
+    /// Builds the bootstrap, in this bootstrap's storage, from the target
+    /// values of all bootstrap samples in index order (as
+    /// [`evaluate_seeds_with`] produces them, possibly in pieces) and the
+    /// per-depth luminance sums of all
     /// [`MltSettings::normalisation_passes`] passes over `pixels` pixels
-    /// (ignored when `b_passes` is 0: then b_d
-    /// comes from the bootstrap samples, as in pbrt).
+    /// (ignored when `b_passes` is 0: then b_d comes from the bootstrap
+    /// samples, as in pbrt).
     ///
     /// # Panics
     /// When `values` does not hold [`Bootstrap::seed_count`] values or
     /// `pass_sums` has fewer than D entries while passes are used.
-    pub fn from_parts(
-        settings: &Settings,
-        mlt: &MltSettings,
-        seed: u64,
-        values: &[f32],
-        pass_sums: &[f64],
-        pixels: u64,
-    ) -> Self {
-        let mut boot = Self::with_capacity(settings, mlt);
-        boot.fill(settings, mlt, seed, values, pass_sums, pixels);
-        boot
-    }
-
-    /// [`Bootstrap::from_parts`] into this bootstrap's storage.
-    ///
-    /// # Panics
-    /// As [`Bootstrap::from_parts`].
     pub fn fill(
         &mut self,
         settings: &Settings,
@@ -310,7 +192,7 @@ impl Bootstrap {
         pass_sums: &[f64],
         pixels: u64,
     ) {
-        let depths = path_depth(settings, mlt) as usize;
+        let depths = depths(settings) as usize;
         let n = mlt.n_bootstrap as usize;
         assert_eq!(
             values.len() as u64,

@@ -8,7 +8,7 @@
 //! ## Side chains only where they pay: the level-2 share
 //!
 //! Every level-1 mutation adds records of total luminance 1 + s, where s
-//! (the level-2 share, [`super::MltSettings::share`]) is fixed: the image
+//! (the level-2 share, [`super::Level2Settings::share`]) is fixed: the image
 //! scale counts 1 + s records per mutation ([`super::MltStats::records`]).
 //! The share goes to the *class* c of the level-1 state — the perturbation
 //! that applies to its path (lens, caustic, multi-chain or none) and its
@@ -16,7 +16,7 @@
 //! - a class with side-chain length m(c) > 0 runs a side chain of m(c)
 //!   steps (n lanes each) whose records weigh s / (m(c)·n) each, s in all;
 //! - a class with m(c) = 0 (no perturbation applies, or a path too shallow
-//!   for a side chain to pay, [`super::MltSettings::side_chain_min_depth`])
+//!   for a side chain to pay, [`super::Level2Settings::side_chain_min_depth`])
 //!   runs none: its level-1 records carry the share themselves, the
 //!   proposal y weighing a·(1 + s) and the current state x
 //!   (1 − a)·(1 + s) when their class has m = 0 (else a and 1 − a).
@@ -58,7 +58,7 @@ use super::lens::{LensProposal, LensState, LensTarget};
 use super::multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
 use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Target};
 use super::path::{Applicable, classify};
-use super::{MltSettings, MltStats, PathSample};
+use super::{Level2Settings, MltStats, PathSample};
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
 use crate::integrator::bdpt::{self, PathVertex};
@@ -93,34 +93,34 @@ pub struct Level2 {
 const R_MAX_SIGMAS: f32 = 4.0;
 
 impl Level2 {
-    /// Level 2 for `mlt` on a `width` × `height` image whose pixels subtend
-    /// `pixel_angle` radians; `None` when `mlt.m` is 0 (plain MLT) or the
-    /// parameters are invalid (see [`MltSettings::validate`]).
-    pub fn new(mlt: &MltSettings, width: u32, height: u32, pixel_angle: f32) -> Option<Self> {
-        if mlt.m == 0 || mlt.validate().is_err() {
+    /// Level 2 of `l2` on a `width` × `height` image whose pixels subtend
+    /// `pixel_angle` radians; `None` when the parameters are invalid (see
+    /// [`Level2Settings::validate`]).
+    pub fn new(l2: &Level2Settings, width: u32, height: u32, pixel_angle: f32) -> Option<Self> {
+        if l2.validate().is_err() {
             return None;
         }
-        let k = mlt.k as usize;
-        let sigma = mlt.lens_sigma;
+        let k = l2.k as usize;
+        let sigma = l2.lens_sigma;
         let lens_proposal = LensProposal::new(sigma, R_MAX_SIGMAS * sigma, width, height)?;
         // The caustic offset is an angle at x_j: the lens width in pixels
         // times a pixel's angle, scaled (the specular chain magnifies or
         // compresses it on its way to the image).
-        let s = sigma * pixel_angle * mlt.caustic_scale;
+        let s = sigma * pixel_angle * l2.caustic_scale;
         let caustic_proposal =
             CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
-        let lanes = mlt.lanes as usize;
+        let lanes = l2.lanes as usize;
         Some(Level2 {
-            share: mlt.share(),
-            length: mlt.m,
-            min_depth: mlt.side_chain_min_depth,
+            share: l2.share(),
+            length: l2.m,
+            min_depth: l2.side_chain_min_depth,
             k,
-            lens: MultipleTry::new(k, mlt.splatting)
-                .with_candidates(mlt.candidates, LensProposal::DIM),
-            caustic: MultipleTry::new(k, mlt.splatting)
-                .with_candidates(mlt.candidates, CausticProposal::DIM),
-            multi: MultipleTry::new(k, mlt.splatting)
-                .with_candidates(mlt.candidates, MultiChainProposal::DIM),
+            lens: MultipleTry::new(k, l2.splatting)
+                .with_candidates(l2.candidates, LensProposal::DIM),
+            caustic: MultipleTry::new(k, l2.splatting)
+                .with_candidates(l2.candidates, CausticProposal::DIM),
+            multi: MultipleTry::new(k, l2.splatting)
+                .with_candidates(l2.candidates, MultiChainProposal::DIM),
             lens_lanes: Lanes::new(lanes, LensProposal::DIM),
             caustic_lanes: Lanes::new(lanes, CausticProposal::DIM),
             multi_lanes: Lanes::new(lanes, MultiChainProposal::DIM),
@@ -140,7 +140,7 @@ impl Level2 {
     }
 
     /// The class of the complete path `path`: the perturbation that applies
-    /// to it, and its side-chain length m(c) — [`MltSettings::m`] for a
+    /// to it, and its side-chain length m(c) — [`Level2Settings::m`] for a
     /// lens, caustic or multi-chain path of at least the minimum depth, 0
     /// otherwise (then the path's level-1 records carry the share).
     pub fn classify<I: Intersector>(

@@ -65,9 +65,13 @@ use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
 use crate::scene::Camera;
 
-/// Parameters of level-1 MLT. Defaults are pbrt-v4's where it has one.
+/// Parameters of level-1 MLT, read by [`crate::renderer::Estimator::Mlt`]
+/// and, as CMLT's level 1, by [`crate::renderer::Estimator::Cmlt`].
+/// Defaults are pbrt-v4's where it has one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MltSettings {
+    /// The space level 1's chains mutate in.
+    pub level1: Level1,
     /// Bootstrap samples per path depth (pbrt: `bootstrapsamples`, 100 000):
     /// the points chains start from, and pbrt's estimate of b when
     /// `b_passes` is 0.
@@ -89,106 +93,39 @@ pub struct MltSettings {
     pub large_step_prob: f32,
     /// Small-step width σ in primary sample space (pbrt: 0.01).
     pub sigma: f32,
-    /// Largest path depth when [`Settings::max_depth`] is unbounded: MLT
-    /// needs a finite set of depths to bootstrap over. Paths longer than
-    /// this are missing (energy of order albedo^cap).
-    pub depth_cap: u32,
-    /// Level 2: the side-chain length m(c) of the classes that get a side
-    /// chain (lens, caustic and multi-chain paths of at least `side_chain_min_depth`
-    /// segments); 0 = plain MLT. See [`level2`].
-    pub m: u32,
-    /// Level 2: candidates per multiple-try step, 1 ≤ k ≤
-    /// [`level2::MAX_K`].
-    pub k: u32,
-    /// Level 2: standard deviation of the lens perturbation's image-plane
-    /// offset, in pixels.
-    pub lens_sigma: f32,
-    /// Level 2: the caustic perturbation's angular σ is `lens_sigma` pixel
-    /// angles times this factor.
-    pub caustic_scale: f32,
-    /// Level 2: how the k candidates are drawn.
-    pub candidates: Candidates,
-    /// Level 2: what a multiple-try step records ([`Splatting::Recycled`]
-    /// or [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], Segovia 2007's
-    /// eq. 36, is biased and refused by [`MltSettings::validate`]).
-    pub splatting: Splatting,
-    /// Level 2: parallel one-proposal side chains (lanes) per level-1
-    /// state, traced together as packets, 1 ≤ lanes ≤ [`level2::MAX_K`];
-    /// more than one needs k = 1. See [`lanes`].
-    pub lanes: u32,
-    /// Level 2: paths of fewer segments get no side chain (their level-1
-    /// records carry the level-2 share); 0 or 1 = every lens, caustic and
-    /// multi-chain path gets one.
-    pub side_chain_min_depth: u32,
-    /// Level 2: the level-2 share s, the weight (in records of one
-    /// mutation) each level-1 mutation's side chain adds beyond its own
-    /// record, or carries in its level-1 record when its state gets no
-    /// side chain; 0 = m. Changes the variance, not the mean. See
-    /// [`level2`].
-    pub share: u32,
+}
+
+/// The space the level-1 chains mutate in: one variant today, the field
+/// that a second level-1 strategy (mutations of the path's vertices in
+/// path space) will select.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Level1 {
+    /// Kelemen et al.'s primary sample space: a chain mutates the random
+    /// numbers X that [`target::evaluate`] turns into a BDPT strategy's
+    /// path ([`primary`]).
+    #[default]
+    PrimarySample,
 }
 
 impl Default for MltSettings {
-    /// 2 000 bootstrap samples per depth, 4 normalisation passes and at
-    /// least 65 536 normalisation samples, 256 chains per worker, large
-    /// steps 0.3, σ = 0.01, depth cap 32.
+    /// Primary-sample level 1, 2 000 bootstrap samples per depth, 4
+    /// normalisation passes and at least 65 536 normalisation samples, 256
+    /// chains per worker, large steps 0.3, σ = 0.01.
     fn default() -> Self {
         MltSettings {
+            level1: Level1::PrimarySample,
             n_bootstrap: 2_000,
             b_passes: 4,
             b_min_samples: DEFAULT_B_MIN_SAMPLES,
             n_chains: 256,
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
-            depth_cap: 32,
-            m: 0,
-            k: 1,
-            lens_sigma: 2.0,
-            caustic_scale: 1.0,
-            candidates: Candidates::Stratified,
-            splatting: Splatting::default(),
-            lanes: 1,
-            side_chain_min_depth: 0,
-            share: 0,
         }
     }
 }
 
 impl MltSettings {
-    /// The CMLT defaults: these settings with level 2 on. k, m and σ come
-    /// from equal-time studies (`cmlt-bench params`, σ ∈ {2, 8} px × k ∈
-    /// {1, 4, 8, 16} × m ∈ {1, 4}, 8 s on 2 threads; `docs/accuracy.md`):
-    /// relMSE rises with k on veach-bidir and veach-ajar because a step
-    /// costs 2k − 1 path evaluations while k candidates around one image
-    /// point lower the error little more than one does (equal-mutation
-    /// measurements in `docs/accuracy.md`). k = 1, m = 1 was best; σ = 2
-    /// and 8 px were within one render's noise of each other. The level-2
-    /// study (`docs/accuracy/level2-study.sh`: lanes, share, minimum depth,
-    /// σ on veach-ajar, veach-bidir, caustic-pool and cornell-box) found
-    /// one lane and a share equal to m best, and side chains only for
-    /// paths of at least 6 segments best or within noise of the best on
-    /// all four: short paths are cheap for level 1 to find again, so a
-    /// side chain there costs more than it saves.
-    pub fn cmlt() -> Self {
-        MltSettings {
-            m: 1,
-            k: 1,
-            lens_sigma: 8.0,
-            side_chain_min_depth: 6,
-            ..Self::default()
-        }
-    }
-
-    /// The level-2 share s: `share`, or m when `share` is 0 (0 for plain
-    /// MLT).
-    pub fn share(&self) -> u32 {
-        match (self.m, self.share) {
-            (0, _) => 0,
-            (m, 0) => m,
-            (_, s) => s,
-        }
-    }
-
     /// The normalisation passes a bootstrap over `pixels` pixels runs:
     /// `b_passes`, or more on a small image, ⌈`b_min_samples` / pixels⌉
     /// but at most [`MAX_FLOOR_PASSES`]; 0 when `b_passes` is 0.
@@ -210,11 +147,6 @@ impl MltSettings {
         self.b_passes.max(floor)
     }
 
-    /// Records each level-1 mutation adds with its level-2 share: 1 + s.
-    pub fn records_per_mutation(&self) -> u64 {
-        1 + self.share() as u64
-    }
-
     /// Checks every parameter's range; the message names the first bad one.
     pub fn validate(&self) -> Result<(), &'static str> {
         if !(self.large_step_prob >= 0.0 && self.large_step_prob <= 1.0) {
@@ -234,6 +166,94 @@ impl MltSettings {
         }
         if self.n_chains == 0 {
             return Err("at least one chain per worker is needed");
+        }
+        Ok(())
+    }
+}
+
+/// Parameters of CMLT's level 2 (Segovia 2007: side chains of lens,
+/// caustic and multi-chain perturbations after each level-1 mutation),
+/// read by [`crate::renderer::Estimator::Cmlt`] only. See [`level2`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level2Settings {
+    /// The side-chain length m(c) of the classes that get a side chain
+    /// (lens, caustic and multi-chain paths of at least
+    /// `side_chain_min_depth` segments), ≥ 1.
+    pub m: u32,
+    /// Candidates per multiple-try step, 1 ≤ k ≤ [`level2::MAX_K`].
+    pub k: u32,
+    /// Standard deviation of the lens perturbation's image-plane offset,
+    /// in pixels.
+    pub lens_sigma: f32,
+    /// The caustic perturbation's angular σ is `lens_sigma` pixel angles
+    /// times this factor.
+    pub caustic_scale: f32,
+    /// How the k candidates are drawn.
+    pub candidates: Candidates,
+    /// What a multiple-try step records ([`Splatting::Recycled`] or
+    /// [`Splatting::ExpectedValue`]; [`Splatting::AllCandidates`], Segovia
+    /// 2007's eq. 36, is biased and refused by
+    /// [`Level2Settings::validate`]).
+    pub splatting: Splatting,
+    /// Parallel one-proposal side chains (lanes) per level-1 state, traced
+    /// together as packets, 1 ≤ lanes ≤ [`level2::MAX_K`]; more than one
+    /// needs k = 1. See [`lanes`].
+    pub lanes: u32,
+    /// Paths of fewer segments get no side chain (their level-1 records
+    /// carry the level-2 share); 0 or 1 = every lens, caustic and
+    /// multi-chain path gets one.
+    pub side_chain_min_depth: u32,
+    /// The level-2 share s, the weight (in records of one mutation) each
+    /// level-1 mutation's side chain adds beyond its own record, or
+    /// carries in its level-1 record when its state gets no side chain;
+    /// 0 = m. Changes the variance, not the mean. See [`level2`].
+    pub share: u32,
+}
+
+impl Default for Level2Settings {
+    /// The measured CMLT defaults: m = 1, k = 1, lens σ = 8 px, caustic
+    /// scale 1, stratified candidates, recycled splatting, one lane, side
+    /// chains from 6 segments, share = m.
+    ///
+    /// k, m and σ come from equal-time studies (`cmlt-bench params`,
+    /// σ ∈ {2, 8} px × k ∈ {1, 4, 8, 16} × m ∈ {1, 4}, 8 s on 2 threads;
+    /// `docs/accuracy.md`): relMSE rises with k on veach-bidir and
+    /// veach-ajar because a step costs 2k − 1 path evaluations while k
+    /// candidates around one image point lower the error little more than
+    /// one does (equal-mutation measurements in `docs/accuracy.md`).
+    /// k = 1, m = 1 was best; σ = 2 and 8 px were within one render's
+    /// noise of each other. The level-2 study
+    /// (`docs/accuracy/level2-study.sh`: lanes, share, minimum depth, σ on
+    /// veach-ajar, veach-bidir, caustic-pool and cornell-box) found one
+    /// lane and a share equal to m best, and side chains only for paths of
+    /// at least 6 segments best or within noise of the best on all four:
+    /// short paths are cheap for level 1 to find again, so a side chain
+    /// there costs more than it saves.
+    fn default() -> Self {
+        Level2Settings {
+            m: 1,
+            k: 1,
+            lens_sigma: 8.0,
+            caustic_scale: 1.0,
+            candidates: Candidates::Stratified,
+            splatting: Splatting::default(),
+            lanes: 1,
+            side_chain_min_depth: 6,
+            share: 0,
+        }
+    }
+}
+
+impl Level2Settings {
+    /// The level-2 share s: `share`, or m when `share` is 0.
+    pub fn share(&self) -> u32 {
+        if self.share == 0 { self.m } else { self.share }
+    }
+
+    /// Checks every parameter's range; the message names the first bad one.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        if self.m == 0 {
+            return Err("CMLT needs m ≥ 1 side-chain steps");
         }
         if !(1..=level2::MAX_K as u32).contains(&self.k) {
             return Err("k must be in 1..=64");
@@ -257,6 +277,23 @@ impl MltSettings {
     }
 }
 
+/// The settings of CMLT: level 1 (as MLT's) and level 2.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CmltSettings {
+    /// Level 1: the Metropolis chains, bootstrap and normalisation.
+    pub mlt: MltSettings,
+    /// Level 2: the side chains.
+    pub level2: Level2Settings,
+}
+
+impl CmltSettings {
+    /// Checks both levels; the message names the first bad parameter.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        self.mlt.validate()?;
+        self.level2.validate()
+    }
+}
+
 /// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, the four
 /// default passes over a 128 × 128 image; smaller images get more passes.
 pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
@@ -270,10 +307,12 @@ pub const MAX_B_MIN_SAMPLES: u32 = 1 << 24;
 /// tiny image.
 pub const MAX_FLOOR_PASSES: u32 = 1024;
 
-/// The largest path depth (segments) MLT samples: `max_depth`, or
-/// `depth_cap` when unbounded.
-pub fn path_depth(settings: &Settings, mlt: &MltSettings) -> u32 {
-    settings.max_depth.unwrap_or(mlt.depth_cap)
+/// The path depths 1 ..= D the Metropolis estimators sample:
+/// `settings.max_depth`, which the renderer bounds before any of them
+/// runs ([`crate::renderer::RendererConfig::max_depth`]: the one depth
+/// limit of every estimator); unbounded settings have no depths.
+pub(crate) fn depths(settings: &Settings) -> u32 {
+    settings.max_depth.unwrap_or(0)
 }
 
 /// The factor turning the splat layer into radiance: b · pixels / N for
@@ -493,7 +532,7 @@ pub struct WorkerChains {
     seeds: Vec<u64>,
     ws: bdpt::PathStorage,
     stats: MltStats,
-    /// Level 2, when m > 0, with each chain's current path (copied from
+    /// Level 2 (CMLT), with each chain's current path (copied from
     /// the path storage when a proposal is accepted).
     level2: Option<Level2>,
     paths: Vec<Vec<PathVertex>>,
@@ -509,36 +548,21 @@ pub struct WorkerChains {
 const LEVEL2_STREAM: u64 = 0x4C32;
 
 impl WorkerChains {
-    /// Starts `mlt.n_chains` chains for worker `worker` of `workers` in a
-    /// render seeded by `seed`: each gets its depth from the systematic
-    /// sample, starts at a bootstrap sample of that depth picked with
-    /// probability ∝ its luminance (replayed from its seed), and continues
-    /// with its own random stream. No chain is started when b = 0. With
-    /// `mlt.m > 0` every chain also keeps its current path for level 2.
-    pub fn new<I: Intersector>(
-        tracer: &mut Tracer<'_, I>,
+    /// A worker without chains holding all the storage its chains will
+    /// need for `settings`, level 1 `mlt` and, for CMLT, `level2` with
+    /// `camera`'s resolution: after this, [`WorkerChains::restart`] and
+    /// [`WorkerChains::run`] allocate nothing.
+    pub fn with_capacity(
         settings: &Settings,
         mlt: &MltSettings,
-        bootstrap: &Bootstrap,
-        seed: u64,
-        worker: u64,
-        workers: u64,
+        level2: Option<&Level2Settings>,
+        camera: &Camera,
     ) -> Self {
-        let camera = tracer.camera;
-        let mut w = Self::with_capacity(settings, mlt, &camera);
-        w.restart(tracer, settings, mlt, bootstrap, seed, worker, workers);
-        w
-    }
-
-    /// A worker without chains holding all the storage its chains will
-    /// need for `settings` and `mlt` with `camera`'s resolution: after
-    /// this, [`WorkerChains::restart`] and [`WorkerChains::run`] allocate
-    /// nothing.
-    pub fn with_capacity(settings: &Settings, mlt: &MltSettings, camera: &Camera) -> Self {
         let n = mlt.n_chains as usize;
-        let depth = path_depth(settings, mlt);
+        let depth = depths(settings);
         let max_vertices = depth as usize + 1;
-        let level2 = Level2::new(mlt, camera.width(), camera.height(), camera.pixel_angle());
+        let level2 = level2
+            .and_then(|l2| Level2::new(l2, camera.width(), camera.height(), camera.pixel_angle()));
         let l2 = level2.is_some();
         let paths = if l2 {
             (0..n).map(|_| Vec::with_capacity(max_vertices)).collect()
@@ -563,11 +587,16 @@ impl WorkerChains {
         }
     }
 
-    /// Drops every chain and starts new ones from `bootstrap` exactly as
-    /// [`WorkerChains::new`] does (same chains for the same arguments),
-    /// reusing their storage; the counters start again from zero. What a
-    /// renderer calls when the camera or the scene changed. `tracer`'s
-    /// camera must have the resolution the worker was made for.
+    /// Drops every chain and starts `mlt.n_chains` new ones for worker
+    /// `worker` of `workers` in a render seeded by `seed`, reusing their
+    /// storage: each gets its depth from the systematic sample, starts at
+    /// a bootstrap sample of that depth in `bootstrap` picked with
+    /// probability ∝ its luminance (replayed from its seed), and continues
+    /// with its own random stream. No chain is started when b = 0. With
+    /// level 2 every chain also keeps its current path. The counters start
+    /// again from zero. What a renderer calls when the camera or the scene
+    /// changed; the same arguments give the same chains. `tracer`'s camera
+    /// must have the resolution the worker was made for.
     #[allow(clippy::too_many_arguments)]
     pub fn restart<I: Intersector>(
         &mut self,
@@ -702,7 +731,7 @@ impl WorkerChains {
     }
 
     /// Runs `rounds` rounds — one mutation of every chain, in chain order,
-    /// each followed by its level-2 side chain when m > 0 — splatting every
+    /// each followed by its level-2 side chain (CMLT) — splatting every
     /// record into `film`. Returns the number of level-1 mutations (0 when
     /// there are no chains: b = 0); [`MltStats::records`] counts the
     /// records.
@@ -830,54 +859,4 @@ pub fn rounds_for(mutations_per_pixel: u64, pixels: u64, workers: u64, chains: u
         .saturating_mul(pixels)
         .div_ceil(per_round)
         .max(1)
-}
-
-/// A finished single-worker MLT render.
-#[derive(Clone, Debug)]
-pub struct MltRender {
-    /// The film (splat layer only; resolve with `scale`).
-    pub film: Film,
-    /// The bootstrap (b and its split by depth).
-    pub bootstrap: Bootstrap,
-    /// Chain counters.
-    pub stats: MltStats,
-    /// [`image_scale`] of this render.
-    pub scale: f64,
-}
-
-impl MltRender {
-    /// The image: the film resolved with `scale`.
-    pub fn resolve(&self) -> Vec<crate::math::Rgb> {
-        self.film.resolve_scaled(self.scale)
-    }
-}
-
-/// Renders with one worker: bootstrap, then at least `mutations_per_pixel`
-/// · pixels mutations (whole rounds, see [`rounds_for`]); none when
-/// `mutations_per_pixel` is 0. What a host without threads calls; the CLI
-/// splits the same steps across threads.
-pub fn render<I: Intersector>(
-    tracer: &mut Tracer<'_, I>,
-    settings: &Settings,
-    mlt: &MltSettings,
-    seed: u64,
-    mutations_per_pixel: u64,
-) -> MltRender {
-    let camera = tracer.camera;
-    let pixels = camera.pixel_count();
-    let bootstrap = Bootstrap::run(tracer, settings, mlt, seed);
-    let mut worker = WorkerChains::new(tracer, settings, mlt, &bootstrap, seed, 0, 1);
-    let mut film = Film::new(camera.width(), camera.height());
-    let rounds = if mutations_per_pixel == 0 {
-        0
-    } else {
-        rounds_for(mutations_per_pixel, pixels, 1, worker.chain_count() as u64)
-    };
-    worker.run(tracer, settings, &mut film, rounds);
-    MltRender {
-        scale: image_scale(bootstrap.b(), pixels, worker.stats.records),
-        film,
-        bootstrap,
-        stats: worker.stats,
-    }
 }

@@ -7,34 +7,42 @@
 //!   loop per frame:
 //!     renderer.set_camera(camera)                    (optional: resets accumulation)
 //!     scene.update_mesh(…); bvh.refit(…)             (optional: moved geometry, new frame)
-//!     renderer.prepare(scene, accel)                 (MLT: bootstrap b when stale)
+//!     if renderer.begin_prepare(scene) {             (one thread)
+//!         renderer.prepare_worker(&mut worker_i, scene, accel)   (each worker, any thread)
+//!         renderer.finish_prepare([&worker_0, …])    (one thread)
+//!     }
 //!     renderer.render(&mut worker_i, …, budget)      (any thread, one call per worker)
 //!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
 //! ```
 //!
-//! `prepare` runs the Metropolis bootstrap on the calling thread. A host
-//! with threads spreads it over its workers instead, in three steps:
+//! Preparing is that one three-step form: `begin_prepare` finds what the
+//! scene calls for and says whether there is bootstrap work (MLT, CMLT
+//! after creation, a camera change or a scene update); the workers then
+//! share the Metropolis bootstrap — worker `i` of `W` evaluates the `i`-th
+//! contiguous share of the bootstrap samples and the normalisation passes
+//! `i, i + W, …` — and `finish_prepare` joins their shares in index order,
+//! so the bootstrap (and the image) is bit for bit the same whatever the
+//! number of workers and whichever thread ran each. A host without
+//! threads runs the three steps on its own thread.
 //!
-//! ```text
-//!     if renderer.begin_prepare(scene)? {            (one thread)
-//!         renderer.prepare_worker(&mut worker_i, scene, accel)   (each worker, any thread)
-//!         renderer.finish_prepare(&[&worker_0, …])   (one thread)
-//!     }
-//! ```
+//! ## Estimators and depth
 //!
-//! Worker `i` of `W` evaluates the `i`-th contiguous share of the bootstrap
-//! samples and the normalisation passes `i, i + W, …`; `finish_prepare`
-//! joins them in index order, so the bootstrap (and the image) is bit for
-//! bit the one `prepare` computes, whatever the number of workers.
+//! [`Estimator`] is the one choice of estimator, each variant with the
+//! settings only it reads ([`MltSettings`] for MLT, level 1 and level 2
+//! for CMLT); [`Renderer::new`] refuses settings the estimator does not
+//! read ([`Temporal`]'s Metropolis switches for PT and BDPT). Every
+//! estimator renders paths of at most [`RendererConfig::max_depth`]
+//! segments: the scene's `max_depth`, or [`RendererConfig::depth_cap`]
+//! when that is unbounded.
 //!
 //! ## Allocation
 //!
 //! Everything a frame touches is sized when the renderer and its workers
 //! are made: films, subpath storage for the deepest path, the bootstrap's
-//! buffers, every chain's primary-sample vector and path. `prepare`,
+//! buffers, every chain's primary-sample vector and path. Preparing,
 //! `render` and `resolve` allocate nothing; a test counts allocations to
-//! prove it. Unbounded path depth is therefore capped at
-//! [`MltSettings::depth_cap`] for every estimator.
+//! prove it. That is why even PT renders an unbounded depth at the depth
+//! cap.
 //!
 //! ## Budgets and determinism
 //!
@@ -52,40 +60,47 @@
 //! chains `i, i + W, …`, so each worker's film alone estimates the image
 //! and films of workers that ran different budgets merge correctly. The
 //! image is a function of the configuration, the camera and each worker's
-//! total budget since the last reset, whatever thread ran which worker:
-//! with one worker it equals [`crate::mlt::render`] (MLT) and
-//! [`crate::integrator::render_pass`]'s passes (PT, BDPT) bit for bit.
+//! total budget since the last reset, whatever thread ran which worker.
 //!
 //! ## Frames
 //!
 //! [`Renderer::set_camera`] starts a new frame — a new accumulation, even
-//! through the same camera: the next `prepare` re-runs the bootstrap (b
+//! through the same camera: the next preparation re-runs the bootstrap (b
 //! depends on the view), and each worker clears its film at its next
 //! `render`. A scene update ([`Scene::update_mesh`], with the host
 //! refitting its acceleration structure, e.g. `Bvh::refit`) starts a new
-//! frame at the next `prepare`, which notices the scene's new revision;
-//! `render` refuses a scene updated since `prepare`. What carries over from frame to frame is set by [`Temporal`]:
+//! frame at the next `begin_prepare`, which notices the scene's new
+//! revision; `render` refuses a scene updated since. What carries over
+//! from frame to frame is set by [`Temporal`]:
 //! by default nothing (each frame restarts its chains and draws new random
 //! numbers: independent frames); with the switches on, chains are kept and
 //! re-evaluated, b is averaged over a window of frames while the camera
 //! stays put, and/or every frame reuses the same random sequences.
 
+mod estimator;
+
 use alloc::vec::Vec;
+use core::ops::Deref;
+
+use glam::Vec2;
 
 use crate::accel::Intersector;
 use crate::film::Film;
-use crate::integrator::{self, Settings, Stats, Tracer, bdpt};
+use crate::integrator::{Settings, Stats, Tracer, bdpt, path};
 use crate::math::Rgb;
-use crate::mlt::bootstrap::{self, BootstrapScratch};
+use crate::mlt::bootstrap;
 use crate::mlt::{self, Bootstrap, MltSettings, MltStats, PrimarySampler, WorkerChains};
-use crate::sampler::mix64;
+use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
+
+pub use estimator::{Estimator, EstimatorKind};
 
 /// The deepest path (segments) a renderer accepts, through `max_depth` or
 /// the depth cap: every worker's storage is sized for it at creation.
 pub const MAX_DEPTH: u32 = 1024;
 
-pub use crate::integrator::Estimator;
+/// Default of [`RendererConfig::depth_cap`].
+pub const DEFAULT_DEPTH_CAP: u32 = 32;
 
 /// How much a render may do: the one budget of the core, the CLI, the
 /// benchmarks and the C API (`cmlt_renderer_render_per_pixel`, and
@@ -105,23 +120,27 @@ pub enum Budget {
 /// Everything that fixes a render apart from the camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RendererConfig {
-    /// The estimator.
+    /// The estimator, with the settings only it reads.
     pub estimator: Estimator,
-    /// Path-depth and emitter settings.
+    /// Path-depth and emitter settings (the scene's request: Mitsuba's
+    /// `max_depth`, `rr_depth`, `hide_emitters`).
     pub settings: Settings,
-    /// Metropolis settings (used by [`Estimator::Mlt`] and
-    /// [`Estimator::Cmlt`], whose level 2 runs when `m` ≥ 1 — CMLT refuses
-    /// m = 0, and MLT given m ≥ 1 renders as CMLT; its `depth_cap` also
-    /// caps unbounded depth for the other estimators).
-    pub mlt: MltSettings,
+    /// The longest path, in segments, when `settings.max_depth` is
+    /// unbounded: what every estimator renders an unbounded depth at
+    /// ([`RendererConfig::max_depth`]), because storage is sized for the
+    /// deepest path and MLT bootstraps over a finite set of depths. Paths
+    /// longer than this are missing (energy of order albedo^cap). 1 ..=
+    /// [`MAX_DEPTH`]; ignored when the depth is bounded.
+    pub depth_cap: u32,
     /// Seed of every random stream.
     pub seed: u64,
     /// Number of workers whose films make the image (≥ 1).
     pub workers: u32,
-    /// Frame-to-frame coherence switches (all off by default).
+    /// Frame-to-frame coherence switches (all off by default; kept chains
+    /// and the b window are for MLT and CMLT only).
     pub temporal: Temporal,
     /// Simulate every effect whatever the scene calls for (the CLI's
-    /// `--all-effects`): `prepare` then skips the scene analysis and
+    /// `--all-effects`): preparing then skips the scene analysis and
     /// renders with [`Analysis::all`]. Off by default: the analysis
     /// specialises the estimators to the scene (see [`Renderer::analysis`]).
     pub all_effects: bool,
@@ -129,7 +148,7 @@ pub struct RendererConfig {
 
 /// Frames after the first whose chains are kept evaluate
 /// `n_bootstrap / KEPT_BOOTSTRAP_SHARE` bootstrap samples per depth (see
-/// [`Renderer::prepare`]).
+/// [`Renderer::begin_prepare`]).
 pub const KEPT_BOOTSTRAP_SHARE: u32 = 16;
 
 /// Largest [`Temporal::b_window`].
@@ -163,13 +182,13 @@ pub struct Temporal {
 }
 
 impl Default for RendererConfig {
-    /// BDPT, Mitsuba's integrator defaults, pbrt's MLT defaults, seed 0,
-    /// one worker.
+    /// BDPT, Mitsuba's integrator defaults, depth cap 32, seed 0, one
+    /// worker.
     fn default() -> Self {
         RendererConfig {
             estimator: Estimator::Bdpt,
             settings: Settings::default(),
-            mlt: MltSettings::default(),
+            depth_cap: DEFAULT_DEPTH_CAP,
             seed: 0,
             workers: 1,
             temporal: Temporal::default(),
@@ -179,19 +198,20 @@ impl Default for RendererConfig {
 }
 
 impl RendererConfig {
-    /// The defaults ([`RendererConfig::default`]) with `estimator`, whose
-    /// Metropolis settings are [`MltSettings::cmlt`] for CMLT and
-    /// [`MltSettings::default`] (no side chains) otherwise.
-    pub fn for_estimator(estimator: Estimator) -> Self {
+    /// The defaults ([`RendererConfig::default`]) with the estimator
+    /// `kind` and its default settings ([`Estimator::default_for`]).
+    pub fn for_estimator(kind: EstimatorKind) -> Self {
         RendererConfig {
-            estimator,
-            mlt: if estimator == Estimator::Cmlt {
-                MltSettings::cmlt()
-            } else {
-                MltSettings::default()
-            },
+            estimator: Estimator::default_for(kind),
             ..RendererConfig::default()
         }
+    }
+
+    /// The longest path, in segments, every estimator renders:
+    /// `settings.max_depth`, or [`RendererConfig::depth_cap`] when that is
+    /// unbounded. The one depth limit.
+    pub fn max_depth(&self) -> u32 {
+        self.settings.max_depth.unwrap_or(self.depth_cap)
     }
 }
 
@@ -204,11 +224,11 @@ pub enum RenderError {
     Resolution,
     /// The worker belongs to another renderer or has an index ≥ `workers`.
     Worker,
-    /// `render` before `prepare` (after creation, a camera change or a
+    /// `render` before preparing (after creation, a camera change or a
     /// scene update).
     NotPrepared,
     /// `finish_prepare` without every worker's `prepare_worker` for this
-    /// frame.
+    /// frame, or with a worker missing or given twice.
     BootstrapIncomplete,
     /// The camera needs an effect this build of the core left out (a
     /// thin lens without the `depth-of-field` feature).
@@ -271,22 +291,18 @@ pub struct Renderer {
     camera: Camera,
     /// Bumped by every camera change; workers compare it with their own.
     generation: u64,
-    /// The generation the bootstrap (or, for PT/BDPT, `prepare`) is for.
+    /// The generation the renderer is prepared for (PT, BDPT: the
+    /// analysis; MLT, CMLT: also the bootstrap).
     prepared: Option<u64>,
     bootstrap: Bootstrap,
-    scratch: BootstrapScratch,
     /// The generation whose bootstrap the workers are evaluating between
     /// `begin_prepare` and `finish_prepare`.
     pending: Option<u64>,
-    /// The Metropolis settings of the pending bootstrap (fewer bootstrap
-    /// samples for kept chains, see `prepare`).
+    /// The level-1 settings of the pending bootstrap (fewer bootstrap
+    /// samples for kept chains, see `begin_prepare`).
     boot_mlt: MltSettings,
-    /// The workers' normalisation-pass sums gathered by
-    /// `gather_prepared`, pass `p` at `p · D` (added in pass order by
-    /// `finish_gathered`).
-    boot_passes: Vec<f64>,
-    /// Per worker, the generation whose share `gather_prepared` took.
-    gathered: Vec<Option<u64>>,
+    /// Where `finish_prepare` joins the workers' shares.
+    shares: Shares,
     /// Identifies this renderer's workers.
     id: usize,
     /// Frames (accumulations) started so far, minus one: 0 for the first.
@@ -304,7 +320,7 @@ pub struct Renderer {
     /// The b the image is scaled with (the window's mean).
     b_used: f64,
     /// What the scene calls for through the current camera, found by
-    /// `prepare` ([`Analysis::all`] before, or with
+    /// `begin_prepare` ([`Analysis::all`] before, or with
     /// [`RendererConfig::all_effects`]).
     analysis: Analysis,
     /// `config.settings` specialised to `analysis`: what every estimator
@@ -347,6 +363,19 @@ struct WorkerBootstrap {
     sampler: PrimarySampler,
 }
 
+/// The workers' shares of a bootstrap joined in index order by
+/// [`Renderer::finish_prepare`], sized when the renderer is made.
+struct Shares {
+    /// Every bootstrap sample's value, by index.
+    values: Vec<f32>,
+    /// Every normalisation pass's per-depth sums, pass `p` at `p · D`.
+    passes: Vec<f64>,
+    /// The passes' sums added in pass order, per depth.
+    sums: Vec<f64>,
+    /// Per worker, whether its share is in.
+    joined: Vec<bool>,
+}
+
 /// Distinguishes renderers so a worker cannot be used with another one.
 /// (`usize`: 64-bit atomics are missing on small targets; a 32-bit count
 /// repeats only after 2³² renderers.)
@@ -357,25 +386,33 @@ fn next_id() -> usize {
 }
 
 impl Renderer {
-    /// A renderer for `camera`'s resolution. Unbounded `max_depth` is
-    /// capped at `config.mlt.depth_cap` (see the module docs).
+    /// A renderer for `camera`'s resolution, after checking `config`
+    /// ([`RenderError::Config`] names a value out of range or a setting
+    /// the estimator does not read). Unbounded `max_depth` is capped at
+    /// `config.depth_cap` ([`RendererConfig::max_depth`]).
     pub fn new(config: RendererConfig, camera: Camera) -> Result<Self, RenderError> {
         check_lens(&camera)?;
         Self::check_config(&config)?;
         let mut config = config;
-        config.settings.max_depth = Some(mlt::path_depth(&config.settings, &config.mlt));
+        config.settings.max_depth = Some(config.max_depth());
+        // PT and BDPT keep no bootstrap: empty tables.
+        let mlt = config.estimator.mlt().copied().unwrap_or(MltSettings {
+            n_bootstrap: 0,
+            b_passes: 0,
+            ..MltSettings::default()
+        });
+        let depths = mlt::depths(&config.settings) as usize;
+        let passes = mlt.normalisation_passes(camera.pixel_count()) as usize;
         Ok(Renderer {
-            bootstrap: Bootstrap::with_capacity(&config.settings, &config.mlt),
-            scratch: BootstrapScratch::new(&config.settings, &config.mlt),
+            bootstrap: Bootstrap::with_capacity(&config.settings, &mlt),
             pending: None,
-            boot_mlt: config.mlt,
-            boot_passes: Vec::with_capacity(if config.estimator.is_metropolis() {
-                config.mlt.normalisation_passes(camera.pixel_count()) as usize
-                    * mlt::path_depth(&config.settings, &config.mlt) as usize
-            } else {
-                0
-            }),
-            gathered: alloc::vec![None; config.workers as usize],
+            boot_mlt: mlt,
+            shares: Shares {
+                values: Vec::with_capacity(Bootstrap::seed_count(&config.settings, &mlt) as usize),
+                passes: Vec::with_capacity(passes * depths),
+                sums: Vec::with_capacity(depths),
+                joined: alloc::vec![false; config.workers as usize],
+            },
             config,
             camera,
             generation: 0,
@@ -400,22 +437,32 @@ impl Renderer {
         if config.workers == 0 {
             return Err(RenderError::Config("at least one worker is needed"));
         }
-        if config.estimator.is_metropolis() {
-            config.mlt.validate().map_err(RenderError::Config)?;
+        config.estimator.validate().map_err(RenderError::Config)?;
+        let t = &config.temporal;
+        if !config.estimator.is_metropolis() {
+            // PT and BDPT have no chains and no b: a switch they would
+            // ignore is refused, not silently dropped.
+            if t.keep_chains {
+                return Err(RenderError::Config(
+                    "keep_chains is read by MLT and CMLT only (PT and BDPT have no chains)",
+                ));
+            }
+            if t.b_window != 0 {
+                return Err(RenderError::Config(
+                    "b_window is read by MLT and CMLT only (PT and BDPT have no normalisation b)",
+                ));
+            }
         }
-        if config.estimator == Estimator::Cmlt && config.mlt.m == 0 {
-            return Err(RenderError::Config("CMLT needs m ≥ 1 side-chain steps"));
-        }
-        if config.temporal.b_window > MAX_B_WINDOW {
+        if t.b_window > MAX_B_WINDOW {
             return Err(RenderError::Config("the b window is at most 64 frames"));
         }
-        if config.mlt.depth_cap == 0 && config.settings.max_depth.is_none() {
+        if config.depth_cap == 0 && config.settings.max_depth.is_none() {
             return Err(RenderError::Config("the depth cap must be at least 1"));
         }
         // Storage is sized for the deepest path up front: an absurd depth
         // from a host (u32::MAX) aborted the process in the allocator
         // instead of being refused. The C API's limit.
-        if mlt::path_depth(&config.settings, &config.mlt) > MAX_DEPTH {
+        if config.max_depth() > MAX_DEPTH {
             return Err(RenderError::Config("path depth must be at most 1024"));
         }
         Ok(())
@@ -436,7 +483,7 @@ impl Renderer {
     ) -> Result<u64, RenderError> {
         use core::mem::size_of;
         Self::check_config(config)?;
-        let depth = u64::from(mlt::path_depth(&config.settings, &config.mlt).min(MAX_DEPTH));
+        let depth = u64::from(config.max_depth().min(MAX_DEPTH));
         let workers = u64::from(config.workers);
         let pixels = u64::from(width) * u64::from(height);
         let c = |a: Option<u64>| a.ok_or(RenderError::TooLarge);
@@ -455,19 +502,16 @@ impl Renderer {
         let mut worker = c(film.checked_add(
             size_of::<RenderWorker>() as u64 + 4 * workspace + 2 * sampler + 16 * BLOCK,
         ))?;
-        let metropolis = config.estimator.is_metropolis();
-        let seeds = c(u64::from(config.mlt.n_bootstrap).checked_mul(depth))?;
-        // Only a Metropolis renderer keeps the passes' sums (a small image
-        // gets up to `MAX_FLOOR_PASSES` of them).
-        let passes = if metropolis {
-            c(u64::from(config.mlt.normalisation_passes(pixels)).checked_mul(depth))?
-        } else {
-            0
-        };
-        if metropolis {
-            let chains = u64::from(config.mlt.n_chains);
+        // Only a Metropolis renderer keeps bootstrap tables and the passes'
+        // sums (a small image gets up to `MAX_FLOOR_PASSES` of them).
+        let (mut seeds, mut passes) = (0, 0);
+        if let Some(mlt) = config.estimator.mlt() {
+            seeds = c(u64::from(mlt.n_bootstrap).checked_mul(depth))?;
+            passes = c(u64::from(mlt.normalisation_passes(pixels)).checked_mul(depth))?;
+            let chains = u64::from(mlt.n_chains);
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
-            let level2 = u64::from(config.mlt.k) * 8 * 1024 + 64 * 1024;
+            let k = config.estimator.level2().map_or(0, |l2| l2.k);
+            let level2 = u64::from(k) * 8 * 1024 + 64 * 1024;
             worker = c(chains
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
@@ -475,12 +519,12 @@ impl Renderer {
                 .and_then(|b| b.checked_add(seeds.div_ceil(workers.max(1)) * 8))
                 .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
         }
-        // The renderer: bootstrap tables and scratch (seeds, passes), one
-        // slot per worker, the accumulator (two RGB f64 layers per pixel).
-        // (The bootstrap's tables are made for every estimator.)
+        // The renderer: bootstrap tables and the joined shares (seeds,
+        // passes), one slot per worker, the accumulator (two RGB f64
+        // layers per pixel).
         let renderer = c(seeds
             .checked_mul(16)
-            .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
+            .and_then(|b| b.checked_add(passes * 8 + 64 * BLOCK))
             .and_then(|b| b.checked_add(workers * 64))
             .and_then(|b| b.checked_add(pixels * size_of::<Layers>() as u64)))?;
         let total = c(workers
@@ -497,9 +541,9 @@ impl Renderer {
         &self.config
     }
 
-    /// What the scene calls for, as the last `prepare` found it: the
+    /// What the scene calls for, as the last `begin_prepare` found it: the
     /// effects the estimators simulate, everything else skipped
-    /// ([`Analysis::all`] before the first `prepare` and with
+    /// ([`Analysis::all`] before the first `begin_prepare` and with
     /// [`RendererConfig::all_effects`]).
     pub fn analysis(&self) -> &Analysis {
         &self.analysis
@@ -511,13 +555,13 @@ impl Renderer {
     }
 
     /// The normalisation b the current accumulation is scaled with (MLT,
-    /// after `prepare`: this frame's bootstrap estimate, or the mean over
+    /// once prepared: this frame's bootstrap estimate, or the mean over
     /// the b window; 0 otherwise).
     pub fn b(&self) -> f64 {
         self.b_used
     }
 
-    /// The bootstrap of the current frame (MLT, CMLT, after `prepare`:
+    /// The bootstrap of the current frame (MLT, CMLT, once prepared:
     /// b by depth and the chains' bootstrap samples; empty otherwise).
     pub fn bootstrap(&self) -> &Bootstrap {
         &self.bootstrap
@@ -542,7 +586,7 @@ impl Renderer {
 
     /// Starts the next frame: a new accumulation through `camera` (the
     /// same camera again is a new frame too — call it once per displayed
-    /// frame, or not at all to accumulate progressively); `prepare` must
+    /// frame, or not at all to accumulate progressively); preparing must
     /// run before the next `render`. The resolution must not change.
     pub fn set_camera(&mut self, camera: Camera) -> Result<(), RenderError> {
         if camera.width() != self.camera.width() || camera.height() != self.camera.height() {
@@ -561,39 +605,16 @@ impl Renderer {
         self.prepared = None;
     }
 
-    /// Makes the renderer ready for `render` after creation, a camera
-    /// change or a scene update: for MLT, runs the bootstrap (bootstrap samples
-    /// and normalisation passes) on the calling thread. A scene whose
-    /// [`Scene::revision`] differs from the one the frame was prepared for
-    /// (meshes moved) starts a new frame here, as `set_camera` does.
-    /// Does nothing when already prepared. `scene` and `accel` must be the
-    /// ones every `render` uses. [`Renderer::begin_prepare`] and its two
-    /// companions compute the same on the workers' threads.
-    pub fn prepare<I: Intersector>(&mut self, scene: &Scene, accel: &I) {
-        if !self.begin_prepare(scene) {
-            return;
-        }
-        let mut tracer = self.tracer(scene, accel);
-        let seed = self.frame_seed();
-        self.bootstrap.rerun(
-            &mut tracer,
-            &self.settings,
-            &self.boot_mlt,
-            seed,
-            &mut self.scratch,
-        );
-        self.pending = None;
-        self.push_b(self.bootstrap.b());
-        self.prepared = Some(self.generation);
-    }
-
-    /// The first of the three steps that spread `prepare` over the
-    /// workers (see the module docs): starts a new frame if the scene
-    /// changed, finds what the scene calls for, and returns whether the
-    /// workers have bootstrap work to do — then every worker runs
-    /// [`Renderer::prepare_worker`] and one thread
+    /// The first of the three steps that make the renderer ready for
+    /// `render` after creation, a camera change or a scene update (see the
+    /// module docs): starts a new frame if the scene changed (a
+    /// [`Scene::revision`] other than the one the frame was prepared for:
+    /// meshes moved, as `set_camera` does), finds what the scene calls
+    /// for, and returns whether the workers have bootstrap work to do —
+    /// then every worker runs [`Renderer::prepare_worker`] and one thread
     /// [`Renderer::finish_prepare`]. `false` (already prepared, or PT and
-    /// BDPT, which need no bootstrap): the renderer is ready.
+    /// BDPT, which need no bootstrap): the renderer is ready. `scene` must
+    /// be the one every `render` uses.
     pub fn begin_prepare(&mut self, scene: &Scene) -> bool {
         let revision = Some(scene.revision());
         if self.scene_revision.is_some() && self.scene_revision != revision {
@@ -615,33 +636,23 @@ impl Renderer {
             scene.analysis(&self.camera)
         };
         self.settings = self.config.settings.specialised(&self.analysis);
-        if !self.config.estimator.is_metropolis() {
+        let Some(mlt) = self.config.estimator.mlt() else {
             self.prepared = Some(self.generation);
             return false;
-        }
-        let c = &self.config;
+        };
         // Kept chains need bootstrap samples only to restart the few the new
         // view leaves at zero (and those search further when none of
         // theirs contributes: `WorkerChains::reevaluate`), so a frame after
         // the first draws a share of them. b comes from the normalisation
         // passes then, not from the bootstrap samples.
-        self.boot_mlt = if c.temporal.keep_chains && self.frame > 0 && c.mlt.b_passes > 0 {
+        self.boot_mlt = if self.config.temporal.keep_chains && self.frame > 0 && mlt.b_passes > 0 {
             MltSettings {
-                n_bootstrap: (c.mlt.n_bootstrap / KEPT_BOOTSTRAP_SHARE).max(1),
-                ..c.mlt
+                n_bootstrap: (mlt.n_bootstrap / KEPT_BOOTSTRAP_SHARE).max(1),
+                ..*mlt
             }
         } else {
-            c.mlt
+            *mlt
         };
-        // Room for the shares `gather_prepared` copies (within the
-        // capacity sized at creation: the first frame's is the largest).
-        let depths = mlt::path_depth(&self.settings, &self.boot_mlt) as usize;
-        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
-        self.scratch.values.clear();
-        self.scratch.values.resize(n, 0.0);
-        self.boot_passes.clear();
-        let passes = self.boot_mlt.normalisation_passes(self.pixels()) as usize;
-        self.boot_passes.resize(passes * depths, 0.0);
         self.pending = Some(self.generation);
         true
     }
@@ -681,14 +692,13 @@ impl Renderer {
         bootstrap::evaluate_seeds_with(
             &mut tracer,
             &self.settings,
-            mlt,
             seed,
             range,
             &mut boot.ws,
             &mut boot.sampler,
             &mut boot.values,
         );
-        let depths = mlt::path_depth(&self.settings, mlt) as usize;
+        let depths = mlt::depths(&self.settings) as usize;
         boot.passes.clear();
         let passes = mlt.normalisation_passes(self.pixels());
         for pass in (i..u64::from(passes)).step_by(w as usize) {
@@ -697,7 +707,6 @@ impl Renderer {
             bootstrap::evaluate_pass(
                 &mut tracer,
                 &self.settings,
-                mlt,
                 &mut boot.ws,
                 seed,
                 pass,
@@ -709,85 +718,72 @@ impl Renderer {
         Ok(())
     }
 
-    /// Joins the workers' shares of the bootstrap (`workers`: all of the
-    /// renderer's, in any order, each after its
-    /// [`Renderer::prepare_worker`] for this frame) in index order: bootstrap
-    /// samples by index, pass sums in pass order, exactly as `prepare`
-    /// combines them. Then the renderer is ready for `render`. Does nothing
-    /// when no bootstrap is pending. Allocates nothing. The same as
-    /// [`Renderer::gather_prepared`] for each worker, then
-    /// [`Renderer::finish_gathered`].
-    pub fn finish_prepare(&mut self, workers: &[&RenderWorker]) -> Result<(), RenderError> {
-        if self.pending != Some(self.generation) {
-            return Ok(());
-        }
-        if workers.iter().any(|w| w.renderer != self.id) {
-            return Err(RenderError::Worker);
-        }
-        for w in workers {
-            self.gather_prepared(w)?;
-        }
-        self.finish_gathered()
-    }
-
-    /// Copies one worker's share of the bootstrap (after its
-    /// [`Renderer::prepare_worker`] for this frame) into the renderer: for
-    /// hosts that hold one worker at a time. Does nothing when no
-    /// bootstrap is pending. Allocates nothing.
-    pub fn gather_prepared(&mut self, worker: &RenderWorker) -> Result<(), RenderError> {
-        if worker.renderer != self.id {
-            return Err(RenderError::Worker);
-        }
-        if self.pending != Some(self.generation) {
-            return Ok(());
-        }
-        let Some(share) = worker
-            .boot
-            .as_ref()
-            .filter(|b| b.generation == Some(self.generation))
-        else {
-            return Err(RenderError::BootstrapIncomplete);
-        };
-        let (i, w) = (worker.index as usize, self.config.workers as usize);
-        let mlt = &self.boot_mlt;
-        let depths = mlt::path_depth(&self.settings, mlt) as usize;
-        let n = Bootstrap::seed_count(&self.settings, mlt) as usize;
-        let start = (i * n.div_ceil(w)).min(n);
-        let values = &mut self.scratch.values;
-        values[start..start + share.values.len()].copy_from_slice(&share.values);
-        for (j, sums) in share.passes.chunks_exact(depths.max(1)).enumerate() {
-            let p = i + w * j;
-            self.boot_passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
-        }
-        self.gathered[i] = Some(self.generation);
-        Ok(())
-    }
-
-    /// Completes the bootstrap from the shares [`Renderer::gather_prepared`]
-    /// took from every worker: bootstrap samples by index, pass sums added in
-    /// pass order (as `prepare` does). A share missing is
+    /// The last of the three steps: joins the shares of the bootstrap that
+    /// `workers` evaluated ([`Renderer::prepare_worker`] for this frame) in
+    /// index order — bootstrap samples by index, normalisation-pass sums
+    /// added in pass order — so the bootstrap is the same for every split.
+    /// Then the renderer is ready for `render`.
+    ///
+    /// `workers` must be all of the renderer's, in any order, each once;
+    /// they are read one at a time (a host holding each worker behind its
+    /// own lock hands over guards), so the host need not collect them.
+    /// A worker missing, given twice or without its share is
     /// [`RenderError::BootstrapIncomplete`] and changes nothing. Does
     /// nothing when no bootstrap is pending. Allocates nothing.
-    pub fn finish_gathered(&mut self) -> Result<(), RenderError> {
+    pub fn finish_prepare<W: Deref<Target = RenderWorker>>(
+        &mut self,
+        workers: impl IntoIterator<Item = W>,
+    ) -> Result<(), RenderError> {
         if self.pending != Some(self.generation) {
             return Ok(());
         }
-        if self.gathered.iter().any(|g| *g != Some(self.generation)) {
+        let (pixels, seed) = (self.pixels(), self.frame_seed());
+        let depths = mlt::depths(&self.settings) as usize;
+        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
+        let passes = self.boot_mlt.normalisation_passes(pixels) as usize;
+        let shares = &mut self.shares;
+        shares.values.clear();
+        shares.values.resize(n, 0.0);
+        shares.passes.clear();
+        shares.passes.resize(passes * depths, 0.0);
+        shares.joined.fill(false);
+        let w = self.config.workers as usize;
+        for worker in workers {
+            if worker.renderer != self.id {
+                return Err(RenderError::Worker);
+            }
+            let i = worker.index as usize;
+            let share = worker
+                .boot
+                .as_ref()
+                .filter(|b| b.generation == Some(self.generation));
+            let (Some(share), false) = (share, shares.joined[i]) else {
+                return Err(RenderError::BootstrapIncomplete);
+            };
+            let start = (i * n.div_ceil(w)).min(n);
+            shares.values[start..start + share.values.len()].copy_from_slice(&share.values);
+            for (j, sums) in share.passes.chunks_exact(depths.max(1)).enumerate() {
+                let p = i + w * j;
+                shares.passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
+            }
+            shares.joined[i] = true;
+        }
+        if shares.joined.contains(&false) {
             return Err(RenderError::BootstrapIncomplete);
         }
-        let mlt = self.boot_mlt;
-        let depths = mlt::path_depth(&self.settings, &mlt) as usize;
-        let sums = &mut self.scratch.sums;
-        sums.clear();
-        sums.resize(depths, 0.0);
-        for pass in self.boot_passes.chunks_exact(depths.max(1)) {
-            bootstrap::add_pass(sums, pass);
+        shares.sums.clear();
+        shares.sums.resize(depths, 0.0);
+        for pass in shares.passes.chunks_exact(depths.max(1)) {
+            bootstrap::add_pass(&mut shares.sums, pass);
         }
-        let pixels = self.pixels();
-        let seed = self.frame_seed();
-        let (values, sums) = (&self.scratch.values, &self.scratch.sums);
-        self.bootstrap
-            .fill(&self.settings, &mlt, seed, values, sums, pixels);
+        self.bootstrap.fill(
+            &self.settings,
+            &self.boot_mlt,
+            seed,
+            &shares.values,
+            &shares.sums,
+            pixels,
+        );
         self.pending = None;
         self.push_b(self.bootstrap.b());
         self.prepared = Some(self.generation);
@@ -824,7 +820,7 @@ impl Renderer {
             0
         } else {
             match &worker.mlt {
-                Some(m) if self.config.estimator.is_metropolis() => {
+                Some(m) => {
                     let chains = m.chain_count() as u64;
                     if chains == 0 {
                         0
@@ -832,7 +828,7 @@ impl Renderer {
                         budget.div_ceil(chains)
                     }
                 }
-                _ => budget.div_ceil(self.pixels()),
+                None => budget.div_ceil(self.pixels()),
             }
         };
         let done = self.run_steps(worker, &mut tracer, steps);
@@ -847,13 +843,10 @@ impl Renderer {
     /// worker (MLT, CMLT; at least one, none for 0).
     pub fn steps_for(&self, index: u32, per_pixel: u64) -> u64 {
         let w = self.config.workers as u64;
-        if self.config.estimator.is_metropolis() {
-            if per_pixel == 0 {
-                return 0;
-            }
-            mlt::rounds_for(per_pixel, self.pixels(), w, self.config.mlt.n_chains as u64)
-        } else {
-            per_pixel.saturating_sub(index as u64).div_ceil(w)
+        match self.config.estimator.mlt() {
+            Some(_) if per_pixel == 0 => 0,
+            Some(m) => mlt::rounds_for(per_pixel, self.pixels(), w, m.n_chains as u64),
+            None => per_pixel.saturating_sub(index as u64).div_ceil(w),
         }
     }
 
@@ -903,14 +896,14 @@ impl Renderer {
                 _ => Stats::default(),
             };
             let seed = self.frame_seed();
-            if let Some(m) = &mut worker.mlt {
+            if let (Some(m), Some(mlt)) = (&mut worker.mlt, c.estimator.mlt()) {
                 let kept =
                     c.temporal.keep_chains && worker.generation.is_some() && m.chain_count() > 0;
                 if !kept {
                     m.restart(
                         &mut tracer,
                         settings,
-                        &c.mlt,
+                        mlt,
                         &self.bootstrap,
                         seed,
                         worker.index as u64,
@@ -941,27 +934,24 @@ impl Renderer {
     ) -> u64 {
         let c = &self.config;
         let settings = &self.settings;
-        match &mut worker.mlt {
-            Some(m) if c.estimator.is_metropolis() => {
-                m.run(tracer, settings, &mut worker.film, steps)
-            }
-            _ => {
-                for _ in 0..steps {
-                    let pass = worker.index as u64 + c.workers as u64 * worker.passes;
-                    integrator::render_pass(
-                        tracer,
-                        settings,
-                        c.estimator,
-                        &mut worker.bdpt,
-                        self.frame_seed(),
-                        pass,
-                        &mut worker.film,
-                    );
-                    worker.passes += 1;
-                }
-                steps * self.pixels()
-            }
+        if let Some(m) = &mut worker.mlt {
+            return m.run(tracer, settings, &mut worker.film, steps);
         }
+        let pt = c.estimator.kind() == EstimatorKind::Path;
+        for _ in 0..steps {
+            let pass = worker.index as u64 + c.workers as u64 * worker.passes;
+            render_pass(
+                tracer,
+                settings,
+                pt,
+                &mut worker.bdpt,
+                self.frame_seed(),
+                pass,
+                &mut worker.film,
+            );
+            worker.passes += 1;
+        }
+        steps * self.pixels()
     }
 
     /// [`Renderer::render`] in steps — one round of mutations (MLT) or one
@@ -1121,14 +1111,48 @@ impl Renderer {
     /// The factor from summed films to radiance: 1 / passes (PT, BDPT) or
     /// b · pixels / records (MLT); 0 before anything was rendered.
     fn scale(&self, t: &Totals) -> f64 {
-        match self.config.estimator {
-            Estimator::Mlt | Estimator::Cmlt => {
-                mlt::image_scale(self.b_used, self.pixels(), t.records)
-            }
-            _ if t.passes == 0 => 0.0,
-            _ => 1.0 / t.passes as f64,
+        if self.config.estimator.is_metropolis() {
+            mlt::image_scale(self.b_used, self.pixels(), t.records)
+        } else if t.passes == 0 {
+            0.0
+        } else {
+            1.0 / t.passes as f64
         }
     }
+}
+
+/// Renders pass `pass` — one sample in every pixel — into `film`, by path
+/// tracing (`pt`) or BDPT: the step of PT and BDPT (the Metropolis
+/// estimators' normalisation passes are `mlt::bootstrap`'s).
+///
+/// The random stream of each sample depends only on `(seed, pass, pixel)`,
+/// so the same passes give the same samples whichever worker renders them.
+fn render_pass<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    settings: &Settings,
+    pt: bool,
+    paths: &mut bdpt::PathStorage,
+    seed: u64,
+    pass: u64,
+    film: &mut Film,
+) {
+    let camera = tracer.camera;
+    let (w, h) = (camera.width(), camera.height());
+    for y in 0..h {
+        for x in 0..w {
+            let mut rng = SampleStream::new(seed, pass, y as u64 * w as u64 + x as u64);
+            let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+            if pt {
+                let ray = tracer.camera_ray(raster, rng.next_2d());
+                let l = path::radiance(tracer, settings, ray, &mut rng);
+                film.add_sample(x, y, l);
+            } else {
+                bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film);
+            }
+            tracer.stats.samples += 1;
+        }
+    }
+    film.end_pass();
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's
@@ -1215,9 +1239,10 @@ impl RenderWorker {
         if index >= c.workers {
             return Err(RenderError::Worker);
         }
-        let depth = mlt::path_depth(&c.settings, &c.mlt);
+        let depth = c.max_depth();
         let camera = &renderer.camera;
-        let metropolis = c.estimator.is_metropolis();
+        let mlt = c.estimator.mlt();
+        let level2 = c.estimator.level2();
         Ok(RenderWorker {
             renderer: renderer.id,
             index,
@@ -1226,13 +1251,13 @@ impl RenderWorker {
             scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
             bdpt: bdpt::PathStorage::with_capacity(depth),
-            mlt: metropolis.then(|| WorkerChains::with_capacity(&c.settings, &c.mlt, camera)),
-            boot: metropolis.then(|| {
+            mlt: mlt.map(|m| WorkerChains::with_capacity(&c.settings, m, level2, camera)),
+            boot: mlt.map(|m| {
                 // The largest share of a bootstrap: the bootstrap samples of a
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
-                let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);
-                let passes = (c.mlt.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
+                let seeds = Bootstrap::seed_count(&c.settings, m).div_ceil(w);
+                let passes = (m.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
                     generation: None,
@@ -1240,12 +1265,7 @@ impl RenderWorker {
                     passes: Vec::with_capacity(passes as usize),
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),
-                    sampler: PrimarySampler::with_capacity(
-                        0,
-                        c.mlt.sigma,
-                        c.mlt.large_step_prob,
-                        depth,
-                    ),
+                    sampler: PrimarySampler::with_capacity(0, m.sigma, m.large_step_prob, depth),
                 }
             }),
             passes: 0,

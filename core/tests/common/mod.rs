@@ -1,10 +1,74 @@
 //! Scene builders shared by the core's integration tests: the closed
-//! furnace box, UV spheres and the furnace camera.
+//! furnace box, UV spheres and the furnace camera; and renders through the
+//! renderer on the test's thread.
 #![allow(dead_code)]
 
+use cmlt::accel::Intersector;
+use cmlt::accel::bvh::Bvh;
 use cmlt::geometry::Ray;
+use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
-use cmlt::scene::{Camera, FovAxis, MaterialId, Mesh};
+use cmlt::mlt::Bootstrap;
+use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
+use cmlt::scene::{Camera, FovAxis, MaterialId, Mesh, Scene};
+
+/// What [`render`] gives.
+pub struct Rendered {
+    /// The image, row-major.
+    pub image: Vec<Rgb>,
+    /// The counters (bootstrap rays included) and b.
+    pub stats: RenderStats,
+    /// The bootstrap (MLT, CMLT; empty for PT and BDPT).
+    pub bootstrap: Bootstrap,
+}
+
+/// Renders `scene` through its camera with `estimator`, `settings` (an
+/// unbounded depth at the default depth cap) and `seed` on one worker:
+/// `per_pixel` samples (PT, BDPT: passes 0 … per_pixel − 1) or level-1
+/// mutations (MLT, CMLT: whole rounds) per pixel.
+pub fn render(
+    scene: &Scene,
+    estimator: Estimator,
+    settings: Settings,
+    seed: u64,
+    per_pixel: u64,
+) -> Rendered {
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let config = RendererConfig {
+        estimator,
+        settings,
+        seed,
+        ..RendererConfig::default()
+    };
+    let mut r = Renderer::new(config, scene.camera).unwrap();
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    prepare(&mut r, std::slice::from_mut(&mut w), scene, &bvh);
+    let steps = r.steps_for(0, per_pixel);
+    r.render_steps(&mut w, scene, &bvh, steps).unwrap();
+    let mut image = vec![Rgb::ZERO; scene.camera.pixel_count() as usize];
+    r.resolve(&[&w], |i, c| image[i] = c).unwrap();
+    Rendered {
+        image,
+        stats: r.stats(&[&w]),
+        bootstrap: r.bootstrap().clone(),
+    }
+}
+
+/// Readies `renderer` for its frame on this thread: `begin_prepare`, every
+/// worker's `prepare_worker`, `finish_prepare` (the one way to prepare).
+pub fn prepare<I: Intersector>(
+    renderer: &mut Renderer,
+    workers: &mut [RenderWorker],
+    scene: &Scene,
+    accel: &I,
+) {
+    if renderer.begin_prepare(scene) {
+        for w in workers.iter_mut() {
+            renderer.prepare_worker(w, scene, accel).unwrap();
+        }
+        renderer.finish_prepare(workers.iter()).unwrap();
+    }
+}
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards,
 /// emitting `emission` on the inside.

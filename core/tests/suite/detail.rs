@@ -11,8 +11,7 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::geometry::Ray;
 use cmlt::integrator::Tracer;
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Bitmap, Detail, Effect, Material, MaterialId, Mesh, Scene, SceneBuilder, Texture,
 };
@@ -96,16 +95,12 @@ fn render(scene: &Scene, estimator: Estimator, spp: u64, seed: u64) -> Vec<Rgb> 
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     let config = RendererConfig {
         estimator,
-        settings: Default::default(),
-        mlt: MltSettings::default(),
         seed,
-        workers: 1,
-        temporal: Temporal::default(),
-        all_effects: false,
+        ..RendererConfig::default()
     };
     let mut r = Renderer::new(config, scene.camera).unwrap();
     let mut w = RenderWorker::new(&r, 0).unwrap();
-    r.prepare(scene, &bvh);
+    common::prepare(&mut r, std::slice::from_mut(&mut w), scene, &bvh);
     let pixels = (scene.camera.width() * scene.camera.height()) as u64;
     r.render(&mut w, scene, &bvh, spp * pixels).unwrap();
     let mut img = vec![Rgb::ZERO; pixels as usize];

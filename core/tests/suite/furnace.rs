@@ -7,9 +7,11 @@ use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
-use cmlt::integrator::bdpt::PathStorage;
-use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
-use cmlt::math::{Rgb, Vec3};
+use cmlt::integrator::bdpt::{self, PathStorage};
+use cmlt::integrator::{Settings, Tracer};
+use cmlt::math::{Rgb, Vec2, Vec3};
+use cmlt::renderer::Estimator;
+use cmlt::sampler::SampleStream;
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
 /// The cube [-1,1]³ with every face wound so its normal points inwards.
@@ -31,46 +33,61 @@ fn furnace(wall: Material, emission: f32, aperture: f32, object: Option<(Materia
     b.build().unwrap()
 }
 
-fn render_mean(scene: &Scene, method: Estimator, settings: Settings, passes: u64) -> (Rgb, Film) {
-    render_mean_with(scene, method, settings, passes, PathStorage::new())
+fn mean(img: &[Rgb]) -> Rgb {
+    let mut s = Rgb::ZERO;
+    for p in img {
+        s += *p;
+    }
+    s / img.len() as f32
 }
 
-fn render_mean_with(
-    scene: &Scene,
-    method: Estimator,
-    settings: Settings,
-    passes: u64,
-    mut paths: PathStorage,
-) -> (Rgb, Film) {
+/// The mean of `passes` passes of PT or BDPT (seed 7) through the
+/// renderer, and the non-finite contributions its film dropped.
+fn render_mean(scene: &Scene, method: Estimator, settings: Settings, passes: u64) -> (Rgb, u64) {
+    let r = common::render(scene, method, settings, 7, passes);
+    (mean(&r.image), r.stats.nonfinite)
+}
+
+/// The mean of `passes` passes of BDPT whose samples go through `paths`
+/// (with its strategy filter), one sample per pixel and pass from the
+/// stream of (7, pass, pixel) as the renderer draws them: the renderer
+/// keeps its path storage to itself, so this test calls
+/// [`bdpt::sample`] itself.
+fn bdpt_mean_with(scene: &Scene, passes: u64, mut paths: PathStorage) -> (Rgb, Film) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
-    let mut film = Film::new(scene.camera.width(), scene.camera.height());
+    let (w, h) = (scene.camera.width(), scene.camera.height());
+    let mut film = Film::new(w, h);
+    let settings = Settings::default();
     for pass in 0..passes {
-        render_pass(
-            &mut tracer,
-            &settings,
-            method,
-            &mut paths,
-            7,
-            pass,
-            &mut film,
-        );
+        for y in 0..h {
+            for x in 0..w {
+                let mut rng = SampleStream::new(7, pass, y as u64 * w as u64 + x as u64);
+                let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+                bdpt::sample(
+                    &mut tracer,
+                    &settings,
+                    &mut paths,
+                    raster,
+                    x,
+                    y,
+                    &mut rng,
+                    &mut film,
+                );
+            }
+        }
+        film.end_pass();
     }
-    let img = film.resolve();
-    let mut s = Rgb::ZERO;
-    for p in &img {
-        s += *p;
-    }
-    (s / img.len() as f32, film)
+    (mean(&film.resolve()), film)
 }
 
 #[test]
 fn furnace_radiance_is_two_for_pt_and_bdpt() {
     let scene = inward_box(0.5, 1.0);
     for method in [Estimator::Path, Estimator::Bdpt] {
-        let (mean, film) = render_mean(&scene, method, Settings::default(), 256);
-        assert_eq!(film.nonfinite(), 0);
+        let (mean, nonfinite) = render_mean(&scene, method, Settings::default(), 256);
+        assert_eq!(nonfinite, 0);
         for c in 0..3 {
             let rel = (mean[c] - 2.0).abs() / 2.0;
             assert!(
@@ -137,8 +154,8 @@ fn mirror_furnace_is_two() {
     };
     let scene = furnace(mirror, 1.0, 0.0, None);
     for method in [Estimator::Path, Estimator::Bdpt] {
-        let (mean, film) = render_mean(&scene, method, Settings::default(), 64);
-        assert_eq!(film.nonfinite(), 0);
+        let (mean, nonfinite) = render_mean(&scene, method, Settings::default(), 64);
+        assert_eq!(nonfinite, 0);
         assert!((mean.g - 2.0).abs() / 2.0 < 0.005, "{method:?}: {}", mean.g);
     }
 }
@@ -161,8 +178,8 @@ fn glass_in_a_furnace_is_invisible() {
             Some((glass, 0.3)),
         );
         for method in [Estimator::Path, Estimator::Bdpt] {
-            let (mean, film) = render_mean(&scene, method, Settings::default(), 128);
-            assert_eq!(film.nonfinite(), 0);
+            let (mean, nonfinite) = render_mean(&scene, method, Settings::default(), 128);
+            assert_eq!(nonfinite, 0);
             assert!(
                 (mean.g - 2.0).abs() / 2.0 < 0.006,
                 "eta {eta} {method:?}: {}",
@@ -221,8 +238,7 @@ fn every_bdpt_strategy_alone_is_unbiased() {
         for (s, t, filter) in strategies {
             let mut paths = PathStorage::new();
             paths.set_strategy_filter(Some(filter));
-            let (mean, film) =
-                render_mean_with(&scene, Estimator::Bdpt, Settings::default(), 256, paths);
+            let (mean, film) = bdpt_mean_with(&scene, 256, paths);
             assert_eq!(film.nonfinite(), 0);
             let expected = 0.5f32.powi((s + t) as i32 - 2);
             let rel = (mean.g - expected).abs() / expected;

@@ -13,12 +13,11 @@
 use crate::common;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::film::Film;
 use cmlt::geometry::Ray;
-use cmlt::integrator::bdpt::PathStorage;
-use cmlt::integrator::{Estimator, Settings, Tracer, render_pass};
+use cmlt::integrator::Settings;
 use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
-use cmlt::mlt::{self, MltSettings};
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::Estimator;
 use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
 
 const PLANE_Z: f32 = 2.0;
@@ -77,55 +76,62 @@ pub(super) fn expected_on_plane(scene: &Scene, radiance: impl Fn(Vec3) -> f32) -
     out
 }
 
+/// `passes` passes of PT or BDPT (seed 3) through the renderer.
 pub(super) fn render(
     scene: &Scene,
     method: Estimator,
     settings: Settings,
     passes: u64,
 ) -> Vec<Rgb> {
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(scene, &accel);
-    let mut paths = PathStorage::new();
-    let mut film = Film::new(scene.camera.width(), scene.camera.height());
-    for pass in 0..passes {
-        render_pass(
-            &mut tracer,
-            &settings,
-            method,
-            &mut paths,
-            3,
-            pass,
-            &mut film,
-        );
-    }
-    assert_eq!(film.nonfinite(), 0);
-    film.resolve()
+    let r = common::render(scene, method, settings, 3, passes);
+    assert_eq!(r.stats.nonfinite, 0);
+    r.image
 }
 
-pub(super) fn render_mlt(scene: &Scene, s: &MltSettings, mpp: u64) -> (Vec<Rgb>, mlt::MltRender) {
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(scene, &accel);
+/// `mpp` mutations per pixel of MLT or CMLT (depth 8, seed 5) through the
+/// renderer: the image, and the render's counters and bootstrap.
+pub(super) fn render_mlt(
+    scene: &Scene,
+    estimator: Estimator,
+    mpp: u64,
+) -> (Vec<Rgb>, common::Rendered) {
     let settings = Settings {
         max_depth: Some(8),
         ..Settings::default()
     };
-    let r = mlt::render(&mut tracer, &settings, s, 5, mpp);
-    assert_eq!(r.film.nonfinite(), 0);
-    (r.resolve(), r)
+    let r = common::render(scene, estimator, settings, 5, mpp);
+    assert_eq!(r.stats.nonfinite, 0);
+    (r.image.clone(), r)
 }
 
-pub(super) fn mlt_settings(k: u32, m: u32) -> MltSettings {
+fn mlt_settings() -> MltSettings {
     MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
         b_min_samples: 0,
         n_chains: 64,
-        k,
-        m,
         ..MltSettings::default()
     }
+}
+
+/// MLT with many bootstrap samples and normalisation passes.
+pub(super) fn mlt() -> Estimator {
+    Estimator::Mlt(mlt_settings())
+}
+
+/// CMLT with [`mlt`]'s level 1, `k` candidates and side chains of `m`
+/// steps on every path (no minimum depth, lens σ 2 px).
+pub(super) fn cmlt(k: u32, m: u32) -> Estimator {
+    Estimator::Cmlt(CmltSettings {
+        mlt: mlt_settings(),
+        level2: Level2Settings {
+            k,
+            m,
+            lens_sigma: 2.0,
+            side_chain_min_depth: 0,
+            ..Level2Settings::default()
+        },
+    })
 }
 
 /// The image's mean (green channel) within `mean_tol` of `expected`'s,
@@ -228,11 +234,11 @@ fn point_light_over_a_plane_pt_and_bdpt() {
 #[test]
 fn point_light_over_a_plane_mlt_and_cmlt() {
     let (scene, expected) = point_light_scene();
-    let (img, _) = render_mlt(&scene, &mlt_settings(0, 0), 256);
+    let (img, _) = render_mlt(&scene, mlt(), 256);
     assert_quadrants("MLT", &img, &expected, 0.01, 0.08);
-    let (img, r) = render_mlt(&scene, &mlt_settings(4, 2), 256);
+    let (img, r) = render_mlt(&scene, cmlt(4, 2), 256);
     // No path ends on an area light: level 2 perturbs none of them.
-    let st = r.stats;
+    let st = r.stats.mlt;
     assert!(st.mutations > 0);
     assert_eq!(st.lens_steps + st.caustic_steps, 0, "{st:?}");
     assert_eq!(st.identity_steps, st.mutations * 2, "{st:?}");
@@ -339,13 +345,10 @@ fn constant_environment_mlt_and_cmlt() {
     let (rho, l) = (0.5, 1.0);
     let scene = sphere_in_environment(rho, l);
     let expected = sphere_pixels(&scene);
-    for (what, s, mpp) in [
-        ("MLT", mlt_settings(0, 0), 256),
-        ("CMLT", mlt_settings(4, 2), 64),
-    ] {
-        let (img, r) = render_mlt(&scene, &s, mpp);
+    for (what, s, mpp) in [("MLT", mlt(), 256), ("CMLT", cmlt(4, 2), 64)] {
+        let (img, r) = render_mlt(&scene, s, mpp);
         let (on, off) = region_means(&img, &expected);
-        eprintln!("{what}: sphere {on}, background {off}, {:?}", r.stats);
+        eprintln!("{what}: sphere {on}, background {off}, {:?}", r.stats.mlt);
         // Measured: the sphere 2–3% dark for plain MLT over seeds 5–7 (256
         // chains, 512 mutations per pixel), while the level-1 target
         // itself (`bdpt::sample_strategy` as an independent estimator)
@@ -468,9 +471,9 @@ fn spot_and_directional_lights_over_a_plane() {
         let img = render(scene, Estimator::Bdpt, Settings::default(), 256);
         assert_image_abs(&format!("{what} BDPT"), &img, expected, 0.01, 0.08);
     }
-    let (img, _) = render_mlt(&sun, &mlt_settings(0, 0), 512);
+    let (img, _) = render_mlt(&sun, mlt(), 512);
     assert_quadrants("sun MLT", &img, &sun_expected, 0.01, 0.03);
-    let (img, _) = render_mlt(&spot, &mlt_settings(4, 2), 256);
+    let (img, _) = render_mlt(&spot, cmlt(4, 2), 256);
     let n = img.len() as f32;
     let mean: f32 = img.iter().map(|p| p.g).sum::<f32>() / n;
     let want: f32 = spot_expected.iter().sum::<f32>() / n;
@@ -557,13 +560,10 @@ fn flat_envmap_is_the_constant_environment() {
     }
     let scene = sphere_in_flat_envmap(0.5, 1.0, 5, 3);
     let expected = sphere_pixels(&scene);
-    for (what, s, mpp) in [
-        ("MLT", mlt_settings(0, 0), 256),
-        ("CMLT", mlt_settings(4, 2), 64),
-    ] {
-        let (img, r) = render_mlt(&scene, &s, mpp);
+    for (what, s, mpp) in [("MLT", mlt(), 256), ("CMLT", cmlt(4, 2), 64)] {
+        let (img, r) = render_mlt(&scene, s, mpp);
         let (on, off) = region_means(&img, &expected);
-        eprintln!("{what}: sphere {on}, background {off}, {:?}", r.stats);
+        eprintln!("{what}: sphere {on}, background {off}, {:?}", r.stats.mlt);
         // The tolerances of constant_environment_mlt_and_cmlt.
         assert!((on - 0.5).abs() < 0.05 * 0.5, "{what}: {on}");
         assert!((off - 1.0).abs() < 0.02, "{what}: {off}");

@@ -10,7 +10,11 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::film::Film;
 use cmlt::integrator::{Settings, Tracer};
 use cmlt::math::{Rgb, Vec3};
-use cmlt::mlt::{self, Bootstrap, Chain, MltSettings, PrimarySampler, WorkerChains, target};
+use cmlt::mlt::{
+    self, Bootstrap, Chain, CmltSettings, Level2Settings, MltSettings, PrimarySampler,
+    WorkerChains, target,
+};
+use cmlt::renderer::Estimator;
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
 use rand_core::Rng;
 use rand_pcg::Pcg32;
@@ -47,12 +51,23 @@ fn mlt_settings() -> MltSettings {
     }
 }
 
-fn render(scene: &Scene, mlt_s: &MltSettings, seed: u64, mpp: u64) -> (Vec<Rgb>, mlt::MltRender) {
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(scene, &accel);
-    let r = mlt::render(&mut tracer, &settings(), mlt_s, seed, mpp);
-    (r.resolve(), r)
+/// `mpp` mutations per pixel of `estimator` (MLT or CMLT) at depth 16
+/// through the renderer: the image, and the render's counters and
+/// bootstrap.
+fn render(
+    scene: &Scene,
+    estimator: Estimator,
+    seed: u64,
+    mpp: u64,
+) -> (Vec<Rgb>, common::Rendered) {
+    let r = common::render(scene, estimator, settings(), seed, mpp);
+    (r.image.clone(), r)
+}
+
+/// The bootstrap a renderer of `mlt` with seed `seed` computes for the
+/// scene's camera (depth 16).
+fn bootstrap(scene: &Scene, mlt: MltSettings, seed: u64) -> Bootstrap {
+    common::render(scene, Estimator::Mlt(mlt), settings(), seed, 0).bootstrap
 }
 
 fn mean(img: &[Rgb]) -> Rgb {
@@ -97,15 +112,15 @@ fn half_mean(img: &[Rgb], left: bool) -> f32 {
 #[test]
 fn mlt_furnace_is_two() {
     let scene = diffuse_furnace(1.0);
-    let (img, r) = render(&scene, &mlt_settings(), 11, 256);
-    assert_eq!(r.film.nonfinite(), 0);
+    let (img, r) = render(&scene, Estimator::Mlt(mlt_settings()), 11, 256);
+    assert_eq!(r.stats.nonfinite, 0);
     let m = mean(&img);
     eprintln!(
         "furnace: mean {m:?}, b_d {:?}, halves {} {}, stats {:?}",
         &r.bootstrap.depth_b()[..6],
         half_mean(&img, true),
         half_mean(&img, false),
-        r.stats
+        r.stats.mlt
     );
     for c in 0..3 {
         assert!((m[c] - 2.0).abs() / 2.0 < 0.01, "mean {m:?}, expected 2");
@@ -140,7 +155,7 @@ fn mlt_furnace_is_two() {
     ] {
         assert!((v - 2.0).abs() / 2.0 < 0.05, "{what}: {v}");
     }
-    let s = r.stats;
+    let s = r.stats.mlt;
     assert_eq!(s.mutations, 256 * 16 * 12);
     assert!(s.small_accepted > 0 && s.large_accepted > 0);
 }
@@ -153,7 +168,7 @@ fn mlt_furnace_with_pbrt_normalisation_is_two() {
         b_passes: 0,
         ..mlt_settings()
     };
-    let (img, r) = render(&scene, &pbrt, 4, 64);
+    let (img, r) = render(&scene, Estimator::Mlt(pbrt), 4, 64);
     assert_eq!(r.bootstrap.depth_b(), r.bootstrap.seed_depth_b());
     let m = mean(&img);
     eprintln!("pbrt normalisation: mean {m:?}");
@@ -173,10 +188,10 @@ fn mlt_mirror_furnace_is_two() {
         detail: Default::default(),
     };
     let scene = furnace(mirror, 1.0);
-    let (img, r) = render(&scene, &mlt_settings(), 3, 32);
-    assert_eq!(r.film.nonfinite(), 0);
+    let (img, r) = render(&scene, Estimator::Mlt(mlt_settings()), 3, 32);
+    assert_eq!(r.stats.nonfinite, 0);
     let m = mean(&img);
-    eprintln!("mirror: mean {m:?}, stats {:?}", r.stats);
+    eprintln!("mirror: mean {m:?}, stats {:?}", r.stats.mlt);
     assert!((m.g - 2.0).abs() / 2.0 < 0.01, "mean {m:?}");
 }
 
@@ -185,13 +200,13 @@ fn black_scene_is_exactly_black() {
     // Nothing emits: b = 0, no chain starts, nothing is divided by zero.
     let scene = diffuse_furnace(0.0);
     assert!(scene.lights.is_empty());
-    let (img, r) = render(&scene, &mlt_settings(), 1, 4);
+    let (img, r) = render(&scene, Estimator::Mlt(mlt_settings()), 1, 4);
     assert_eq!(r.bootstrap.b(), 0.0);
-    assert_eq!(r.stats.chains, 0);
-    assert_eq!(r.film.nonfinite(), 0);
+    assert_eq!(r.stats.mlt.chains, 0);
+    assert_eq!(r.stats.nonfinite, 0);
     assert!(img.iter().all(|p| p.to_array().map(f32::to_bits) == [0; 3]));
     // A zero budget is black too (scale 0, not NaN).
-    let (img, _) = render(&diffuse_furnace(1.0), &mlt_settings(), 1, 0);
+    let (img, _) = render(&diffuse_furnace(1.0), Estimator::Mlt(mlt_settings()), 1, 0);
     assert!(img.iter().all(|p| *p == Rgb::ZERO));
 }
 
@@ -203,13 +218,13 @@ fn same_seed_gives_identical_bits() {
         n_chains: 16,
         ..MltSettings::default()
     };
-    let (a, ra) = render(&scene, &small, 5, 8);
-    let (b, rb) = render(&scene, &small, 5, 8);
-    let (c, _) = render(&scene, &small, 6, 8);
+    let (a, ra) = render(&scene, Estimator::Mlt(small), 5, 8);
+    let (b, rb) = render(&scene, Estimator::Mlt(small), 5, 8);
+    let (c, _) = render(&scene, Estimator::Mlt(small), 6, 8);
     let bits =
         |v: &[Rgb]| -> Vec<[u32; 3]> { v.iter().map(|p| p.to_array().map(f32::to_bits)).collect() };
     assert_eq!(bits(&a), bits(&b));
-    assert_eq!(ra.stats, rb.stats);
+    assert_eq!(ra.stats.mlt, rb.stats.mlt);
     assert_eq!(ra.bootstrap, rb.bootstrap);
     assert_ne!(bits(&a), bits(&c), "the seed is used");
 }
@@ -223,7 +238,7 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(&scene, &accel);
     let (st, m) = (settings(), mlt_settings());
-    let boot = Bootstrap::run(&mut tracer, &st, &m, 21);
+    let boot = bootstrap(&scene, m, 21);
     let mut ws = cmlt::integrator::bdpt::PathStorage::new();
     let mut film = Film::new(16, 12);
     let mut mutations = 0u64;
@@ -281,10 +296,13 @@ fn workers_split_the_same_chains_deterministically() {
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(&scene, &accel);
     let (st, m) = (settings(), mlt_settings());
-    let boot = Bootstrap::run(&mut tracer, &st, &m, 2);
-    let mut one = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
-    let mut two = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 0, 2);
-    let mut other = WorkerChains::new(&mut tracer, &st, &m, &boot, 2, 1, 2);
+    let boot = bootstrap(&scene, m, 2);
+    let mut chains = |worker| {
+        let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
+        c.restart(&mut tracer, &st, &m, &boot, 2, worker, 2);
+        c
+    };
+    let (mut one, mut two, mut other) = (chains(0), chains(0), chains(1));
     let (mut f1, mut f2, mut f3) = (Film::new(16, 12), Film::new(16, 12), Film::new(16, 12));
     assert_eq!(one.run(&mut tracer, &st, &mut f1, 10), 640);
     two.run(&mut tracer, &st, &mut f2, 3);
@@ -333,12 +351,18 @@ fn mirror_sphere_furnace() -> Scene {
     b.build().unwrap()
 }
 
-fn cmlt_settings(k: u32, m: u32) -> MltSettings {
-    MltSettings {
-        k,
-        m,
-        lens_sigma: 1.5,
-        ..mlt_settings()
+/// CMLT over [`mlt_settings`] with `k` candidates and side chains of `m`
+/// steps on every path (no minimum depth, lens σ 1.5 px).
+fn cmlt_settings(k: u32, m: u32) -> CmltSettings {
+    CmltSettings {
+        mlt: mlt_settings(),
+        level2: Level2Settings {
+            k,
+            m,
+            lens_sigma: 1.5,
+            side_chain_min_depth: 0,
+            ..Level2Settings::default()
+        },
     }
 }
 
@@ -371,13 +395,11 @@ fn cmlt_mirror_sphere_furnace_is_two() {
         (8, mlt::Candidates::Stratified),
         (4, mlt::Candidates::Independent),
     ] {
-        let s = MltSettings {
-            candidates,
-            ..cmlt_settings(k, 4)
-        };
-        let (img, r) = render(&scene, &s, 21, 48);
-        assert_eq!(r.film.nonfinite(), 0);
-        let st = r.stats;
+        let mut s = cmlt_settings(k, 4);
+        s.level2.candidates = candidates;
+        let (img, r) = render(&scene, Estimator::Cmlt(s), 21, 48);
+        assert_eq!(r.stats.nonfinite, 0);
+        let st = r.stats.mlt;
         eprintln!("k = {k}, {candidates:?}: {st:?}");
         // All three perturbations ran (the sphere shows the walls in it,
         // E S D S L: the multi-chain one), and every side-chain step was
@@ -426,15 +448,13 @@ fn cmlt_multi_chain_furnace_is_two() {
     let scene = mirror_ball_furnace();
     for (k, lanes) in [(1, 4), (4, 1)] {
         // The image's mean is b, estimated by the normalisation passes.
-        let s = MltSettings {
-            lanes,
-            b_passes: 1024,
-            b_min_samples: 0,
-            ..cmlt_settings(k, 4)
-        };
-        let (img, r) = render(&scene, &s, 5, 160);
-        assert_eq!(r.film.nonfinite(), 0);
-        let st = r.stats;
+        let mut s = cmlt_settings(k, 4);
+        s.level2.lanes = lanes;
+        s.mlt.b_passes = 1024;
+        s.mlt.b_min_samples = 0;
+        let (img, r) = render(&scene, Estimator::Cmlt(s), 5, 160);
+        assert_eq!(r.stats.nonfinite, 0);
+        let st = r.stats.mlt;
         eprintln!("k = {k}, lanes = {lanes}: {st:?}");
         let side = st.lens_steps + st.caustic_steps + st.multi_chain_steps;
         assert!(
@@ -460,10 +480,10 @@ fn cmlt_multi_chain_furnace_is_two() {
 #[test]
 fn cmlt_k1_m1_matches_plain_mlt() {
     let scene = mirror_sphere_furnace();
-    let (plain, rp) = render(&scene, &mlt_settings(), 8, 64);
-    let (one, r1) = render(&scene, &cmlt_settings(1, 1), 8, 64);
-    assert_eq!(rp.stats.records, rp.stats.mutations);
-    assert_eq!(r1.stats.records, 2 * r1.stats.mutations);
+    let (plain, rp) = render(&scene, Estimator::Mlt(mlt_settings()), 8, 64);
+    let (one, r1) = render(&scene, Estimator::Cmlt(cmlt_settings(1, 1)), 8, 64);
+    assert_eq!(rp.stats.mlt.records, rp.stats.mlt.mutations);
+    assert_eq!(r1.stats.mlt.records, 2 * r1.stats.mlt.mutations);
     assert_furnace("plain MLT", &plain, 0.01, 0.05);
     assert_furnace("CMLT k = m = 1", &one, 0.01, 0.05);
     for (a, b) in [
@@ -477,18 +497,17 @@ fn cmlt_k1_m1_matches_plain_mlt() {
 #[test]
 fn cmlt_same_seed_gives_identical_bits() {
     let scene = mirror_sphere_furnace();
-    let s = MltSettings {
-        n_bootstrap: 500,
-        n_chains: 16,
-        ..cmlt_settings(4, 2)
-    };
-    let (a, ra) = render(&scene, &s, 5, 4);
-    let (b, rb) = render(&scene, &s, 5, 4);
-    let (c, _) = render(&scene, &s, 6, 4);
+    let mut s = cmlt_settings(4, 2);
+    s.mlt.n_bootstrap = 500;
+    s.mlt.n_chains = 16;
+    let s = Estimator::Cmlt(s);
+    let (a, ra) = render(&scene, s, 5, 4);
+    let (b, rb) = render(&scene, s, 5, 4);
+    let (c, _) = render(&scene, s, 6, 4);
     let bits =
         |v: &[Rgb]| -> Vec<[u32; 3]> { v.iter().map(|p| p.to_array().map(f32::to_bits)).collect() };
     assert_eq!(bits(&a), bits(&b));
-    assert_eq!(ra.stats, rb.stats);
+    assert_eq!(ra.stats.mlt, rb.stats.mlt);
     assert_ne!(bits(&a), bits(&c), "the seed is used");
 }
 
@@ -519,7 +538,7 @@ fn few_chains_per_depth_still_give_each_depth_its_share() {
         n_chains: 24,
         ..mlt_settings()
     };
-    let (img, r) = render(&scene, &s, 5, 512);
+    let (img, r) = render(&scene, Estimator::Mlt(s), 5, 512);
     let boot = &r.bootstrap;
     let expected_chains = 24.0 * boot.depth_b()[1] / boot.b();
     assert!(
@@ -556,7 +575,7 @@ fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
         n_chains: 64,
         ..MltSettings::default()
     };
-    let (img, r) = render(&scene, &s, 3, 64);
+    let (img, r) = render(&scene, Estimator::Mlt(s), 3, 64);
     let boot = &r.bootstrap;
     assert!(
         boot.depth_b()[0] > 0.3 * boot.b() && !boot.has_contributing_seed(1),
@@ -658,10 +677,6 @@ fn lens_start_from_stored_path_equals_its_retrace() {
 #[test]
 fn normalisation_floor_raises_the_passes_of_a_small_image() {
     let scene = diffuse_furnace(1.0);
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
-    let st = settings();
     let pixels = 16 * 12;
     let with = |b_passes, b_min_samples| MltSettings {
         n_bootstrap: 64,
@@ -671,10 +686,10 @@ fn normalisation_floor_raises_the_passes_of_a_small_image() {
     };
     let floored = with(4, 10 * pixels as u32);
     assert_eq!(floored.normalisation_passes(pixels), 10);
-    let b = |m: &MltSettings, tracer: &mut Tracer<'_, Bvh>| Bootstrap::run(tracer, &st, m, 5).b();
-    let b_floored = b(&floored, &mut tracer);
-    assert_eq!(b_floored.to_bits(), b(&with(10, 0), &mut tracer).to_bits());
-    assert_ne!(b_floored.to_bits(), b(&with(4, 0), &mut tracer).to_bits());
+    let b = |m: MltSettings| bootstrap(&scene, m, 5).b();
+    let b_floored = b(floored);
+    assert_eq!(b_floored.to_bits(), b(with(10, 0)).to_bits());
+    assert_ne!(b_floored.to_bits(), b(with(4, 0)).to_bits());
     // A partial pass's worth rounds up; more passes asked for than the
     // floor needs are kept; none asked for stays none.
     assert_eq!(

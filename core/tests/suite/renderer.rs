@@ -1,8 +1,9 @@
-//! The host's frame loop (`cmlt::renderer`): renders equal the estimators'
-//! own entry points bit for bit, workers merge, camera changes reset the
-//! accumulation, misuse is refused without side effects, and — counted
-//! through a global allocator — `set_camera`, `prepare`, `render` and
-//! `resolve` allocate nothing.
+//! The host's frame loop (`cmlt::renderer`): renders continue across
+//! calls bit for bit, workers merge, the bootstrap is the same for every
+//! split over workers, camera changes reset the accumulation, misuse is
+//! refused without side effects, and — counted through a global
+//! allocator — `set_camera`, preparing, `render` and `resolve` allocate
+//! nothing.
 
 use crate::common;
 
@@ -10,12 +11,12 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::film::Film;
-use cmlt::integrator::bdpt::PathStorage;
-use cmlt::integrator::{self, Settings, Tracer};
+use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec3};
-use cmlt::mlt::{self, MltSettings};
-use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt::mlt::{Bootstrap, CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::{
+    Estimator, EstimatorKind, RenderError, RenderWorker, Renderer, RendererConfig, Temporal,
+};
 use cmlt::scene::{
     Camera, ConductorFresnel, FovAxis, Material, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
 };
@@ -123,28 +124,49 @@ fn settings() -> Settings {
     }
 }
 
-fn mlt_settings(k: u32, m: u32) -> MltSettings {
+fn mlt_settings() -> MltSettings {
     MltSettings {
         n_bootstrap: 500,
         b_passes: 2,
         b_min_samples: 0,
         n_chains: 24,
-        k,
-        m,
         ..MltSettings::default()
     }
 }
 
-fn config(estimator: Estimator, mlt: MltSettings, workers: u32) -> RendererConfig {
+/// MLT with [`mlt_settings`].
+fn mlt() -> Estimator {
+    Estimator::Mlt(mlt_settings())
+}
+
+/// CMLT with [`mlt_settings`] and `k` candidates, side chains of `m`
+/// steps on every path (no minimum depth) with a 2-pixel lens σ.
+fn cmlt(k: u32, m: u32) -> Estimator {
+    Estimator::Cmlt(CmltSettings {
+        mlt: mlt_settings(),
+        level2: Level2Settings {
+            k,
+            m,
+            lens_sigma: 2.0,
+            side_chain_min_depth: 0,
+            ..Level2Settings::default()
+        },
+    })
+}
+
+fn config(estimator: Estimator, workers: u32) -> RendererConfig {
     RendererConfig {
         estimator,
         settings: settings(),
-        mlt,
         seed: 7,
         workers,
-        temporal: Temporal::default(),
-        all_effects: false,
+        ..RendererConfig::default()
     }
+}
+
+/// Readies `r` for its frame with `workers` on this thread.
+fn prepare(r: &mut Renderer, workers: &mut [RenderWorker], scene: &Scene, bvh: &Bvh) {
+    common::prepare(r, workers, scene, bvh);
 }
 
 /// The renderer's image of `workers`.
@@ -158,64 +180,37 @@ fn mean(img: &[Rgb]) -> f64 {
     img.iter().map(|c| c.luminance() as f64).sum::<f64>() / img.len() as f64
 }
 
+/// A render in two calls equals one call with the whole budget, bit for
+/// bit: accumulation continues across calls (each estimator's samples
+/// depend only on the seed, the pass or chain, and the step count).
 #[test]
-fn one_worker_equals_the_estimators_own_entry_points() {
+fn renders_continue_across_calls() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for (estimator, mlt) in [
-        (Estimator::Path, mlt_settings(1, 0)),
-        (Estimator::Bdpt, mlt_settings(1, 0)),
-        (Estimator::Mlt, mlt_settings(1, 0)),
-        (Estimator::Mlt, mlt_settings(8, 2)),
-    ] {
-        let mut r = Renderer::new(config(estimator, mlt, 1), scene.camera).unwrap();
+    for estimator in [Estimator::Path, Estimator::Bdpt, mlt(), cmlt(8, 2)] {
+        let kind = estimator.kind();
+        let mut r = Renderer::new(config(estimator, 1), scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
-        r.prepare(&scene, &bvh);
-        // Two calls: accumulation continues across them.
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
         let budget = 16 * 12 * 3;
         let a = r.render(&mut w, &scene, &bvh, budget).unwrap();
         let b = r.render(&mut w, &scene, &bvh, budget).unwrap();
-        assert!(a >= budget && b >= budget, "{estimator:?}: {a} {b}");
+        assert!(a >= budget && b >= budget, "{kind:?}: {a} {b}");
         let img = resolve(&r, &[&w]);
 
-        let mut tracer = Tracer::new(&scene, &bvh);
-        let expected = match estimator {
-            Estimator::Mlt => {
-                let mpp = 2 * a / (16 * 12);
-                let direct = mlt::render(&mut tracer, &settings(), &mlt, 7, mpp);
-                assert_eq!(direct.stats.mutations, 2 * a, "{estimator:?}");
-                direct.resolve()
-            }
-            _ => {
-                let method = if estimator == Estimator::Path {
-                    integrator::Estimator::Path
-                } else {
-                    integrator::Estimator::Bdpt
-                };
-                let mut film = Film::new(16, 12);
-                let mut paths = PathStorage::new();
-                for pass in 0..6 {
-                    integrator::render_pass(
-                        &mut tracer,
-                        &settings(),
-                        method,
-                        &mut paths,
-                        7,
-                        pass,
-                        &mut film,
-                    );
-                }
-                film.resolve()
-            }
-        };
-        assert!(mean(&img) > 0.0, "{estimator:?} rendered black");
-        assert_eq!(img, expected, "{estimator:?}");
+        let mut once = Renderer::new(config(estimator, 1), scene.camera).unwrap();
+        let mut ow = RenderWorker::new(&once, 0).unwrap();
+        prepare(&mut once, std::slice::from_mut(&mut ow), &scene, &bvh);
+        assert_eq!(once.render(&mut ow, &scene, &bvh, a + b).unwrap(), a + b);
+        assert!(mean(&img) > 0.0, "{kind:?} rendered black");
+        assert_eq!(img, resolve(&once, &[&ow]), "{kind:?}");
         let stats = r.stats(&[&w]);
+        assert_eq!(stats, once.stats(&[&ow]), "{kind:?}");
         assert_eq!(stats.nonfinite, 0);
-        if estimator == Estimator::Mlt {
-            assert_eq!(stats.mlt.mutations, 2 * a);
+        if kind.is_metropolis() {
+            assert_eq!(stats.mlt.mutations, a + b);
             assert!(stats.b > 0.0);
-            if mlt.m > 0 {
+            if kind == EstimatorKind::Cmlt {
                 assert!(stats.mlt.caustic_steps + stats.mlt.lens_steps > 0);
                 assert!(stats.tracer.packets > 0);
             }
@@ -231,40 +226,41 @@ fn workers_merge_into_one_image_of_the_same_mean() {
     // estimates the same picture as one worker with the same total budget.
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
-        let mlt = mlt_settings(2, 1);
-        let mut one = Renderer::new(config(estimator, mlt, 1), scene.camera).unwrap();
+    for estimator in [Estimator::Bdpt, cmlt(2, 1)] {
+        let kind = estimator.kind();
+        let mut one = Renderer::new(config(estimator, 1), scene.camera).unwrap();
         let mut w = RenderWorker::new(&one, 0).unwrap();
-        one.prepare(&scene, &bvh);
+        prepare(&mut one, std::slice::from_mut(&mut w), &scene, &bvh);
         let budget = 16 * 12 * 64;
         one.render(&mut w, &scene, &bvh, 2 * budget).unwrap();
         let single = mean(&resolve(&one, &[&w]));
 
-        let mut two = Renderer::new(config(estimator, mlt, 2), scene.camera).unwrap();
-        let mut w0 = RenderWorker::new(&two, 0).unwrap();
-        let mut w1 = RenderWorker::new(&two, 1).unwrap();
-        two.prepare(&scene, &bvh);
+        let mut two = Renderer::new(config(estimator, 2), scene.camera).unwrap();
+        let mut ws = [
+            RenderWorker::new(&two, 0).unwrap(),
+            RenderWorker::new(&two, 1).unwrap(),
+        ];
+        prepare(&mut two, &mut ws, &scene, &bvh);
+        let [w0, w1] = &mut ws;
         std::thread::scope(|s| {
-            let (two, scene, bvh, w1) = (&two, &scene, &bvh, &mut w1);
+            let (two, scene, bvh) = (&two, &scene, &bvh);
             let h = s.spawn(move || two.render(w1, scene, bvh, budget));
-            two.render(&mut w0, scene, bvh, budget).unwrap();
+            two.render(w0, scene, bvh, budget).unwrap();
             h.join().unwrap().unwrap();
         });
-        let merged = resolve(&two, &[&w0, &w1]);
-        let only0 = mean(&resolve(&two, &[&w0]));
+        let [w0, w1] = &ws;
+        let merged = resolve(&two, &[w0, w1]);
+        let only0 = mean(&resolve(&two, &[w0]));
         let m = mean(&merged);
-        eprintln!("{estimator:?}: one worker {single}, two {m}, worker 0 alone {only0}");
+        eprintln!("{kind:?}: one worker {single}, two {m}, worker 0 alone {only0}");
         assert!(merged.iter().all(|c| c.is_finite()));
-        assert!(
-            (m / single - 1.0).abs() < 0.05,
-            "{estimator:?}: {m} vs {single}"
-        );
+        assert!((m / single - 1.0).abs() < 0.05, "{kind:?}: {m} vs {single}");
         // Worker 0 alone is itself an estimate of the image.
         assert!(
             (only0 / single - 1.0).abs() < 0.1,
-            "{estimator:?}: {only0} vs {single}"
+            "{kind:?}: {only0} vs {single}"
         );
-        assert_ne!(merged, resolve(&two, &[&w0]), "worker 1 added nothing");
+        assert_ne!(merged, resolve(&two, &[w0]), "worker 1 added nothing");
     }
 }
 
@@ -272,7 +268,7 @@ fn workers_merge_into_one_image_of_the_same_mean() {
 fn camera_change_resets_accumulation_and_matches_a_fresh_renderer() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
+    for estimator in [Estimator::Bdpt, cmlt(2, 1)] {
         // The same random sequences every frame: frame 1 then equals a
         // fresh renderer's frame 0 through the same camera.
         let cfg = RendererConfig {
@@ -280,11 +276,11 @@ fn camera_change_resets_accumulation_and_matches_a_fresh_renderer() {
                 fixed_sequence: true,
                 ..Temporal::default()
             },
-            ..config(estimator, mlt_settings(2, 1), 1)
+            ..config(estimator, 1)
         };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
-        r.prepare(&scene, &bvh);
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
         r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
         r.set_camera(camera(0.4)).unwrap();
         assert_eq!(
@@ -293,15 +289,15 @@ fn camera_change_resets_accumulation_and_matches_a_fresh_renderer() {
         );
         // Until the worker renders again it contributes nothing.
         assert!(resolve(&r, &[&w]).iter().all(|c| *c == Rgb::ZERO));
-        r.prepare(&scene, &bvh);
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
         r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
         let moved = resolve(&r, &[&w]);
 
         let mut fresh = Renderer::new(cfg, camera(0.4)).unwrap();
         let mut fw = RenderWorker::new(&fresh, 0).unwrap();
-        fresh.prepare(&scene, &bvh);
+        prepare(&mut fresh, std::slice::from_mut(&mut fw), &scene, &bvh);
         fresh.render(&mut fw, &scene, &bvh, 16 * 12 * 4).unwrap();
-        assert_eq!(moved, resolve(&fresh, &[&fw]), "{estimator:?}");
+        assert_eq!(moved, resolve(&fresh, &[&fw]), "{:?}", estimator.kind());
     }
 }
 
@@ -309,36 +305,48 @@ fn camera_change_resets_accumulation_and_matches_a_fresh_renderer() {
 fn misuse_is_refused() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    let cfg = config(Estimator::Mlt, mlt_settings(2, 1), 2);
+    let cfg = config(cmlt(2, 1), 2);
     let mut r = Renderer::new(cfg, scene.camera).unwrap();
     assert_eq!(RenderWorker::new(&r, 2).err(), Some(RenderError::Worker));
-    let mut w = RenderWorker::new(&r, 0).unwrap();
-    assert_eq!(
-        r.render(&mut w, &scene, &bvh, 10),
-        Err(RenderError::NotPrepared)
-    );
+    let mut ws = [
+        RenderWorker::new(&r, 0).unwrap(),
+        RenderWorker::new(&r, 1).unwrap(),
+    ];
+    let w = &mut ws[0];
+    assert_eq!(r.render(w, &scene, &bvh, 10), Err(RenderError::NotPrepared));
     let wide = Camera::perspective(Mat4::IDENTITY, 60.0, FovAxis::X, 17, 12, 0.0, 1.0).unwrap();
     assert_eq!(r.set_camera(wide), Err(RenderError::Resolution));
     assert_eq!(r.camera().width(), 16);
     let other = Renderer::new(cfg, scene.camera).unwrap();
     let mut foreign = RenderWorker::new(&other, 0).unwrap();
-    r.prepare(&scene, &bvh);
+    prepare(&mut r, &mut ws, &scene, &bvh);
     assert_eq!(
         r.render(&mut foreign, &scene, &bvh, 10),
         Err(RenderError::Worker)
     );
     assert_eq!(r.resolve(&[&foreign], |_, _| {}), Err(RenderError::Worker));
+    let Estimator::Cmlt(c) = cfg.estimator else {
+        unreachable!()
+    };
+    let with = |level2| Estimator::Cmlt(CmltSettings { level2, ..c });
     for bad in [
         RendererConfig { workers: 0, ..cfg },
         RendererConfig {
-            mlt: MltSettings { k: 0, ..cfg.mlt },
+            estimator: with(Level2Settings { k: 0, ..c.level2 }),
             ..cfg
         },
         RendererConfig {
-            mlt: MltSettings {
+            estimator: with(Level2Settings {
                 lens_sigma: f32::NAN,
-                ..cfg.mlt
-            },
+                ..c.level2
+            }),
+            ..cfg
+        },
+        RendererConfig {
+            estimator: Estimator::Mlt(MltSettings {
+                n_chains: 0,
+                ..c.mlt
+            }),
             ..cfg
         },
     ] {
@@ -353,16 +361,11 @@ fn misuse_is_refused() {
 fn frames_allocate_nothing_after_setup() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for (estimator, mlt) in [
-        (Estimator::Path, mlt_settings(1, 0)),
-        (Estimator::Bdpt, mlt_settings(1, 0)),
-        (Estimator::Mlt, mlt_settings(1, 0)),
-        (Estimator::Mlt, mlt_settings(8, 4)),
-    ] {
+    for estimator in [Estimator::Path, Estimator::Bdpt, mlt(), cmlt(8, 4)] {
         let cfg = RendererConfig {
             // Unbounded depth: the renderer caps it so storage is bounded.
             settings: Settings::default(),
-            ..config(estimator, mlt, 1)
+            ..config(estimator, 1)
         };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
@@ -370,17 +373,13 @@ fn frames_allocate_nothing_after_setup() {
         let (_, n) = allocations(|| {
             for frame in 0..3 {
                 r.set_camera(camera(0.1 * frame as f32)).unwrap();
-                r.prepare(&scene, &bvh);
+                prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
                 r.resolve(&[&w], |i, c| img[i] = c).unwrap();
             }
         });
-        assert_eq!(
-            n, 0,
-            "{estimator:?} k {} m {}: {n} allocations",
-            mlt.k, mlt.m
-        );
+        assert_eq!(n, 0, "{estimator:?}: {n} allocations");
         assert!(mean(&img) > 0.0);
         // The counter does count: a fresh worker allocates.
         let (_, n) = allocations(|| RenderWorker::new(&r, 0).unwrap());
@@ -399,7 +398,7 @@ fn frame_sequence(scene: &Scene, cfg: RendererConfig, frames: usize, step: f32) 
     let mut out = Vec::new();
     for f in 0..frames {
         r.set_camera(camera(step * f as f32)).unwrap();
-        r.prepare(scene, &bvh);
+        prepare(&mut r, &mut ws, scene, &bvh);
         std::thread::scope(|s| {
             for w in ws.iter_mut() {
                 let (r, bvh) = (&r, &bvh);
@@ -427,7 +426,7 @@ fn frames_replay_bit_identically_with_any_worker_count() {
         ] {
             let cfg = RendererConfig {
                 temporal,
-                ..config(Estimator::Mlt, mlt_settings(2, 1), workers)
+                ..config(cmlt(2, 1), workers)
             };
             let a = frame_sequence(&scene, cfg, 3, 0.05);
             let b = frame_sequence(&scene, cfg, 3, 0.05);
@@ -440,7 +439,7 @@ fn frames_replay_bit_identically_with_any_worker_count() {
 #[test]
 fn temporal_switches_keep_moving_frames_right_and_steady_frames_steady() {
     let scene = room();
-    let base = config(Estimator::Mlt, mlt_settings(2, 1), 1);
+    let base = config(cmlt(2, 1), 1);
     // Moving camera: kept, re-evaluated chains give each frame the mean of
     // independent frames (same cameras) within noise.
     let independent = frame_sequence(&scene, base, 4, 0.08);
@@ -506,17 +505,14 @@ fn temporal_switches_keep_moving_frames_right_and_steady_frames_steady() {
 fn render_while_stops_when_the_host_clock_says_so() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
-        let cfg = config(estimator, mlt_settings(2, 1), 1);
-        let step = if estimator == Estimator::Mlt {
-            24
-        } else {
-            16 * 12
-        };
+    for estimator in [Estimator::Bdpt, cmlt(2, 1)] {
+        let kind = estimator.kind();
+        let cfg = config(estimator, 1);
+        let step = if kind.is_metropolis() { 24 } else { 16 * 12 };
         // A "clock" that allows three steps.
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
-        r.prepare(&scene, &bvh);
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
         let mut asked = 0;
         let done = r
             .render_while(&mut w, &scene, &bvh, 100 * step, |_| {
@@ -524,19 +520,19 @@ fn render_while_stops_when_the_host_clock_says_so() {
                 asked < 3
             })
             .unwrap();
-        assert_eq!(done, 3 * step, "{estimator:?}");
+        assert_eq!(done, 3 * step, "{kind:?}");
         let timed = resolve(&r, &[&w]);
         // The same as rendering those units at once.
         let mut r2 = Renderer::new(cfg, scene.camera).unwrap();
         let mut w2 = RenderWorker::new(&r2, 0).unwrap();
-        r2.prepare(&scene, &bvh);
+        prepare(&mut r2, std::slice::from_mut(&mut w2), &scene, &bvh);
         r2.render(&mut w2, &scene, &bvh, 3 * step).unwrap();
-        assert_eq!(timed, resolve(&r2, &[&w2]), "{estimator:?}");
+        assert_eq!(timed, resolve(&r2, &[&w2]), "{kind:?}");
     }
 }
 
 /// Moving a mesh between frames (`Scene::update_mesh` + `Bvh::refit`):
-/// `render` refuses the updated scene until `prepare`, which starts a new
+/// `render` refuses the updated scene until preparing, which starts a new
 /// frame on its own — the same image as a fresh renderer on the moved
 /// scene (fixed sequences, b window restarted although the camera stayed);
 /// with kept chains the chains are re-evaluated and the mean agrees.
@@ -555,50 +551,51 @@ fn scene_update_starts_a_frame_and_matches_a_fresh_renderer() {
         .iter()
         .map(|p| *p * Vec3::new(1.5, 1.0, 1.5) + Vec3::Y * 0.01)
         .collect();
-    for estimator in [Estimator::Bdpt, Estimator::Mlt] {
-        for keep_chains in [false, true] {
-            let mut scene = scene.clone();
-            let mut bvh = bvh.clone();
-            let cfg = RendererConfig {
-                temporal: Temporal {
-                    fixed_sequence: true,
-                    keep_chains,
-                    b_window: 4,
-                },
-                ..config(estimator, mlt_settings(1, 0), 1)
-            };
-            let mut r = Renderer::new(cfg, scene.camera).unwrap();
-            let mut w = RenderWorker::new(&r, 0).unwrap();
-            r.prepare(&scene, &bvh);
-            r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
-            let before = resolve(&r, &[&w]);
+    for (estimator, keep_chains) in [(Estimator::Bdpt, false), (mlt(), false), (mlt(), true)] {
+        let kind = estimator.kind();
+        let mut scene = scene.clone();
+        let mut bvh = bvh.clone();
+        let metropolis = kind.is_metropolis();
+        // Kept chains and the b window are Metropolis switches.
+        let cfg = RendererConfig {
+            temporal: Temporal {
+                fixed_sequence: true,
+                keep_chains,
+                b_window: if metropolis { 4 } else { 0 },
+            },
+            ..config(estimator, 1)
+        };
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+        let before = resolve(&r, &[&w]);
 
-            scene.update_mesh(1, &sphere, None).unwrap();
-            scene.update_mesh(2, &light, None).unwrap();
-            bvh.refit(|p| scene.triangle(p));
-            assert_eq!(
-                r.render(&mut w, &scene, &bvh, 1),
-                Err(RenderError::NotPrepared)
-            );
-            let frame = r.frame();
-            r.prepare(&scene, &bvh);
-            assert_eq!(r.frame(), frame + 1, "the update started a frame");
-            r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
-            let after = resolve(&r, &[&w]);
-            assert_ne!(before, after);
+        scene.update_mesh(1, &sphere, None).unwrap();
+        scene.update_mesh(2, &light, None).unwrap();
+        bvh.refit(|p| scene.triangle(p));
+        assert_eq!(
+            r.render(&mut w, &scene, &bvh, 1),
+            Err(RenderError::NotPrepared)
+        );
+        let frame = r.frame();
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        assert_eq!(r.frame(), frame + 1, "the update started a frame");
+        r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+        let after = resolve(&r, &[&w]);
+        assert_ne!(before, after);
 
-            let mut fresh = Renderer::new(cfg, scene.camera).unwrap();
-            let mut fw = RenderWorker::new(&fresh, 0).unwrap();
-            fresh.prepare(&scene, &bvh);
-            fresh.render(&mut fw, &scene, &bvh, 16 * 12 * 4).unwrap();
-            let want = resolve(&fresh, &[&fw]);
-            assert_eq!(r.b(), fresh.b(), "{estimator:?}: b window restarted");
-            if keep_chains && estimator == Estimator::Mlt {
-                let (a, b) = (mean(&after), mean(&want));
-                assert!((a / b - 1.0).abs() < 0.05, "kept chains: {a} vs {b}");
-            } else {
-                assert_eq!(after, want, "{estimator:?}, keep {keep_chains}");
-            }
+        let mut fresh = Renderer::new(cfg, scene.camera).unwrap();
+        let mut fw = RenderWorker::new(&fresh, 0).unwrap();
+        prepare(&mut fresh, std::slice::from_mut(&mut fw), &scene, &bvh);
+        fresh.render(&mut fw, &scene, &bvh, 16 * 12 * 4).unwrap();
+        let want = resolve(&fresh, &[&fw]);
+        assert_eq!(r.b(), fresh.b(), "{kind:?}: b window restarted");
+        if keep_chains {
+            let (a, b) = (mean(&after), mean(&want));
+            assert!((a / b - 1.0).abs() < 0.05, "kept chains: {a} vs {b}");
+        } else {
+            assert_eq!(after, want, "{kind:?}, keep {keep_chains}");
         }
     }
     // A bad update changes nothing.
@@ -613,11 +610,15 @@ fn scene_update_starts_a_frame_and_matches_a_fresh_renderer() {
     bvh.refit(|p| scene.triangle(p));
 }
 
-/// Renders `frames` frames of `cfg` (camera yawing by 0.05 per frame, each
-/// worker `per_pixel` mutations per pixel), the bootstrap spread over the
-/// workers' threads (`begin_prepare`, `prepare_worker`, `finish_prepare`)
-/// or run by `prepare` on this thread; returns each frame's image and b.
-fn split_frames(scene: &Scene, cfg: RendererConfig, split: bool) -> Vec<(Vec<Rgb>, f64)> {
+/// One frame of [`split_frames`]: the image, b and the bootstrap.
+type Frame = (Vec<Rgb>, f64, Bootstrap);
+
+/// Renders three frames of `cfg` (camera yawing by 0.05 per frame, each
+/// worker 2 mutations per pixel), the bootstrap's shares evaluated on the
+/// workers' own threads (`threads`) or one after the other on this thread
+/// and joined in reverse worker order; returns each frame's image, b and
+/// bootstrap.
+fn split_frames(scene: &Scene, cfg: RendererConfig, threads: bool) -> Vec<Frame> {
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     let mut r = Renderer::new(cfg, camera(0.0)).unwrap();
     let mut ws: Vec<RenderWorker> = (0..cfg.workers)
@@ -626,61 +627,80 @@ fn split_frames(scene: &Scene, cfg: RendererConfig, split: bool) -> Vec<(Vec<Rgb
     let mut out = Vec::new();
     for f in 0..3 {
         r.set_camera(camera(0.05 * f as f32)).unwrap();
-        if split {
-            assert_eq!(r.begin_prepare(scene), cfg.estimator.is_metropolis());
+        assert_eq!(r.begin_prepare(scene), cfg.estimator.is_metropolis());
+        if threads {
             std::thread::scope(|s| {
                 for w in ws.iter_mut() {
                     let (r, bvh) = (&r, &bvh);
                     s.spawn(move || r.prepare_worker(w, scene, bvh).unwrap());
                 }
             });
-            let refs: Vec<&RenderWorker> = ws.iter().rev().collect();
-            r.finish_prepare(&refs).unwrap();
         } else {
-            r.prepare(scene, &bvh);
+            for w in ws.iter_mut() {
+                r.prepare_worker(w, scene, &bvh).unwrap();
+            }
         }
+        r.finish_prepare(ws.iter().rev()).unwrap();
         for w in ws.iter_mut() {
             let steps = r.steps_for(w.index(), 2);
             r.render_steps(w, scene, &bvh, steps).unwrap();
         }
         let refs: Vec<&RenderWorker> = ws.iter().collect();
-        out.push((resolve(&r, &refs), r.b()));
+        out.push((resolve(&r, &refs), r.b(), r.bootstrap().clone()));
     }
     out
 }
 
+/// The bootstrap is a function of the frame, not of how it is split: 1,
+/// 2 and 3 workers (uneven shares), on their own threads or on one, give
+/// the same bootstrap bit for bit, and the same image for the same split.
 #[test]
-fn bootstrap_spread_over_workers_equals_prepare_bit_for_bit() {
+fn bootstrap_is_the_same_for_every_split_over_workers() {
     let scene = room();
     // An odd number of passes and of bootstrap samples per worker: uneven
     // shares.
-    let mlt = MltSettings {
-        n_bootstrap: 333,
-        b_passes: 5,
-        b_min_samples: 0,
-        ..mlt_settings(2, 1)
+    let Estimator::Cmlt(c) = cmlt(2, 1) else {
+        unreachable!()
     };
-    for workers in [1, 2, 3] {
-        for temporal in [
-            Temporal::default(),
-            Temporal {
-                keep_chains: true,
-                b_window: 2,
-                fixed_sequence: false,
-            },
-        ] {
+    let estimator = Estimator::Cmlt(CmltSettings {
+        mlt: MltSettings {
+            n_bootstrap: 333,
+            b_passes: 5,
+            b_min_samples: 0,
+            ..c.mlt
+        },
+        ..c
+    });
+    for temporal in [
+        Temporal::default(),
+        Temporal {
+            keep_chains: true,
+            b_window: 2,
+            fixed_sequence: false,
+        },
+    ] {
+        let boots = |frames: &[Frame]| -> Vec<(f64, Bootstrap)> {
+            frames
+                .iter()
+                .map(|(_, b, boot)| (*b, boot.clone()))
+                .collect()
+        };
+        let mut first = None;
+        for workers in [1, 2, 3] {
             let cfg = RendererConfig {
                 temporal,
-                ..config(Estimator::Cmlt, mlt, workers)
+                ..config(estimator, workers)
             };
             let spread = split_frames(&scene, cfg, true);
             let one = split_frames(&scene, cfg, false);
-            assert!(spread.iter().all(|(_, b)| *b > 0.0));
+            assert!(spread.iter().all(|(_, b, _)| *b > 0.0));
             assert_eq!(spread, one, "{workers} workers, {temporal:?}");
+            let first = first.get_or_insert_with(|| boots(&spread));
+            assert_eq!(&boots(&spread), first, "{workers} workers, {temporal:?}");
         }
     }
     // PT has no bootstrap: `begin_prepare` readies the renderer at once.
-    let cfg = config(Estimator::Path, mlt, 2);
+    let cfg = config(Estimator::Path, 2);
     assert_eq!(
         split_frames(&scene, cfg, true),
         split_frames(&scene, cfg, false)
@@ -691,15 +711,24 @@ fn bootstrap_spread_over_workers_equals_prepare_bit_for_bit() {
 fn bootstrap_shares_allocate_nothing_and_all_are_needed() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    let cfg = config(Estimator::Mlt, mlt_settings(1, 0), 2);
+    let cfg = config(mlt(), 2);
     let mut r = Renderer::new(cfg, scene.camera).unwrap();
     let mut w0 = RenderWorker::new(&r, 0).unwrap();
     let mut w1 = RenderWorker::new(&r, 1).unwrap();
-    // One share missing: refused, and the renderer is not ready.
+    // One share missing, or one twice: refused, and the renderer is not
+    // ready.
     assert!(r.begin_prepare(&scene));
     r.prepare_worker(&mut w0, &scene, &bvh).unwrap();
     assert_eq!(
-        r.finish_prepare(&[&w0]),
+        r.finish_prepare([&w0]),
+        Err(RenderError::BootstrapIncomplete)
+    );
+    assert_eq!(
+        r.finish_prepare([&w0, &w1]),
+        Err(RenderError::BootstrapIncomplete)
+    );
+    assert_eq!(
+        r.finish_prepare([&w0, &w0]),
         Err(RenderError::BootstrapIncomplete)
     );
     assert_eq!(
@@ -721,7 +750,7 @@ fn bootstrap_shares_allocate_nothing_and_all_are_needed() {
                 r.prepare_worker(&mut w0, &scene, &bvh).unwrap();
             }
             r.prepare_worker(&mut w1, &scene, &bvh).unwrap();
-            r.finish_prepare(&[&w0, &w1]).unwrap();
+            r.finish_prepare([&w0, &w1]).unwrap();
             // Ready: nothing more to do until the next frame.
             assert!(!r.begin_prepare(&scene));
             r.render(&mut w0, &scene, &bvh, 16 * 12).unwrap();
@@ -739,19 +768,91 @@ fn per_pixel_budgets_split_into_each_workers_steps() {
     let scene = room();
     let pixels = 16 * 12;
     // PT and BDPT: passes i, i + W, … below n.
-    let r = Renderer::new(config(Estimator::Bdpt, mlt_settings(1, 0), 3), scene.camera).unwrap();
+    let r = Renderer::new(config(Estimator::Bdpt, 3), scene.camera).unwrap();
     let steps: Vec<u64> = (0..3).map(|i| r.steps_for(i, 5)).collect();
     assert_eq!(steps, [2, 2, 1]);
     assert_eq!(r.steps_for(2, 2), 0);
     // MLT: the same number of rounds on every worker, enough for n
     // mutations per pixel over all chains (24 per worker).
-    let r = Renderer::new(config(Estimator::Mlt, mlt_settings(1, 0), 2), scene.camera).unwrap();
+    let r = Renderer::new(config(mlt(), 2), scene.camera).unwrap();
     assert_eq!(r.steps_for(0, 3), (3 * pixels as u64).div_ceil(48));
     assert_eq!(r.steps_for(1, 3), r.steps_for(0, 3));
     assert_eq!(r.steps_for(0, 0), 0);
     // CMLT without side chains is refused.
     assert!(matches!(
-        Renderer::new(config(Estimator::Cmlt, mlt_settings(1, 0), 1), scene.camera),
+        Renderer::new(config(cmlt(1, 0), 1), scene.camera),
         Err(RenderError::Config(_))
     ));
+}
+
+/// Settings an estimator does not read are refused, not ignored: the
+/// Metropolis frame switches for PT and BDPT.
+#[test]
+fn switches_the_estimator_does_not_read_are_refused() {
+    let scene = room();
+    for estimator in [Estimator::Path, Estimator::Bdpt] {
+        for temporal in [
+            Temporal {
+                keep_chains: true,
+                ..Temporal::default()
+            },
+            Temporal {
+                b_window: 2,
+                ..Temporal::default()
+            },
+        ] {
+            let cfg = RendererConfig {
+                temporal,
+                ..config(estimator, 1)
+            };
+            let Err(RenderError::Config(m)) = Renderer::new(cfg, scene.camera) else {
+                panic!("{estimator:?} accepted {temporal:?}");
+            };
+            assert!(m.contains("MLT and CMLT only"), "{m}");
+            assert_eq!(
+                Renderer::memory_bound(&cfg, 16, 12),
+                Err(RenderError::Config(m))
+            );
+        }
+        // A fixed sequence applies to every estimator.
+        let fixed = RendererConfig {
+            temporal: Temporal {
+                fixed_sequence: true,
+                ..Temporal::default()
+            },
+            ..config(estimator, 1)
+        };
+        assert!(Renderer::new(fixed, scene.camera).is_ok());
+    }
+}
+
+/// One depth limit: an unbounded depth renders at `depth_cap` for every
+/// estimator — the same image as asking for that depth — and a bounded one
+/// ignores the cap.
+#[test]
+fn unbounded_depth_renders_at_the_depth_cap_for_every_estimator() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [Estimator::Path, Estimator::Bdpt, mlt(), cmlt(1, 1)] {
+        let image = |max_depth, depth_cap| {
+            let cfg = RendererConfig {
+                settings: Settings {
+                    max_depth,
+                    ..settings()
+                },
+                depth_cap,
+                ..config(estimator, 1)
+            };
+            let mut r = Renderer::new(cfg, scene.camera).unwrap();
+            assert_eq!(r.config().settings.max_depth, Some(cfg.max_depth()));
+            let mut w = RenderWorker::new(&r, 0).unwrap();
+            prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+            r.render(&mut w, &scene, &bvh, 16 * 12 * 2).unwrap();
+            resolve(&r, &[&w])
+        };
+        let kind = estimator.kind();
+        let capped = image(None, 3);
+        assert_eq!(capped, image(Some(3), 40), "{kind:?}");
+        assert_ne!(capped, image(None, 4), "{kind:?}: the cap is read");
+    }
 }

@@ -6,12 +6,13 @@
 //! with f from Oren and Nayar's published formula evaluated here in f64,
 //! independently of the core's code.
 
-use cmlt::integrator::{Estimator, Settings};
+use cmlt::integrator::Settings;
 use cmlt::math::{Rgb, Vec3};
+use cmlt::renderer::Estimator;
 use cmlt::scene::{Effect, Light, Material, MaterialKind, Scene, SceneBuilder, Texture};
 
 use super::lights::{
-    assert_image, assert_quadrants, expected_on_plane, mlt_settings, plane, render, render_mlt,
+    assert_image, assert_quadrants, cmlt, expected_on_plane, mlt, plane, render, render_mlt,
 };
 use crate::common;
 
@@ -119,9 +120,9 @@ fn sunlit_rough_plane_mlt_and_cmlt() {
     let (scene, expected) = sunlit_rough_plane(false);
     // The mean converges fast; the quadrants, which also see where the
     // chains spent their time, more slowly.
-    let (img, _) = render_mlt(&scene, &mlt_settings(0, 0), 1024);
+    let (img, _) = render_mlt(&scene, mlt(), 1024);
     assert_quadrants("MLT", &img, &expected, 0.01, 0.05);
-    let (img, r) = render_mlt(&scene, &mlt_settings(4, 2), 1024);
-    assert!(r.stats.mutations > 0);
+    let (img, r) = render_mlt(&scene, cmlt(4, 2), 1024);
+    assert!(r.stats.mlt.mutations > 0);
     assert_quadrants("CMLT", &img, &expected, 0.01, 0.05);
 }

@@ -13,8 +13,8 @@ use cmlt::accel::Intersector;
 use cmlt::accel::bvh::Bvh;
 use cmlt::geometry::{Hit, Ray};
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{
     Material, MaterialId, MaterialKind, SHAPE_PRIM_BIT, Scene, SceneBuilder, SceneError,
     ShapeGroup, ShapePoint, ShapeSurface,
@@ -108,38 +108,46 @@ impl Intersector for Host {
     }
 }
 
-const ALL: [Estimator; 3] = [Estimator::Path, Estimator::Bdpt, Estimator::Mlt];
-
-/// Renders `scene` through `host` with `estimator` (MLT with level 2 when
-/// `cmlt`), returning the image and statistics.
-fn render(
-    scene: &Scene,
-    host: &Host,
-    estimator: Estimator,
-    cmlt: bool,
-    budget_per_pixel: u64,
-) -> (Vec<Rgb>, RenderStats) {
+/// PT, BDPT, MLT and CMLT (k = 4, m = 2, side chains on every path).
+fn all() -> [Estimator; 4] {
     let mlt = MltSettings {
         n_bootstrap: 8_000,
         b_passes: 64,
         b_min_samples: 0,
         n_chains: 64,
-        k: if cmlt { 4 } else { 1 },
-        m: if cmlt { 2 } else { 0 },
         ..MltSettings::default()
     };
+    let level2 = Level2Settings {
+        k: 4,
+        m: 2,
+        lens_sigma: 2.0,
+        side_chain_min_depth: 0,
+        ..Level2Settings::default()
+    };
+    [
+        Estimator::Path,
+        Estimator::Bdpt,
+        Estimator::Mlt(mlt),
+        Estimator::Cmlt(CmltSettings { mlt, level2 }),
+    ]
+}
+
+/// Renders `scene` through `host` with `estimator`, returning the image
+/// and statistics.
+fn render(
+    scene: &Scene,
+    host: &Host,
+    estimator: Estimator,
+    budget_per_pixel: u64,
+) -> (Vec<Rgb>, RenderStats) {
     let config = RendererConfig {
         estimator,
-        settings: Default::default(),
-        mlt,
         seed: 3,
-        workers: 1,
-        temporal: Temporal::default(),
-        all_effects: false,
+        ..RendererConfig::default()
     };
     let mut r = Renderer::new(config, scene.camera).unwrap();
     let mut w = RenderWorker::new(&r, 0).unwrap();
-    r.prepare(scene, host);
+    common::prepare(&mut r, std::slice::from_mut(&mut w), scene, host);
     let (width, height) = (scene.camera.width(), scene.camera.height());
     let pixels = (width * height) as u64;
     r.render(&mut w, scene, host, budget_per_pixel * pixels)
@@ -187,19 +195,15 @@ fn lossless_analytic_spheres_keep_the_furnace_at_two() {
             a.effects.contains(cmlt::scene::Effect::Refraction) == (what == "glass"),
             "{what}: the shape's material counts in the analysis"
         );
-        for estimator in ALL {
-            for cmlt in [false, true] {
-                if cmlt && estimator != Estimator::Mlt {
-                    continue;
-                }
-                let (img, stats) = render(&scene, &host, estimator, cmlt, 192);
-                assert_eq!(stats.nonfinite, 0);
-                let m = mean(&img);
-                assert!(
-                    (m - 2.0).abs() < 0.02 * 2.0,
-                    "{what}, {estimator:?} (cmlt {cmlt}): furnace mean {m}, expected 2"
-                );
-            }
+        for estimator in all() {
+            let (img, stats) = render(&scene, &host, estimator, 192);
+            assert_eq!(stats.nonfinite, 0);
+            let m = mean(&img);
+            let kind = estimator.kind();
+            assert!(
+                (m - 2.0).abs() < 0.02 * 2.0,
+                "{what}, {kind:?}: furnace mean {m}, expected 2"
+            );
         }
     }
 }
@@ -224,13 +228,15 @@ fn convex_diffuse_sphere_reflects_albedo_times_radiance() {
         "the sphere covers {} pixels",
         covered.len()
     );
-    for estimator in ALL {
-        let (img, stats) = render(&scene, &host, estimator, false, 1024);
+    // PT, BDPT and MLT.
+    for estimator in &all()[..3] {
+        let (img, stats) = render(&scene, &host, *estimator, 1024);
         assert_eq!(stats.nonfinite, 0);
         let sphere: f32 = covered.iter().map(|&i| img[i].g).sum::<f32>() / covered.len() as f32;
         assert!(
             (sphere - rho).abs() < 0.03 * rho,
-            "{estimator:?}: sphere pixels {sphere}, expected {rho}"
+            "{:?}: sphere pixels {sphere}, expected {rho}",
+            estimator.kind()
         );
     }
 }
@@ -288,12 +294,15 @@ fn invalid_host_points_scatter_nothing_and_never_reach_the_film() {
         };
         assert_eq!(scene.hit_point(&hit), None, "breakage {k}");
         let host = Host::new(&scene, spheres);
-        for estimator in ALL {
-            let (img, stats) = render(&scene, &host, estimator, true, 16);
-            assert_eq!(stats.nonfinite, 0, "breakage {k}, {estimator:?}");
+        // PT, BDPT and CMLT.
+        let [pt, bdpt, _, cmlt] = all();
+        for estimator in [pt, bdpt, cmlt] {
+            let kind = estimator.kind();
+            let (img, stats) = render(&scene, &host, estimator, 16);
+            assert_eq!(stats.nonfinite, 0, "breakage {k}, {kind:?}");
             assert!(img.iter().all(|c| c.is_finite()));
             // The sphere renders black, the walls still see the furnace.
-            assert!(mean(&img) > 0.5, "breakage {k}, {estimator:?}");
+            assert!(mean(&img) > 0.5, "breakage {k}, {kind:?}");
         }
     }
 }

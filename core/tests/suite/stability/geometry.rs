@@ -159,7 +159,7 @@ fn closed_box_around_the_camera_is_black_with_the_light_outside() {
             // cube, 5·10⁻⁵ for the UV sphere.
             let r = render(what, &scene, m, Some(6), 8);
             r.assert_finite().assert_black();
-            if m == Estimator::Mlt || m == Estimator::Cmlt {
+            if m == EstimatorKind::Mlt || m == EstimatorKind::Cmlt {
                 assert_eq!(r.stats.b, 0.0, "{}", r.what);
                 assert_eq!(r.stats.mlt.chains, 0, "{}", r.what);
             }

@@ -4,7 +4,7 @@
 
 use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
-use cmlt::mlt::MltSettings;
+use cmlt::mlt::{Level2Settings, MltSettings};
 use cmlt::renderer::{RenderError, RendererConfig};
 use cmlt::scene::{
     CameraError, ConductorFresnel, Distribution, Material, MaterialKind, Mesh, SceneBuilder,
@@ -304,128 +304,35 @@ use glam::Vec4;
 #[test]
 fn renderer_config_rejects_out_of_range_values_and_stays_usable() {
     let scene = furnace();
-    let good = config(Estimator::Cmlt, Some(8));
+    let good = config(EstimatorKind::Cmlt, Some(8));
     let before = render_cfg("before", &scene, good, 4);
     before.assert_finite();
-    let m = good.mlt;
+    let level1 = |f: fn(&mut MltSettings)| with_mlt(good, f);
+    let level2 = |f: fn(&mut Level2Settings)| with_level2(good, f);
+    let unbounded = |depth_cap| RendererConfig {
+        depth_cap,
+        settings: Settings {
+            max_depth: None,
+            ..good.settings
+        },
+        ..good
+    };
     let bad: Vec<(&str, RendererConfig)> = vec![
         ("no workers", RendererConfig { workers: 0, ..good }),
-        (
-            "k = 0",
-            RendererConfig {
-                mlt: MltSettings { k: 0, ..m },
-                ..good
-            },
-        ),
-        (
-            "k = 65",
-            RendererConfig {
-                mlt: MltSettings { k: 65, ..m },
-                ..good
-            },
-        ),
-        (
-            "σ = 0",
-            RendererConfig {
-                mlt: MltSettings { sigma: 0.0, ..m },
-                ..good
-            },
-        ),
-        (
-            "σ NaN",
-            RendererConfig {
-                mlt: MltSettings {
-                    sigma: f32::NAN,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "σ > 1",
-            RendererConfig {
-                mlt: MltSettings { sigma: 1.5, ..m },
-                ..good
-            },
-        ),
-        (
-            "large step NaN",
-            RendererConfig {
-                mlt: MltSettings {
-                    large_step_prob: f32::NAN,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "large step 2",
-            RendererConfig {
-                mlt: MltSettings {
-                    large_step_prob: 2.0,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "no chains",
-            RendererConfig {
-                mlt: MltSettings { n_chains: 0, ..m },
-                ..good
-            },
-        ),
-        (
-            "lens σ Inf",
-            RendererConfig {
-                mlt: MltSettings {
-                    lens_sigma: f32::INFINITY,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "lens σ 0",
-            RendererConfig {
-                mlt: MltSettings {
-                    lens_sigma: 0.0,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "caustic scale NaN",
-            RendererConfig {
-                mlt: MltSettings {
-                    caustic_scale: f32::NAN,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "no bootstrap samples",
-            RendererConfig {
-                mlt: MltSettings {
-                    n_bootstrap: 0,
-                    ..m
-                },
-                ..good
-            },
-        ),
-        (
-            "depth cap 0, unbounded",
-            RendererConfig {
-                mlt: MltSettings { depth_cap: 0, ..m },
-                settings: Settings {
-                    max_depth: None,
-                    ..good.settings
-                },
-                ..good
-            },
-        ),
+        ("k = 0", level2(|l| l.k = 0)),
+        ("k = 65", level2(|l| l.k = 65)),
+        ("m = 0", level2(|l| l.m = 0)),
+        ("σ = 0", level1(|m| m.sigma = 0.0)),
+        ("σ NaN", level1(|m| m.sigma = f32::NAN)),
+        ("σ > 1", level1(|m| m.sigma = 1.5)),
+        ("large step NaN", level1(|m| m.large_step_prob = f32::NAN)),
+        ("large step 2", level1(|m| m.large_step_prob = 2.0)),
+        ("no chains", level1(|m| m.n_chains = 0)),
+        ("lens σ Inf", level2(|l| l.lens_sigma = f32::INFINITY)),
+        ("lens σ 0", level2(|l| l.lens_sigma = 0.0)),
+        ("caustic scale NaN", level2(|l| l.caustic_scale = f32::NAN)),
+        ("no bootstrap samples", level1(|m| m.n_bootstrap = 0)),
+        ("depth cap 0, unbounded", unbounded(0)),
         (
             "depth u32::MAX",
             RendererConfig {
@@ -436,36 +343,21 @@ fn renderer_config_rejects_out_of_range_values_and_stays_usable() {
                 ..good
             },
         ),
-        (
-            "depth cap u32::MAX",
-            RendererConfig {
-                mlt: MltSettings {
-                    depth_cap: u32::MAX,
-                    ..m
-                },
-                settings: Settings {
-                    max_depth: None,
-                    ..good.settings
-                },
-                ..good
-            },
-        ),
+        ("depth cap u32::MAX", unbounded(u32::MAX)),
     ];
     for (what, cfg) in &bad {
-        for estimator in [
-            cmlt::renderer::Estimator::Path,
-            cmlt::renderer::Estimator::Mlt,
-        ] {
-            if estimator == cmlt::renderer::Estimator::Path
-                && !what.starts_with("depth")
-                && !what.starts_with("no workers")
-            {
-                continue; // MLT settings only matter to MLT
-            }
-            let cfg = RendererConfig { estimator, ..*cfg };
-            match Renderer::new(cfg, scene.camera) {
-                Err(RenderError::Config(msg)) => assert!(!msg.is_empty()),
-                other => panic!("{what} ({estimator:?}): {:?}", other.err()),
+        match Renderer::new(*cfg, scene.camera) {
+            Err(RenderError::Config(msg)) => assert!(!msg.is_empty()),
+            other => panic!("{what}: {:?}", other.err()),
+        }
+        // The depth limit and the worker count are every estimator's.
+        if what.starts_with("depth") || what.starts_with("no workers") {
+            for estimator in [Estimator::Path, Estimator::Mlt(small_mlt())] {
+                let cfg = RendererConfig { estimator, ..*cfg };
+                match Renderer::new(cfg, scene.camera) {
+                    Err(RenderError::Config(msg)) => assert!(!msg.is_empty()),
+                    other => panic!("{what} ({estimator:?}): {:?}", other.err()),
+                }
             }
         }
     }

@@ -39,14 +39,14 @@ fn lights_touching_walls_and_corners_keep_the_furnace_at_two() {
 /// Checks that every method's mean agrees with the first's (BDPT at a
 /// larger budget) to `tol`.
 fn assert_methods_agree(what: &str, scene: &Scene, max_depth: Option<u32>, upp: u64, tol: f64) {
-    let reference = render(what, scene, Estimator::Bdpt, max_depth, 4 * upp);
+    let reference = render(what, scene, EstimatorKind::Bdpt, max_depth, 4 * upp);
     reference.assert_finite();
     let m0 = reference.mean();
     assert!(m0 > 0.0, "{what}: the reference is black");
     for m in ALL {
         let r = render(what, scene, m, max_depth, upp);
         r.assert_finite();
-        let t = if matches!(m, Estimator::Mlt | Estimator::Cmlt) {
+        let t = if matches!(m, EstimatorKind::Mlt | EstimatorKind::Cmlt) {
             2.0 * tol
         } else {
             tol
@@ -274,7 +274,7 @@ fn light_invisible_to_the_camera() {
             hide_emitters: true,
             ..Settings::default()
         },
-        ..config(Estimator::Cmlt, None)
+        ..config(EstimatorKind::Cmlt, None)
     };
     render_cfg("invisible light, hidden emitters", &scene, hidden, 16).assert_finite();
 }

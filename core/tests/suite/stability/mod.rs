@@ -36,12 +36,14 @@ use crate::common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec3};
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::{
+    Estimator, EstimatorKind, RenderStats, RenderWorker, Renderer, RendererConfig,
+};
 use cmlt::scene::{Camera, FovAxis, Material, MaterialId, Mesh, Scene, SceneBuilder};
 
-/// Every estimator (CMLT is MLT with level 2, `m > 0`).
-pub const ALL: [Estimator; 4] = Estimator::ALL;
+/// Every estimator (CMLT is MLT with level 2).
+pub const ALL: [EstimatorKind; 4] = EstimatorKind::ALL;
 
 /// Small MLT settings: a few hundred bootstrap samples, two normalisation
 /// passes, 32 chains.
@@ -56,29 +58,52 @@ pub fn small_mlt() -> MltSettings {
 }
 
 /// The configuration of `method` at path depth `max_depth` (None: the
-/// renderer's cap of 32 segments).
-pub fn config(method: Estimator, max_depth: Option<u32>) -> RendererConfig {
-    let mlt = match method {
-        Estimator::Cmlt => MltSettings {
-            k: 4,
-            m: 2,
-            lens_sigma: 2.0,
-            ..small_mlt()
-        },
-        _ => small_mlt(),
+/// renderer's cap of 32 segments): MLT with [`small_mlt`], CMLT adding
+/// k = 4, m = 2, lens σ = 2 px and side chains on every path.
+pub fn config(method: EstimatorKind, max_depth: Option<u32>) -> RendererConfig {
+    let estimator = match method {
+        EstimatorKind::Path => Estimator::Path,
+        EstimatorKind::Bdpt => Estimator::Bdpt,
+        EstimatorKind::Mlt => Estimator::Mlt(small_mlt()),
+        EstimatorKind::Cmlt => Estimator::Cmlt(CmltSettings {
+            mlt: small_mlt(),
+            level2: Level2Settings {
+                k: 4,
+                m: 2,
+                lens_sigma: 2.0,
+                side_chain_min_depth: 0,
+                ..Level2Settings::default()
+            },
+        }),
     };
     RendererConfig {
-        estimator: method,
+        estimator,
         settings: Settings {
             max_depth,
             ..Settings::default()
         },
-        mlt,
         seed: 3,
-        workers: 1,
-        temporal: Default::default(),
-        all_effects: false,
+        ..RendererConfig::default()
     }
+}
+
+/// `cfg` with its level-1 settings (MLT's, CMLT's level 1) changed by `f`.
+pub fn with_mlt(mut cfg: RendererConfig, f: impl FnOnce(&mut MltSettings)) -> RendererConfig {
+    match &mut cfg.estimator {
+        Estimator::Mlt(m) => f(m),
+        Estimator::Cmlt(c) => f(&mut c.mlt),
+        other => panic!("{other:?} has no Metropolis settings"),
+    }
+    cfg
+}
+
+/// `cfg` (CMLT) with its level-2 settings changed by `f`.
+pub fn with_level2(mut cfg: RendererConfig, f: impl FnOnce(&mut Level2Settings)) -> RendererConfig {
+    match &mut cfg.estimator {
+        Estimator::Cmlt(c) => f(&mut c.level2),
+        other => panic!("{other:?} has no level 2"),
+    }
+    cfg
 }
 
 /// One finished render.
@@ -155,14 +180,18 @@ pub fn render_cfg(what: &str, scene: &Scene, cfg: RendererConfig, units_per_pixe
     let cam = scene.camera;
     let mut r = Renderer::new(cfg, cam).unwrap_or_else(|e| panic!("{what}: {e}"));
     let mut w = RenderWorker::new(&r, 0).unwrap();
-    r.prepare(scene, &bvh);
+    crate::common::prepare(&mut r, std::slice::from_mut(&mut w), scene, &bvh);
     let pixels = cam.width() as u64 * cam.height() as u64;
     r.render(&mut w, scene, &bvh, units_per_pixel * pixels)
         .unwrap();
     let mut img = vec![Rgb::ZERO; pixels as usize];
     r.resolve(&[&w], |i, c| img[i] = c).unwrap();
     Render {
-        what: format!("{what} [{:?}, m {}]", cfg.estimator, cfg.mlt.m),
+        what: format!(
+            "{what} [{:?}, m {}]",
+            cfg.estimator.kind(),
+            cfg.estimator.level2().map_or(0, |l| l.m)
+        ),
         img,
         stats: r.stats(&[&w]),
         width: cam.width() as usize,
@@ -173,7 +202,7 @@ pub fn render_cfg(what: &str, scene: &Scene, cfg: RendererConfig, units_per_pixe
 pub fn render(
     what: &str,
     scene: &Scene,
-    method: Estimator,
+    method: EstimatorKind,
     max_depth: Option<u32>,
     units_per_pixel: u64,
 ) -> Render {
@@ -184,11 +213,8 @@ pub fn render(
 
 /// Relative tolerance of a furnace mean for each method at the budgets used
 /// here (MLT's mean is its normalisation b, from two BDPT passes).
-pub fn furnace_tol(method: Estimator) -> f64 {
-    match method {
-        Estimator::Path | Estimator::Bdpt => 0.03,
-        Estimator::Mlt | Estimator::Cmlt => 0.05,
-    }
+pub fn furnace_tol(method: EstimatorKind) -> f64 {
+    if method.is_metropolis() { 0.05 } else { 0.03 }
 }
 
 /// An axis-aligned box `lo..hi` of 12 triangles over 8 shared vertices,

@@ -4,8 +4,8 @@
 //! zero. Each on a furnace (answer 2).
 
 use cmlt::math::{Rgb, Vec3};
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::RendererConfig;
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, Texture};
 
 use super::*;
@@ -29,86 +29,85 @@ fn mirror_sphere_furnace() -> Scene {
     })
 }
 
-fn cmlt(mlt: MltSettings) -> RendererConfig {
+/// CMLT with `c` at depth 12.
+fn cmlt(c: CmltSettings) -> RendererConfig {
     RendererConfig {
-        mlt,
-        ..config(Estimator::Cmlt, Some(12))
+        estimator: Estimator::Cmlt(c),
+        ..config(EstimatorKind::Cmlt, Some(12))
+    }
+}
+
+/// The stability suite's CMLT settings.
+fn base() -> CmltSettings {
+    match config(EstimatorKind::Cmlt, None).estimator {
+        Estimator::Cmlt(c) => c,
+        other => panic!("{other:?}"),
     }
 }
 
 #[test]
 fn extreme_level2_parameters_keep_the_furnace_at_two() {
     let scene = mirror_sphere_furnace();
-    let base = config(Estimator::Cmlt, None).mlt;
-    let cases: [(&str, MltSettings, u64); 10] = [
-        ("k = 1", MltSettings { k: 1, ..base }, 16),
-        (
-            "k = 64",
-            MltSettings {
-                k: 64,
-                m: 1,
-                ..base
-            },
-            2,
-        ),
-        ("m = 1", MltSettings { m: 1, ..base }, 16),
+    let base = base();
+    let (m, l2) = (base.mlt, base.level2);
+    let level2 = |level2| CmltSettings { level2, ..base };
+    let level1 = |mlt| CmltSettings { mlt, ..base };
+    let cases: [(&str, CmltSettings, u64); 10] = [
+        ("k = 1", level2(Level2Settings { k: 1, ..l2 }), 16),
+        ("k = 64", level2(Level2Settings { k: 64, m: 1, ..l2 }), 2),
+        ("m = 1", level2(Level2Settings { m: 1, ..l2 }), 16),
         (
             "m = 1000",
-            MltSettings {
-                m: 1000,
-                k: 1,
-                n_chains: 4,
-                ..base
+            CmltSettings {
+                mlt: MltSettings { n_chains: 4, ..m },
+                level2: Level2Settings {
+                    m: 1000,
+                    k: 1,
+                    ..l2
+                },
             },
             1,
         ),
         (
             "lens σ = 1e-6 px",
-            MltSettings {
+            level2(Level2Settings {
                 lens_sigma: 1e-6,
-                ..base
-            },
+                ..l2
+            }),
             8,
         ),
         (
             "caustic scale 1e-6",
-            MltSettings {
+            level2(Level2Settings {
                 caustic_scale: 1e-6,
-                ..base
-            },
+                ..l2
+            }),
             8,
         ),
-        (
-            "σ = 1e-30",
-            MltSettings {
-                sigma: 1e-30,
-                ..base
-            },
-            8,
-        ),
-        ("σ = 1", MltSettings { sigma: 1.0, ..base }, 8),
+        ("σ = 1e-30", level1(MltSettings { sigma: 1e-30, ..m }), 8),
+        ("σ = 1", level1(MltSettings { sigma: 1.0, ..m }), 8),
         (
             "large steps only",
-            MltSettings {
+            level1(MltSettings {
                 large_step_prob: 1.0,
-                ..base
-            },
+                ..m
+            }),
             8,
         ),
         (
             "small steps only",
-            MltSettings {
+            level1(MltSettings {
                 large_step_prob: 0.0,
-                ..base
-            },
+                ..m
+            }),
             8,
         ),
     ];
-    for (what, mlt, upp) in cases {
-        let r = render_cfg(what, &scene, cmlt(mlt), upp);
+    for (what, c, upp) in cases {
+        let r = render_cfg(what, &scene, cmlt(c), upp);
         r.assert_finite().assert_mean(2.0, 0.05);
         let s = r.stats.mlt;
-        assert_eq!(s.records, s.mutations * (1 + mlt.m as u64), "{what}");
+        assert_eq!(s.records, s.mutations * (1 + c.level2.m as u64), "{what}");
         assert!(s.lens_steps + s.caustic_steps > 0, "{what}: {s:?}");
     }
 }
@@ -120,13 +119,17 @@ fn extreme_level2_parameters_keep_the_furnace_at_two() {
 #[test]
 fn multiple_try_steps_with_only_zero_candidates() {
     let scene = mirror_sphere_furnace();
-    let mlt = MltSettings {
-        lens_sigma: 1e6,
-        k: 8,
-        m: 2,
-        ..config(Estimator::Cmlt, None).mlt
+    let c = base();
+    let c = CmltSettings {
+        level2: Level2Settings {
+            lens_sigma: 1e6,
+            k: 8,
+            m: 2,
+            ..c.level2
+        },
+        ..c
     };
-    let r = render_cfg("all candidates zero", &scene, cmlt(mlt), 16);
+    let r = render_cfg("all candidates zero", &scene, cmlt(c), 16);
     r.assert_finite().assert_mean(2.0, 0.05);
     let s = r.stats.mlt;
     assert!(s.l2_candidates > 0);
@@ -143,10 +146,11 @@ fn multiple_try_steps_with_only_zero_candidates() {
 #[test]
 fn chains_started_on_zero_contribution_paths() {
     let scene = mirror_sphere_furnace();
-    for m in [Estimator::Mlt, Estimator::Cmlt] {
-        let mut cfg = config(m, Some(12));
-        cfg.mlt.n_bootstrap = 1;
-        cfg.mlt.b_passes = 4;
+    for m in [EstimatorKind::Mlt, EstimatorKind::Cmlt] {
+        let cfg = with_mlt(config(m, Some(12)), |s| {
+            s.n_bootstrap = 1;
+            s.b_passes = 4;
+        });
         let r = render_cfg("zero-contribution starts", &scene, cfg, 16);
         r.assert_finite().assert_mean(2.0, 0.05);
         assert!(r.stats.mlt.chains > 0);
@@ -170,11 +174,12 @@ fn chains_started_on_zero_contribution_paths() {
     ));
     b.set_camera(look_at(Vec3::new(0.0, 3.0, -3.0), Vec3::ZERO, 40.0, 16, 12));
     let open = b.build().unwrap();
-    let reference = render("open", &open, Estimator::Bdpt, Some(3), 64).mean();
-    for m in [Estimator::Mlt, Estimator::Cmlt] {
-        let mut cfg = config(m, Some(3));
-        cfg.mlt.n_bootstrap = 1;
-        cfg.mlt.b_passes = 8;
+    let reference = render("open", &open, EstimatorKind::Bdpt, Some(3), 64).mean();
+    for m in [EstimatorKind::Mlt, EstimatorKind::Cmlt] {
+        let cfg = with_mlt(config(m, Some(3)), |s| {
+            s.n_bootstrap = 1;
+            s.b_passes = 8;
+        });
         render_cfg("zero-contribution starts, open", &open, cfg, 16)
             .assert_finite()
             .assert_mean(reference, 0.1);
@@ -197,10 +202,12 @@ fn one_pixel_and_4096_by_16_images() {
         let what = format!("{w}×{h}");
         for m in ALL {
             let mut cfg = config(m, Some(12));
-            if w == 1 {
+            if w == 1 && m.is_metropolis() {
                 // One pixel: b comes from `b_passes` samples only.
-                cfg.mlt.n_chains = 8;
-                cfg.mlt.b_passes = 256;
+                cfg = with_mlt(cfg, |s| {
+                    s.n_chains = 8;
+                    s.b_passes = 256;
+                });
             }
             render_cfg(&what, &scene, cfg, upp)
                 .assert_finite()
