@@ -1,16 +1,18 @@
 //! `cmlt render`'s options, grouped by what they set: the scene, the
-//! estimator and its budget, the Metropolis settings, the output, the
-//! frame loop. Each group turns itself into the core's types
-//! ([`Estimator`], [`Budget`], [`MltSettings`], [`RendererConfig`]); the
-//! parsers of single values check their ranges, so a bad value is refused
-//! with a message before anything is loaded.
+//! estimator and its budget, the Metropolis settings (level 1, CMLT's
+//! level 2), the output, the frame loop. Each group turns itself into the
+//! core's types ([`Estimator`], [`Budget`], [`MltSettings`],
+//! [`Level2Settings`], [`RendererConfig`]); the parsers of single values
+//! check their ranges, so a bad value is refused with a message before
+//! anything is loaded, and so is an option the chosen `--method` does not
+//! read ([`check_method_options`]).
 
 use std::path::PathBuf;
 
-use clap::Args;
+use clap::{Args, Command};
 use cmlt::integrator::Settings;
-use cmlt::mlt::{Candidates, MltSettings, Splatting};
-use cmlt::renderer::{Budget, Estimator, RendererConfig, Temporal};
+use cmlt::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
+use cmlt::renderer::{Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
 /// always fits the clock (`inf` or 1e30 s used to panic).
@@ -32,9 +34,12 @@ pub struct RenderArgs {
     /// Which estimator, for how long, on how many threads.
     #[command(flatten)]
     pub estimator: EstimatorArgs,
-    /// MLT and CMLT settings.
+    /// MLT and CMLT settings (level 1).
     #[command(flatten)]
     pub mlt: MltArgs,
+    /// CMLT's level 2.
+    #[command(flatten)]
+    pub level2: Level2Args,
     /// Where the image goes.
     #[command(flatten)]
     pub output: OutputArgs,
@@ -98,17 +103,18 @@ pub enum AccelArg {
 pub struct EstimatorArgs {
     /// Estimator: pt (path tracing with next-event estimation and MIS),
     /// bdpt (bidirectional path tracing with MIS), mlt (primary-sample-space
-    /// Metropolis light transport over BDPT) or cmlt (coherent MLT: MLT plus
-    /// lens, caustic and multi-chain perturbations traced as packets; --k,
-    /// --m, --lens-sigma).
+    /// Metropolis light transport over BDPT: the "MLT and CMLT" options) or
+    /// cmlt (coherent MLT: MLT plus lens, caustic and multi-chain
+    /// perturbations traced as packets: also the "CMLT" options). An
+    /// option the method does not read is an error.
     #[arg(long, default_value = "pt", value_parser = parse_estimator)]
-    pub method: Estimator,
+    pub method: EstimatorKind,
     /// Samples per pixel, at least 1 (default: the scene's
     /// `sample_count`).
     #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
     pub spp: Option<u64>,
-    /// MLT: mutations per pixel over all threads, at least 1 (default:
-    /// --spp, else the scene's `sample_count`).
+    /// MLT, CMLT: mutations per pixel over all threads, at least 1
+    /// (default: --spp, else the scene's `sample_count`).
     #[arg(long, conflicts_with = "time", value_parser = clap::value_parser!(u64).range(1..))]
     pub mutations_per_pixel: Option<u64>,
     /// Render for this many seconds instead of a fixed sample count
@@ -144,82 +150,38 @@ impl EstimatorArgs {
     }
 }
 
-/// Metropolis settings (MLT and CMLT).
+/// Level-1 Metropolis settings (MLT and CMLT).
 #[derive(Args, Debug)]
 #[command(next_help_heading = "MLT and CMLT")]
 pub struct MltArgs {
-    /// MLT: Markov chains per thread.
+    /// Markov chains per thread.
     #[arg(long, default_value_t = MltSettings::default().n_chains)]
     pub chains: u32,
-    /// MLT: probability of a large step (an independent sample), in [0, 1].
+    /// Probability of a large step (an independent sample), in [0, 1].
     #[arg(long, default_value_t = MltSettings::default().large_step_prob)]
     pub large_step: f32,
-    /// MLT: width of small steps in primary sample space, in (0, 1].
+    /// Width of small steps in primary sample space, in (0, 1].
     #[arg(long, default_value_t = MltSettings::default().sigma)]
     pub sigma: f32,
-    /// MLT: bootstrap samples per path depth (the chains' starting
-    /// points).
+    /// Bootstrap samples per path depth (the chains' starting points).
     #[arg(long, default_value_t = MltSettings::default().n_bootstrap)]
     pub bootstrap: u32,
-    /// MLT: BDPT passes that estimate the normalisation b (the image's
-    /// mean luminance, which scales the whole image); 0 = estimate b
-    /// from the bootstrap samples as pbrt does.
+    /// BDPT passes that estimate the normalisation b (the image's mean
+    /// luminance, which scales the whole image); 0 = estimate b from the
+    /// bootstrap samples as pbrt does.
     #[arg(long, default_value_t = MltSettings::default().b_passes)]
     pub b_passes: u32,
-    /// MLT: least number of normalisation samples (passes × pixels): a
-    /// small image gets more passes than --b-passes (at most 1024 from
-    /// this floor), so that b's error does not grow as the image shrinks;
-    /// 0 = exactly --b-passes; at most 16777216.
+    /// Least number of normalisation samples (passes × pixels): a small
+    /// image gets more passes than --b-passes (at most 1024 from this
+    /// floor), so that b's error does not grow as the image shrinks; 0 =
+    /// exactly --b-passes; at most 16777216.
     #[arg(long, default_value_t = MltSettings::default().b_min_samples)]
     pub b_min_samples: u32,
-    /// CMLT: candidates per multiple-try step, 1..=64 (default: the
-    /// CMLT default for --method cmlt, 1 for mlt).
-    #[arg(long)]
-    pub k: Option<u32>,
-    /// CMLT: side-chain length (multiple-try steps per level-1
-    /// mutation); 0 = plain MLT (default: the CMLT default for --method
-    /// cmlt, 0 for mlt).
-    #[arg(long)]
-    pub m: Option<u32>,
-    /// CMLT: standard deviation of the lens perturbation, in pixels.
-    #[arg(long, default_value_t = MltSettings::cmlt().lens_sigma)]
-    pub lens_sigma: f32,
-    /// CMLT: the caustic perturbation's angular width as a multiple of
-    /// lens-sigma pixel angles.
-    #[arg(long, default_value_t = MltSettings::cmlt().caustic_scale)]
-    pub caustic_scale: f32,
-    /// CMLT: how the k candidates of a step are drawn: independent, or
-    /// stratified (a randomly shifted lattice).
-    #[arg(long, default_value = "stratified", value_parser = parse_candidates)]
-    pub candidates: Candidates,
-    /// CMLT: what a multiple-try step records: recycled (every candidate,
-    /// weighted by its one-proposal acceptance over k) or expected (the
-    /// selected candidate with a, the current state with 1 − a).
-    #[arg(long, default_value = "recycled", value_parser = parse_splatting)]
-    pub splatting: Splatting,
-    /// CMLT: parallel one-proposal side chains per level-1 state, traced
-    /// together as packets, 1..=64 (needs --k 1 above 1).
-    #[arg(long, default_value_t = MltSettings::cmlt().lanes)]
-    pub lanes: u32,
-    /// CMLT: paths of fewer segments get no side chain (their level-1
-    /// records carry the side chain's share instead).
-    #[arg(long, default_value_t = MltSettings::cmlt().side_chain_min_depth)]
-    pub side_chain_min_depth: u32,
-    /// CMLT: the weight of a level-1 mutation's side chain, in records of
-    /// one mutation (0 = --m).
-    #[arg(long, default_value_t = MltSettings::cmlt().share)]
-    pub share: u32,
 }
 
 impl MltArgs {
-    /// The Metropolis settings of `estimator` with these options (the
-    /// CMLT defaults for `cmlt`), checked for MLT and CMLT; the defaults
-    /// for PT and BDPT, which do not use them.
-    pub fn settings(&self, estimator: Estimator) -> Result<MltSettings, String> {
-        let base = RendererConfig::for_estimator(estimator).mlt;
-        if !estimator.is_metropolis() {
-            return Ok(base);
-        }
+    /// The level-1 settings of these options, checked.
+    pub fn settings(&self) -> Result<MltSettings, String> {
         if self.bootstrap == 0 {
             return Err("--bootstrap must be at least 1".to_string());
         }
@@ -230,8 +192,65 @@ impl MltArgs {
             n_chains: self.chains,
             large_step_prob: self.large_step,
             sigma: self.sigma,
-            k: self.k.unwrap_or(base.k),
-            m: self.m.unwrap_or(base.m),
+            ..MltSettings::default()
+        };
+        mlt.validate().map_err(|e| {
+            format!(
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {})",
+                self.large_step, self.sigma, self.chains, self.b_min_samples
+            )
+        })?;
+        Ok(mlt)
+    }
+}
+
+/// CMLT's level-2 settings (defaults: [`Level2Settings::default`], the
+/// measured ones).
+#[derive(Args, Debug)]
+#[command(next_help_heading = "CMLT")]
+pub struct Level2Args {
+    /// Candidates per multiple-try step, 1..=64.
+    #[arg(long, default_value_t = Level2Settings::default().k)]
+    pub k: u32,
+    /// Side-chain length (steps per level-1 mutation), at least 1.
+    #[arg(long, default_value_t = Level2Settings::default().m)]
+    pub m: u32,
+    /// Standard deviation of the lens perturbation, in pixels.
+    #[arg(long, default_value_t = Level2Settings::default().lens_sigma)]
+    pub lens_sigma: f32,
+    /// The caustic perturbation's angular width as a multiple of
+    /// lens-sigma pixel angles.
+    #[arg(long, default_value_t = Level2Settings::default().caustic_scale)]
+    pub caustic_scale: f32,
+    /// How the k candidates of a step are drawn: independent, or
+    /// stratified (a randomly shifted lattice).
+    #[arg(long, default_value = "stratified", value_parser = parse_candidates)]
+    pub candidates: Candidates,
+    /// What a multiple-try step records: recycled (every candidate,
+    /// weighted by its one-proposal acceptance over k) or expected (the
+    /// selected candidate with a, the current state with 1 − a).
+    #[arg(long, default_value = "recycled", value_parser = parse_splatting)]
+    pub splatting: Splatting,
+    /// Parallel one-proposal side chains per level-1 state, traced
+    /// together as packets, 1..=64 (needs --k 1 above 1).
+    #[arg(long, default_value_t = Level2Settings::default().lanes)]
+    pub lanes: u32,
+    /// Paths of fewer segments get no side chain (their level-1 records
+    /// carry the side chain's share instead).
+    #[arg(long, default_value_t = Level2Settings::default().side_chain_min_depth)]
+    pub side_chain_min_depth: u32,
+    /// The weight of a level-1 mutation's side chain, in records of one
+    /// mutation (0 = --m).
+    #[arg(long, default_value_t = Level2Settings::default().share)]
+    pub share: u32,
+}
+
+impl Level2Args {
+    /// The level-2 settings of these options, checked.
+    pub fn settings(&self) -> Result<Level2Settings, String> {
+        let l2 = Level2Settings {
+            m: self.m,
+            k: self.k,
             lens_sigma: self.lens_sigma,
             caustic_scale: self.caustic_scale,
             candidates: self.candidates,
@@ -239,16 +258,53 @@ impl MltArgs {
             lanes: self.lanes,
             side_chain_min_depth: self.side_chain_min_depth,
             share: self.share,
-            ..base
         };
-        mlt.validate().map_err(|e| {
+        l2.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --k {}, --lens-sigma {}, --caustic-scale {}, --lanes {})",
-                self.large_step, self.sigma, self.chains, mlt.k, self.lens_sigma, self.caustic_scale, self.lanes
+                "{e} (--m {}, --k {}, --lens-sigma {}, --caustic-scale {}, --lanes {})",
+                self.m, self.k, self.lens_sigma, self.caustic_scale, self.lanes
             )
         })?;
-        Ok(mlt)
+        Ok(l2)
     }
+}
+
+/// Options outside [`MltArgs`] that only MLT and CMLT read (their ids).
+const METROPOLIS_OPTIONS: [&str; 3] = ["mutations_per_pixel", "keep_chains", "b_window"];
+
+/// Refuses an option of `cmlt render` that `method` does not read, given on
+/// the command line (`given(id)` says whether the option of clap id `id`
+/// was): [`MltArgs`], `--mutations-per-pixel`, `--keep-chains` and
+/// `--b-window` are MLT's and CMLT's, [`Level2Args`] CMLT's alone. The
+/// message names the option and the method.
+pub fn check_method_options(
+    method: EstimatorKind,
+    given: impl Fn(&str) -> bool,
+) -> Result<(), String> {
+    let level1 = MltArgs::augment_args(Command::new("level 1"));
+    let level2 = Level2Args::augment_args(Command::new("level 2"));
+    let render = RenderArgs::augment_args(Command::new("render"));
+    let has = |group: &Command, id: &str| group.get_arguments().any(|a| a.get_id() == id);
+    for arg in render.get_arguments() {
+        let id = arg.get_id().as_str();
+        let readers: &[EstimatorKind] = if has(&level2, id) {
+            &[EstimatorKind::Cmlt]
+        } else if has(&level1, id) || METROPOLIS_OPTIONS.contains(&id) {
+            &[EstimatorKind::Mlt, EstimatorKind::Cmlt]
+        } else {
+            continue;
+        };
+        if !readers.contains(&method) && given(id) {
+            let names: Vec<&str> = readers.iter().map(|k| k.name()).collect();
+            return Err(format!(
+                "--{} is read by --method {} only, not by --method {}",
+                arg.get_long().unwrap_or(id),
+                names.join(" and "),
+                method.name()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Output files and reporting.
@@ -293,12 +349,12 @@ pub struct FrameArgs {
     /// Frames: total orbit angle in degrees.
     #[arg(long, default_value_t = 30.0, requires = "orbit")]
     pub orbit_degrees: f32,
-    /// Frames, MLT/CMLT: keep the chains across frames (re-evaluated
+    /// Frames, MLT and CMLT: keep the chains across frames (re-evaluated
     /// after a camera move) instead of restarting them.
     #[arg(long, requires = "frames")]
     pub keep_chains: bool,
-    /// Frames, MLT/CMLT: average b over this many frames while the camera
-    /// stays put (0 = each frame its own b; at most 64).
+    /// Frames, MLT and CMLT: average b over this many frames while the
+    /// camera stays put (0 = each frame its own b; at most 64).
     #[arg(long, default_value_t = 0, requires = "frames")]
     pub b_window: u32,
     /// Frames: reuse the same random sequences in every frame.
@@ -330,32 +386,39 @@ impl FrameArgs {
 }
 
 impl RenderArgs {
+    /// The estimator `--method` names with the settings of its options
+    /// (checked; the options it does not read are ignored here and refused
+    /// by [`check_method_options`]).
+    pub fn estimator(&self) -> Result<Estimator, String> {
+        Ok(match self.estimator.method {
+            EstimatorKind::Path => Estimator::Path,
+            EstimatorKind::Bdpt => Estimator::Bdpt,
+            EstimatorKind::Mlt => Estimator::Mlt(self.mlt.settings()?),
+            EstimatorKind::Cmlt => Estimator::Cmlt(CmltSettings {
+                mlt: self.mlt.settings()?,
+                level2: self.level2.settings()?,
+            }),
+        })
+    }
+
     /// The renderer configuration these options ask for over a scene with
     /// `settings`.
     pub fn config(&self, settings: Settings) -> Result<RendererConfig, String> {
-        let estimator = self.estimator.method;
-        let mlt = self.mlt.settings(estimator)?;
         Ok(RendererConfig {
-            // `--method mlt --m 4` runs side chains, `--method cmlt --m 0`
-            // none: the estimator follows m.
-            estimator: if estimator.is_metropolis() {
-                crate::render::metropolis(&mlt)
-            } else {
-                estimator
-            },
+            estimator: self.estimator()?,
             settings,
-            mlt,
             seed: self.estimator.seed,
             workers: self.estimator.threads() as u32,
             temporal: self.frames.temporal(),
             all_effects: self.scene.all_effects,
+            ..RendererConfig::default()
         })
     }
 }
 
-/// `--method`: `pt`, `bdpt`, `mlt` or `cmlt` ([`Estimator::name`]).
-pub fn parse_estimator(s: &str) -> Result<Estimator, String> {
-    Estimator::from_name(s)
+/// `--method`: `pt`, `bdpt`, `mlt` or `cmlt` ([`EstimatorKind::name`]).
+pub fn parse_estimator(s: &str) -> Result<EstimatorKind, String> {
+    EstimatorKind::from_name(s)
         .ok_or_else(|| format!("unknown method '{s}' (expected pt, bdpt, mlt or cmlt)"))
 }
 
@@ -440,4 +503,65 @@ pub fn parse_define(s: &str) -> Result<(String, String), String> {
 /// `threads`, or all cores.
 pub fn threads_or_all(threads: Option<usize>) -> usize {
     threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    /// `cmlt render`'s options on their own.
+    #[derive(Parser)]
+    struct Render {
+        #[command(flatten)]
+        args: RenderArgs,
+    }
+
+    /// The check over a parsed command line, as `cmlt render` runs it.
+    fn check(line: &[&str]) -> Result<(), String> {
+        let m = <Render as clap::CommandFactory>::command()
+            .try_get_matches_from(std::iter::once("render").chain(line.iter().copied()))
+            .map_err(|e| e.to_string())?;
+        let method = *m.get_one::<EstimatorKind>("method").expect("a default");
+        check_method_options(method, |id| {
+            m.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+        })
+    }
+
+    #[test]
+    fn each_method_reads_its_own_options_only() {
+        for line in [
+            &["--method", "pt", "--spp", "4"][..],
+            &["--method", "mlt", "--chains", "8", "--sigma", "0.02"],
+            &[
+                "--method",
+                "mlt",
+                "--mutations-per-pixel",
+                "4",
+                "--frames",
+                "2",
+            ],
+            &["--method", "cmlt", "--chains", "8", "--k", "4", "--m", "2"],
+            &["--method", "cmlt", "--frames", "2", "--keep-chains"],
+            &["--method", "mlt", "--chains", "256"],
+        ] {
+            assert_eq!(check(line), Ok(()), "{line:?}");
+        }
+        // An option given with its default value is still given.
+        let err = check(&["--method", "pt", "--chains", "256"]).unwrap_err();
+        assert!(err.contains("--chains is read by"), "{err}");
+        let err = check(&["--method", "mlt", "--m", "1"]).unwrap_err();
+        assert!(err.contains("--m is read by --method cmlt only"), "{err}");
+        let err = check(&["--method", "bdpt", "--b-passes", "4"]).unwrap_err();
+        assert!(err.contains("--method mlt and cmlt only"), "{err}");
+    }
+
+    #[test]
+    fn methods_map_one_to_one_to_estimators() {
+        for kind in EstimatorKind::ALL {
+            let cli = Render::parse_from(["render", "--method", kind.name()]);
+            let e = cli.args.estimator().unwrap();
+            assert_eq!(e, Estimator::default_for(kind), "{kind:?}");
+        }
+    }
 }

@@ -1,17 +1,19 @@
 //! Frame-by-frame rendering from the command line (`cmlt render --frames
 //! N --orbit`): the core's frame loop ([`cmlt::renderer`]) with one worker
-//! per thread, the camera orbiting the point it looks at, every frame
-//! written as a numbered file.
+//! per thread — [`crate::render`]'s preparation and render loop, once per
+//! frame — the camera orbiting the point it looks at, every frame written
+//! as a numbered file.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cmlt::accel::Intersector;
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::renderer::{RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::{Budget, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
+use crate::render;
 
 /// The point `camera` looks at: the first surface along its central ray,
 /// or the focus distance along the axis when that ray leaves the scene.
@@ -69,7 +71,7 @@ pub fn render_frames<I: Intersector + Sync>(
 ) -> Result<(), String> {
     let first = camera_at(0);
     // One film per worker, the resolved frame and the renderer's own.
-    crate::render::check_film_memory(first.width(), first.height(), cfg.workers as usize + 2)?;
+    render::check_film_memory(first.width(), first.height(), cfg.workers as usize + 2)?;
     let mut renderer = Renderer::new(cfg, first).map_err(|e| e.to_string())?;
     let mut workers: Vec<RenderWorker> = (0..cfg.workers)
         .map(|i| RenderWorker::new(&renderer, i))
@@ -85,23 +87,16 @@ pub fn render_frames<I: Intersector + Sync>(
         renderer
             .set_camera(camera_at(f))
             .map_err(|e| e.to_string())?;
-        crate::render::prepare(&mut renderer, &mut workers, scene, accel)?;
-        let r = &renderer;
-        std::thread::scope(|s| {
-            let handles: Vec<_> = workers
-                .iter_mut()
-                .map(|worker| {
-                    s.spawn(move || {
-                        let steps = r.steps_for(worker.index(), per_pixel);
-                        r.render_steps(worker, scene, accel, steps)
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .try_for_each(|h| h.join().expect("render thread panicked").map(|_| ()))
-        })
-        .map_err(|e| e.to_string())?;
+        render::prepare(&mut renderer, &mut workers, scene, accel)?;
+        render::render_workers(
+            &renderer,
+            &mut workers,
+            scene,
+            accel,
+            Budget::PerPixel(per_pixel),
+            None,
+            &|_| {},
+        )?;
         let refs: Vec<&RenderWorker> = workers.iter().collect();
         renderer
             .resolve(&refs, |i, c| pixels[i] = c)

@@ -9,11 +9,12 @@ use std::time::{Duration, Instant};
 
 use std::path::PathBuf;
 
-use clap::{Args, Parser, Subcommand};
+use clap::parser::ValueSource;
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cmlt::renderer::{Budget, RendererConfig};
 use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
-use cmlt_cli::args::{AccelArg, RenderArgs};
+use cmlt_cli::args::{AccelArg, RenderArgs, check_method_options};
 use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{render, render_frame_with_sums};
 use cmlt_cli::state::{self, PartState};
@@ -60,9 +61,20 @@ struct MergeArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
-        Command::Render(args) => run_render(&args),
+        Command::Render(args) => {
+            // Which options the command line gave (not their defaults):
+            // those the method does not read are refused before anything
+            // is loaded.
+            let given = matches.subcommand_matches("render").map_or(Ok(()), |m| {
+                check_method_options(args.estimator.method, |id| {
+                    m.value_source(id) == Some(ValueSource::CommandLine)
+                })
+            });
+            given.and_then(|()| run_render(&args))
+        }
         Command::Merge(args) => run_merge(&args),
     };
     match result {
@@ -159,28 +171,24 @@ fn run_single(
         .map_or("unbounded".to_string(), |d| d.to_string());
     let threads = config.workers;
     let metropolis = config.estimator.is_metropolis();
-    let mlt = &config.mlt;
-    if metropolis {
+    let level2 = config.estimator.level2();
+    if let Some(mlt) = config.estimator.mlt() {
         eprintln!(
             "scene: {} triangles, {} lights, {w}x{h}, max_depth {depth} (MLT depths 1..={}), {} on {threads} threads ({} BVH), {} chains/thread, large step {}, sigma {}, {} bootstrap samples/depth, {} b passes{} (setup {:.2} s)",
             scene.triangle_count(),
             scene.lights.len(),
-            cmlt::mlt::path_depth(&loaded.settings, mlt),
-            if mlt.m > 0 { "CMLT" } else { "MLT" },
+            config.max_depth(),
+            config.estimator.kind().name().to_uppercase(),
             accel.name(),
             mlt.n_chains,
             mlt.large_step_prob,
             mlt.sigma,
             mlt.n_bootstrap,
             mlt.normalisation_passes(u64::from(w) * u64::from(h)),
-            if mlt.m > 0 {
-                format!(
-                    ", k {} m {} lens sigma {} px, caustic scale {}, {:?} candidates, {:?} splatting",
-                    mlt.k, mlt.m, mlt.lens_sigma, mlt.caustic_scale, mlt.candidates, mlt.splatting
-                )
-            } else {
-                String::new()
-            },
+            level2.map_or(String::new(), |l2| format!(
+                ", k {} m {} lens sigma {} px, caustic scale {}, {:?} candidates, {:?} splatting",
+                l2.k, l2.m, l2.lens_sigma, l2.caustic_scale, l2.candidates, l2.splatting
+            )),
             setup.as_secs_f64()
         );
     } else {
@@ -188,7 +196,7 @@ fn run_single(
             "scene: {} triangles, {} lights, {w}x{h}, max_depth {depth}, {:?} on {threads} threads ({} BVH, setup {:.2} s)",
             scene.triangle_count(),
             scene.lights.len(),
-            config.estimator,
+            config.estimator.kind(),
             accel.name(),
             setup.as_secs_f64()
         );
@@ -225,7 +233,7 @@ fn run_single(
         .or_else(|| args.part.state.clone())
         .unwrap_or_default();
     if metropolis {
-        output::print_metropolis(&out, &shown, mlt.m > 0);
+        output::print_metropolis(&out, &shown, level2.is_some());
     } else {
         output::print_passes(&out, &shown);
     }

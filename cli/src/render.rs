@@ -3,12 +3,13 @@
 //!
 //! Threads are the host's business, not the core's: this module spawns one
 //! scoped std thread per [`RenderWorker`]. The Metropolis bootstrap is
-//! spread over them ([`Renderer::begin_prepare`], `prepare_worker`,
-//! `finish_prepare`), then each renders its share of the budget
-//! ([`Renderer::steps_for`]) and the films are merged in worker order by
-//! [`Renderer::resolve`]. For a fixed seed, per-pixel budget and thread
-//! count the image is bit-identical from run to run; the C API and
-//! `--frames` drive the same calls.
+//! spread over them ([`prepare`]: [`Renderer::begin_prepare`],
+//! `prepare_worker`, `finish_prepare`), then each renders its share of the
+//! budget ([`render_workers`], [`Renderer::steps_for`]) and the films are
+//! merged in worker order by [`Renderer::resolve`]. For a fixed seed,
+//! per-pixel budget and thread count the image is bit-identical from run
+//! to run; `--frames` ([`crate::frames`]) runs the same two functions per
+//! frame, and the C API drives the same calls.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -17,22 +18,12 @@ use cmlt::accel::Intersector;
 use cmlt::film::Film;
 use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
-use cmlt::mlt::{Bootstrap, MltSettings, MltStats};
+use cmlt::mlt::{Bootstrap, MltStats};
 pub use cmlt::renderer::Budget;
-use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::{RenderError, RenderStats, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
-
-/// The Metropolis estimator of `mlt`: CMLT when it runs side chains
-/// (m ≥ 1), MLT otherwise.
-pub fn metropolis(mlt: &MltSettings) -> Estimator {
-    if mlt.m > 0 {
-        Estimator::Cmlt
-    } else {
-        Estimator::Mlt
-    }
-}
 
 /// What a render produced and what it cost.
 pub struct RenderOutput {
@@ -152,8 +143,74 @@ pub fn prepare<I: Intersector + Sync>(
             .try_for_each(|h| h.join().expect("bootstrap thread panicked"))
     })
     .map_err(|e| e.to_string())?;
-    let refs: Vec<&RenderWorker> = workers.iter().collect();
-    renderer.finish_prepare(&refs).map_err(|e| e.to_string())
+    renderer
+        .finish_prepare(workers.iter())
+        .map_err(|e| e.to_string())
+}
+
+/// Renders every worker's share of `budget` on its own scoped thread: the
+/// CLI's one render loop (single images and `--frames`). A per-pixel budget
+/// is each worker's [`Renderer::steps_for`]; a time budget runs until
+/// `deadline`, every worker at least one step. Steps go in batches (one
+/// pass, or up to 4096 mutations' worth of rounds) between which
+/// `progress(n)` reports `n` more passes (PT, BDPT) or mutations (MLT,
+/// CMLT) and the clock is read; batches change nothing in the image.
+pub fn render_workers<I: Intersector + Sync>(
+    renderer: &Renderer,
+    workers: &mut [RenderWorker],
+    scene: &Scene,
+    accel: &I,
+    budget: Budget,
+    deadline: Option<Instant>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(), String> {
+    let mlt = renderer.config().estimator.mlt();
+    // Steps between progress reports and clock checks: one pass, or
+    // batches of rounds small enough for both and large enough to make
+    // them negligible.
+    let batch = mlt.map_or(1, |m| (4096 / m.n_chains.max(1) as u64).max(1));
+    let stop = AtomicBool::new(false);
+    let r = renderer;
+    std::thread::scope(|s| {
+        let handles: Vec<_> = workers
+            .iter_mut()
+            .map(|worker| {
+                let stop = &stop;
+                s.spawn(move || {
+                    let mut left = match budget {
+                        Budget::PerPixel(n) => r.steps_for(worker.index(), n),
+                        Budget::Seconds(_) => u64::MAX,
+                    };
+                    // A worker with no steps still starts its frame (its
+                    // film is cleared, its chains started).
+                    let mut first = true;
+                    while left > 0 || first {
+                        let k = left.min(batch);
+                        let done = r.render_steps(worker, scene, accel, k)?;
+                        first = false;
+                        if done == 0 {
+                            break;
+                        }
+                        progress(if mlt.is_some() { done } else { k });
+                        left -= k;
+                        // Time budgets: every worker renders at least one
+                        // step, so the image is never empty.
+                        if let Some(d) = deadline
+                            && (stop.load(Ordering::Relaxed) || Instant::now() >= d)
+                        {
+                            stop.store(true, Ordering::Relaxed);
+                            break;
+                        }
+                    }
+                    Ok(())
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .try_for_each(|h| h.join().expect("render thread panicked"))
+    })
+    .map_err(|e: RenderError| e.to_string())
 }
 
 /// The unscaled sums of all workers' films, layer by layer in worker
@@ -242,57 +299,16 @@ fn render_inner<I: Intersector + Sync>(
     prepare(&mut renderer, &mut workers, scene, accel)?;
     let bootstrap_wall = start.elapsed();
 
+    render_workers(
+        &renderer,
+        &mut workers,
+        scene,
+        accel,
+        budget,
+        deadline,
+        progress,
+    )?;
     let metropolis = config.estimator.is_metropolis();
-    // Steps between progress reports and clock checks: one pass, or
-    // batches of rounds small enough for both and large enough to make
-    // them negligible.
-    let batch = if metropolis {
-        (4096 / config.mlt.n_chains.max(1) as u64).max(1)
-    } else {
-        1
-    };
-    let stop = AtomicBool::new(false);
-    let r = &renderer;
-    std::thread::scope(|s| {
-        let handles: Vec<_> = workers
-            .iter_mut()
-            .map(|worker| {
-                let stop = &stop;
-                s.spawn(move || {
-                    let mut left = match budget {
-                        Budget::PerPixel(n) => r.steps_for(worker.index(), n),
-                        Budget::Seconds(_) => u64::MAX,
-                    };
-                    // A worker with no steps still starts its frame (its
-                    // film is cleared, its chains started).
-                    let mut first = true;
-                    while left > 0 || first {
-                        let k = left.min(batch);
-                        let done = r.render_steps(worker, scene, accel, k)?;
-                        first = false;
-                        if done == 0 {
-                            break;
-                        }
-                        progress(if metropolis { done } else { k });
-                        left -= k;
-                        // Time budgets: every worker renders at least one
-                        // step, so the image is never empty.
-                        if let Some(d) = deadline
-                            && (stop.load(Ordering::Relaxed) || Instant::now() >= d)
-                        {
-                            stop.store(true, Ordering::Relaxed);
-                            break;
-                        }
-                    }
-                    Ok(())
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .try_for_each(|h| h.join().expect("render thread panicked"))
-    })
-    .map_err(|e: cmlt::renderer::RenderError| e.to_string())?;
     let wall = start.elapsed();
     let refs: Vec<&RenderWorker> = workers.iter().collect();
     let mut pixels = vec![Rgb::ZERO; w as usize * h as usize];

@@ -39,7 +39,7 @@ use std::path::Path;
 
 use cmlt::math::Rgb;
 use cmlt::mlt::image_scale;
-use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt::renderer::{EstimatorKind, RendererConfig};
 use cmlt::sampler::mix64;
 
 use crate::image_io::{Image, write_atomically};
@@ -176,8 +176,8 @@ pub struct PartState {
 
 impl PartState {
     /// The estimator, parsed from its name.
-    pub fn estimator(&self) -> Option<Estimator> {
-        Estimator::from_name(&self.estimator)
+    pub fn estimator(&self) -> Option<EstimatorKind> {
+        EstimatorKind::from_name(&self.estimator)
     }
 
     fn is_metropolis(&self) -> bool {
@@ -485,13 +485,13 @@ pub struct Identity {
     pub scene_hash: u64,
 }
 
-/// The settings text two parts must share: the estimator's configuration
-/// with every field (path depth, Metropolis settings, frame switches,
-/// effects), seed and worker count aside.
+/// The settings text two parts must share: the configuration with every
+/// field (path depth and its cap, the estimator with its settings, frame
+/// switches, effects), seed and worker count aside.
 pub fn settings_text(config: &RendererConfig) -> String {
     format!(
-        "{:?} {:?} {:?} all_effects {}",
-        config.settings, config.mlt, config.temporal, config.all_effects
+        "{:?} depth_cap {} {:?} {:?} all_effects {}",
+        config.settings, config.depth_cap, config.estimator, config.temporal, config.all_effects
     )
 }
 
@@ -504,9 +504,8 @@ pub fn from_render(
     id: Identity,
 ) -> PartState {
     let pixels = (out.image.width * out.image.height) as u64;
-    let (b, tally_count, depth_b) = match &out.bootstrap {
-        Some(boot) => {
-            let m = &config.mlt;
+    let (b, tally_count, depth_b) = match (&out.bootstrap, config.estimator.mlt()) {
+        (Some(boot), Some(m)) => {
             // Each b_d is a mean over the normalisation passes' pixels, or
             // over the bootstrap samples of its depth without passes.
             let count = if m.b_passes > 0 {
@@ -516,7 +515,7 @@ pub fn from_render(
             };
             (out.stats.b, count, boot.depth_b().to_vec())
         }
-        None => (0.0, 0, Vec::new()),
+        _ => (0.0, 0, Vec::new()),
     };
     PartState {
         part: id.part,
@@ -527,7 +526,7 @@ pub fn from_render(
         seed: id.seed,
         part_seed: config.seed,
         scene_hash: id.scene_hash,
-        estimator: config.estimator.name().to_string(),
+        estimator: config.estimator.kind().name().to_string(),
         settings: settings_text(config),
         passes: out.stats.passes,
         mutations: out.stats.mlt.mutations,

@@ -10,8 +10,7 @@ mod common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::accel::embree::EmbreeScene;
-use cmlt::integrator::Estimator;
-use cmlt::renderer::RendererConfig;
+use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::render::{Budget, render};
 
 #[test]

@@ -4,8 +4,7 @@
 use std::path::PathBuf;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::integrator::Estimator;
-use cmlt::renderer::RendererConfig;
+use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, RenderOutput, render};

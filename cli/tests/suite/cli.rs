@@ -290,6 +290,68 @@ fn budgets_and_thread_counts_are_checked_before_rendering() {
     }
 }
 
+/// `--method` is the one choice of estimator: an option the method does
+/// not read is refused (naming the option and the method) before
+/// anything renders, and `--m` no longer turns MLT into CMLT.
+#[test]
+fn options_the_method_does_not_read_are_refused() {
+    let out = tmp("refused-method.exr");
+    let _ = std::fs::remove_file(&out);
+    let small = ["-D", "resx=8", "-D", "resy=8"];
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--method", "mlt", "--m", "4"],
+            "--m is read by --method cmlt only, not by --method mlt",
+        ),
+        (
+            &["--method", "mlt", "--k", "2"],
+            "--k is read by --method cmlt only, not by --method mlt",
+        ),
+        (
+            &["--method", "pt", "--chains", "8"],
+            "--chains is read by --method mlt and cmlt only, not by --method pt",
+        ),
+        (
+            &["--method", "bdpt", "--lens-sigma", "2"],
+            "--lens-sigma is read by --method cmlt only, not by --method bdpt",
+        ),
+        (
+            &["--method", "pt", "--mutations-per-pixel", "4"],
+            "--mutations-per-pixel is read by --method mlt and cmlt only",
+        ),
+        (
+            &[
+                "--method",
+                "bdpt",
+                "--spp",
+                "1",
+                "--frames",
+                "2",
+                "--keep-chains",
+            ],
+            "--keep-chains is read by --method mlt and cmlt only, not by --method bdpt",
+        ),
+        (
+            &[
+                "--method",
+                "pt",
+                "--spp",
+                "1",
+                "--frames",
+                "2",
+                "--b-window",
+                "2",
+            ],
+            "--b-window is read by --method mlt and cmlt only, not by --method pt",
+        ),
+        (&["--method", "cmlt", "--m", "0"], "CMLT needs m ≥ 1"),
+    ];
+    for (args, phrase) in cases {
+        let all: Vec<&str> = args.iter().chain(small.iter()).copied().collect();
+        refused(&all, &out, phrase);
+    }
+}
+
 #[test]
 fn unwritable_outputs_are_found_before_rendering_and_keep_old_files() {
     let exr = tmp("kept.exr");

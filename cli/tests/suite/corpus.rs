@@ -34,8 +34,8 @@
 
 use std::path::{Path, PathBuf};
 
-use cmlt::integrator::Estimator;
 use cmlt::math::Rgb;
+use cmlt::renderer::Estimator;
 use cmlt_cli::image_io::{Image, read_exr, write_exr};
 use cmlt_cli::mitsuba::load_scene;
 

@@ -10,10 +10,10 @@ use std::path::Path;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::bsdf::Lobe;
-use cmlt::integrator::{Estimator, Stats};
+use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::RendererConfig;
+use cmlt::mlt::{CmltSettings, MltSettings};
+use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::{Effect, EffectSet};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, render};
@@ -164,12 +164,14 @@ fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64
     let mlt = MltSettings {
         n_bootstrap: 500,
         n_chains: 64,
-        ..MltSettings::cmlt()
+        ..MltSettings::default()
     };
     let config = RendererConfig {
-        estimator: Estimator::Cmlt,
+        estimator: Estimator::Cmlt(CmltSettings {
+            mlt,
+            ..CmltSettings::default()
+        }),
         settings: loaded.settings,
-        mlt,
         seed,
         workers: 2,
         all_effects,

@@ -12,17 +12,45 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::RendererConfig;
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{Budget, RenderOutput, metropolis, render as drive};
+use cmlt_cli::render::{Budget, RenderOutput, render as drive};
 use common::load_reduced;
+
+/// CMLT over level 1 `mlt`: `k` candidates, side chains of `m` steps with
+/// a 2-pixel lens σ on every path (no minimum depth), the rest of level 2
+/// its defaults.
+fn cmlt_on(mlt: MltSettings, k: u32, m: u32) -> Estimator {
+    Estimator::Cmlt(CmltSettings {
+        mlt,
+        level2: Level2Settings {
+            k,
+            m,
+            lens_sigma: 2.0,
+            side_chain_min_depth: 0,
+            ..Level2Settings::default()
+        },
+    })
+}
+
+/// Level 1 with 1 000 bootstrap samples per depth, 16 normalisation passes
+/// and `chains` chains per thread.
+fn level1(chains: u32) -> MltSettings {
+    MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        b_min_samples: 0,
+        n_chains: chains,
+        ..MltSettings::default()
+    }
+}
 
 fn render(
     loaded: &LoadedScene,
-    mlt: &MltSettings,
+    estimator: &Estimator,
     mpp: u64,
     threads: usize,
     seed: u64,
@@ -30,9 +58,8 @@ fn render(
     let tris: Vec<_> = loaded.scene.triangles().collect();
     let bvh = Bvh::build(&tris);
     let config = RendererConfig {
-        estimator: metropolis(mlt),
+        estimator: *estimator,
         settings: loaded.settings,
-        mlt: *mlt,
         seed,
         workers: threads as u32,
         ..RendererConfig::default()
@@ -51,7 +78,7 @@ fn render(
 fn check_means(
     scene: &str,
     factor: u32,
-    mlt: &MltSettings,
+    mlt: &Estimator,
     mpp: u64,
 ) -> (Image, Vec<f64>, Image, RenderOutput) {
     let (loaded, reference) = load_reduced(scene, factor);
@@ -87,16 +114,17 @@ fn check_means(
 /// [`check_means`], and the relMSE falls at least `min_ratio`-fold for 4×
 /// the mutations and ends well below a flat image's. Returns the big
 /// render's relMSE.
-fn check_reference(scene: &str, factor: u32, mlt: &MltSettings, mpp: u64, min_ratio: f64) -> f64 {
+fn check_reference(scene: &str, factor: u32, mlt: &Estimator, mpp: u64, min_ratio: f64) -> f64 {
     let (reference, errs, big, out) = check_means(scene, factor, mlt, mpp);
     let rm = reference.mean();
     let err_small = errs.iter().sum::<f64>() / errs.len() as f64;
     let err_big = rel_mse(&big, &reference);
     let ratio = err_small / err_big;
     eprintln!(
-        "{scene} (k {}, m {}): relMSE {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2}); {:?}",
-        mlt.k,
-        mlt.m,
+        "{scene} ({:?}, k {}, m {}): relMSE {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2}); {:?}",
+        mlt.kind(),
+        mlt.level2().map_or(0, |l| l.k),
+        mlt.level2().map_or(0, |l| l.m),
         4 * mpp,
         out.stats.mlt
     );
@@ -120,13 +148,7 @@ fn check_reference(scene: &str, factor: u32, mlt: &MltSettings, mpp: u64, min_ra
 
 #[test]
 fn cornell_box_mlt_matches_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 128,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(128));
     // Measured 0.022 at 128 mutations/pixel; a flat image is 0.52.
     let err = check_reference("cornell-box", 4, &mlt, 32, 3.0);
     assert!(err < 0.05, "relMSE {err}");
@@ -137,26 +159,10 @@ fn cornell_box_mlt_matches_reference() {
 /// strip: with masks, level 2 leaves every path at its level-1 state).
 #[test]
 fn surface_detail_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     check_reference("surface-detail", 2, &mlt, 32, 2.5);
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 8,
-        m: 4,
-        lens_sigma: 2.0,
-        // Side chains on every path, not only the defaults' long ones.
-        side_chain_min_depth: 0,
-        ..MltSettings::cmlt()
-    };
+    // Side chains on every path, not only the defaults' long ones.
+    let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("surface-detail", 2, &cmlt, 16, 2.5);
 }
 
@@ -165,18 +171,8 @@ fn surface_detail_mlt_and_cmlt_match_reference() {
 fn cmlt_matches_references() {
     // Real multiple tries (k > 1, stratified) rather than the speed-chosen
     // defaults, so that the test covers the whole of level 2.
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 8,
-        m: 4,
-        lens_sigma: 2.0,
-        // Side chains on every path, not only the defaults' long ones.
-        side_chain_min_depth: 0,
-        ..MltSettings::cmlt()
-    };
+    // Side chains on every path, not only the defaults' long ones.
+    let cmlt = cmlt_on(level1(64), 8, 4);
     // The 320×180 scenes at factor 4 (80×45): 180 is not divisible by 8.
     // veach-mis is lit by tiny bright spheres: its relMSE is dominated by a
     // few bright records and b (from 16 BDPT passes) varies by ±10%
@@ -197,15 +193,9 @@ fn cmlt_matches_references() {
 /// perturbation applies to a path ending on them), level 1 carries them.
 #[test]
 fn lights_punctual_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     check_reference("lights-punctual", 4, &mlt, 256, 2.5);
-    let cmlt = MltSettings { k: 4, m: 2, ..mlt };
+    let cmlt = cmlt_on(level1(64), 4, 2);
     // Every side-chain step is the identity here (records repeat the
     // level-1 state), so the error falls more slowly per mutation:
     // measured 2.45× for 4× the mutations (plain MLT: 3.3×).
@@ -217,28 +207,22 @@ fn lights_punctual_mlt_and_cmlt_match_reference() {
 /// (a vertex at infinity), as for the constant environment.
 #[test]
 fn envmap_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     check_reference("envmap", 4, &mlt, 256, 2.5);
-    let cmlt = MltSettings { k: 4, m: 2, ..mlt };
+    let cmlt = cmlt_on(level1(64), 4, 2);
     check_reference("envmap", 4, &cmlt, 256, 2.0);
 }
 
 #[test]
 fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
     let (loaded, _) = load_reduced("cornell-box", 16);
-    let mlt = MltSettings {
+    let mlt = Estimator::Mlt(MltSettings {
         n_bootstrap: 200,
         b_passes: 3,
         b_min_samples: 0,
         n_chains: 8,
         ..MltSettings::default()
-    };
+    });
     let (a, oa) = render(&loaded, &mlt, 4, 2, 9);
     let (b, ob) = render(&loaded, &mlt, 4, 2, 9);
     let (_, oc) = render(&loaded, &mlt, 4, 1, 9);
@@ -331,26 +315,10 @@ fn cmlt_render_method_mlt_is_deterministic_and_reports_acceptance() {
 /// must leave alone, and the thin pane transmits without bending.
 #[test]
 fn plastics_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     check_reference("plastics", 2, &mlt, 32, 2.5);
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 8,
-        m: 4,
-        lens_sigma: 2.0,
-        // Side chains on every path, not only the defaults' long ones.
-        side_chain_min_depth: 0,
-        ..MltSettings::cmlt()
-    };
+    // Side chains on every path, not only the defaults' long ones.
+    let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("plastics", 2, &cmlt, 32, 2.5);
 }
 
@@ -359,26 +327,10 @@ fn plastics_mlt_and_cmlt_match_reference() {
 /// through non-delta vertices as the rough dielectric does.
 #[test]
 fn principled_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     check_reference("principled", 2, &mlt, 64, 2.5);
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 8,
-        m: 4,
-        lens_sigma: 2.0,
-        // Side chains on every path, not only the defaults' long ones.
-        side_chain_min_depth: 0,
-        ..MltSettings::cmlt()
-    };
+    // Side chains on every path, not only the defaults' long ones.
+    let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("principled", 2, &cmlt, 32, 1.7);
 }
 
@@ -387,38 +339,22 @@ fn principled_mlt_and_cmlt_match_reference() {
 /// non-delta vertices and reconnect through.
 #[test]
 fn rough_glass_mlt_and_cmlt_match_reference() {
-    let mlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let mlt = Estimator::Mlt(level1(64));
     // Measured: relMSE 0.073 at 128 mutations/pixel, 0.026 at 512 (2.8×).
     check_reference("rough-glass", 2, &mlt, 128, 2.5);
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 8,
-        m: 4,
-        lens_sigma: 2.0,
-        // Side chains on every path, not only the defaults' long ones.
-        side_chain_min_depth: 0,
-        ..MltSettings::cmlt()
-    };
+    // Side chains on every path, not only the defaults' long ones.
+    let cmlt = cmlt_on(level1(64), 8, 4);
     // Measured: relMSE 0.085 at 32 mutations/pixel, 0.042 at 128 (ratio
     // 2.05; level 1 alone: 2.8): the lens side chains' records are
     // correlated, which slows the early fall of the error as on veach-mis.
     check_reference("rough-glass", 2, &cmlt, 32, 1.7);
 }
 
-/// Settings for the two scenes where Metropolis methods are meant to win
-/// level 1 alone, and CMLT with one candidate per step (the
-/// lean step) and 4 side-chain steps per mutation.
-fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
-    let mlt = MltSettings {
+/// Level 1 for the two scenes where Metropolis methods are meant to win
+/// (their CMLT: one candidate per step, the lean step, and 4 side-chain
+/// steps per mutation).
+fn metropolis_scene_settings() -> MltSettings {
+    MltSettings {
         // The chains start at bootstrap samples resampled ∝ luminance; with
         // 1 000 per depth the pool's floor, lit through the water, was too
         // rarely among them (blue 11% low at 128 mutations/pixel: the
@@ -430,14 +366,7 @@ fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
         b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
-    };
-    let cmlt = MltSettings {
-        k: 1,
-        m: 4,
-        lens_sigma: 2.0,
-        ..mlt
-    };
-    (mlt, cmlt)
+    }
 }
 
 /// MLT and CMLT converge to the reference of the caustic seen through
@@ -452,9 +381,9 @@ fn metropolis_scene_settings() -> (MltSettings, MltSettings) {
 /// per-pixel error to a 1/N rate.
 #[test]
 fn caustic_pool_mlt_and_cmlt_match_reference() {
-    let (mlt, cmlt) = metropolis_scene_settings();
-    check_means("caustic-pool", 2, &mlt, 128);
-    check_means("caustic-pool", 2, &cmlt, 32);
+    let mlt = metropolis_scene_settings();
+    check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 128);
+    check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
 }
 
 /// MLT and CMLT converge to the reference of the glossy room lit by a
@@ -469,23 +398,15 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     // test's five seeds against 0.317 (skewed low, all five means 2.6%
     // low); with 1 024, 0.311–0.318. 1 000 bootstrap samples per depth suffice
     // here (20 000 were for the pool's floor).
-    let (mlt, cmlt) = metropolis_scene_settings();
     let mlt = MltSettings {
         n_chains: 256,
         b_passes: 1024,
         b_min_samples: 0,
         n_bootstrap: 1_000,
-        ..mlt
+        ..metropolis_scene_settings()
     };
-    let cmlt = MltSettings {
-        n_chains: 256,
-        b_passes: 1024,
-        b_min_samples: 0,
-        n_bootstrap: 1_000,
-        ..cmlt
-    };
-    check_reference("glossy-room", 2, &mlt, 128, 2.5);
-    check_reference("glossy-room", 2, &cmlt, 32, 2.0);
+    check_reference("glossy-room", 2, &Estimator::Mlt(mlt), 128, 2.5);
+    check_reference("glossy-room", 2, &cmlt_on(mlt, 1, 4), 32, 2.0);
 }
 
 /// CMLT with parallel lanes and side chains only on paths of at least
@@ -493,18 +414,17 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
 /// keep it unbiased), and replays bit for bit.
 #[test]
 fn cmlt_lanes_and_class_lengths_match_reference() {
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        k: 1,
-        m: 2,
-        lanes: 4,
-        side_chain_min_depth: 4,
-        lens_sigma: 2.0,
-        ..MltSettings::cmlt()
-    };
+    let cmlt = Estimator::Cmlt(CmltSettings {
+        mlt: level1(64),
+        level2: Level2Settings {
+            k: 1,
+            m: 2,
+            lanes: 4,
+            side_chain_min_depth: 4,
+            lens_sigma: 2.0,
+            ..Level2Settings::default()
+        },
+    });
     let (_, _, _, out) = check_means("veach-bidir", 8, &cmlt, 8);
     let mlt = out.stats.mlt;
     // Both kinds of state occur: shallow ones carry their share, deep
@@ -538,12 +458,15 @@ fn cmlt_without_side_chains_is_mlt() {
         n_chains: 16,
         ..MltSettings::default()
     };
-    let cmlt = MltSettings {
-        m: 3,
-        side_chain_min_depth: 1_000,
-        ..mlt
-    };
-    let (a, oa) = render(&loaded, &mlt, 8, 2, 5);
+    let cmlt = Estimator::Cmlt(CmltSettings {
+        mlt,
+        level2: Level2Settings {
+            m: 3,
+            side_chain_min_depth: 1_000,
+            ..Level2Settings::default()
+        },
+    });
+    let (a, oa) = render(&loaded, &Estimator::Mlt(mlt), 8, 2, 5);
     let (b, ob) = render(&loaded, &cmlt, 8, 2, 5);
     assert_eq!(ob.stats.mlt.lens_steps, 0);
     assert_eq!(ob.stats.mlt.records, 4 * oa.stats.mlt.records);

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::mlt::MltSettings;
+use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
@@ -168,7 +168,7 @@ fn two_parts_merge_like_twice_the_budget_pt_bdpt() {
             workers: 2,
             ..RendererConfig::default()
         };
-        check_merge(estimator.name(), &loaded, &reference, config, spp, 4);
+        check_merge(estimator.kind().name(), &loaded, &reference, config, spp, 4);
     }
 }
 
@@ -182,27 +182,22 @@ fn two_parts_merge_like_twice_the_budget_mlt_cmlt() {
         n_chains: 64,
         ..MltSettings::default()
     };
-    let cmlt = MltSettings {
-        k: 4,
-        m: 2,
-        ..MltSettings::cmlt()
-    };
-    let cmlt = MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..cmlt
-    };
-    for (estimator, mlt, mpp) in [(Estimator::Mlt, mlt, 8), (Estimator::Cmlt, cmlt, 4)] {
+    let cmlt = Estimator::Cmlt(CmltSettings {
+        mlt,
+        level2: Level2Settings {
+            k: 4,
+            m: 2,
+            ..Level2Settings::default()
+        },
+    });
+    for (estimator, mpp) in [(Estimator::Mlt(mlt), 8), (cmlt, 4)] {
         let config = RendererConfig {
             estimator,
             settings: loaded.settings,
-            mlt,
             workers: 2,
             ..RendererConfig::default()
         };
-        check_merge(estimator.name(), &loaded, &reference, config, mpp, 4);
+        check_merge(estimator.kind().name(), &loaded, &reference, config, mpp, 4);
     }
 }
 

@@ -10,7 +10,7 @@
 
 use crate::common;
 
-use cmlt::integrator::Estimator;
+use cmlt::renderer::Estimator;
 use cmlt_cli::metrics::rel_mse;
 use common::{load_reduced, render_scene};
 
