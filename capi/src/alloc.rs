@@ -15,7 +15,7 @@
 //! inside its dependencies such as obvhs's BVH builder) abort the process
 //! when the global allocator returns NULL, and stable Rust offers no way to
 //! make them unwind. So a refusal inside a `cmlt_*` call is caught here
-//! instead: the allocator notes it (per thread), serves that block and the
+//! instead: the allocator notes it (per thread, in the `call` module), serves that block and the
 //! call's later ones from the system allocator when the host refuses them
 //! too, and the call then throws its work away and returns
 //! `CMLT_ERROR_OUT_OF_MEMORY` ([`check_oom`] before anything is published),
@@ -32,6 +32,7 @@ use std::ffi::c_void;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use crate::call;
 use crate::error::{Error, cmlt_status, guard};
 
 /// Allocation callbacks of a host. `alloc` returns a block of `size` bytes
@@ -83,10 +84,6 @@ pub(crate) struct Usage {
 }
 
 thread_local! {
-    /// Whether this thread is inside a `cmlt_*` call ([`enter_call`]).
-    static IN_CALL: Cell<bool> = const { Cell::new(false) };
-    /// Size of the first block the host refused during the current call.
-    static REFUSED: Cell<Option<usize>> = const { Cell::new(None) };
     /// Whether this thread is inside `measure_allocations`, and its tally
     /// (const-initialised, no destructor: safe to touch from the
     /// allocator).
@@ -121,24 +118,11 @@ pub(crate) fn measure_allocations<R>(f: impl FnOnce() -> R) -> (R, Usage) {
     )
 }
 
-/// Marks this thread as inside a `cmlt_*` call with no refusal yet;
-/// returns what [`leave_call`] restores.
-pub(crate) fn enter_call() -> (bool, Option<usize>) {
-    (IN_CALL.replace(true), REFUSED.take())
-}
-
-/// Ends the call [`enter_call`] began: the size of the first block refused
-/// during it, if any.
-pub(crate) fn leave_call(outer: (bool, Option<usize>)) -> Option<usize> {
-    IN_CALL.set(outer.0);
-    REFUSED.replace(outer.1)
-}
-
 /// `CMLT_ERROR_OUT_OF_MEMORY` if a block was refused so far in this call.
 /// Entry points call it after their last allocation and before they change
 /// the object or write a handle, so a refused call changes nothing.
 pub(crate) fn check_oom() -> crate::error::Result<()> {
-    match REFUSED.get() {
+    match call::refused() {
         None => Ok(()),
         Some(_) => Err(Error::out_of_memory(
             "out of memory: the allocator refused a block; nothing was changed",
@@ -187,12 +171,10 @@ unsafe impl GlobalAlloc for HostAllocator {
                 unsafe { (hk.alloc)(hk.user as *mut c_void, outer.size(), outer.align()) }.cast()
             }
         };
-        if base.is_null() && IN_CALL.get() {
+        if base.is_null() && call::in_call() {
             // Caught (see the module docs): the call will fail with
             // out-of-memory; until then the system serves it.
-            if REFUSED.get().is_none() {
-                REFUSED.set(Some(layout.size()));
-            }
+            call::note_refused(layout.size());
             if slot != 0 {
                 slot = 0;
                 // SAFETY: `outer` has a non-zero size.

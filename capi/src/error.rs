@@ -14,7 +14,7 @@ use std::fmt::Write as _;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::{Mutex, TryLockError};
 
-use crate::alloc;
+use crate::call;
 
 #[cfg(test)]
 thread_local! {
@@ -149,11 +149,11 @@ thread_local! {
 
 /// Runs an entry point's body: catches panics, records failures for
 /// `cmlt_last_error` and the callback, and turns the result into a status.
-/// A body that met a refused allocation (see [`alloc`]) fails with
+/// A body that met a refused allocation (see [`crate::alloc`]) fails with
 /// `CMLT_ERROR_OUT_OF_MEMORY` whatever it returned, unless it had already
-/// published its result (see [`alloc::check_oom`]).
+/// published its result (see [`crate::alloc::check_oom`]).
 pub(crate) fn guard(name: &str, body: impl FnOnce() -> Result<()>) -> cmlt_status {
-    let outer = alloc::enter_call();
+    let outer = call::enter();
     let result = catch_unwind(AssertUnwindSafe(body)).unwrap_or_else(|panic| {
         let what = panic
             .downcast_ref::<&str>()
@@ -165,11 +165,11 @@ pub(crate) fn guard(name: &str, body: impl FnOnce() -> Result<()>) -> cmlt_statu
             format!("internal error (please report): {what}"),
         ))
     });
-    let refused = alloc::leave_call(outer);
+    let refused = call::leave(outer);
     let result = match (result, refused) {
         (Err(e), Some(_)) if e.status != cmlt_status::CMLT_ERROR_INTERNAL => {
             drop(e);
-            // A literal: past `leave_call` a refused block would abort.
+            // A literal: past `call::leave` a refused block would abort.
             Err(Error::out_of_memory(
                 "out of memory: the allocator refused a block; nothing was changed",
             ))

@@ -21,13 +21,14 @@
 //! the object unchanged.
 
 pub mod alloc;
+mod call;
 pub mod error;
 pub mod host;
 pub mod renderer;
 pub mod scene;
 
 #[cfg(test)]
-mod api_tests;
+mod tests;
 
 /// Major version of the C API.
 pub const CMLT_VERSION_MAJOR: u32 = 0;

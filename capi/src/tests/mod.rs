@@ -1,0 +1,220 @@
+//! The C API called from Rust as a C host would: every function rejects
+//! NULL pointers, bad sizes, strides, enums, non-finite numbers and calls
+//! in the wrong order with the documented status and a message, and leaves
+//! the object usable; the allocator hooks see every allocation, none of
+//! them inside a frame; the memory query matches what creation allocates.
+
+mod alloc;
+mod errors;
+mod host;
+mod lights;
+mod materials;
+mod memory;
+mod renderer;
+mod scene;
+mod textures;
+
+use std::cell::Cell;
+use std::ffi::{CStr, c_void};
+use std::ptr::{null, null_mut};
+
+use crate::alloc::{cmlt_allocator, cmlt_set_allocator};
+use crate::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
+use crate::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
+use crate::renderer::*;
+use crate::scene::*;
+
+use cmlt_status::*;
+
+fn last_error() -> String {
+    // SAFETY: never NULL, NUL-terminated.
+    unsafe { CStr::from_ptr(cmlt_last_error()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// Asserts `status` is `want` and that a message naming `function` was set.
+fn expect(status: cmlt_status, want: cmlt_status, function: &str) {
+    assert_eq!(status, want, "{function}: {}", last_error());
+    if want != CMLT_OK {
+        let msg = last_error();
+        assert!(
+            msg.starts_with(function),
+            "message {msg:?} does not name {function}"
+        );
+    }
+}
+
+const WHITE: cmlt_material = cmlt_material {
+    type_: CMLT_MATERIAL_DIFFUSE,
+    color: [0.7, 0.7, 0.7],
+    ior: 1.0,
+    roughness: 0.0,
+    two_sided: 0,
+    color_texture: CMLT_NO_TEXTURE,
+    normal_map: CMLT_NO_TEXTURE,
+    bump_map: CMLT_NO_TEXTURE,
+    bump_scale: 1.0,
+    opacity_texture: CMLT_NO_TEXTURE,
+    specular_color: [1.0; 3],
+    transmission_color: [1.0; 3],
+    distribution: CMLT_DISTRIBUTION_GGX,
+    nonlinear: 0,
+    metallic: 0.0,
+    anisotropic: 0.0,
+    specular: 0.5,
+    spec_tint: 0.0,
+    spec_trans: 0.0,
+    sheen: 0.0,
+    sheen_tint: 0.0,
+    clearcoat: 0.0,
+    clearcoat_gloss: 0.0,
+    flatness: 0.0,
+    principled_textures: [CMLT_NO_TEXTURE; 10],
+};
+
+/// A floor quad and a light quad facing it.
+const POSITIONS: [f32; 24] = [
+    -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, // floor, facing +y
+    -0.3, 1.0, -0.3, 0.3, 1.0, -0.3, 0.3, 1.0, 0.3, -0.3, 1.0, 0.3, // light, facing −y
+];
+const FLOOR: [u32; 6] = [0, 1, 2, 0, 2, 3];
+const LIGHT: [u32; 6] = [4, 5, 6, 4, 6, 7];
+
+fn mesh(indices: &[u32], material: u32, emission: f32) -> cmlt_mesh {
+    cmlt_mesh {
+        positions: POSITIONS.as_ptr(),
+        vertex_count: 8,
+        position_stride: 0,
+        normals: null(),
+        normal_stride: 0,
+        uvs: null(),
+        uv_stride: 0,
+        indices: indices.as_ptr(),
+        triangle_count: indices.len() / 3,
+        index_stride: 0,
+        material,
+        emission: [emission; 3],
+    }
+}
+
+const CAMERA: cmlt_camera = cmlt_camera {
+    position: [0.0, 0.5, -2.0],
+    target: [0.0, 0.3, 0.0],
+    up: [0.0, 1.0, 0.0],
+    fov_degrees: 60.0,
+    aperture_radius: 0.0,
+    focus_distance: 1.0,
+};
+
+/// A new, uncommitted scene holding the floor and the light (material 0,
+/// white).
+fn floor_and_light() -> *mut cmlt_scene {
+    let mut s = null_mut();
+    let mut id = 0;
+    // SAFETY: valid pointers throughout.
+    unsafe {
+        expect(cmlt_scene_new(&mut s), CMLT_OK, "cmlt_scene_new");
+        expect(
+            cmlt_scene_add_material(s, &WHITE, &mut id),
+            CMLT_OK,
+            "add_material",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&FLOOR, id, 0.0), null_mut()),
+            CMLT_OK,
+            "add_mesh",
+        );
+        expect(
+            cmlt_scene_add_mesh(s, &mesh(&LIGHT, id, 5.0), null_mut()),
+            CMLT_OK,
+            "add_mesh",
+        );
+    }
+    s
+}
+
+/// A committed floor-and-light scene (our BVH unless `host` is given).
+fn scene(host: Option<&cmlt_intersector>) -> *mut cmlt_scene {
+    let s = floor_and_light();
+    // SAFETY: `s` is a valid, uncommitted scene.
+    unsafe {
+        if let Some(h) = host {
+            expect(cmlt_scene_set_intersector(s, h), CMLT_OK, "set_intersector");
+        }
+        expect(cmlt_scene_commit(s), CMLT_OK, "commit");
+    }
+    s
+}
+
+fn config(estimator: u32, workers: u32) -> cmlt_renderer_config {
+    let mut c = std::mem::MaybeUninit::uninit();
+    // SAFETY: valid out pointer.
+    unsafe {
+        expect(
+            cmlt_renderer_config_default(estimator, c.as_mut_ptr()),
+            CMLT_OK,
+            "config_default",
+        );
+        let mut c = c.assume_init();
+        c.width = 16;
+        c.height = 12;
+        c.workers = workers;
+        c.chains = 16;
+        c.bootstrap_samples = 100;
+        c.normalisation_passes = 1;
+        c.normalisation_min_samples = 0;
+        c.k = 4;
+        c.m = 2;
+        c
+    }
+}
+
+fn renderer(s: *const cmlt_scene, c: &cmlt_renderer_config) -> *mut cmlt_renderer {
+    let mut r = null_mut();
+    // SAFETY: valid pointers.
+    unsafe {
+        expect(
+            cmlt_renderer_new(s, c, &CAMERA, &mut r),
+            CMLT_OK,
+            "renderer_new",
+        )
+    };
+    r
+}
+
+/// Prepares `r`, renders `budget` units into worker 0 and returns the
+/// statistics.
+fn prepare_render_stats(r: *mut cmlt_renderer, budget: u64) -> cmlt_stats {
+    let mut stats = cmlt_stats::default();
+    // SAFETY: a valid renderer; valid out pointers.
+    unsafe {
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 0, budget, null_mut()),
+            CMLT_OK,
+            "render",
+        );
+        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
+    }
+    stats
+}
+
+fn image(r: *const cmlt_renderer) -> Vec<f32> {
+    let mut px = vec![0.0f32; 16 * 12 * 3];
+    // SAFETY: the buffer holds what we say.
+    unsafe {
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGB32F,
+                px.as_mut_ptr().cast(),
+                0,
+                px.len() * 4,
+            ),
+            CMLT_OK,
+            "resolve",
+        )
+    };
+    px
+}

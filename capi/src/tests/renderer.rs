@@ -1,0 +1,524 @@
+//! Renderers: argument and call-order checks, the bootstrap on the
+//! host's threads, and the default configuration.
+
+use super::*;
+
+#[test]
+fn renderer_inputs_and_call_order_are_checked() {
+    let s = scene(None);
+    // SAFETY: every pointer is valid or deliberately NULL.
+    unsafe {
+        let f = "cmlt_renderer_new";
+        let mut r = null_mut();
+        let good = config(CMLT_ESTIMATOR_CMLT, 2);
+        expect(
+            cmlt_renderer_new(null(), &good, &CAMERA, &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, null(), &CAMERA, &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, &good, null(), &mut r),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_new(s, &good, &CAMERA, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        for (what, bad) in [
+            ("zero width", cmlt_renderer_config { width: 0, ..good }),
+            (
+                "huge height",
+                cmlt_renderer_config {
+                    height: 1 << 20,
+                    ..good
+                },
+            ),
+            (
+                "estimator",
+                cmlt_renderer_config {
+                    estimator: 17,
+                    ..good
+                },
+            ),
+            ("no workers", cmlt_renderer_config { workers: 0, ..good }),
+            ("k = 0", cmlt_renderer_config { k: 0, ..good }),
+            ("k = 65", cmlt_renderer_config { k: 65, ..good }),
+            ("m = 0", cmlt_renderer_config { m: 0, ..good }),
+            (
+                "NaN lens σ",
+                cmlt_renderer_config {
+                    lens_sigma: f32::NAN,
+                    ..good
+                },
+            ),
+            (
+                "σ > 1",
+                cmlt_renderer_config {
+                    small_step_sigma: 2.0,
+                    ..good
+                },
+            ),
+            (
+                "large step p",
+                cmlt_renderer_config {
+                    large_step_probability: -0.5,
+                    ..good
+                },
+            ),
+            ("no chains", cmlt_renderer_config { chains: 0, ..good }),
+            (
+                "no bootstrap",
+                cmlt_renderer_config {
+                    bootstrap_samples: 0,
+                    ..good
+                },
+            ),
+            (
+                "depth",
+                cmlt_renderer_config {
+                    max_depth: 100_000,
+                    ..good
+                },
+            ),
+            (
+                "depth cap 0",
+                cmlt_renderer_config {
+                    depth_cap: 0,
+                    ..good
+                },
+            ),
+            (
+                "depth cap 2000",
+                cmlt_renderer_config {
+                    depth_cap: 2000,
+                    ..good
+                },
+            ),
+            (
+                "NaN caustic scale",
+                cmlt_renderer_config {
+                    caustic_scale: f32::NAN,
+                    ..good
+                },
+            ),
+            (
+                "zero caustic scale",
+                cmlt_renderer_config {
+                    caustic_scale: 0.0,
+                    ..good
+                },
+            ),
+            (
+                "splatting 2 (the biased eq. 36 has no constant)",
+                cmlt_renderer_config {
+                    splatting: 2,
+                    ..good
+                },
+            ),
+            ("no lanes", cmlt_renderer_config { lanes: 0, ..good }),
+            ("65 lanes", cmlt_renderer_config { lanes: 65, ..good }),
+            (
+                "2 lanes with k = 4",
+                cmlt_renderer_config { lanes: 2, ..good },
+            ),
+        ] {
+            let st = cmlt_renderer_new(s, &bad, &CAMERA, &mut r);
+            assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
+        }
+        for (what, cam) in [
+            (
+                "NaN position",
+                cmlt_camera {
+                    position: [f32::NAN, 0.0, 0.0],
+                    ..CAMERA
+                },
+            ),
+            (
+                "target = position",
+                cmlt_camera {
+                    target: CAMERA.position,
+                    ..CAMERA
+                },
+            ),
+            (
+                "up parallel",
+                cmlt_camera {
+                    target: [0.0, 0.25, 0.0],
+                    up: [0.0, -0.25, 2.0],
+                    ..CAMERA
+                },
+            ),
+            (
+                "fov 180",
+                cmlt_camera {
+                    fov_degrees: 180.0,
+                    ..CAMERA
+                },
+            ),
+            (
+                "fov NaN",
+                cmlt_camera {
+                    fov_degrees: f32::NAN,
+                    ..CAMERA
+                },
+            ),
+            (
+                "negative aperture",
+                cmlt_camera {
+                    aperture_radius: -1.0,
+                    ..CAMERA
+                },
+            ),
+        ] {
+            let st = cmlt_renderer_new(s, &good, &cam, &mut r);
+            assert_eq!(st, CMLT_ERROR_INVALID_ARGUMENT, "{what}: {}", last_error());
+        }
+        assert!(r.is_null());
+        let r = renderer(s, &good);
+
+        // Wrong order: render before prepare.
+        let f = "cmlt_renderer_render";
+        expect(
+            cmlt_renderer_render(r, 0, 100, null_mut()),
+            CMLT_ERROR_INVALID_OPERATION,
+            f,
+        );
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(
+            cmlt_renderer_render(r, 2, 100, null_mut()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_render(null(), 0, 100, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        let mut done = 0;
+        expect(
+            cmlt_renderer_render(r, 0, 16 * 12 * 4, &mut done),
+            CMLT_OK,
+            f,
+        );
+        assert!(done >= 16 * 12 * 4);
+        let before = image(r);
+        assert!(before.iter().any(|&v| v > 0.0));
+
+        // Bad camera moves change nothing.
+        let f = "cmlt_renderer_set_camera";
+        expect(
+            cmlt_renderer_set_camera(
+                r,
+                &cmlt_camera {
+                    fov_degrees: -3.0,
+                    ..CAMERA
+                },
+            ),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_set_camera(r, null()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        assert_eq!(image(r), before, "a rejected camera changed the image");
+
+        // Resolve: sizes, strides, formats, alignment.
+        let f = "cmlt_renderer_resolve";
+        let mut buf = vec![0u8; 16 * 12 * 12 + 64];
+        let row = 16 * 12;
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, null_mut(), 0, buf.len()),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, 7, buf.as_mut_ptr(), 0, buf.len()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, buf.as_mut_ptr(), 0, 12 * row - 1),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(
+            cmlt_renderer_resolve(r, CMLT_FORMAT_RGB32F, buf.as_mut_ptr(), row - 4, buf.len()),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        let aligned = buf.as_mut_ptr().align_offset(4);
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGB32F,
+                buf.as_mut_ptr().add(aligned + 1),
+                0,
+                12 * row,
+            ),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        // Regression: a row stride whose (rows − 1) multiple wraps
+        // around must be refused, not write out of bounds.
+        for stride in [usize::MAX / 2 + 1, usize::MAX / 11 * 2, usize::MAX] {
+            expect(
+                cmlt_renderer_resolve(
+                    r,
+                    CMLT_FORMAT_RGBA8_SRGB,
+                    buf.as_mut_ptr(),
+                    stride,
+                    buf.len(),
+                ),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                f,
+            );
+        }
+        // A padded stride writes the same pixels.
+        let mut rgba = vec![0u8; 13 * 16 * 4 * 2];
+        expect(
+            cmlt_renderer_resolve(
+                r,
+                CMLT_FORMAT_RGBA8_SRGB,
+                rgba.as_mut_ptr(),
+                16 * 4 * 2,
+                rgba.len(),
+            ),
+            CMLT_OK,
+            f,
+        );
+        assert!(rgba.chunks(4).step_by(1).take(16).all(|p| p[3] == 255));
+        assert!(
+            rgba[16 * 4..16 * 8].iter().all(|&b| b == 0),
+            "padding written"
+        );
+
+        let mut stats = cmlt_stats::default();
+        expect(
+            cmlt_renderer_get_stats(r, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_renderer_get_stats",
+        );
+        expect(cmlt_renderer_get_stats(r, &mut stats), CMLT_OK, "stats");
+        assert!(stats.mutations >= 16 * 12 * 4 && stats.rays > 0 && stats.b > 0.0);
+        assert_eq!(stats.nonfinite, 0);
+        assert!(
+            stats.lens_steps + stats.caustic_steps + stats.multi_chain_steps > 0
+                || stats.mutations > 0
+        );
+
+        // A host clock that allows two steps of one round each.
+        unsafe extern "C" fn two_steps(user: *mut c_void, _done: u64) -> u32 {
+            // SAFETY: `user` is the counter below.
+            let n = unsafe { &mut *user.cast::<u32>() };
+            *n += 1;
+            (*n < 2) as u32
+        }
+        let mut asked = 0u32;
+        let mut done = 0u64;
+        expect(
+            cmlt_renderer_render_while(
+                r,
+                1,
+                u64::MAX,
+                Some(two_steps),
+                (&mut asked as *mut u32).cast(),
+                &mut done,
+            ),
+            CMLT_OK,
+            "render_while",
+        );
+        assert_eq!(
+            (asked, done),
+            (2, 2 * 16),
+            "two rounds of the worker's 16 chains"
+        );
+        expect(
+            cmlt_renderer_render_while(r, 1, 10, None, null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_renderer_render_while",
+        );
+
+        // Effects: a diffuse floor under an area light, through a pinhole.
+        let (mut fx, mut chains) = (0u32, 9u32);
+        expect(
+            cmlt_scene_get_effects(s, &mut fx, &mut chains),
+            CMLT_OK,
+            "get_effects",
+        );
+        assert_eq!(fx, CMLT_EFFECT_DIFFUSE | CMLT_EFFECT_AREA_LIGHTS);
+        assert_eq!(chains, 0);
+        assert_eq!(stats.effects, fx);
+        // Work per lobe kind: diffuse only; no lens sampled.
+        assert!(stats.bsdf_samples[0] > 0 && stats.bsdf_evals[0] > 0);
+        assert_eq!(stats.bsdf_samples[1..], [0; 3]);
+        assert_eq!(stats.bsdf_evals[1..], [0; 3]);
+        assert_eq!(
+            (stats.bsdf_samples_more, stats.bsdf_evals_more),
+            ([0; 4], [0; 4])
+        );
+        assert_eq!(stats.lens_samples, 0);
+        expect(
+            cmlt_scene_get_effects(s, null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_get_effects",
+        );
+
+        // The renderer outlives the scene handle.
+        cmlt_scene_release(s);
+        expect(
+            cmlt_renderer_render(r, 1, 100, null_mut()),
+            CMLT_OK,
+            "render after scene release",
+        );
+        cmlt_renderer_release(r);
+    }
+}
+
+/// The bootstrap spread over the host's threads (`prepare_begin`, one
+/// `prepare_worker` per worker, `prepare_finish`) gives `prepare`'s image
+/// bit for bit; a missing share is refused and leaves the renderer
+/// unprepared; `render_per_pixel` renders each worker's share of a
+/// per-pixel budget.
+#[test]
+fn bootstrap_on_the_hosts_threads_equals_prepare() {
+    let s = scene(None);
+    for estimator in [CMLT_ESTIMATOR_PT, CMLT_ESTIMATOR_MLT, CMLT_ESTIMATOR_CMLT] {
+        let mut c = config(estimator, 3);
+        // 4 passes asked for, 20 from the small-image floor: split 7/7/6
+        // over the three workers.
+        c.normalisation_passes = 4;
+        c.normalisation_min_samples = 20 * 16 * 12;
+        let (one, split) = (renderer(s, &c), renderer(s, &c));
+        // SAFETY: valid renderers and out pointers; workers in range.
+        unsafe {
+            expect(cmlt_renderer_prepare(one), CMLT_OK, "cmlt_renderer_prepare");
+            let mut pending = 7u32;
+            expect(
+                cmlt_renderer_prepare_begin(split, &mut pending),
+                CMLT_OK,
+                "cmlt_renderer_prepare_begin",
+            );
+            assert_eq!(pending, (estimator != CMLT_ESTIMATOR_PT) as u32);
+            if pending == 1 {
+                // Two of three shares: refused, and rendering is refused.
+                for w in 0..2 {
+                    expect(
+                        cmlt_renderer_prepare_worker(split, w),
+                        CMLT_OK,
+                        "cmlt_renderer_prepare_worker",
+                    );
+                }
+                expect(
+                    cmlt_renderer_prepare_finish(split),
+                    CMLT_ERROR_INVALID_OPERATION,
+                    "cmlt_renderer_prepare_finish",
+                );
+                expect(
+                    cmlt_renderer_render(split, 0, 1, null_mut()),
+                    CMLT_ERROR_INVALID_OPERATION,
+                    "cmlt_renderer_render",
+                );
+            }
+            // Each worker's share on its own thread.
+            let addr = split as usize;
+            std::thread::scope(|sc| {
+                for w in 0..3 {
+                    sc.spawn(move || {
+                        let r = addr as *const cmlt_renderer;
+                        expect(
+                            cmlt_renderer_prepare_worker(r, w),
+                            CMLT_OK,
+                            "cmlt_renderer_prepare_worker",
+                        );
+                    });
+                }
+            });
+            expect(
+                cmlt_renderer_prepare_finish(split),
+                CMLT_OK,
+                "cmlt_renderer_prepare_finish",
+            );
+            expect(
+                cmlt_renderer_prepare_worker(split, 3),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_prepare_worker",
+            );
+            let mut total = [0u64; 2];
+            for w in 0..3 {
+                let mut done = 0;
+                expect(
+                    cmlt_renderer_render_per_pixel(one, w, 5, &mut done),
+                    CMLT_OK,
+                    "cmlt_renderer_render_per_pixel",
+                );
+                total[0] += done;
+                expect(
+                    cmlt_renderer_render_per_pixel(split, w, 5, &mut done),
+                    CMLT_OK,
+                    "cmlt_renderer_render_per_pixel",
+                );
+                total[1] += done;
+            }
+            assert_eq!(total[0], total[1]);
+            // At least 5 per pixel over the workers.
+            assert!(total[0] >= 5 * 16 * 12, "{total:?}");
+            if estimator == CMLT_ESTIMATOR_PT {
+                assert_eq!(total[0], 5 * 16 * 12, "passes 0..5 over 3 workers");
+            }
+            let (a, b) = (image(one), image(split));
+            assert!(a.iter().any(|&v| v > 0.0));
+            assert_eq!(a, b, "estimator {estimator}");
+            cmlt_renderer_release(one);
+            cmlt_renderer_release(split);
+        }
+    }
+    // SAFETY: a valid scene.
+    unsafe { cmlt_scene_release(s) };
+}
+
+/// `cmlt_renderer_config_default` mirrors every MLT setting of the core's
+/// defaults for the estimator (CMLT's measured defaults included), so a C
+/// host that starts from it renders what `cmlt render --method …` does.
+#[test]
+fn config_default_is_the_cores_default() {
+    let s = scene(None);
+    // SAFETY: a committed scene.
+    let committed = unsafe { &*s }.committed().unwrap();
+    for estimator in [
+        CMLT_ESTIMATOR_PT,
+        CMLT_ESTIMATOR_BDPT,
+        CMLT_ESTIMATOR_MLT,
+        CMLT_ESTIMATOR_CMLT,
+    ] {
+        let mut c = std::mem::MaybeUninit::uninit();
+        // SAFETY: valid out pointer.
+        let mut c = unsafe {
+            expect(
+                cmlt_renderer_config_default(estimator, c.as_mut_ptr()),
+                CMLT_OK,
+                "config_default",
+            );
+            c.assume_init()
+        };
+        (c.width, c.height) = (16, 12);
+        let e = cmlt_core::renderer::Estimator::from_u32(estimator).unwrap();
+        let cfg = crate::renderer::core_config(&c, &committed).unwrap();
+        let mut expected = cmlt_core::renderer::RendererConfig::for_estimator(e).mlt;
+        if estimator != CMLT_ESTIMATOR_CMLT {
+            // The C config's m is CMLT's alone (1 by default, unused).
+            expected.m = 0;
+        }
+        assert_eq!(cfg.mlt, expected, "estimator {estimator}");
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
+}
