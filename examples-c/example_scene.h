@@ -141,14 +141,21 @@ static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pi
     config.width = W;
     config.height = H;
     config.max_depth = 6;
-    config.chains = 64;
-    config.bootstrap_samples = 200;
-    config.k = 8; /* bundles of 8: from 5 live rays on they go as packets */
-    config.m = 2;
-    config.lens_sigma = 2.0f;
-    /* Side chains on every path: the defaults keep them for paths of 6 or
-       more segments, and this scene's are at most 6. */
-    config.side_chain_min_depth = 0;
+    /* A field the estimator does not read must keep its default (or the
+       config is refused): the Metropolis fields for MLT and CMLT only, the
+       level-2 fields for CMLT only. */
+    if (estimator == CMLT_ESTIMATOR_MLT || estimator == CMLT_ESTIMATOR_CMLT) {
+        config.chains = 64;
+        config.bootstrap_samples = 200;
+    }
+    if (estimator == CMLT_ESTIMATOR_CMLT) {
+        config.k = 8; /* bundles of 8: from 5 live rays on they go as packets */
+        config.m = 2;
+        config.lens_sigma = 2.0f;
+        /* Side chains on every path: the defaults keep them for paths of 6
+           or more segments, and this scene's are at most 6. */
+        config.side_chain_min_depth = 0;
+    }
     check(cmlt_renderer_new(scene, &config, &cam, &r), "cmlt_renderer_new");
     check(cmlt_renderer_prepare(r), "cmlt_renderer_prepare");
     check(cmlt_renderer_render(r, 0, per_pixel * W * H, NULL), "cmlt_renderer_render");

@@ -133,16 +133,21 @@ int main(int argc, char **argv) {
     config.width = SIZE;
     config.height = SIZE;
     config.workers = WORKERS;
-    config.chains = 64;
-    config.bootstrap_samples = 200;
-    config.normalisation_passes = 1;
-    /* Exactly one pass per frame: the b window below averages b over
-     * frames, so the small-image floor (more passes) is not needed. */
-    config.normalisation_min_samples = 0;
-    /* Frame-to-frame coherence: keep the chains across frames (re-evaluated
-     * as the camera moves) and average b while the camera stays put. */
-    config.keep_chains = 1;
-    config.b_window = 8;
+    /* The Metropolis fields are read by MLT and CMLT only (PT and BDPT
+     * refuse them changed from their defaults). */
+    if (estimator == CMLT_ESTIMATOR_MLT || estimator == CMLT_ESTIMATOR_CMLT) {
+        config.chains = 64;
+        config.bootstrap_samples = 200;
+        config.normalisation_passes = 1;
+        /* Exactly one pass per frame: the b window below averages b over
+         * frames, so the small-image floor (more passes) is not needed. */
+        config.normalisation_min_samples = 0;
+        /* Frame-to-frame coherence: keep the chains across frames
+         * (re-evaluated as the camera moves) and average b while the
+         * camera stays put. */
+        config.keep_chains = 1;
+        config.b_window = 8;
+    }
     check(cmlt_renderer_memory_requirements(scene, &config, &bytes, &alignment),
           "cmlt_renderer_memory_requirements");
     printf("renderer needs %zu bytes, alignment %zu\n", bytes, alignment);

@@ -297,6 +297,18 @@ typedef struct cmlt_allocator {
 typedef void (*cmlt_error_callback)(void *user, enum cmlt_status status, const char *message);
 
 // What fixes a renderer. Start from `cmlt_renderer_config_default`.
+//
+// `estimator` picks the estimator, and with it the fields it reads: every
+// estimator reads the size, `workers`, `max_depth`, `depth_cap`, `seed`,
+// `fixed_sequence` and `all_effects`; MLT and CMLT also the fields marked
+// "MLT" (and `keep_chains`, `b_window`); CMLT alone those marked "CMLT".
+// A field the estimator does not read must keep the value
+// `cmlt_renderer_config_default` gives it (the same for every
+// estimator): otherwise `cmlt_renderer_new` and
+// `cmlt_renderer_memory_requirements` refuse the config with
+// `CMLT_ERROR_INVALID_ARGUMENT` and a message naming the field, so a
+// setting is never silently ignored (before this rule MLT ignored the
+// CMLT fields; `m` never turns MLT into CMLT).
 typedef struct cmlt_renderer_config {
   // Image width in pixels (1 ..= 16384).
   uint32_t width;
@@ -307,7 +319,7 @@ typedef struct cmlt_renderer_config {
   // Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
   uint32_t workers;
   // Longest path in segments; 0 = the scene's setting (unbounded paths
-  // are capped at `depth_cap`).
+  // are capped at `depth_cap`, for every estimator).
   uint32_t max_depth;
   // Seed of all random numbers.
   uint64_t seed;
@@ -342,7 +354,7 @@ typedef struct cmlt_renderer_config {
   // what the scene needs is simulated.
   uint32_t all_effects;
   // Longest path in segments when the scene's depth is unbounded and
-  // `max_depth` is 0 (1 ..= 1024; 32 by default).
+  // `max_depth` is 0, for every estimator (1 ..= 1024; 32 by default).
   uint32_t depth_cap;
   // CMLT: the caustic perturbation's angular σ is `lens_sigma` pixel
   // angles times this factor (> 0, finite).
@@ -777,12 +789,14 @@ enum cmlt_status cmlt_set_error_callback(cmlt_error_callback callback, void *use
 // number a host passes is safe.
 const char *cmlt_status_name(uint32_t status);
 
-// `*out` = the defaults for `estimator`: 1 worker, seed 0, the scene's
-// depth; MLT with pbrt's step sizes, 256 chains, 2000 bootstrap samples,
-// 4 normalisation passes; CMLT adds k = 1, m = 1, lens σ = 8 px and side
-// chains only on paths of at least 6 segments (the measured defaults of
-// `MltSettings::cmlt`). Width and height are 0: set
-// them.
+// `*out` = the defaults, with `estimator` set: 1 worker, seed 0, the
+// scene's depth (unbounded capped at 32); MLT with pbrt's step sizes, 256
+// chains, 2000 bootstrap samples, 4 normalisation passes; CMLT with k = 1,
+// m = 1, lens σ = 8 px and side chains only on paths of at least 6
+// segments (the measured defaults of `Level2Settings::default`). Every
+// field but `estimator` has the same default whatever the estimator: the
+// values a field the estimator does not read must keep (see
+// `cmlt_renderer_config`). Width and height are 0: set them.
 //
 // # Safety
 // `out` is NULL or valid for writing.
@@ -836,27 +850,28 @@ void cmlt_renderer_release(struct cmlt_renderer *renderer);
 enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
                                           const struct cmlt_camera *camera);
 
-// Readies the renderer for this frame's `cmlt_renderer_render` calls:
-// after creation or a camera change, MLT and CMLT estimate the
-// normalisation here, all of it on the calling thread; otherwise it
-// returns at once. A host with worker threads spreads the same work over
-// them with `cmlt_renderer_prepare_begin`, `cmlt_renderer_prepare_worker`
-// and `cmlt_renderer_prepare_finish` (the same image, bit for bit).
-// `CMLT_ERROR_BUSY` while a worker renders.
+// Readies the renderer for this frame's `cmlt_renderer_render` calls on
+// the calling thread: exactly `cmlt_renderer_prepare_begin`, then
+// `cmlt_renderer_prepare_worker` for every worker in turn, then
+// `cmlt_renderer_prepare_finish` (the same image, bit for bit, as those
+// calls spread over the host's threads). After creation, a camera change
+// or a scene update, MLT and CMLT estimate the normalisation here;
+// otherwise it returns at once. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` is NULL or valid.
 enum cmlt_status cmlt_renderer_prepare(struct cmlt_renderer *renderer);
 
-// The first of three calls that run `cmlt_renderer_prepare`'s work on
-// the host's own threads: starts the frame's preparation and sets
+// The first of the three calls that ready the renderer for the frame
+// (`cmlt_renderer_prepare` runs all three on one thread): starts the
+// frame's preparation and sets
 // `*out_pending` (may be NULL) to 1 when the workers have bootstrap work
 // (MLT, CMLT after creation or a camera change) — then call
 // `cmlt_renderer_prepare_worker` once for every worker (concurrently, from
 // different threads if the host likes) and `cmlt_renderer_prepare_finish`
 // once — or 0 when the renderer is ready (the other two calls then return
-// at once). The image is bit for bit the one `cmlt_renderer_prepare`
-// gives. `CMLT_ERROR_BUSY` while a worker renders.
+// at once). The image is bit for bit the same whichever threads run the
+// workers. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` is NULL or valid; `out_pending` is NULL or valid.

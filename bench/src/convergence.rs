@@ -13,8 +13,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::study::{Measurement, Study};
-use cmlt::mlt::MltSettings;
-use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt::renderer::{Estimator, EstimatorKind};
 use cmlt_cli::render::Budget;
 
 /// The CSV header of [`write_csv`]. `budget_s` is empty for sample-count
@@ -305,18 +304,17 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
 /// A method of the study: an estimator's name with its defaults (`pt`,
 /// `bdpt`, `mlt`, `cmlt`), or a Metropolis method with settings changed,
 /// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:passes=32:sigma=8` (any subset,
-/// in any order; `depth` is the side-chain minimum depth, `passes` the
-/// normalisation passes, `sigma` the lens σ in pixels) — how the parameter study compares settings in one run.
-pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
+/// in any order; `passes` the normalisation passes, for mlt and cmlt; the
+/// rest CMLT's level 2: `depth` the side-chain minimum depth, `sigma` the
+/// lens σ in pixels) — how the parameter study compares settings in one
+/// run. A setting the method does not read is an error.
+pub fn method_settings(spec: &str) -> Result<Estimator, String> {
     let mut parts = spec.split(':');
     let name = parts.next().unwrap_or_default();
-    let e = Estimator::from_name(name)
+    let kind = EstimatorKind::from_name(name)
         .ok_or_else(|| format!("unknown method '{name}' (expected pt, bdpt, mlt or cmlt)"))?;
-    let mut mlt = RendererConfig::for_estimator(e).mlt;
+    let mut estimator = Estimator::default_for(kind);
     for kv in parts {
-        if !e.is_metropolis() {
-            return Err(format!("'{spec}': only mlt and cmlt take settings"));
-        }
         let (k, v) = kv
             .split_once('=')
             .ok_or_else(|| format!("'{spec}': '{kv}' is not key=value"))?;
@@ -324,15 +322,25 @@ pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
             v.parse::<u32>()
                 .map_err(|e| format!("'{spec}': {k} '{v}': {e}"))
         };
+        if k == "passes" {
+            let mlt = estimator
+                .mlt_mut()
+                .ok_or_else(|| format!("'{spec}': only mlt and cmlt take passes"))?;
+            mlt.b_passes = int()?;
+            continue;
+        }
+        let Estimator::Cmlt(c) = &mut estimator else {
+            return Err(format!("'{spec}': {k} is a cmlt setting"));
+        };
+        let l2 = &mut c.level2;
         match k {
-            "lanes" => mlt.lanes = int()?,
-            "m" => mlt.m = int()?,
-            "share" => mlt.share = int()?,
-            "depth" => mlt.side_chain_min_depth = int()?,
-            "k" => mlt.k = int()?,
-            "passes" => mlt.b_passes = int()?,
+            "lanes" => l2.lanes = int()?,
+            "m" => l2.m = int()?,
+            "share" => l2.share = int()?,
+            "depth" => l2.side_chain_min_depth = int()?,
+            "k" => l2.k = int()?,
             "sigma" => {
-                mlt.lens_sigma = v
+                l2.lens_sigma = v
                     .parse::<f32>()
                     .map_err(|e| format!("'{spec}': sigma '{v}': {e}"))?
             }
@@ -343,8 +351,8 @@ pub fn method_settings(spec: &str) -> Result<(Estimator, MltSettings), String> {
             }
         }
     }
-    mlt.validate().map_err(|e| format!("'{spec}': {e}"))?;
-    Ok((e, mlt))
+    estimator.validate().map_err(|e| format!("'{spec}': {e}"))?;
+    Ok(estimator)
 }
 
 /// Runs the study, printing one line per render to `out`; returns the rows
@@ -355,7 +363,7 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
     let estimators = opts
         .methods
         .iter()
-        .map(|m| method_settings(m).map(|(e, mlt)| (m.clone(), e, mlt)))
+        .map(|m| method_settings(m).map(|e| (m.clone(), e)))
         .collect::<Result<Vec<_>, _>>()?;
     if opts.budgets.iter().any(|b| !(b.is_finite() && *b > 0.0)) {
         return Err("budgets must be positive numbers".to_string());
@@ -385,8 +393,8 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Row>, String> {
             1
         };
         for seed in 0..seeds {
-            for (name, estimator, mlt) in &estimators {
-                let m = study.measure(*estimator, mlt, budget, opts.threads, seed)?;
+            for (name, estimator) in &estimators {
+                let m = study.measure(*estimator, budget, opts.threads, seed)?;
                 writeln!(
                     out,
                     "{name:>5} budget {b:>6} seed {seed}: {:>8.2} s, {:>10.2} samples/px, relMSE {:.5} (4x4 {:.5}, 16x16 {:.5}), mean rgb ({:.4}, {:.4}, {:.4}), {:.2} Mrays/s, {:.2} CPU s",
@@ -529,25 +537,49 @@ mod tests {
 
     #[test]
     fn method_settings_change_only_what_they_name() {
-        let (e, base) = method_settings("cmlt").unwrap();
-        assert_eq!(e, Estimator::Cmlt);
-        assert_eq!(base, MltSettings::cmlt());
-        let (_, s) = method_settings("cmlt:lanes=4:share=8:depth=3:sigma=2.5").unwrap();
+        use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+        for kind in EstimatorKind::ALL {
+            assert_eq!(
+                method_settings(kind.name()).unwrap(),
+                Estimator::default_for(kind)
+            );
+        }
+        let s = method_settings("cmlt:lanes=4:share=8:depth=3:sigma=2.5:passes=7").unwrap();
+        let d = CmltSettings::default();
         assert_eq!(
             s,
-            MltSettings {
-                lanes: 4,
-                share: 8,
-                side_chain_min_depth: 3,
-                lens_sigma: 2.5,
-                ..MltSettings::cmlt()
-            }
+            Estimator::Cmlt(CmltSettings {
+                mlt: MltSettings {
+                    b_passes: 7,
+                    ..d.mlt
+                },
+                level2: Level2Settings {
+                    lanes: 4,
+                    share: 8,
+                    side_chain_min_depth: 3,
+                    lens_sigma: 2.5,
+                    ..d.level2
+                },
+            })
         );
         assert_eq!(
-            method_settings("mlt:m=0").unwrap().1,
-            MltSettings::default()
+            method_settings("mlt:passes=2")
+                .unwrap()
+                .mlt()
+                .unwrap()
+                .b_passes,
+            2
         );
-        for bad in ["cmlt:lanes", "cmlt:x=1", "bdpt:m=1", "cmlt:k=0", "foo"] {
+        for bad in [
+            "cmlt:lanes",
+            "cmlt:x=1",
+            "bdpt:m=1",
+            "pt:passes=2",
+            "mlt:m=1",
+            "cmlt:k=0",
+            "cmlt:m=0",
+            "foo",
+        ] {
             assert!(method_settings(bad).is_err(), "{bad} was accepted");
         }
     }

@@ -12,14 +12,14 @@ use std::io::Write;
 
 use cmlt::accel::Intersector;
 use cmlt::math::Rgb;
-use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt::renderer::{EstimatorKind, RendererConfig};
 use cmlt::scene::Scene;
 
 use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, render};
 
 /// What the throughput of `method` counts.
-fn unit(method: Estimator) -> &'static str {
+fn unit(method: EstimatorKind) -> &'static str {
     if method.is_metropolis() {
         "mutations/s"
     } else {
@@ -34,7 +34,7 @@ pub struct Row {
     /// Scene name.
     pub scene: String,
     /// The method.
-    pub method: Estimator,
+    pub method: EstimatorKind,
     /// Best throughput with the analysis on.
     pub on: f64,
     /// Best throughput with every effect on (`--all-effects`).
@@ -58,7 +58,7 @@ fn measure<I: Intersector + Sync>(
     loaded: &LoadedScene,
     accel: &I,
     all_effects: bool,
-    method: Estimator,
+    method: EstimatorKind,
     seconds: f64,
     threads: usize,
 ) -> Result<(f64, Rgb), String> {
@@ -88,7 +88,7 @@ fn measure<I: Intersector + Sync>(
 #[allow(clippy::too_many_arguments)]
 pub fn run<I: Intersector + Sync>(
     scenes: &[(String, LoadedScene, I)],
-    methods: &[Estimator],
+    methods: &[EstimatorKind],
     seconds: f64,
     repeats: usize,
     threads: usize,

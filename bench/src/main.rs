@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use cmlt::mlt::{Candidates, MltSettings};
-use cmlt::renderer::{Estimator, RendererConfig, Temporal};
+use cmlt::renderer::{Estimator, EstimatorKind, RendererConfig, Temporal};
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{parse_candidates, parse_define, parse_estimator, threads_or_all};
 use cmlt_cli::image_io;
@@ -95,7 +95,7 @@ enum BenchCommand {
         scene: Option<String>,
         /// MLT or CMLT.
         #[arg(long, default_value = "cmlt", value_parser = parse_estimator)]
-        method: Estimator,
+        method: EstimatorKind,
         /// Frames per configuration.
         #[arg(long, default_value_t = 60)]
         frames: usize,
@@ -282,7 +282,7 @@ enum BenchCommand {
         scene: Option<String>,
         /// MLT or CMLT.
         #[arg(long, default_value = "cmlt", value_parser = parse_estimator)]
-        method: Estimator,
+        method: EstimatorKind,
         /// Workers (one thread each when spread).
         #[arg(long, default_value_t = 2)]
         threads: u32,
@@ -351,20 +351,16 @@ fn run(cli: Cli) -> Result<(), String> {
             if !method.is_metropolis() {
                 return Err("bench flicker measures --method mlt or cmlt".into());
             }
-            let mlt = RendererConfig::for_estimator(method).mlt;
-            let mlt = MltSettings {
-                b_passes,
-                b_min_samples: 0,
-                ..mlt
-            };
+            let mut estimator = Estimator::default_for(method);
+            if let Some(mlt) = estimator.mlt_mut() {
+                (mlt.b_passes, mlt.b_min_samples) = (b_passes, 0);
+            }
             let base = RendererConfig {
-                estimator: method,
+                estimator,
                 settings: loaded.settings,
-                mlt,
                 seed,
                 workers: threads.max(1),
-                temporal: Temporal::default(),
-                all_effects: false,
+                ..RendererConfig::default()
             };
             println!(
                 "static camera: {frames} frames, {mutations_per_pixel} mutations/pixel/frame, {} workers, {:?}",

@@ -11,11 +11,12 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use cmlt::mlt::{Candidates, MltSettings};
+use cmlt::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings};
+use cmlt::renderer::Estimator;
 
 use super::plot::HeatPanel;
 use super::study::{Measurement, Study};
-use cmlt_cli::render::{Budget, metropolis};
+use cmlt_cli::render::Budget;
 
 /// The CSV header of [`write_csv`]; `method` is `cmlt` or `mlt` (the
 /// baseline, whose σ, k and m columns are empty).
@@ -90,28 +91,27 @@ pub fn run(opts: &Options, out: &mut dyn Write) -> Result<Vec<Cell>, String> {
     }
     let mut cells = Vec::new();
     for (lens_sigma, k, m) in grid {
-        let settings = if m == 0 {
-            MltSettings::default()
+        // m = 0: the MLT baseline; otherwise CMLT with the cell's level 2.
+        let estimator = if m == 0 {
+            Estimator::Mlt(MltSettings::default())
         } else {
-            MltSettings {
-                lens_sigma,
-                k,
-                m,
-                candidates: opts.candidates,
-                ..MltSettings::cmlt()
-            }
+            Estimator::Cmlt(CmltSettings {
+                level2: Level2Settings {
+                    lens_sigma,
+                    k,
+                    m,
+                    candidates: opts.candidates,
+                    ..Level2Settings::default()
+                },
+                ..CmltSettings::default()
+            })
         };
-        settings
+        estimator
             .validate()
             .map_err(|e| format!("{e} (σ {lens_sigma}, k {k}, m {m})"))?;
         for seed in 0..opts.seeds.max(1) {
-            let result = study.measure(
-                metropolis(&settings),
-                &settings,
-                Budget::Seconds(opts.time),
-                opts.threads,
-                seed,
-            )?;
+            let result =
+                study.measure(estimator, Budget::Seconds(opts.time), opts.threads, seed)?;
             let what = if m == 0 {
                 "mlt (baseline)".to_string()
             } else {

@@ -1,11 +1,11 @@
 //! `cmlt-bench prepare`: what spreading the first frame's preparation (the
 //! MLT bootstrap) over the host's threads saves.
 //!
-//! A host either calls [`Renderer::prepare`] (C: `cmlt_renderer_prepare`),
-//! which runs the whole bootstrap on the calling thread, or spreads it over
-//! its worker threads with [`Renderer::begin_prepare`], one
+//! Preparing is [`Renderer::begin_prepare`], one
 //! [`Renderer::prepare_worker`] per worker and [`Renderer::finish_prepare`]
-//! (C: `cmlt_renderer_prepare_begin` / `_worker` / `_finish`, what
+//! (C: `cmlt_renderer_prepare_begin` / `_worker` / `_finish`). A host runs
+//! the workers' calls one after the other on its own thread (C:
+//! `cmlt_renderer_prepare`), or each on its worker's thread (what
 //! `examples-c/frame_loop.c` and `cmlt render` do). Both give the same
 //! bootstrap bit for bit; this measures the wall time of each on fresh
 //! renderers (a first frame), in turns (serial, spread, serial, …) in one
@@ -21,7 +21,7 @@ use cmlt::scene::Scene;
 /// The measured times, in seconds, one entry per turn.
 #[derive(Clone, Debug, Default)]
 pub struct PrepareTimes {
-    /// `Renderer::prepare` on the calling thread.
+    /// Every worker's share on the calling thread, one after the other.
     pub serial: Vec<f64>,
     /// The bootstrap spread over one thread per worker.
     pub spread: Vec<f64>,
@@ -74,9 +74,18 @@ pub fn run<I: Intersector + Sync>(
     }
     let mut times = PrepareTimes::default();
     for _ in 0..repeats {
-        let (mut serial, _workers) = fresh(config, scene)?;
+        let (mut serial, mut workers) = fresh(config, scene)?;
         let t = Instant::now();
-        serial.prepare(scene, accel);
+        if serial.begin_prepare(scene) {
+            for w in &mut workers {
+                serial
+                    .prepare_worker(w, scene, accel)
+                    .map_err(|e| e.to_string())?;
+            }
+            serial
+                .finish_prepare(workers.iter())
+                .map_err(|e| e.to_string())?;
+        }
         times.serial.push(t.elapsed().as_secs_f64());
 
         let (mut spread, mut workers) = fresh(config, scene)?;
@@ -121,10 +130,10 @@ mod tests {
             &scene.triangles().collect::<Vec<_>>(),
         )
         .unwrap();
-        let mut config = RendererConfig::for_estimator(cmlt::renderer::Estimator::Mlt);
+        let mut config = RendererConfig::for_estimator(cmlt::renderer::EstimatorKind::Mlt);
         config.settings = loaded.settings;
         config.workers = 2;
-        config.mlt.n_bootstrap = 64;
+        config.estimator.mlt_mut().unwrap().n_bootstrap = 64;
         let t = run(scene, &accel, config, 2).unwrap();
         assert_eq!((t.serial.len(), t.spread.len()), (2, 2));
         assert!(t.speedup().is_finite() && t.speedup() > 0.0);

@@ -9,7 +9,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig};
 
 use cmlt_cli::accel::{Accel, AccelKind};
@@ -86,13 +85,12 @@ impl Study {
         (cam.width() as usize, cam.height() as usize)
     }
 
-    /// Renders with `estimator` (Metropolis settings `mlt`) under
-    /// `budget` on `threads` threads from `seed`, and scores the image
-    /// against the reference.
+    /// Renders with `estimator` (and its settings) under `budget` on
+    /// `threads` threads from `seed`, and scores the image against the
+    /// reference.
     pub fn measure(
         &self,
         estimator: Estimator,
-        mlt: &MltSettings,
         budget: Budget,
         threads: usize,
         seed: u64,
@@ -100,7 +98,6 @@ impl Study {
         let config = RendererConfig {
             estimator,
             settings: self.loaded.settings,
-            mlt: *mlt,
             seed,
             workers: threads as u32,
             ..RendererConfig::default()

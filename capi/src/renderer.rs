@@ -1,13 +1,15 @@
 //! The frame loop: a renderer over a committed scene with a fixed
 //! resolution and a number of workers (one per host thread or job — the
 //! library starts no threads). Per frame: optionally `set_camera`, then
-//! `prepare` (or, to run the MLT bootstrap on the host's threads,
-//! `prepare_begin`, `prepare_worker` for each worker concurrently, and
-//! `prepare_finish`), then `render` each worker (concurrently from
-//! different threads if the host likes), then `resolve` into the host's
-//! buffer. Everything is allocated by `cmlt_renderer_new`; the frame calls
-//! allocate nothing. The estimators and budgets are the core's
-//! ([`Estimator`]: `CMLT_ESTIMATOR_*` are its discriminants;
+//! the core's one preparation — `prepare_begin`, `prepare_worker` for each
+//! worker (concurrently, on the host's threads, if it likes) and
+//! `prepare_finish`, or `prepare`, which runs those three on the calling
+//! thread — then `render` each worker (concurrently from different threads
+//! if the host likes), then `resolve` into the host's buffer. Everything
+//! is allocated by `cmlt_renderer_new`; the frame calls allocate nothing.
+//! The estimators and budgets are the core's ([`Estimator`]:
+//! `CMLT_ESTIMATOR_*` are [`EstimatorKind`]'s discriminants, the flat
+//! config's fields the variants' settings;
 //! `cmlt_core::renderer::Budget`: `cmlt_renderer_render_per_pixel`, and
 //! `cmlt_renderer_render_while` with the host's clock for seconds).
 
@@ -17,10 +19,10 @@ use std::sync::{Arc, Mutex, RwLock};
 use cmlt_core::integrator::LobeCounts;
 use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
-use cmlt_core::mlt::{Candidates, MltSettings, Splatting};
+use cmlt_core::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
 use cmlt_core::renderer::{
-    Accumulator, Estimator, RenderError, RenderStats, RenderWorker, Renderer, RendererConfig,
-    Temporal,
+    Accumulator, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
+    RendererConfig, Temporal,
 };
 
 use crate::alloc::{check_oom, measure_allocations, try_reserve};
@@ -38,13 +40,13 @@ pub const CMLT_ESTIMATOR_MLT: u32 = 2;
 /// traced as packets (`Estimator::Cmlt`).
 pub const CMLT_ESTIMATOR_CMLT: u32 = 3;
 
-// The constants are the core's `Estimator` discriminants (literals here so
-// that cbindgen writes them into the header).
+// The constants are the core's `EstimatorKind` discriminants (literals
+// here so that cbindgen writes them into the header).
 const _: () = assert!(
-    CMLT_ESTIMATOR_PT == Estimator::Path as u32
-        && CMLT_ESTIMATOR_BDPT == Estimator::Bdpt as u32
-        && CMLT_ESTIMATOR_MLT == Estimator::Mlt as u32
-        && CMLT_ESTIMATOR_CMLT == Estimator::Cmlt as u32
+    CMLT_ESTIMATOR_PT == EstimatorKind::Path as u32
+        && CMLT_ESTIMATOR_BDPT == EstimatorKind::Bdpt as u32
+        && CMLT_ESTIMATOR_MLT == EstimatorKind::Mlt as u32
+        && CMLT_ESTIMATOR_CMLT == EstimatorKind::Cmlt as u32
 );
 
 /// CMLT: each step records every candidate with its one-proposal
@@ -60,6 +62,18 @@ pub const CMLT_FORMAT_RGB32F: u32 = 0;
 pub const CMLT_FORMAT_RGBA8_SRGB: u32 = 1;
 
 /// What fixes a renderer. Start from `cmlt_renderer_config_default`.
+///
+/// `estimator` picks the estimator, and with it the fields it reads: every
+/// estimator reads the size, `workers`, `max_depth`, `depth_cap`, `seed`,
+/// `fixed_sequence` and `all_effects`; MLT and CMLT also the fields marked
+/// "MLT" (and `keep_chains`, `b_window`); CMLT alone those marked "CMLT".
+/// A field the estimator does not read must keep the value
+/// `cmlt_renderer_config_default` gives it (the same for every
+/// estimator): otherwise `cmlt_renderer_new` and
+/// `cmlt_renderer_memory_requirements` refuse the config with
+/// `CMLT_ERROR_INVALID_ARGUMENT` and a message naming the field, so a
+/// setting is never silently ignored (before this rule MLT ignored the
+/// CMLT fields; `m` never turns MLT into CMLT).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 #[allow(non_camel_case_types)]
@@ -73,7 +87,7 @@ pub struct cmlt_renderer_config {
     /// Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
     pub workers: u32,
     /// Longest path in segments; 0 = the scene's setting (unbounded paths
-    /// are capped at `depth_cap`).
+    /// are capped at `depth_cap`, for every estimator).
     pub max_depth: u32,
     /// Seed of all random numbers.
     pub seed: u64,
@@ -108,7 +122,7 @@ pub struct cmlt_renderer_config {
     /// what the scene needs is simulated.
     pub all_effects: u32,
     /// Longest path in segments when the scene's depth is unbounded and
-    /// `max_depth` is 0 (1 ..= 1024; 32 by default).
+    /// `max_depth` is 0, for every estimator (1 ..= 1024; 32 by default).
     pub depth_cap: u32,
     /// CMLT: the caustic perturbation's angular σ is `lens_sigma` pixel
     /// angles times this factor (> 0, finite).
@@ -226,12 +240,14 @@ pub struct cmlt_renderer {
     accumulator: Mutex<Accumulator>,
 }
 
-/// `*out` = the defaults for `estimator`: 1 worker, seed 0, the scene's
-/// depth; MLT with pbrt's step sizes, 256 chains, 2000 bootstrap samples,
-/// 4 normalisation passes; CMLT adds k = 1, m = 1, lens σ = 8 px and side
-/// chains only on paths of at least 6 segments (the measured defaults of
-/// `MltSettings::cmlt`). Width and height are 0: set
-/// them.
+/// `*out` = the defaults, with `estimator` set: 1 worker, seed 0, the
+/// scene's depth (unbounded capped at 32); MLT with pbrt's step sizes, 256
+/// chains, 2000 bootstrap samples, 4 normalisation passes; CMLT with k = 1,
+/// m = 1, lens σ = 8 px and side chains only on paths of at least 6
+/// segments (the measured defaults of `Level2Settings::default`). Every
+/// field but `estimator` has the same default whatever the estimator: the
+/// values a field the estimator does not read must keep (see
+/// `cmlt_renderer_config`). Width and height are 0: set them.
 ///
 /// # Safety
 /// `out` is NULL or valid for writing.
@@ -243,53 +259,136 @@ pub unsafe extern "C" fn cmlt_renderer_config_default(
     guard("cmlt_renderer_config_default", || {
         // SAFETY: the caller's contract.
         let out = unsafe { write(out, "out") }?;
-        let e = Estimator::from_u32(estimator)
+        EstimatorKind::from_u32(estimator)
             .ok_or_else(|| Error::invalid(format!("unknown estimator {estimator}")))?;
-        let mlt = RendererConfig::for_estimator(e).mlt;
-        *out = cmlt_renderer_config {
-            width: 0,
-            height: 0,
-            estimator,
-            workers: 1,
-            max_depth: 0,
-            seed: 0,
-            chains: mlt.n_chains,
-            bootstrap_samples: mlt.n_bootstrap,
-            normalisation_passes: mlt.b_passes,
-            large_step_probability: mlt.large_step_prob,
-            small_step_sigma: mlt.sigma,
-            k: mlt.k,
-            m: mlt.m.max(1),
-            lens_sigma: mlt.lens_sigma,
-            stratified: (mlt.candidates == Candidates::Stratified) as u32,
-            keep_chains: 0,
-            b_window: 0,
-            fixed_sequence: 0,
-            all_effects: 0,
-            depth_cap: mlt.depth_cap,
-            caustic_scale: mlt.caustic_scale,
-            splatting: match mlt.splatting {
-                Splatting::ExpectedValue => CMLT_SPLATTING_EXPECTED_VALUE,
-                _ => CMLT_SPLATTING_RECYCLED,
-            },
-            lanes: mlt.lanes,
-            side_chain_min_depth: mlt.side_chain_min_depth,
-            share: mlt.share,
-            normalisation_min_samples: mlt.b_min_samples,
-        };
+        *out = defaults(estimator);
         Ok(())
     })
 }
 
-/// The core configuration of `c` over `scene`, checked.
+/// The defaults of every field (`estimator` as given): the core's
+/// [`RendererConfig::default`], [`MltSettings::default`] and
+/// [`Level2Settings::default`].
+fn defaults(estimator: u32) -> cmlt_renderer_config {
+    let (c, mlt, l2) = (
+        RendererConfig::default(),
+        MltSettings::default(),
+        Level2Settings::default(),
+    );
+    cmlt_renderer_config {
+        width: 0,
+        height: 0,
+        estimator,
+        workers: c.workers,
+        max_depth: 0,
+        seed: c.seed,
+        chains: mlt.n_chains,
+        bootstrap_samples: mlt.n_bootstrap,
+        normalisation_passes: mlt.b_passes,
+        large_step_probability: mlt.large_step_prob,
+        small_step_sigma: mlt.sigma,
+        k: l2.k,
+        m: l2.m,
+        lens_sigma: l2.lens_sigma,
+        stratified: (l2.candidates == Candidates::Stratified) as u32,
+        keep_chains: c.temporal.keep_chains as u32,
+        b_window: c.temporal.b_window,
+        fixed_sequence: c.temporal.fixed_sequence as u32,
+        all_effects: c.all_effects as u32,
+        depth_cap: c.depth_cap,
+        caustic_scale: l2.caustic_scale,
+        splatting: match l2.splatting {
+            Splatting::ExpectedValue => CMLT_SPLATTING_EXPECTED_VALUE,
+            _ => CMLT_SPLATTING_RECYCLED,
+        },
+        lanes: l2.lanes,
+        side_chain_min_depth: l2.side_chain_min_depth,
+        share: l2.share,
+        normalisation_min_samples: mlt.b_min_samples,
+    }
+}
+
+/// The first field of `c` that `kind` does not read and that differs from
+/// its default (`d`), with the estimators that read it.
+fn unread_field(
+    c: &cmlt_renderer_config,
+    d: &cmlt_renderer_config,
+    kind: EstimatorKind,
+) -> Option<(&'static str, &'static str)> {
+    const MLT: &str = "MLT and CMLT";
+    const CMLT: &str = "CMLT";
+    // Floats compare by their bits: a NaN given to an estimator that does
+    // not read it is refused too.
+    let f = |a: f32, b: f32| a.to_bits() == b.to_bits();
+    let fields = [
+        ("chains", MLT, c.chains == d.chains),
+        (
+            "bootstrap_samples",
+            MLT,
+            c.bootstrap_samples == d.bootstrap_samples,
+        ),
+        (
+            "normalisation_passes",
+            MLT,
+            c.normalisation_passes == d.normalisation_passes,
+        ),
+        (
+            "normalisation_min_samples",
+            MLT,
+            c.normalisation_min_samples == d.normalisation_min_samples,
+        ),
+        (
+            "large_step_probability",
+            MLT,
+            f(c.large_step_probability, d.large_step_probability),
+        ),
+        (
+            "small_step_sigma",
+            MLT,
+            f(c.small_step_sigma, d.small_step_sigma),
+        ),
+        ("keep_chains", MLT, c.keep_chains == d.keep_chains),
+        ("b_window", MLT, c.b_window == d.b_window),
+        ("k", CMLT, c.k == d.k),
+        ("m", CMLT, c.m == d.m),
+        ("lens_sigma", CMLT, f(c.lens_sigma, d.lens_sigma)),
+        ("stratified", CMLT, c.stratified == d.stratified),
+        ("caustic_scale", CMLT, f(c.caustic_scale, d.caustic_scale)),
+        ("splatting", CMLT, c.splatting == d.splatting),
+        ("lanes", CMLT, c.lanes == d.lanes),
+        (
+            "side_chain_min_depth",
+            CMLT,
+            c.side_chain_min_depth == d.side_chain_min_depth,
+        ),
+        ("share", CMLT, c.share == d.share),
+    ];
+    let reads = |readers: &str| match kind {
+        EstimatorKind::Cmlt => true,
+        EstimatorKind::Mlt => readers == MLT,
+        EstimatorKind::Path | EstimatorKind::Bdpt => false,
+    };
+    fields
+        .into_iter()
+        .find(|&(_, readers, same)| !same && !reads(readers))
+        .map(|(name, readers, _)| (name, readers))
+}
+
+/// The core configuration of `c` over `scene`, checked: the variant of
+/// `c.estimator` with the fields it reads, the others refused unless they
+/// keep their defaults (see `cmlt_renderer_config`).
 pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result<RendererConfig> {
     if c.width == 0 || c.height == 0 || c.width > 1 << 14 || c.height > 1 << 14 {
         return Err(Error::invalid("width and height must be in 1 ..= 16384"));
     }
-    let estimator = Estimator::from_u32(c.estimator)
+    let kind = EstimatorKind::from_u32(c.estimator)
         .ok_or_else(|| Error::invalid(format!("unknown estimator {}", c.estimator)))?;
-    if estimator == Estimator::Cmlt && c.m == 0 {
-        return Err(Error::invalid("CMLT needs m ≥ 1 side-chain steps"));
+    if let Some((field, readers)) = unread_field(c, &defaults(c.estimator), kind) {
+        return Err(Error::invalid(format!(
+            "{field} is read by {readers} only, not by {}: leave it at \
+             cmlt_renderer_config_default's value",
+            kind.name().to_uppercase()
+        )));
     }
     if c.max_depth > 1024 {
         return Err(Error::invalid("max_depth must be at most 1024"));
@@ -314,30 +413,40 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         n_chains: c.chains,
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
-        m: if estimator == Estimator::Cmlt { c.m } else { 0 },
-        k: c.k,
-        lens_sigma: c.lens_sigma,
-        candidates: if c.stratified != 0 {
-            Candidates::Stratified
-        } else {
-            Candidates::Independent
-        },
-        depth_cap: c.depth_cap,
-        caustic_scale: c.caustic_scale,
-        splatting,
-        lanes: c.lanes,
-        side_chain_min_depth: c.side_chain_min_depth,
-        share: c.share,
+        ..MltSettings::default()
     };
-    if estimator.is_metropolis() && mlt.n_bootstrap == 0 {
+    if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(
             "MLT needs at least one bootstrap sample per depth",
         ));
     }
+    let estimator = match kind {
+        EstimatorKind::Path => Estimator::Path,
+        EstimatorKind::Bdpt => Estimator::Bdpt,
+        EstimatorKind::Mlt => Estimator::Mlt(mlt),
+        EstimatorKind::Cmlt => Estimator::Cmlt(CmltSettings {
+            mlt,
+            level2: Level2Settings {
+                m: c.m,
+                k: c.k,
+                lens_sigma: c.lens_sigma,
+                caustic_scale: c.caustic_scale,
+                candidates: if c.stratified != 0 {
+                    Candidates::Stratified
+                } else {
+                    Candidates::Independent
+                },
+                splatting,
+                lanes: c.lanes,
+                side_chain_min_depth: c.side_chain_min_depth,
+                share: c.share,
+            },
+        }),
+    };
     Ok(RendererConfig {
         estimator,
         settings,
-        mlt,
+        depth_cap: c.depth_cap,
         seed: c.seed,
         workers: c.workers,
         temporal: Temporal {
@@ -551,13 +660,13 @@ fn with_worker(
     f(&inner, &mut w).map_err(render_error)
 }
 
-/// Readies the renderer for this frame's `cmlt_renderer_render` calls:
-/// after creation or a camera change, MLT and CMLT estimate the
-/// normalisation here, all of it on the calling thread; otherwise it
-/// returns at once. A host with worker threads spreads the same work over
-/// them with `cmlt_renderer_prepare_begin`, `cmlt_renderer_prepare_worker`
-/// and `cmlt_renderer_prepare_finish` (the same image, bit for bit).
-/// `CMLT_ERROR_BUSY` while a worker renders.
+/// Readies the renderer for this frame's `cmlt_renderer_render` calls on
+/// the calling thread: exactly `cmlt_renderer_prepare_begin`, then
+/// `cmlt_renderer_prepare_worker` for every worker in turn, then
+/// `cmlt_renderer_prepare_finish` (the same image, bit for bit, as those
+/// calls spread over the host's threads). After creation, a camera change
+/// or a scene update, MLT and CMLT estimate the normalisation here;
+/// otherwise it returns at once. `CMLT_ERROR_BUSY` while a worker renders.
 ///
 /// # Safety
 /// `renderer` is NULL or valid.
@@ -571,20 +680,52 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
             .try_write()
             .map_err(|e| Error::lock(e, "workers are rendering"))?;
         let live = r.scene.live()?;
-        inner.prepare(&live.scene, &live.accel);
+        if inner.begin_prepare(&live.scene) {
+            for slot in r.workers.iter() {
+                let mut w = slot
+                    .try_lock()
+                    .map_err(|e| Error::lock(e, "a worker is being prepared or rendered"))?;
+                inner
+                    .prepare_worker(&mut w, &live.scene, &live.accel)
+                    .map_err(render_error)?;
+            }
+            finish_prepare(r, &mut inner)?;
+        }
         Ok(())
     })
 }
 
-/// The first of three calls that run `cmlt_renderer_prepare`'s work on
-/// the host's own threads: starts the frame's preparation and sets
+/// The core's `finish_prepare` over all of `r`'s workers, each locked in
+/// turn (no list of guards: a frame allocates nothing); a worker locked by
+/// another thread is `CMLT_ERROR_BUSY` and changes nothing.
+fn finish_prepare(r: &cmlt_renderer, inner: &mut Renderer) -> Result<()> {
+    let mut busy = None;
+    let workers = r.workers.iter().map_while(|slot| match slot.try_lock() {
+        Ok(w) => Some(w),
+        Err(e) => {
+            busy = Some(Error::lock(e, "a worker is being prepared or rendered"));
+            None
+        }
+    });
+    // A worker cut off by a busy lock leaves the bootstrap incomplete:
+    // refused by the core, reported as busy.
+    let done = inner.finish_prepare(workers);
+    match busy {
+        Some(e) => Err(e),
+        None => done.map_err(render_error),
+    }
+}
+
+/// The first of the three calls that ready the renderer for the frame
+/// (`cmlt_renderer_prepare` runs all three on one thread): starts the
+/// frame's preparation and sets
 /// `*out_pending` (may be NULL) to 1 when the workers have bootstrap work
 /// (MLT, CMLT after creation or a camera change) — then call
 /// `cmlt_renderer_prepare_worker` once for every worker (concurrently, from
 /// different threads if the host likes) and `cmlt_renderer_prepare_finish`
 /// once — or 0 when the renderer is ready (the other two calls then return
-/// at once). The image is bit for bit the one `cmlt_renderer_prepare`
-/// gives. `CMLT_ERROR_BUSY` while a worker renders.
+/// at once). The image is bit for bit the same whichever threads run the
+/// workers. `CMLT_ERROR_BUSY` while a worker renders.
 ///
 /// # Safety
 /// `renderer` is NULL or valid; `out_pending` is NULL or valid.
@@ -651,15 +792,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_finish(renderer: *mut cmlt_render
             .renderer
             .try_write()
             .map_err(|e| Error::lock(e, "workers are rendering"))?;
-        // One worker at a time (no list of guards: a frame allocates
-        // nothing).
-        for slot in r.workers.iter() {
-            let w = slot
-                .try_lock()
-                .map_err(|e| Error::lock(e, "a worker is being prepared or rendered"))?;
-            inner.gather_prepared(&w).map_err(render_error)?;
-        }
-        inner.finish_gathered().map_err(render_error)
+        finish_prepare(r, &mut inner)
     })
 }
 

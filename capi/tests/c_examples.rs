@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use cmlt_core::renderer::{Estimator, RenderWorker, Renderer, RendererConfig};
+use cmlt_core::renderer::{EstimatorKind, RenderWorker, Renderer, RendererConfig};
 
 fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -191,9 +191,10 @@ fn header_compiles_as_cpp() {
 #[test]
 fn minimal_matches_a_rust_render() {
     let exe = build_example("minimal");
-    for (method, estimator, per_pixel) in
-        [("bdpt", Estimator::Bdpt, 4u64), ("cmlt", Estimator::Mlt, 8)]
-    {
+    for (method, estimator, per_pixel) in [
+        ("bdpt", EstimatorKind::Bdpt, 4u64),
+        ("cmlt", EstimatorKind::Cmlt, 8),
+    ] {
         let out = run(&exe, &["minimal.ppm", method, &per_pixel.to_string(), "32"]);
         let c_mean = numbers(&out, "mean");
         assert!(out.contains("bad calls refused"), "{out}");
@@ -207,23 +208,18 @@ fn minimal_matches_a_rust_render() {
         .unwrap();
         let scene = &loaded.scene;
         let bvh = cmlt_core::accel::bvh::Bvh::build(&scene.triangles().collect::<Vec<_>>());
-        let mlt = if estimator == Estimator::Mlt {
-            cmlt_core::mlt::MltSettings::cmlt()
-        } else {
-            cmlt_core::mlt::MltSettings::default()
-        };
+        // cmlt_renderer_config_default's values: the core's defaults.
         let cfg = RendererConfig {
-            estimator,
             settings: loaded.settings,
-            mlt,
             seed: 1,
-            workers: 1,
-            temporal: Default::default(),
-            all_effects: false,
+            ..RendererConfig::for_estimator(estimator)
         };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
-        r.prepare(scene, &bvh);
+        if r.begin_prepare(scene) {
+            r.prepare_worker(&mut w, scene, &bvh).unwrap();
+            r.finish_prepare([&w]).unwrap();
+        }
         r.render(&mut w, scene, &bvh, per_pixel * 32 * 32).unwrap();
         let mut sum = [0.0f64; 3];
         r.resolve(&[&w], |_, c| {

@@ -121,15 +121,29 @@ fn run(u: &mut Unstructured) -> Result<()> {
         c.workers = u.int_in_range(0..=2)?;
         c.max_depth = u.int_in_range(0..=1100)?;
         c.seed = u.arbitrary()?;
-        c.chains = u.int_in_range(0..=16)?;
-        c.bootstrap_samples = u.int_in_range(0..=64)?;
-        c.normalisation_passes = u.int_in_range(0..=2)?;
-        c.large_step_probability = u.arbitrary()?;
-        c.small_step_sigma = u.arbitrary()?;
-        c.k = u.arbitrary()?;
-        c.m = u.int_in_range(0..=4)?;
-        c.lens_sigma = u.arbitrary()?;
-        c.stratified = u.arbitrary()?;
+        let mut d = c;
+        d.chains = u.int_in_range(0..=16)?;
+        d.bootstrap_samples = u.int_in_range(0..=64)?;
+        d.normalisation_passes = u.int_in_range(0..=2)?;
+        d.large_step_probability = u.arbitrary()?;
+        d.small_step_sigma = u.arbitrary()?;
+        d.k = u.arbitrary()?;
+        d.m = u.int_in_range(0..=4)?;
+        d.lens_sigma = u.arbitrary()?;
+        d.stratified = u.arbitrary()?;
+        // A field the estimator does not read must keep its default (or
+        // the config is refused): set those it reads, and the others only
+        // when the input says so (the refusal).
+        let misuse: bool = u.arbitrary().unwrap_or(false);
+        if misuse || estimator >= CMLT_ESTIMATOR_MLT {
+            (c.chains, c.bootstrap_samples, c.normalisation_passes) =
+                (d.chains, d.bootstrap_samples, d.normalisation_passes);
+            (c.large_step_probability, c.small_step_sigma) =
+                (d.large_step_probability, d.small_step_sigma);
+        }
+        if misuse || estimator == CMLT_ESTIMATOR_CMLT {
+            (c.k, c.m, c.lens_sigma, c.stratified) = (d.k, d.m, d.lens_sigma, d.stratified);
+        }
 
         let mut s = null_mut();
         assert!(ok(cmlt_scene_new(&mut s)));

@@ -160,12 +160,17 @@ fn config(estimator: u32, workers: u32) -> cmlt_renderer_config {
         c.width = 16;
         c.height = 12;
         c.workers = workers;
-        c.chains = 16;
-        c.bootstrap_samples = 100;
-        c.normalisation_passes = 1;
-        c.normalisation_min_samples = 0;
-        c.k = 4;
-        c.m = 2;
+        // Only the fields the estimator reads may leave their defaults.
+        if estimator == CMLT_ESTIMATOR_MLT || estimator == CMLT_ESTIMATOR_CMLT {
+            c.chains = 16;
+            c.bootstrap_samples = 100;
+            c.normalisation_passes = 1;
+            c.normalisation_min_samples = 0;
+        }
+        if estimator == CMLT_ESTIMATOR_CMLT {
+            c.k = 4;
+            c.m = 2;
+        }
         c
     }
 }

@@ -1,7 +1,10 @@
-//! Renderers: argument and call-order checks, the bootstrap on the
-//! host's threads, and the default configuration.
+//! Renderers: argument and call-order checks, fields an estimator does
+//! not read, the bootstrap on the host's threads, and the default
+//! configuration.
 
 use super::*;
+
+use cmlt_core::renderer::{EstimatorKind, RendererConfig};
 
 #[test]
 fn renderer_inputs_and_call_order_are_checked() {
@@ -383,20 +386,79 @@ fn renderer_inputs_and_call_order_are_checked() {
     }
 }
 
+/// A field the estimator does not read is refused unless it keeps
+/// `cmlt_renderer_config_default`'s value, by creation and by the memory
+/// query, with a message naming the field; `m` no longer turns MLT into
+/// CMLT. Every field but `estimator` has one default for all estimators.
+#[test]
+fn fields_the_estimator_does_not_read_are_refused() {
+    let s = scene(None);
+    type Tweak = fn(&mut cmlt_renderer_config);
+    let cases: [(u32, &str, Tweak); 8] = [
+        (CMLT_ESTIMATOR_MLT, "m", |c| c.m = 4),
+        (CMLT_ESTIMATOR_MLT, "k", |c| c.k = 2),
+        (CMLT_ESTIMATOR_MLT, "lens_sigma", |c| {
+            c.lens_sigma = f32::NAN
+        }),
+        (CMLT_ESTIMATOR_MLT, "splatting", |c| {
+            c.splatting = CMLT_SPLATTING_EXPECTED_VALUE
+        }),
+        (CMLT_ESTIMATOR_PT, "chains", |c| c.chains = 8),
+        (CMLT_ESTIMATOR_BDPT, "normalisation_passes", |c| {
+            c.normalisation_passes = 2
+        }),
+        (CMLT_ESTIMATOR_PT, "keep_chains", |c| c.keep_chains = 1),
+        (CMLT_ESTIMATOR_BDPT, "b_window", |c| c.b_window = 2),
+    ];
+    for (estimator, field, tweak) in cases {
+        let mut c = config(estimator, 1);
+        tweak(&mut c);
+        let (mut bytes, mut r) = (7usize, null_mut());
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_renderer_memory_requirements(s, &c, &mut bytes, null_mut()),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_memory_requirements",
+            );
+            expect(
+                cmlt_renderer_new(s, &c, &CAMERA, &mut r),
+                CMLT_ERROR_INVALID_ARGUMENT,
+                "cmlt_renderer_new",
+            );
+        }
+        let e = last_error();
+        assert!(e.contains(&format!("{field} is read by")), "{e}");
+        assert!(bytes == 7 && r.is_null(), "{field}");
+    }
+    // The fields every estimator reads may change for any of them.
+    for estimator in [CMLT_ESTIMATOR_PT, CMLT_ESTIMATOR_MLT] {
+        let mut c = config(estimator, 1);
+        (c.seed, c.max_depth, c.depth_cap, c.fixed_sequence) = (9, 3, 7, 1);
+        let r = renderer(s, &c);
+        // SAFETY: a renderer from this test.
+        unsafe { cmlt_renderer_release(r) };
+    }
+    // SAFETY: handle from this test.
+    unsafe { cmlt_scene_release(s) };
+}
+
 /// The bootstrap spread over the host's threads (`prepare_begin`, one
 /// `prepare_worker` per worker, `prepare_finish`) gives `prepare`'s image
-/// bit for bit; a missing share is refused and leaves the renderer
-/// unprepared; `render_per_pixel` renders each worker's share of a
-/// per-pixel budget.
+/// (the same three steps on one thread) bit for bit; a missing share is
+/// refused and leaves the renderer unprepared; `render_per_pixel` renders
+/// each worker's share of a per-pixel budget.
 #[test]
 fn bootstrap_on_the_hosts_threads_equals_prepare() {
     let s = scene(None);
     for estimator in [CMLT_ESTIMATOR_PT, CMLT_ESTIMATOR_MLT, CMLT_ESTIMATOR_CMLT] {
         let mut c = config(estimator, 3);
-        // 4 passes asked for, 20 from the small-image floor: split 7/7/6
-        // over the three workers.
-        c.normalisation_passes = 4;
-        c.normalisation_min_samples = 20 * 16 * 12;
+        if estimator != CMLT_ESTIMATOR_PT {
+            // 4 passes asked for, 20 from the small-image floor: split
+            // 7/7/6 over the three workers.
+            c.normalisation_passes = 4;
+            c.normalisation_min_samples = 20 * 16 * 12;
+        }
         let (one, split) = (renderer(s, &c), renderer(s, &c));
         // SAFETY: valid renderers and out pointers; workers in range.
         unsafe {
@@ -485,20 +547,18 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
     unsafe { cmlt_scene_release(s) };
 }
 
-/// `cmlt_renderer_config_default` mirrors every MLT setting of the core's
-/// defaults for the estimator (CMLT's measured defaults included), so a C
-/// host that starts from it renders what `cmlt render --method …` does.
+/// `cmlt_renderer_config_default` is the core's default configuration of
+/// each estimator (CMLT's measured defaults included), so a C host that
+/// starts from it renders what `cmlt render --method …` does; every field
+/// but `estimator` is the same for all estimators.
 #[test]
 fn config_default_is_the_cores_default() {
     let s = scene(None);
     // SAFETY: a committed scene.
     let committed = unsafe { &*s }.committed().unwrap();
-    for estimator in [
-        CMLT_ESTIMATOR_PT,
-        CMLT_ESTIMATOR_BDPT,
-        CMLT_ESTIMATOR_MLT,
-        CMLT_ESTIMATOR_CMLT,
-    ] {
+    let mut first = None;
+    for kind in EstimatorKind::ALL {
+        let estimator = kind as u32;
         let mut c = std::mem::MaybeUninit::uninit();
         // SAFETY: valid out pointer.
         let mut c = unsafe {
@@ -509,15 +569,17 @@ fn config_default_is_the_cores_default() {
             );
             c.assume_init()
         };
+        assert_eq!(c.estimator, estimator);
         (c.width, c.height) = (16, 12);
-        let e = cmlt_core::renderer::Estimator::from_u32(estimator).unwrap();
         let cfg = crate::renderer::core_config(&c, &committed).unwrap();
-        let mut expected = cmlt_core::renderer::RendererConfig::for_estimator(e).mlt;
-        if estimator != CMLT_ESTIMATOR_CMLT {
-            // The C config's m is CMLT's alone (1 by default, unused).
-            expected.m = 0;
-        }
-        assert_eq!(cfg.mlt, expected, "estimator {estimator}");
+        let expected = RendererConfig {
+            settings: committed.settings,
+            ..RendererConfig::for_estimator(kind)
+        };
+        assert_eq!(cfg, expected, "{kind:?}");
+        c.estimator = 0;
+        let text = format!("{c:?}");
+        assert_eq!(first.get_or_insert_with(|| text.clone()), &text, "{kind:?}");
     }
     // SAFETY: handle from this test.
     unsafe { cmlt_scene_release(s) };

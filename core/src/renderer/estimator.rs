@@ -116,6 +116,16 @@ impl Estimator {
         }
     }
 
+    /// The level-1 Metropolis settings to change in place; `None` for PT
+    /// and BDPT.
+    pub fn mlt_mut(&mut self) -> Option<&mut MltSettings> {
+        match self {
+            Estimator::Mlt(m) => Some(m),
+            Estimator::Cmlt(c) => Some(&mut c.mlt),
+            Estimator::Path | Estimator::Bdpt => None,
+        }
+    }
+
     /// CMLT's level-2 settings; `None` for the others.
     pub fn level2(&self) -> Option<&Level2Settings> {
         match self {

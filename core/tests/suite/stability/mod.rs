@@ -89,11 +89,7 @@ pub fn config(method: EstimatorKind, max_depth: Option<u32>) -> RendererConfig {
 
 /// `cfg` with its level-1 settings (MLT's, CMLT's level 1) changed by `f`.
 pub fn with_mlt(mut cfg: RendererConfig, f: impl FnOnce(&mut MltSettings)) -> RendererConfig {
-    match &mut cfg.estimator {
-        Estimator::Mlt(m) => f(m),
-        Estimator::Cmlt(c) => f(&mut c.mlt),
-        other => panic!("{other:?} has no Metropolis settings"),
-    }
+    f(cfg.estimator.mlt_mut().expect("MLT or CMLT"));
     cfg
 }
 
