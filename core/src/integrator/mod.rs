@@ -42,7 +42,7 @@ impl Settings {
 }
 
 pub mod bdpt;
-pub mod path;
+pub mod pt;
 pub mod tracer;
 
 pub use tracer::{LobeCounts, Stats, Tracer};
@@ -137,7 +137,7 @@ pub fn render_pass<I: Intersector>(
             match method {
                 Estimator::Path => {
                     let ray = tracer.camera_ray(raster, rng.next_2d());
-                    let l = path::radiance(tracer, settings, ray, &mut rng);
+                    let l = pt::radiance(tracer, settings, ray, &mut rng);
                     film.add_sample(x, y, l);
                 }
                 _ => bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film),
