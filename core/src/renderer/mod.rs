@@ -143,7 +143,7 @@ pub struct Temporal {
     /// MLT: keep every chain across frames. With an unchanged camera the
     /// chains simply go on; after a camera change each chain's current
     /// primary-sample point is evaluated again under the new camera
-    /// ([`WorkerChains::reevaluate`]) instead of restarting from the
+    /// (`WorkerChains::reevaluate`) instead of restarting from the
     /// bootstrap's samples, so the chains stay (near) stationary and
     /// their depths keep the first frame's split by b_d. Frames after the
     /// first then evaluate only a share ([`KEPT_BOOTSTRAP_SHARE`]) of the bootstrap
@@ -636,7 +636,7 @@ impl Renderer {
         // Room for the shares `gather_prepared` copies (within the
         // capacity sized at creation: the first frame's is the largest).
         let depths = mlt::path_depth(&self.settings, &self.boot_mlt) as usize;
-        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
+        let n = Bootstrap::sample_count(&self.settings, &self.boot_mlt) as usize;
         self.scratch.values.clear();
         self.scratch.values.resize(n, 0.0);
         self.boot_passes.clear();
@@ -674,11 +674,11 @@ impl Renderer {
         let mlt = &self.boot_mlt;
         let seed = self.frame_seed();
         let mut tracer = self.tracer(scene, accel);
-        let n = Bootstrap::seed_count(&self.settings, mlt);
+        let n = Bootstrap::sample_count(&self.settings, mlt);
         let chunk = n.div_ceil(w);
         let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
         boot.values.clear();
-        bootstrap::evaluate_seeds_with(
+        bootstrap::evaluate_samples(
             &mut tracer,
             &self.settings,
             mlt,
@@ -751,7 +751,7 @@ impl Renderer {
         let (i, w) = (worker.index as usize, self.config.workers as usize);
         let mlt = &self.boot_mlt;
         let depths = mlt::path_depth(&self.settings, mlt) as usize;
-        let n = Bootstrap::seed_count(&self.settings, mlt) as usize;
+        let n = Bootstrap::sample_count(&self.settings, mlt) as usize;
         let start = (i * n.div_ceil(w)).min(n);
         let values = &mut self.scratch.values;
         values[start..start + share.values.len()].copy_from_slice(&share.values);
@@ -1231,7 +1231,7 @@ impl RenderWorker {
                 // The largest share of a bootstrap: the bootstrap samples of a
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
-                let seeds = Bootstrap::seed_count(&c.settings, &c.mlt).div_ceil(w);
+                let seeds = Bootstrap::sample_count(&c.settings, &c.mlt).div_ceil(w);
                 let passes = (c.mlt.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
