@@ -456,7 +456,7 @@ impl Renderer {
             size_of::<RenderWorker>() as u64 + 4 * workspace + 2 * sampler + 16 * BLOCK,
         ))?;
         let metropolis = config.estimator.is_metropolis();
-        let seeds = c(u64::from(config.mlt.n_bootstrap).checked_mul(depth))?;
+        let boot_samples = c(u64::from(config.mlt.n_bootstrap).checked_mul(depth))?;
         // Only a Metropolis renderer keeps the passes' sums (a small image
         // gets up to `MAX_FLOOR_PASSES` of them).
         let passes = if metropolis {
@@ -472,13 +472,13 @@ impl Renderer {
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
                 .and_then(|b| b.checked_add(level2))
-                .and_then(|b| b.checked_add(seeds.div_ceil(workers.max(1)) * 8))
+                .and_then(|b| b.checked_add(boot_samples.div_ceil(workers.max(1)) * 8))
                 .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
         }
-        // The renderer: bootstrap tables and scratch (seeds, passes), one
+        // The renderer: bootstrap tables and scratch (bootstrap samples, passes), one
         // slot per worker, the accumulator (two RGB f64 layers per pixel).
         // (The bootstrap's tables are made for every estimator.)
-        let renderer = c(seeds
+        let renderer = c(boot_samples
             .checked_mul(16)
             .and_then(|b| b.checked_add(passes * 8 + 2 * workspace + sampler + 64 * BLOCK))
             .and_then(|b| b.checked_add(workers * 64))
@@ -1231,12 +1231,12 @@ impl RenderWorker {
                 // The largest share of a bootstrap: the bootstrap samples of a
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
-                let seeds = Bootstrap::sample_count(&c.settings, &c.mlt).div_ceil(w);
+                let boot_samples = Bootstrap::sample_count(&c.settings, &c.mlt).div_ceil(w);
                 let passes = (c.mlt.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
                     generation: None,
-                    values: Vec::with_capacity(seeds as usize),
+                    values: Vec::with_capacity(boot_samples as usize),
                     passes: Vec::with_capacity(passes as usize),
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),
