@@ -48,6 +48,11 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+// The unit tests below `mlt` include the integration tests' scene builders
+// (`core/tests/common`), which name this crate `cmlt`.
+#[cfg(all(test, feature = "std"))]
+extern crate self as cmlt;
+
 pub mod accel;
 pub mod bsdf;
 pub mod geometry;

@@ -17,7 +17,7 @@
 //!
 //! The BSDF is *mixed*: `eval`/`pdf` give the smooth part only, `sample`
 //! reports the coating's reflection with `delta: true` (see the module docs
-//! of `bsdf` and `mlt::path` for how estimators treat that).
+//! of `bsdf` and `mlt::perturbation` for how estimators treat that).
 
 use glam::{Vec2, Vec3};
 

@@ -337,7 +337,7 @@ pub struct PathVertex {
     /// The path scatters here through the Dirac lobe of a BSDF that also
     /// has smooth lobes (smooth plastic's coating): `eval` does not see
     /// that lobe, so no perturbation may re-evaluate this vertex (see
-    /// [`crate::mlt::path::classify`]).
+    /// `mlt::perturbation::classify`).
     pub mixed_delta: bool,
 }
 

@@ -44,7 +44,7 @@ impl Settings {
 }
 
 pub mod bdpt;
-pub mod path;
+pub mod pt;
 pub mod tracer;
 
 pub use tracer::{LobeCounts, Stats, Tracer};

@@ -58,7 +58,7 @@ use crate::sampler::{SampleStream, mix64};
 /// sample it evaluates is `PrimarySampler::new(sample_seed(…))`'s first
 /// (large-step) point.
 #[inline]
-pub fn sample_seed(seed: u64, index: u64) -> u64 {
+fn sample_seed(seed: u64, index: u64) -> u64 {
     mix64(mix64(seed ^ 0xB007_57A9_0000_0000) ^ index)
 }
 
@@ -67,7 +67,7 @@ pub fn sample_seed(seed: u64, index: u64) -> u64 {
 /// storage: allocates nothing when `out` has room and `ws` and `sampler`
 /// are large enough for the deepest path (a renderer's worker re-running
 /// its share of the bootstrap every frame).
-pub fn evaluate_seeds_with<I: Intersector>(
+pub fn evaluate_samples<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     seed: u64,
@@ -91,7 +91,7 @@ pub fn evaluate_seeds_with<I: Intersector>(
 /// Renders normalisation pass `pass` — one BDPT sample per pixel, depths
 /// 1 … D, all strategies with MIS — and adds the luminance of every
 /// contribution to `sums[depth − 1]` (`sums.len()` ≥ D).
-pub fn evaluate_pass<I: Intersector>(
+pub(crate) fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     ws: &mut bdpt::PathStorage,
@@ -124,7 +124,7 @@ pub fn evaluate_pass<I: Intersector>(
 /// Adds one normalisation pass's per-depth sums to the running `sums`.
 /// Passes evaluated apart (one per worker) and added in pass order give
 /// the bootstrap bit for bit whatever the split.
-pub fn add_pass(sums: &mut [f64], pass: &[f64]) {
+pub(crate) fn add_pass(sums: &mut [f64], pass: &[f64]) {
     for (a, b) in sums.iter_mut().zip(pass) {
         *a += b;
     }
@@ -140,10 +140,11 @@ pub struct Bootstrap {
     /// Per depth, prefix sums of Y over that depth's bootstrap samples
     /// (depth-major: `cdf[(d − 1)·n + k]` for sample k·D + d − 1).
     cdf: Vec<f64>,
-    /// b_d used for the image (from the passes, else from the seeds).
+    /// b_d used for the image (from the passes, else from the bootstrap
+    /// samples).
     depth_b: Vec<f64>,
     /// b_d as the bootstrap samples estimate it (pbrt's estimate).
-    seed_depth_b: Vec<f64>,
+    sample_depth_b: Vec<f64>,
     /// Prefix sums of `depth_b` (for [`Bootstrap::depth_at`]).
     depth_cdf: Vec<f64>,
     b: f64,
@@ -151,7 +152,7 @@ pub struct Bootstrap {
 
 impl Bootstrap {
     /// Number of bootstrap samples: `n_bootstrap` per path depth.
-    pub fn seed_count(settings: &Settings, mlt: &MltSettings) -> u64 {
+    pub fn sample_count(settings: &Settings, mlt: &MltSettings) -> u64 {
         mlt.n_bootstrap as u64 * depths(settings) as u64
     }
 
@@ -164,9 +165,9 @@ impl Bootstrap {
             seed: 0,
             depths: depths as u32,
             per_depth: 0,
-            cdf: Vec::with_capacity(Self::seed_count(settings, mlt) as usize),
+            cdf: Vec::with_capacity(Self::sample_count(settings, mlt) as usize),
             depth_b: Vec::with_capacity(depths),
-            seed_depth_b: Vec::with_capacity(depths),
+            sample_depth_b: Vec::with_capacity(depths),
             depth_cdf: Vec::with_capacity(depths),
             b: 0.0,
         }
@@ -174,14 +175,14 @@ impl Bootstrap {
 
     /// Builds the bootstrap, in this bootstrap's storage, from the target
     /// values of all bootstrap samples in index order (as
-    /// [`evaluate_seeds_with`] produces them, possibly in pieces) and the
+    /// [`evaluate_samples`] produces them, possibly in pieces) and the
     /// per-depth luminance sums of all
     /// [`MltSettings::normalisation_passes`] passes over `pixels` pixels
     /// (ignored when `b_passes` is 0: then b_d comes from the bootstrap
     /// samples, as in pbrt).
     ///
     /// # Panics
-    /// When `values` does not hold [`Bootstrap::seed_count`] values or
+    /// When `values` does not hold [`Bootstrap::sample_count`] values or
     /// `pass_sums` has fewer than D entries while passes are used.
     pub fn fill(
         &mut self,
@@ -196,21 +197,21 @@ impl Bootstrap {
         let n = mlt.n_bootstrap as usize;
         assert_eq!(
             values.len() as u64,
-            Self::seed_count(settings, mlt),
+            Self::sample_count(settings, mlt),
             "bootstrap values missing"
         );
         // Regroup by depth: sample k·D + (d − 1) is the k-th of depth d.
         let Bootstrap {
             cdf,
             depth_b,
-            seed_depth_b,
+            sample_depth_b,
             depth_cdf,
             ..
         } = self;
         cdf.clear();
         cdf.resize(values.len(), 0.0);
-        seed_depth_b.clear();
-        seed_depth_b.resize(depths, 0.0);
+        sample_depth_b.clear();
+        sample_depth_b.resize(depths, 0.0);
         for d in 0..depths {
             let mut acc = 0.0f64;
             for k in 0..n {
@@ -224,7 +225,7 @@ impl Bootstrap {
                 };
                 cdf[d * n + k] = acc;
             }
-            seed_depth_b[d] = if n > 0 { acc / n as f64 } else { 0.0 };
+            sample_depth_b[d] = if n > 0 { acc / n as f64 } else { 0.0 };
         }
         depth_b.clear();
         let passes = mlt.normalisation_passes(pixels);
@@ -233,7 +234,7 @@ impl Bootstrap {
             let norm = 1.0 / (passes as f64 * pixels.max(1) as f64);
             depth_b.extend(pass_sums[..depths].iter().map(|s| s * norm));
         } else {
-            depth_b.extend_from_slice(seed_depth_b);
+            depth_b.extend_from_slice(sample_depth_b);
         }
         depth_cdf.clear();
         let mut b = 0.0;
@@ -260,18 +261,13 @@ impl Bootstrap {
 
     /// b by path depth as the bootstrap samples estimate it (pbrt's estimate;
     /// equal to [`Bootstrap::depth_b`] without normalisation passes).
-    pub fn seed_depth_b(&self) -> &[f64] {
-        &self.seed_depth_b
-    }
-
-    /// Largest path depth D.
-    pub fn depths(&self) -> u32 {
-        self.depths
+    pub fn sample_depth_b(&self) -> &[f64] {
+        &self.sample_depth_b
     }
 
     /// The depth at position `u` ∈ [0, 1) of the distribution b_d / b
     /// (`None` when b = 0).
-    pub fn depth_at(&self, u: f64) -> Option<u32> {
+    pub(crate) fn depth_at(&self, u: f64) -> Option<u32> {
         if !(self.b > 0.0) {
             return None;
         }
@@ -291,7 +287,7 @@ impl Bootstrap {
     /// depth's samples when all of them are zero (the chain then starts on
     /// a zero-contribution path and takes the first proposal that is not).
     /// `None` without bootstrap samples.
-    pub fn pick(&self, depth: u32, u: f64) -> Option<u64> {
+    pub(crate) fn pick(&self, depth: u32, u: f64) -> Option<u64> {
         let n = self.per_depth as usize;
         if n == 0 || depth == 0 || depth > self.depths {
             return None;
@@ -309,31 +305,26 @@ impl Bootstrap {
         Some(k as u64 * self.depths as u64 + d as u64)
     }
 
-    /// Whether some bootstrap sample of `depth` contributes, so that
-    /// [`Bootstrap::pick`] starts a chain of that depth on the target's
+    /// Whether some bootstrap sample of `depth` contributes, so that a
+    /// chain of that depth starts from one of them on the target's
     /// support.
-    pub fn has_contributing_seed(&self, depth: u32) -> bool {
+    pub fn has_contributing_sample(&self, depth: u32) -> bool {
         let n = self.per_depth as usize;
         n > 0 && depth >= 1 && depth <= self.depths && self.cdf[depth as usize * n - 1] > 0.0
     }
 
-    /// Index of the `j`-th sample of `depth` past the bootstrap's own:
-    /// [`Bootstrap::depth_of`] and [`Bootstrap::seed_of`] treat it as a bootstrap
-    /// sample of that depth. Chains search these when none of their
+    /// Index of the `j`-th sample of `depth` past the bootstrap's own: a
+    /// bootstrap sample of that depth by the index layout (sample i has
+    /// depth 1 + i mod D) and for [`Bootstrap::seed_of`]. Chains search these when none of their
     /// depth's bootstrap samples contributes. Distinct for distinct `j` below
     /// 2⁴⁸ (indices wrap beyond).
-    pub fn extra_sample(&self, depth: u32, j: u64) -> u64 {
+    pub(crate) fn extra_sample(&self, depth: u32, j: u64) -> u64 {
         let d = self.depths.max(1) as u64;
         (self.per_depth as u64).wrapping_add(j).wrapping_mul(d) + (depth.max(1) as u64 - 1) % d
     }
 
-    /// Path depth of bootstrap sample `index`.
-    pub fn depth_of(&self, index: u64) -> u32 {
-        1 + (index % self.depths.max(1) as u64) as u32
-    }
-
     /// Seed of bootstrap sample `index` (see [`sample_seed`]).
-    pub fn seed_of(&self, index: u64) -> u64 {
+    pub(crate) fn seed_of(&self, index: u64) -> u64 {
         sample_seed(self.seed, index)
     }
 }

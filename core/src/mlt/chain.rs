@@ -29,7 +29,7 @@ use crate::sampler::mix64;
 
 /// A path as the chain sees it: contribution f and where it lands.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PathSample {
+pub(crate) struct PathSample {
     /// Contribution f(u) (radiance-like, already divided by the sampling
     /// probabilities of the estimator that produced it).
     pub l: Rgb,
@@ -54,7 +54,7 @@ impl PathSample {
 /// A weighted record for the film: `value` (colour of unit luminance times
 /// the splat weight) at `raster`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Splat {
+pub(crate) struct Splat {
     /// Continuous raster position.
     pub raster: Vec2,
     /// w · f / Y(f): luminance exactly w.
@@ -63,7 +63,7 @@ pub struct Splat {
 
 /// What one mutation did and what it records.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Step {
+pub(crate) struct Step {
     /// The proposal with weight a (absent when a = 0).
     pub proposal: Option<Splat>,
     /// The current state with weight 1 − a (absent when a = 1, or when the
@@ -94,7 +94,7 @@ impl Step {
 /// except for a chain started on a zero-contribution path, which then
 /// accepts its first proposal unconditionally (a = 1).
 #[derive(Clone, Debug)]
-pub struct Chain {
+pub(crate) struct Chain {
     sampler: PrimarySampler,
     rng: Pcg32,
     current: PathSample,

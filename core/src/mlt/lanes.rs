@@ -69,7 +69,7 @@ pub(crate) enum LaneVariant {
 
 /// What the lanes of one side chain did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct LaneCounts {
+pub(crate) struct LaneCounts {
     /// Lane steps (lanes × m).
     pub steps: u64,
     /// Lane steps accepted.
@@ -81,7 +81,7 @@ pub struct LaneCounts {
 /// The parallel side chains with scratch for up to `K` lanes (n ≤ K chosen
 /// at construction). Reuse one per thread: a side chain allocates nothing.
 #[derive(Clone, Debug)]
-pub struct Lanes<S, const K: usize> {
+pub(crate) struct Lanes<S, const K: usize> {
     n: usize,
     lattice: Lattice,
     #[cfg(test)]
@@ -117,11 +117,6 @@ impl<S: Clone + Default, const K: usize> Lanes<S, K> {
     pub(crate) fn with_variant(mut self, variant: LaneVariant) -> Self {
         self.variant = variant;
         self
-    }
-
-    /// Number of lanes.
-    pub fn lanes(&self) -> usize {
-        self.n
     }
 
     /// Which negative control runs, as (acceptance against the start, one

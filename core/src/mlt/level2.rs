@@ -1,7 +1,7 @@
 //! Level 2 of CMLT (Segovia 2007, Algorithm 4, step 1, with the typos of
 //! its acceptance corrected as [`super::multiple_try`] says): from a
 //! level-1 state, a side chain of m(c) steps with the perturbation its
-//! path admits ([`super::path`]): n parallel one-proposal lanes
+//! path admits ([`super::perturbation`]): n parallel one-proposal lanes
 //! ([`super::lanes`]) when k = 1, else multiple-try steps of k candidates;
 //! either way the candidates of a step are traced together as packets.
 //!
@@ -30,7 +30,7 @@
 //! distributed as π_c, π restricted to c and normalised. The lens,
 //! caustic and multi-chain perturbations keep the path's depth and its
 //! pattern of specular vertices and lobes, a candidate that breaks the
-//! pattern fails (zero target: [`super::path::retrace`]), and the fixed
+//! pattern fails (zero target: its retrace fails), and the fixed
 //! vertices stay fixed: every state a side chain can reach has its start's
 //! class, so its target is π_c (up to a constant) and every lane step is
 //! π_c-invariant ([`super::lanes`], [`super::multiple_try`]). Its records
@@ -52,13 +52,14 @@ use alloc::vec::Vec;
 
 use glam::{Vec2, Vec3};
 
-use super::caustic::{CausticProposal, CausticState, CausticTarget};
+use super::chain::PathSample;
 use super::lanes::{LaneCounts, Lanes};
-use super::lens::{LensProposal, LensState, LensTarget};
-use super::multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
-use super::multiple_try::{Candidates, ChainState, MultipleTry, Proposal, Target};
-use super::path::{Applicable, classify};
-use super::{Level2Settings, MltStats, PathSample};
+use super::multiple_try::{ChainState, MultipleTry, Proposal, Target};
+use super::perturbation::{
+    Applicable, CausticProposal, CausticState, CausticTarget, LensProposal, LensState, LensTarget,
+    MultiChainProposal, MultiChainState, MultiChainTarget, classify,
+};
+use super::{Level2Settings, MltStats};
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
 use crate::integrator::bdpt::{self, PathVertex};
@@ -67,12 +68,12 @@ use crate::sampler::Sampler;
 
 /// Largest k (candidates per multiple-try step) and largest number of
 /// lanes.
-pub const MAX_K: usize = 64;
+pub(crate) const MAX_K: usize = 64;
 
 /// A worker's level-2 machinery: the lanes and the multiple-try steppers
 /// (scratch for up to [`MAX_K`] candidates each, no allocation per step)
 /// and the perturbations' parameters.
-pub struct Level2 {
+pub(crate) struct Level2 {
     share: u32,
     length: u32,
     min_depth: u32,
@@ -356,7 +357,7 @@ fn run<S: Clone + Default, P: Proposal<S>, T: Target<S>, R: Sampler>(
     lanes: &mut Lanes<S, MAX_K>,
     proposal: &P,
     target: &mut T,
-    mut state: ChainState<S>,
+    state: ChainState<S>,
     m: u32,
     share: f32,
     rng: &mut R,
@@ -366,17 +367,12 @@ fn run<S: Clone + Default, P: Proposal<S>, T: Target<S>, R: Sampler>(
         return lanes.run(proposal, target, &state, m, share, rng, splat);
     }
     let scale = share / m as f32;
-    let mut c = LaneCounts::default();
-    for _ in 0..m {
-        let st = mtm.step(proposal, target, &mut state, rng, &mut |s: &S, w| {
-            splat(s, w * scale)
-        });
-        c.accepted += st.accepted as u64;
-        c.steps += 1;
-        c.zero += k as u64 - st.nonzero as u64;
+    let out = mtm.side_chain(proposal, target, &state, m, rng, &mut |s: &S, w| {
+        splat(s, w * scale)
+    });
+    LaneCounts {
+        steps: out.steps as u64,
+        accepted: out.accepted as u64,
+        zero: out.zero as u64,
     }
-    c
 }
-
-/// The candidates mode level 2 uses by default.
-pub const DEFAULT_CANDIDATES: Candidates = Candidates::Stratified;

@@ -1,13 +1,25 @@
 //! Metropolis light transport. Level 1: Kelemen-style primary-sample-space
 //! MLT (PSSMLT) over bidirectional path tracing with MIS, as pbrt-v4's
-//! `MLTIntegrator` does it.
+//! `MLTIntegrator` does it. Level 2 (CMLT, Segovia 2007): side chains of
+//! perturbations from each level-1 state.
 //!
-//! - [`primary`]: the primary-sample vector X, its lazy large/small-step
+//! The public surface is what a host configures and reads: [`MltSettings`]
+//! (with [`Candidates`] and [`Splatting`]), [`MltStats`], [`Bootstrap`],
+//! [`WorkerChains`] and the functions below. The parts, private to the
+//! crate:
+//!
+//! - `primary`: the primary-sample vector X, its lazy large/small-step
 //!   mutations and three interleaved streams;
-//! - [`chain`]: one Metropolis–Hastings chain with expected-value
-//!   splatting;
-//! - [`target`]: the target a chain of depth d samples, Y(f_d(u));
-//! - [`bootstrap`]: the normalisation b and the chains' starting points;
+//! - `chain`: one level-1 Markov chain (Metropolis–Hastings) with
+//!   expected-value splatting;
+//! - `target`: the target a chain of depth d samples, Y(f_d(u));
+//! - `bootstrap`: the normalisation b and the chains' starting points;
+//! - `level2`: the side chain run from a level-1 state, by its class;
+//! - `multiple_try` and `lanes`: the two ways a side chain steps (k
+//!   candidates per step, or n parallel one-proposal lanes);
+//! - `perturbation`: which perturbation applies to a path and the
+//!   specular-chain retracing they share; `perturbation::{lens, caustic,
+//!   multi_chain}`: the three perturbations;
 //! - this module: a worker running many chains into a film.
 //!
 //! ## Units and invariants
@@ -34,24 +46,25 @@
 //! fixed order. A scene where nothing contributes (b = 0) starts no chain
 //! and resolves to exact black.
 
-pub mod bootstrap;
-pub mod caustic;
-pub mod chain;
-pub mod lanes;
-pub mod lens;
-pub mod level2;
-pub mod multi_chain;
-pub mod multiple_try;
-pub mod path;
-pub mod primary;
-pub mod target;
+pub(crate) mod bootstrap;
+mod chain;
+mod lanes;
+mod level2;
+mod multiple_try;
+mod perturbation;
+mod primary;
+mod target;
+
+#[cfg(all(test, feature = "std"))]
+mod tests;
 
 pub use bootstrap::Bootstrap;
-pub use chain::{Chain, PathSample, Splat, Step};
-pub use level2::Level2;
 pub use multiple_try::{Candidates, Splatting};
-use path::Applicable;
-pub use primary::PrimarySampler;
+pub(crate) use primary::PrimarySampler;
+
+use chain::{Chain, Step};
+use level2::Level2;
+use perturbation::Applicable;
 
 use alloc::vec::Vec;
 
@@ -78,7 +91,7 @@ pub struct MltSettings {
     pub n_bootstrap: u32,
     /// BDPT passes (one sample per pixel, all strategies with MIS) that
     /// estimate b by depth; 0 = estimate b from the bootstrap samples as pbrt
-    /// does (much noisier: see [`bootstrap`]).
+    /// does (much noisier: see `mlt/bootstrap.rs`).
     pub b_passes: u32,
     /// Least number of normalisation samples (passes × pixels): a small
     /// image gets more than `b_passes` passes, up to
@@ -449,7 +462,7 @@ fn ratio(a: u64, b: u64) -> f64 {
 
 /// Seed of chain `chain` of worker `worker`.
 #[inline]
-pub fn chain_seed(seed: u64, worker: u64, chain: u64) -> u64 {
+fn chain_seed(seed: u64, worker: u64, chain: u64) -> u64 {
     mix64(mix64(mix64(seed ^ 0x3C7A_1200_0000_0000) ^ worker) ^ chain)
 }
 
@@ -468,8 +481,8 @@ const START_SEARCH_MIN: u64 = 8192;
 /// the depth's paths, or few bootstrap samples), a chain started on a zero path
 /// would record nothing until a proposal finds light, and its depth's
 /// share of the image would be missing meanwhile: on the Cornell box with
-/// 100 bootstrap samples per depth, whose directly seen light then often has no
-/// seed, the image came out 30% dark at 64 mutations per pixel. Such a
+/// 100 bootstrap samples per depth, often none of which hit the directly
+/// seen light, the image came out 30% dark at 64 mutations per pixel. Such a
 /// chain instead takes the first contributing one of up to `tries`
 /// further samples of its depth ([`Bootstrap::extra_sample`]), in an order
 /// drawn from `rng` so that chains start apart. `contributes(index)`
@@ -489,7 +502,7 @@ fn start_sample(
         .checked_sub(1)
         .and_then(|d| bootstrap.depth_b().get(d as usize))
         .is_some_and(|&b| b > 0.0);
-    if lit && !bootstrap.has_contributing_seed(depth) {
+    if lit && !bootstrap.has_contributing_sample(depth) {
         // 40 bits, so that `first + j` stays far below 2⁴⁸.
         let first = rng.next_u64() >> 24;
         if let Some(index) = (0..tries)
@@ -510,7 +523,7 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// One worker's chains and the reusable BDPT storage they evaluate with.
 ///
 /// The chains of all `workers` workers together are one systematic sample
-/// of the depths by b_d / b (see [`bootstrap`]); worker `w` holds the
+/// of the depths by b_d / b (see `mlt/bootstrap.rs`); worker `w` holds the
 /// global chains w, w + W, w + 2W, …, itself a systematic sample, so each
 /// worker's film alone is an estimate of the image and workers that run
 /// different numbers of rounds (time budgets) still merge correctly.
@@ -598,7 +611,7 @@ impl WorkerChains {
     /// changed; the same arguments give the same chains. `tracer`'s camera
     /// must have the resolution the worker was made for.
     #[allow(clippy::too_many_arguments)]
-    pub fn restart<I: Intersector>(
+    pub(crate) fn restart<I: Intersector>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
         settings: &Settings,
@@ -670,7 +683,7 @@ impl WorkerChains {
     /// `seed`; see `start_sample`): left at zero it would record nothing
     /// until a proposal hits, and those records would darken the image.
     /// Counters start again from zero. Allocates nothing.
-    pub fn reevaluate<I: Intersector>(
+    pub(crate) fn reevaluate<I: Intersector>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
         settings: &Settings,
@@ -718,7 +731,7 @@ impl WorkerChains {
 
     /// Zeroes the counters, keeping the chains as they are (a new frame
     /// through the same camera).
-    pub fn reset_stats(&mut self) {
+    pub(crate) fn reset_stats(&mut self) {
         self.stats = MltStats {
             chains: self.chains.len() as u64,
             ..MltStats::default()
@@ -726,7 +739,7 @@ impl WorkerChains {
     }
 
     /// Number of chains (mutations per round).
-    pub fn chain_count(&self) -> usize {
+    pub(crate) fn chain_count(&self) -> usize {
         self.chains.len()
     }
 
@@ -815,9 +828,9 @@ impl WorkerChains {
         &self.stats
     }
 
-    /// The chains with their path depths.
-    pub fn chains(&self) -> impl Iterator<Item = (&Chain, u32)> {
-        self.chains.iter().map(|(c, d)| (c, *d))
+    /// The path depth of each chain, in chain order.
+    pub fn chain_depths(&self) -> impl Iterator<Item = u32> + '_ {
+        self.chains.iter().map(|&(_, d)| d)
     }
 }
 

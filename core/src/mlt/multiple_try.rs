@@ -114,7 +114,7 @@ use crate::sampler::Sampler;
 
 /// Largest number of uniforms one candidate may consume
 /// ([`Proposal::DIM`]).
-pub const MAX_PROPOSAL_DIM: usize = 8;
+pub(crate) const MAX_PROPOSAL_DIM: usize = 8;
 
 /// A perturbation T(x→·) over states `S`.
 ///
@@ -132,7 +132,7 @@ pub const MAX_PROPOSAL_DIM: usize = 8;
 ///   to `to` and returns true; it is needed only for
 ///   [`Candidates::Stratified`] and may return false (the default) where
 ///   the map is not invertible, which makes stratified steps reject.
-pub trait Proposal<S> {
+pub(crate) trait Proposal<S> {
     /// Uniform numbers one candidate consumes (≤ [`MAX_PROPOSAL_DIM`]).
     const DIM: usize;
 
@@ -162,7 +162,7 @@ pub trait Proposal<S> {
 /// stores the traced contribution there). `None` entries are skipped; their
 /// `p` is ignored. Any `FnMut(&S) -> f32` is a target evaluated one state
 /// at a time.
-pub trait Target<S> {
+pub(crate) trait Target<S> {
     /// Evaluates p for a batch of states.
     fn evaluate(&mut self, states: &mut [Option<S>], p: &mut [f32]);
 }
@@ -209,7 +209,7 @@ pub enum Candidates {
 /// smallest toroidal distance between points: a stratification of the
 /// unit cube for any k, one point per stratum in every coordinate.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lattice {
+pub(crate) struct Lattice {
     k: usize,
     generator: [u32; MAX_PROPOSAL_DIM],
 }
@@ -252,16 +252,6 @@ impl Lattice {
             k,
             generator: best.0,
         }
-    }
-
-    /// Points in the lattice.
-    pub fn len(&self) -> usize {
-        self.k
-    }
-
-    /// Never true: a lattice has at least one point.
-    pub fn is_empty(&self) -> bool {
-        false
     }
 
     /// Coordinate `d` of point `l` shifted by `shift` (toroidally).
@@ -348,7 +338,7 @@ impl Variant {
 
 /// A chain state with its target value p (luminance, ≥ 0, finite).
 #[derive(Clone, Debug, PartialEq)]
-pub struct ChainState<S> {
+pub(crate) struct ChainState<S> {
     /// The state.
     pub x: S,
     /// Its target value p(x).
@@ -368,7 +358,7 @@ impl<S> ChainState<S> {
 
 /// p if it is positive and finite, else 0: what the chain uses as target.
 #[inline]
-pub fn sanitize_target(p: f32) -> f32 {
+pub(crate) fn sanitize_target(p: f32) -> f32 {
     if p.is_finite() && p > 0.0 { p } else { 0.0 }
 }
 
@@ -447,7 +437,7 @@ fn select(w: &[f64], total: f64, u: f32) -> usize {
 
 /// What one multiple-try step did.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MtmStep {
+pub(crate) struct MtmStep {
     /// Acceptance probability a = min(1, Σ w(x, y) / Σ w(x*, z)); 0 when
     /// no candidate had weight.
     pub acceptance: f32,
@@ -461,7 +451,7 @@ pub struct MtmStep {
 
 /// Result of a side chain.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SideChain<S> {
+pub(crate) struct SideChain<S> {
     /// The side chain's last state. For diagnostics and tests only: the
     /// level-1 chain continues from its own state (Algorithm 4, step 2).
     pub end: ChainState<S>,
@@ -469,13 +459,16 @@ pub struct SideChain<S> {
     pub steps: u32,
     /// Steps accepted.
     pub accepted: u32,
+    /// Candidates with zero weight (zero target or a failed perturbation),
+    /// over all steps.
+    pub zero: u32,
 }
 
 /// The multiple-try stepper with scratch for up to `K` candidates and `K`
 /// reference points (k ≤ K chosen at construction). Reuse one per thread:
 /// steps allocate nothing.
 #[derive(Clone, Debug)]
-pub struct MultipleTry<S, const K: usize> {
+pub(crate) struct MultipleTry<S, const K: usize> {
     k: usize,
     splatting: Splatting,
     candidates: Candidates,
@@ -520,21 +513,6 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         self.candidates = candidates;
         self.lattice = (candidates == Candidates::Stratified).then(|| Lattice::new(self.k, dim));
         self
-    }
-
-    /// Candidates per step.
-    pub fn k(&self) -> usize {
-        self.k
-    }
-
-    /// The splatting rule.
-    pub fn splatting(&self) -> Splatting {
-        self.splatting
-    }
-
-    /// How candidates are drawn.
-    pub fn candidates(&self) -> Candidates {
-        self.candidates
     }
 
     /// The rule this stepper runs: always [`Variant::Correct`] outside the
@@ -884,10 +862,11 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
         R: Sampler + ?Sized,
     {
         let mut current = start.clone();
-        let mut accepted = 0;
+        let (mut accepted, mut zero) = (0, 0);
         for _ in 0..m {
             let st = self.step(proposal, target, &mut current, rng, splat);
             accepted += st.accepted as u32;
+            zero += self.k as u32 - st.nonzero;
             if !st.accepted && self.variant().rejects_to_start() {
                 current = start.clone();
             }
@@ -896,6 +875,7 @@ impl<S: Clone, const K: usize> MultipleTry<S, K> {
             end: current,
             steps: m,
             accepted,
+            zero,
         }
     }
 }

@@ -34,9 +34,9 @@ use crate::math::PI;
 use crate::sampler::{STREAM_COUNT, Sampler, mix64};
 
 /// pbrt's default small-step width σ (in units of the unit interval).
-pub const DEFAULT_SIGMA: f32 = 0.01;
+pub(crate) const DEFAULT_SIGMA: f32 = 0.01;
 /// pbrt's default probability of a large step.
-pub const DEFAULT_LARGE_STEP_PROB: f32 = 0.3;
+pub(crate) const DEFAULT_LARGE_STEP_PROB: f32 = 0.3;
 
 /// One coordinate of X with what is needed to bring it up to date lazily
 /// and to undo the current iteration.
@@ -60,7 +60,7 @@ struct Coord {
 /// evaluates through the [`Sampler`] methods, and ends the iteration with
 /// [`PrimarySampler::accept`] or [`PrimarySampler::reject`].
 #[derive(Clone, Debug)]
-pub struct PrimarySampler {
+pub(crate) struct PrimarySampler {
     x: Vec<Coord>,
     /// Indices of X brought up to date in the current iteration (what
     /// `reject` restores), reused across iterations.
@@ -158,16 +158,6 @@ impl PrimarySampler {
         self.spare_normal = None;
     }
 
-    /// Small-step width σ.
-    pub fn sigma(&self) -> f32 {
-        self.sigma
-    }
-
-    /// Probability of a large step.
-    pub fn large_step_prob(&self) -> f32 {
-        self.large_step_prob
-    }
-
     /// Whether the current iteration is a large step.
     pub fn is_large_step(&self) -> bool {
         self.large_step
@@ -177,11 +167,6 @@ impl PrimarySampler {
     /// current one).
     pub fn iteration(&self) -> u64 {
         self.iteration
-    }
-
-    /// Number of coordinates of X that exist so far.
-    pub fn dimensions(&self) -> usize {
-        self.x.len()
     }
 
     /// Starts re-reading the current state X, for evaluating the target at
@@ -207,14 +192,12 @@ impl PrimarySampler {
     /// Begins a mutation: decides large or small step with the large-step
     /// probability.
     pub fn start_iteration(&mut self) {
-        self.iteration += 1;
-        self.touched.clear();
-        self.large_step = self.uniform() < self.large_step_prob;
+        let large_step = self.uniform() < self.large_step_prob;
+        self.start_iteration_with(large_step);
     }
 
-    /// Begins a mutation of the given kind (for tests and for callers that
-    /// schedule large steps themselves).
-    pub fn start_iteration_with(&mut self, large_step: bool) {
+    /// Begins a mutation of the given kind (what the tests schedule).
+    fn start_iteration_with(&mut self, large_step: bool) {
         self.iteration += 1;
         self.touched.clear();
         self.large_step = large_step;
@@ -316,7 +299,7 @@ impl PrimarySampler {
 /// `v` mod 1 in [0, 1). `v − floor(v)` can round up to exactly 1 for tiny
 /// negative `v`; that point is 0 on the circle.
 #[inline]
-pub fn wrap01(v: f32) -> f32 {
+pub(crate) fn wrap01(v: f32) -> f32 {
     let w = v - libm::floorf(v);
     if w < 1.0 { w } else { 0.0 }
 }
@@ -500,7 +483,7 @@ mod tests {
         let _ = read(&mut s);
         s.reject();
         // Camera k lives at 3k, light k at 3k + 1.
-        assert_eq!(s.dimensions(), 5);
+        assert_eq!(s.x.len(), 5);
         let stored = [s.x[0].value, s.x[3].value, s.x[1].value, s.x[4].value];
         assert_eq!(stored.map(f32::to_bits), x.map(f32::to_bits));
         assert_eq!(s.iteration(), 1);

@@ -13,7 +13,7 @@ use crate::integrator::{Settings, Tracer, bdpt};
 /// [`bdpt::sample_strategy`]'s contribution (one strategy, times the
 /// strategy count) and where on the image it lands.
 #[inline]
-pub fn evaluate<I: Intersector>(
+pub(crate) fn evaluate<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     ws: &mut bdpt::PathStorage,

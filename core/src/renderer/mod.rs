@@ -86,7 +86,7 @@ use glam::Vec2;
 
 use crate::accel::Intersector;
 use crate::film::Film;
-use crate::integrator::{Settings, Stats, Tracer, bdpt, path};
+use crate::integrator::{Settings, Stats, Tracer, bdpt, pt};
 use crate::math::Rgb;
 use crate::mlt::bootstrap;
 use crate::mlt::{self, Bootstrap, MltSettings, MltStats, PrimarySampler, WorkerChains};
@@ -162,7 +162,7 @@ pub struct Temporal {
     /// MLT: keep every chain across frames. With an unchanged camera the
     /// chains simply go on; after a camera change each chain's current
     /// primary-sample point is evaluated again under the new camera
-    /// ([`WorkerChains::reevaluate`]) instead of restarting from the
+    /// (`WorkerChains::reevaluate`) instead of restarting from the
     /// bootstrap's samples, so the chains stay (near) stationary and
     /// their depths keep the first frame's split by b_d. Frames after the
     /// first then evaluate only a share ([`KEPT_BOOTSTRAP_SHARE`]) of the bootstrap
@@ -408,7 +408,7 @@ impl Renderer {
             pending: None,
             boot_mlt: mlt,
             shares: Shares {
-                values: Vec::with_capacity(Bootstrap::seed_count(&config.settings, &mlt) as usize),
+                values: Vec::with_capacity(Bootstrap::sample_count(&config.settings, &mlt) as usize),
                 passes: Vec::with_capacity(passes * depths),
                 sums: Vec::with_capacity(depths),
                 joined: alloc::vec![false; config.workers as usize],
@@ -504,9 +504,9 @@ impl Renderer {
         ))?;
         // Only a Metropolis renderer keeps bootstrap tables and the passes'
         // sums (a small image gets up to `MAX_FLOOR_PASSES` of them).
-        let (mut seeds, mut passes) = (0, 0);
+        let (mut boot_samples, mut passes) = (0, 0);
         if let Some(mlt) = config.estimator.mlt() {
-            seeds = c(u64::from(mlt.n_bootstrap).checked_mul(depth))?;
+            boot_samples = c(u64::from(mlt.n_bootstrap).checked_mul(depth))?;
             passes = c(u64::from(mlt.normalisation_passes(pixels)).checked_mul(depth))?;
             let chains = u64::from(mlt.n_chains);
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
@@ -516,13 +516,13 @@ impl Renderer {
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
                 .and_then(|b| b.checked_add(level2))
-                .and_then(|b| b.checked_add(seeds.div_ceil(workers.max(1)) * 8))
+                .and_then(|b| b.checked_add(boot_samples.div_ceil(workers.max(1)) * 8))
                 .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
         }
-        // The renderer: bootstrap tables and the joined shares (seeds,
+        // The renderer: bootstrap tables and the joined shares (bootstrap samples,
         // passes), one slot per worker, the accumulator (two RGB f64
         // layers per pixel).
-        let renderer = c(seeds
+        let renderer = c(boot_samples
             .checked_mul(16)
             .and_then(|b| b.checked_add(passes * 8 + 64 * BLOCK))
             .and_then(|b| b.checked_add(workers * 64))
@@ -685,11 +685,11 @@ impl Renderer {
         let mlt = &self.boot_mlt;
         let seed = self.frame_seed();
         let mut tracer = self.tracer(scene, accel);
-        let n = Bootstrap::seed_count(&self.settings, mlt);
+        let n = Bootstrap::sample_count(&self.settings, mlt);
         let chunk = n.div_ceil(w);
         let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
         boot.values.clear();
-        bootstrap::evaluate_seeds_with(
+        bootstrap::evaluate_samples(
             &mut tracer,
             &self.settings,
             seed,
@@ -739,7 +739,7 @@ impl Renderer {
         }
         let (pixels, seed) = (self.pixels(), self.frame_seed());
         let depths = mlt::depths(&self.settings) as usize;
-        let n = Bootstrap::seed_count(&self.settings, &self.boot_mlt) as usize;
+        let n = Bootstrap::sample_count(&self.settings, &self.boot_mlt) as usize;
         let passes = self.boot_mlt.normalisation_passes(pixels) as usize;
         let shares = &mut self.shares;
         shares.values.clear();
@@ -1144,7 +1144,7 @@ fn render_pass<I: Intersector>(
             let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
             if pt {
                 let ray = tracer.camera_ray(raster, rng.next_2d());
-                let l = path::radiance(tracer, settings, ray, &mut rng);
+                let l = pt::radiance(tracer, settings, ray, &mut rng);
                 film.add_sample(x, y, l);
             } else {
                 bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film);
@@ -1256,12 +1256,12 @@ impl RenderWorker {
                 // The largest share of a bootstrap: the bootstrap samples of a
                 // first frame, and every W-th pass.
                 let w = c.workers as u64;
-                let seeds = Bootstrap::seed_count(&c.settings, m).div_ceil(w);
+                let boot_samples = Bootstrap::sample_count(&c.settings, m).div_ceil(w);
                 let passes = (m.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
                     generation: None,
-                    values: Vec::with_capacity(seeds as usize),
+                    values: Vec::with_capacity(boot_samples as usize),
                     passes: Vec::with_capacity(passes as usize),
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),

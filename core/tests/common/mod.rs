@@ -1,5 +1,6 @@
-//! Scene builders shared by the core's integration tests: the closed
-//! furnace box, UV spheres and the furnace camera; and renders through the
+//! Scene builders shared by the core's integration tests and the unit
+//! tests of `mlt` (which include this file): the closed furnace box, UV
+//! spheres, the furnace camera and furnace scenes; and renders through the
 //! renderer on the test's thread.
 #![allow(dead_code)]
 
@@ -10,7 +11,10 @@ use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt::mlt::Bootstrap;
 use cmlt::renderer::{Estimator, RenderStats, RenderWorker, Renderer, RendererConfig};
-use cmlt::scene::{Camera, FovAxis, MaterialId, Mesh, Scene};
+use cmlt::scene::{
+    Camera, ConductorFresnel, FovAxis, Material, MaterialId, MaterialKind, Mesh, Scene,
+    SceneBuilder, Texture,
+};
 
 /// What [`render`] gives.
 pub struct Rendered {
@@ -172,6 +176,44 @@ pub fn furnace_camera(origin: Vec3, aperture: f32) -> Camera {
         1.0,
     )
     .unwrap()
+}
+
+/// The cube [-1,1]³, normals inwards, every face emitting `emission` and
+/// made of `wall`, seen by a 16×12 pinhole camera.
+pub fn furnace_scene(wall: Material, emission: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.add_material(wall);
+    b.add_mesh(inward_box(m, emission));
+    b.set_camera(furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    b.build().unwrap()
+}
+
+/// A mirror (Fresnel factor 1) reflecting `reflectance` of the light.
+pub fn perfect_mirror(reflectance: f32) -> Material {
+    Material {
+        kind: MaterialKind::Conductor {
+            fresnel: ConductorFresnel::Perfect,
+            specular_reflectance: Texture::Constant(Rgb::splat(reflectance)),
+        },
+        two_sided: false,
+        detail: Default::default(),
+    }
+}
+
+/// The diffuse furnace with an emitting mirror sphere of reflectance ½
+/// inside: every surface emits 1 and reflects ½ of a uniform field, so the
+/// radiance is still exactly 2 everywhere — and the scene has paths for
+/// both level-2 perturbations: lens (E D …, E S D …) and caustic (E D S D …).
+pub fn mirror_sphere_furnace() -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let mirror = b.add_material(perfect_mirror(0.5));
+    b.add_mesh(inward_box(wall, 1.0));
+    let mut sphere = sphere(Vec3::new(0.2, 0.1, 0.3), 0.45, mirror);
+    sphere.emission = Some(Rgb::splat(1.0));
+    b.add_mesh(sphere);
+    b.set_camera(furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    b.build().unwrap()
 }
 
 /// Indices of the pixels of `camera` lying entirely on what `on_object`

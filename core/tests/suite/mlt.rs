@@ -1,36 +1,24 @@
-//! Level-1 MLT (primary-sample-space Metropolis over BDPT) on scenes with
-//! exact answers: the white furnace (closed box, albedo ½, Le = 1 →
-//! radiance Le/(1 − a) = 2), a mirror furnace (specular paths), a black
-//! scene (b = 0), determinism, and a negative control showing that the
-//! furnace test catches a wrong splatting rule.
+//! MLT and CMLT (level 1: primary-sample-space Metropolis over BDPT; level
+//! 2: side chains) through `mlt`'s public surface on scenes with exact
+//! answers: the white furnace (closed box, albedo ½, Le = 1 → radiance
+//! Le/(1 − a) = 2), a mirror furnace (specular paths), a black scene
+//! (b = 0), determinism, workers, the normalisation floor. The negative
+//! control that drops the current state's records with chains stepped by
+//! hand, and the lens perturbation's start value, reach into the
+//! internals: they are unit tests in `mlt/tests.rs` and
+//! `mlt/perturbation/lens/tests.rs`.
 
 use crate::common;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::film::Film;
-use cmlt::integrator::{Settings, Tracer};
+use cmlt::integrator::Settings;
 use cmlt::math::{Rgb, Vec3};
-use cmlt::mlt::{
-    self, Bootstrap, Chain, CmltSettings, Level2Settings, MltSettings, PrimarySampler,
-    WorkerChains, target,
-};
+use cmlt::mlt::{self, Bootstrap, CmltSettings, Level2Settings, MltSettings};
 use cmlt::renderer::Estimator;
 use cmlt::scene::{ConductorFresnel, Material, MaterialKind, Scene, SceneBuilder, Texture};
-use rand_core::Rng;
-use rand_pcg::Pcg32;
-
-/// The cube [-1,1]³, normals inwards, every face emitting `emission` and
-/// made of `wall`, seen by a 16×12 pinhole camera.
-fn furnace(wall: Material, emission: f32) -> Scene {
-    let mut b = SceneBuilder::new();
-    let m = b.add_material(wall);
-    b.add_mesh(common::inward_box(m, emission));
-    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
-    b.build().unwrap()
-}
 
 fn diffuse_furnace(emission: f32) -> Scene {
-    furnace(Material::diffuse(Rgb::splat(0.5)), emission)
+    common::furnace_scene(Material::diffuse(Rgb::splat(0.5)), emission)
 }
 
 /// Depth 16: the furnace series 2·(1 − 2⁻¹⁶) is 2 to 3·10⁻⁵.
@@ -130,7 +118,7 @@ fn mlt_furnace_is_two() {
     // samples) and BDPT tallied by depth (normalisation passes) are
     // unbiased per depth.
     for (what, bds) in [
-        ("bootstrap samples", r.bootstrap.seed_depth_b()),
+        ("bootstrap samples", r.bootstrap.sample_depth_b()),
         ("passes", r.bootstrap.depth_b()),
     ] {
         for (i, &bd) in bds.iter().take(6).enumerate() {
@@ -169,7 +157,7 @@ fn mlt_furnace_with_pbrt_normalisation_is_two() {
         ..mlt_settings()
     };
     let (img, r) = render(&scene, Estimator::Mlt(pbrt), 4, 64);
-    assert_eq!(r.bootstrap.depth_b(), r.bootstrap.seed_depth_b());
+    assert_eq!(r.bootstrap.depth_b(), r.bootstrap.sample_depth_b());
     let m = mean(&img);
     eprintln!("pbrt normalisation: mean {m:?}");
     assert!((m.g - 2.0).abs() / 2.0 < 0.01, "mean {m:?}");
@@ -187,7 +175,7 @@ fn mlt_mirror_furnace_is_two() {
         two_sided: true,
         detail: Default::default(),
     };
-    let scene = furnace(mirror, 1.0);
+    let scene = common::furnace_scene(mirror, 1.0);
     let (img, r) = render(&scene, Estimator::Mlt(mlt_settings()), 3, 32);
     assert_eq!(r.stats.nonfinite, 0);
     let m = mean(&img);
@@ -229,128 +217,6 @@ fn same_seed_gives_identical_bits() {
     assert_ne!(bits(&a), bits(&c), "the seed is used");
 }
 
-/// The furnace rendered with chains stepped by hand, recording the
-/// proposal (weight a) always and the current state (weight 1 − a) only if
-/// `with_current`: the mean over the image.
-fn furnace_mean_by_hand(with_current: bool) -> f32 {
-    let scene = diffuse_furnace(1.0);
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
-    let (st, m) = (settings(), mlt_settings());
-    let boot = bootstrap(&scene, m, 21);
-    let mut ws = cmlt::integrator::bdpt::PathStorage::new();
-    let mut film = Film::new(16, 12);
-    let mut mutations = 0u64;
-    for c in 0..64u64 {
-        let mut rng = Pcg32::new(c, 99);
-        let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        let depth = boot.depth_at((c as f64 + 0.5) / 64.0).unwrap();
-        let index = boot.pick(depth, u).unwrap();
-        assert_eq!(boot.depth_of(index), depth);
-        let mut s = PrimarySampler::new(boot.seed_of(index), m.sigma, m.large_step_prob);
-        let init = target::evaluate(&mut tracer, &st, &mut ws, depth, &mut s);
-        s.reseed(1000 + c);
-        let mut chain = Chain::new(s, init, 2000 + c);
-        for _ in 0..(64 * 16 * 12 / 64) {
-            let step = chain.step(|s| target::evaluate(&mut tracer, &st, &mut ws, depth, s));
-            mutations += 1;
-            let records = if with_current {
-                [step.proposal, step.current]
-            } else {
-                [step.proposal, None]
-            };
-            for sp in records.into_iter().flatten() {
-                film.add_splat(sp.raster, sp.value);
-            }
-        }
-    }
-    let img = film.resolve_scaled(mlt::image_scale(boot.b(), 16 * 12, mutations));
-    mean(&img).g
-}
-
-#[test]
-fn negative_control_dropping_current_state_splats_is_caught() {
-    let right = furnace_mean_by_hand(true);
-    let wrong = furnace_mean_by_hand(false);
-    eprintln!("by hand: with current {right}, without {wrong}");
-    assert!(
-        (right - 2.0).abs() / 2.0 < 0.01,
-        "correct splatting: {right}"
-    );
-    // The same 1% check the furnace test applies fails for the bug.
-    assert!(
-        (wrong - 2.0).abs() / 2.0 > 0.05,
-        "dropping the (1 − a) records went unnoticed: {wrong}"
-    );
-}
-
-#[test]
-fn workers_split_the_same_chains_deterministically() {
-    // Two workers with different indices run different chains; running a
-    // worker in two calls equals running it in one. Together they hold a
-    // systematic sample of depths by b_d / b: depth 1 (half of b) gets half
-    // of all chains, to within one.
-    let scene = diffuse_furnace(1.0);
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
-    let (st, m) = (settings(), mlt_settings());
-    let boot = bootstrap(&scene, m, 2);
-    let mut chains = |worker| {
-        let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
-        c.restart(&mut tracer, &st, &m, &boot, 2, worker, 2);
-        c
-    };
-    let (mut one, mut two, mut other) = (chains(0), chains(0), chains(1));
-    let (mut f1, mut f2, mut f3) = (Film::new(16, 12), Film::new(16, 12), Film::new(16, 12));
-    assert_eq!(one.run(&mut tracer, &st, &mut f1, 10), 640);
-    two.run(&mut tracer, &st, &mut f2, 3);
-    two.run(&mut tracer, &st, &mut f2, 7);
-    other.run(&mut tracer, &st, &mut f3, 10);
-    assert_eq!(f1, f2);
-    assert_ne!(f1, f3);
-    assert_eq!(one.stats(), two.stats());
-    let depth1 = one
-        .chains()
-        .chain(other.chains())
-        .filter(|c| c.1 == 1)
-        .count();
-    let expected = 128.0 * boot.depth_b()[0] / boot.b();
-    assert!(
-        (depth1 as f64 - expected).abs() <= 1.0,
-        "{depth1} vs {expected}"
-    );
-}
-
-/// The diffuse furnace with an emitting mirror sphere of reflectance ½
-/// inside: every surface emits 1 and reflects ½ of a uniform field, so the
-/// radiance is still exactly 2 everywhere — and the scene has paths for
-/// both level-2 perturbations: lens (E D …, E S D …) and caustic (E D S D …).
-/// A mirror (Fresnel factor 1) reflecting `reflectance` of the light.
-fn perfect_mirror(reflectance: f32) -> Material {
-    Material {
-        kind: MaterialKind::Conductor {
-            fresnel: ConductorFresnel::Perfect,
-            specular_reflectance: Texture::Constant(Rgb::splat(reflectance)),
-        },
-        two_sided: false,
-        detail: Default::default(),
-    }
-}
-
-fn mirror_sphere_furnace() -> Scene {
-    let mut b = SceneBuilder::new();
-    let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
-    let mirror = b.add_material(perfect_mirror(0.5));
-    b.add_mesh(common::inward_box(wall, 1.0));
-    let mut sphere = common::sphere(Vec3::new(0.2, 0.1, 0.3), 0.45, mirror);
-    sphere.emission = Some(Rgb::splat(1.0));
-    b.add_mesh(sphere);
-    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
-    b.build().unwrap()
-}
-
 /// CMLT over [`mlt_settings`] with `k` candidates and side chains of `m`
 /// steps on every path (no minimum depth, lens σ 1.5 px).
 fn cmlt_settings(k: u32, m: u32) -> CmltSettings {
@@ -390,7 +256,7 @@ fn assert_furnace(what: &str, img: &[Rgb], mean_tol: f32, region_tol: f32) {
 
 #[test]
 fn cmlt_mirror_sphere_furnace_is_two() {
-    let scene = mirror_sphere_furnace();
+    let scene = common::mirror_sphere_furnace();
     for (k, candidates) in [
         (8, mlt::Candidates::Stratified),
         (4, mlt::Candidates::Independent),
@@ -433,7 +299,7 @@ fn cmlt_mirror_sphere_furnace_is_two() {
 fn mirror_ball_furnace() -> Scene {
     let mut b = SceneBuilder::new();
     let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
-    let mirror = b.add_material(perfect_mirror(1.0));
+    let mirror = b.add_material(common::perfect_mirror(1.0));
     b.add_mesh(common::inward_box(wall, 1.0));
     b.add_mesh(common::sphere(Vec3::new(0.0, 0.0, 0.25), 0.7, mirror));
     b.set_camera(common::furnace_camera(Vec3::new(0.0, 0.05, -0.85), 0.0));
@@ -479,7 +345,7 @@ fn cmlt_multi_chain_furnace_is_two() {
 /// against the exact answer and against each other region by region.
 #[test]
 fn cmlt_k1_m1_matches_plain_mlt() {
-    let scene = mirror_sphere_furnace();
+    let scene = common::mirror_sphere_furnace();
     let (plain, rp) = render(&scene, Estimator::Mlt(mlt_settings()), 8, 64);
     let (one, r1) = render(&scene, Estimator::Cmlt(cmlt_settings(1, 1)), 8, 64);
     assert_eq!(rp.stats.mlt.records, rp.stats.mlt.mutations);
@@ -496,7 +362,7 @@ fn cmlt_k1_m1_matches_plain_mlt() {
 
 #[test]
 fn cmlt_same_seed_gives_identical_bits() {
-    let scene = mirror_sphere_furnace();
+    let scene = common::mirror_sphere_furnace();
     let mut s = cmlt_settings(4, 2);
     s.mlt.n_bootstrap = 500;
     s.mlt.n_chains = 16;
@@ -550,9 +416,9 @@ fn few_chains_per_depth_still_give_each_depth_its_share() {
 }
 
 #[test]
-fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
+fn chains_whose_bootstrap_samples_all_miss_the_light_still_start_on_it() {
     // A small bright sphere seen directly inside a grey box: with one bootstrap
-    // sample per depth, depth 1's seed almost surely misses the sphere,
+    // sample per depth, depth 1's sample almost surely misses the sphere,
     // yet the passes give depth 1 most of b. Its chains must start on the
     // sphere (they search further samples): each MLT record carries
     // luminance 1, so the image's mean luminance is b unless chains sit on
@@ -578,8 +444,8 @@ fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
     let (img, r) = render(&scene, Estimator::Mlt(s), 3, 64);
     let boot = &r.bootstrap;
     assert!(
-        boot.depth_b()[0] > 0.3 * boot.b() && !boot.has_contributing_seed(1),
-        "depth 1 must hold much of b ({} of {}) and its one seed miss the light",
+        boot.depth_b()[0] > 0.3 * boot.b() && !boot.has_contributing_sample(1),
+        "depth 1 must hold much of b ({} of {}) and its one sample miss the light",
         boot.depth_b()[0],
         boot.b()
     );
@@ -588,84 +454,6 @@ fn chains_whose_seed_samples_all_miss_the_light_still_start_on_it() {
         (y / boot.b() - 1.0).abs() < 0.01,
         "mean luminance {y} against b = {}",
         boot.b()
-    );
-}
-
-/// Level 2 takes its side chain's start value from the level-1 path's
-/// stored vertices (`LensTarget::evaluate_path`) instead of retracing it.
-/// That value must be the lens target's, the one every candidate gets:
-/// compared with a retrace of the same raster position, on paths with and
-/// without specular chains (the mirror sphere) and on both lens ends
-/// (emitter hit, connection).
-#[test]
-fn lens_start_from_stored_path_equals_its_retrace() {
-    use cmlt::integrator::bdpt::{PathStorage, sample_strategy, strategy_path};
-    use cmlt::mlt::lens::{LensState, LensTarget};
-    use cmlt::mlt::multiple_try::Target;
-    use cmlt::mlt::path::{Applicable, classify};
-    use cmlt::sampler::SampleStream;
-
-    let scene = mirror_sphere_furnace();
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
-    let s = settings();
-    let mut ws = PathStorage::with_capacity(8);
-    let mut path = Vec::new();
-    let (mut compared, mut through_mirror, mut agree) = (0u32, 0u32, 0u32);
-    for i in 0..20_000u64 {
-        let depth = 1 + (i % 5) as usize;
-        let mut rng = SampleStream::new(3, depth as u64, i);
-        let st = sample_strategy(&mut tracer, &s, &mut ws, depth, &mut rng);
-        if st.l.is_black() || !strategy_path(&ws, &mut path) {
-            continue;
-        }
-        let Applicable::Lens(anchor) = classify(&tracer, &path) else {
-            continue;
-        };
-        let camera = tracer.camera;
-        let Some((_, raster)) =
-            camera.importance(anchor.p_lens, (path[1].sp.p - anchor.p_lens).normalize())
-        else {
-            continue;
-        };
-        let mut target = LensTarget {
-            tracer: &mut tracer,
-            anchor: &anchor,
-        };
-        let stored = target
-            .evaluate_path(&path, raster)
-            .expect("the path fits its own anchor");
-        let mut one = [Some(LensState {
-            raster,
-            value: Rgb::ZERO,
-        })];
-        let mut p = [0.0f32];
-        target.evaluate(&mut one, &mut p);
-        let traced = one[0].unwrap().value;
-        compared += 1;
-        through_mirror += !anchor.chain.is_empty() as u32;
-        let scale = stored.value.luminance().max(traced.luminance());
-        let close = (0..3).all(|c| (stored.value[c] - traced[c]).abs() <= 1e-3 * scale);
-        if close && scale > 0.0 {
-            agree += 1;
-        } else if compared - agree <= 5 {
-            eprintln!(
-                "sample {i}: stored {:?} vs retraced {traced:?}",
-                stored.value
-            );
-        }
-    }
-    eprintln!("{agree} of {compared} agree ({through_mirror} through the mirror)");
-    assert!(
-        compared > 5_000 && through_mirror > 200,
-        "{compared} {through_mirror}"
-    );
-    // Retracing may land on another triangle or miss at an edge (rounding);
-    // anything else is a wrong factor in one of the two.
-    assert!(
-        agree as f64 >= 0.999 * compared as f64,
-        "{agree} of {compared}"
     );
 }
 

@@ -34,9 +34,10 @@ use super::traverse::{self, Prepared, Stack, descend, descend_any, traverse_from
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 
-/// SoA copy of the packet's live rays with their box and triangle
-/// precomputation.
-struct Lanes<const N: usize> {
+/// A packet prepared for traversal, the packet form of
+/// [`Prepared`]: an SoA copy of its live rays with their box and
+/// triangle precomputation.
+struct PreparedPacket<const N: usize> {
     o: [[f32; N]; 3],
     inv: [[f32; N]; 3],
     /// Per axis, the valid lanes whose direction is negative (the sign
@@ -57,11 +58,11 @@ struct Lanes<const N: usize> {
     frustum: Option<BoxFrustum>,
 }
 
-impl<const N: usize> Lanes<N> {
+impl<const N: usize> PreparedPacket<N> {
     /// Every lane a dummy: a finite ray with an empty interval.
     #[inline(always)]
     fn dummies() -> Self {
-        Lanes {
+        PreparedPacket {
             o: [[0.0; N]; 3],
             inv: [[1.0; N]; 3],
             neg_bits: [0; 3],
@@ -142,7 +143,7 @@ pub(super) struct LanesOut<'a, const N: usize> {
     pub t_max: &'a mut [f32; N],
 }
 
-/// The box-test half of [`Lanes::set`]: origins, reciprocal directions
+/// The box-test half of [`PreparedPacket::set`]: origins, reciprocal directions
 /// and `t_max` of the `valid` lanes; the other lanes become dummies with
 /// the first valid lane's origin and direction and an empty interval, so
 /// that reductions over all lanes need no mask (`frustum_of`). Returns
@@ -194,7 +195,7 @@ pub(super) fn prepare_lanes_portable<const N: usize>(
 const FRUSTUM_SPREAD: f32 = 0.05;
 
 /// The frustum of a packet's lanes (set up in `o`, `inv`, dummies
-/// included: they copy a live lane, see [`Lanes::set`]) when they share
+/// included: they copy a live lane, see [`PreparedPacket::set`]) when they share
 /// their origin bit for bit and their directions lie within
 /// [`FRUSTUM_SPREAD`] of each other, with finite reciprocals of one sign
 /// per axis (see [`BoxFrustum::new`]).
@@ -291,7 +292,7 @@ fn single_ray_lanes<const N: usize>(neg: [u32; 3], live: u32) -> u32 {
 #[inline(always)]
 fn boxes_lanes<B: BoxTest, const N: usize>(
     node: &Node,
-    l: &Lanes<N>,
+    l: &PreparedPacket<N>,
     lanes: u32,
 ) -> ([u32; WIDTH], [f32; WIDTH]) {
     let b = BoxLanes {
@@ -430,7 +431,7 @@ struct Entry {
 #[allow(clippy::type_complexity)]
 fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
     view: &BvhView<'_>,
-    l: &mut Lanes<N>,
+    l: &mut PreparedPacket<N>,
     live: u32,
 ) -> (u32, [u32; N], [f32; N], [f32; N]) {
     if let Some(f) = l.frustum {
@@ -544,7 +545,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
 }
 
 /// [`traverse()`] for a packet whose live lanes form one frustum
-/// ([`Lanes::frustum`]): the tree is walked once, as by a single ray, with
+/// ([`PreparedPacket::frustum`]): the tree is walked once, as by a single ray, with
 /// the frustum's box test ([`BoxTest::boxes_frustum`]) in place of the
 /// per-lane one; the lanes are tested only against the boxes of the
 /// leaves it meets and against the triangles (Embree's coherent traversal
@@ -567,7 +568,7 @@ fn traverse<B: BoxTest, const N: usize, const ANY: bool>(
 #[allow(clippy::type_complexity)]
 fn traverse_frustum<B: BoxTest, const N: usize, const ANY: bool>(
     view: &BvhView<'_>,
-    l: &mut Lanes<N>,
+    l: &mut PreparedPacket<N>,
     f: &BoxFrustum,
     live: u32,
 ) -> (u32, [u32; N], [f32; N], [f32; N]) {
@@ -712,7 +713,7 @@ impl<const N: usize> Found<N> {
 #[inline(always)]
 fn leaf<B: BoxTest, const N: usize, const ANY: bool>(
     view: &BvhView<'_>,
-    l: &mut Lanes<N>,
+    l: &mut PreparedPacket<N>,
     (first, count): (u32, u32),
     mut lanes: u32,
     found: &mut Found<N>,
@@ -830,7 +831,7 @@ fn intersect_packet_with<B: BoxTest, const N: usize>(
         }
         return;
     }
-    let mut l = Lanes::dummies();
+    let mut l = PreparedPacket::dummies();
     let valid = l.set::<B>(rays, active);
     // One live ray: the single-ray kernel is cheaper and gives the same
     // answer bit for bit.
@@ -876,7 +877,7 @@ fn occluded_packet_with<B: BoxTest, const N: usize>(
     if view.nodes.is_empty() {
         return out;
     }
-    let mut l = Lanes::dummies();
+    let mut l = PreparedPacket::dummies();
     let valid = l.set::<B>(rays, active);
     if valid.count_ones() <= 1 {
         for i in LaneMask(valid).iter() {
@@ -1014,7 +1015,7 @@ mod tests {
     }
 
     fn frustum(p: &RayPacket<8>, active: u32) -> Option<BoxFrustum> {
-        let mut l = Lanes::<8>::dummies();
+        let mut l = PreparedPacket::<8>::dummies();
         l.set::<ScalarBox>(p, LaneMask(active));
         l.frustum
     }

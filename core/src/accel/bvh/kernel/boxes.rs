@@ -375,7 +375,7 @@ mod tests {
         for _ in 0..4000 {
             let (node, o, inv, t_max, neg) = inputs(rng);
             let lanes = rng.next() & 0xffff;
-            // Uniform signs only when they are (as `Lanes::new` decides);
+            // Uniform signs only when they are (as `PreparedPacket::set` decides);
             // otherwise the per-lane selection.
             let uniform = (neg.iter().all(|&m| m & lanes == 0 || m & lanes == lanes) && lanes != 0)
                 .then(|| neg.map(|m| m & lanes != 0));

@@ -1,6 +1,9 @@
-//! Level 2's view of a path: the complete vertex list x₀ (lens) … x_k
-//! (emitter) of a level-1 state, which perturbation applies to it, and the
-//! retracing of specular chains as ray bundles.
+//! Level 2's perturbations: which one applies to the complete vertex list
+//! x₀ (lens) … x_k (emitter) of a level-1 state and what it keeps fixed
+//! (here), the retracing of specular chains as ray bundles they share
+//! (`retrace`), and the three perturbations themselves (`lens`, `caustic`,
+//! `multi_chain`), each a multiple-try `Proposal` with an exact density and
+//! a packet-traced `Target`.
 //!
 //! ## Which perturbation (Veach & Guibas 1997, §3)
 //!
@@ -19,7 +22,7 @@
 //!   the emitter, and (when x_u is not the emitter) x_{u+1} non-specular —
 //!   E S+ D S+ (L | D D), a caustic seen through water or in a mirror. The
 //!   image point and the direction leaving x_t move; both chains are
-//!   retraced ([`super::multi_chain`]) and x′_u is completed as the lens
+//!   retraced ([`multi_chain`]) and x′_u is completed as the lens
 //!   perturbation completes x′_t.
 //!
 //! All three preserve the path's pattern of specular and non-specular
@@ -55,56 +58,30 @@
 //! along the side chain and cancel in every ratio, except their colour,
 //! which the splat keeps: it enters as [`tail_colour`].
 
-use alloc::vec::Vec;
+mod caustic;
+mod lens;
+mod multi_chain;
+mod retrace;
+
+pub(crate) use caustic::{CausticProposal, CausticState, CausticTarget};
+pub(crate) use lens::{LensProposal, LensState, LensTarget};
+pub(crate) use multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
 
 use glam::Vec3;
 
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
-use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
-use crate::integrator::tracer::Shading;
+use crate::integrator::bdpt::{PathVertex, scatter};
 use crate::math::Rgb;
 
 /// Longest specular chain a perturbation retraces (longer ones: identity).
-pub const MAX_CHAIN: usize = 32;
-
-/// Lanes one bundle evaluation handles at a time: the widest packet.
-/// Larger k are evaluated in chunks of this size, which also keeps the
-/// per-call scratch small (it is initialised on every call).
-pub const MAX_LANES: usize = 16;
-
-/// A path-space target evaluated one bundle of at most [`MAX_LANES`]
-/// states at a time ([`evaluate_in_bundles`]).
-pub(super) trait Bundled<S> {
-    /// One bundle of at most `N` ≤ [`MAX_LANES`] states, with scratch for
-    /// `N` lanes.
-    fn evaluate_bundle<const N: usize>(&mut self, states: &mut [Option<S>], p: &mut [f32]);
-}
-
-/// [`super::multiple_try::Target::evaluate`] for a [`Bundled`] target:
-/// bundles of [`MAX_LANES`], each with scratch for the lanes at hand (a
-/// one-candidate step sets up one lane, not 16).
-pub(super) fn evaluate_in_bundles<S, T: Bundled<S>>(
-    target: &mut T,
-    states: &mut [Option<S>],
-    p: &mut [f32],
-) {
-    for (states, p) in states.chunks_mut(MAX_LANES).zip(p.chunks_mut(MAX_LANES)) {
-        match states.len() {
-            0..=1 => target.evaluate_bundle::<1>(states, p),
-            2..=4 => target.evaluate_bundle::<4>(states, p),
-            5..=8 => target.evaluate_bundle::<8>(states, p),
-            _ => target.evaluate_bundle::<MAX_LANES>(states, p),
-        }
-    }
-}
+const MAX_CHAIN: usize = 32;
 
 /// A run of specular vertices to retrace, each with the lobe the original
 /// path took there (true = reflection).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SpecularChain {
+pub(crate) struct SpecularChain {
     len: usize,
     reflect: [bool; MAX_CHAIN],
 }
@@ -113,11 +90,6 @@ impl SpecularChain {
     /// Number of specular vertices.
     pub fn len(&self) -> usize {
         self.len
-    }
-
-    /// True for an empty chain (no specular vertex).
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
     }
 
     /// Whether the path reflects (rather than refracts) at specular vertex
@@ -159,7 +131,7 @@ fn is_reflection(path: &[PathVertex], i: usize) -> bool {
 /// correction) or its specular lobe's throughput. Geometry terms are
 /// scalars constant along a side chain and are left out: only the colour
 /// matters (see the module docs).
-pub fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: usize) -> Rgb {
+fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: usize) -> Rgb {
     let k = path.len() - 1;
     let light = &path[k];
     let mut c = tr
@@ -189,7 +161,7 @@ pub fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from
 
 /// What the lens perturbation keeps fixed.
 #[derive(Clone, Copy, Debug)]
-pub struct LensAnchor {
+pub(crate) struct LensAnchor {
     /// The lens point x₀.
     pub p_lens: Vec3,
     /// Lobes of x₁ … x_{t−1}.
@@ -202,7 +174,7 @@ pub struct LensAnchor {
 // Held by value on the stack for one side chain; boxing it would allocate.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
-pub enum LensEnd {
+pub(crate) enum LensEnd {
     /// x_t is the emitter (t = k): x′_t must emit towards x′_{t−1}.
     Emitter,
     /// x′_t is joined to the fixed x_{t+1} = `next`.
@@ -218,7 +190,7 @@ pub enum LensEnd {
 
 /// What the caustic perturbation keeps fixed.
 #[derive(Clone, Copy, Debug)]
-pub struct CausticAnchor {
+pub(crate) struct CausticAnchor {
     /// The lens point x₀.
     pub p_lens: Vec3,
     /// x_j, where the direction is perturbed.
@@ -235,7 +207,7 @@ pub struct CausticAnchor {
 
 /// What the multi-chain perturbation keeps fixed.
 #[derive(Clone, Copy, Debug)]
-pub struct MultiChainAnchor {
+pub(crate) struct MultiChainAnchor {
     /// The lens point x₀.
     pub p_lens: Vec3,
     /// Lobes of x₁ … x_{t−1} (the camera's chain).
@@ -249,7 +221,7 @@ pub struct MultiChainAnchor {
 /// The perturbation that applies to a path, with what it keeps fixed.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
-pub enum Applicable {
+pub(crate) enum Applicable {
     /// The lens perturbation.
     Lens(LensAnchor),
     /// The caustic perturbation.
@@ -261,7 +233,7 @@ pub enum Applicable {
 }
 
 /// Classifies a complete path x₀ … x_k (see the module docs).
-pub fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
+pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
     // With alpha masks a segment's visibility is a stochastic test
     // decided per ray (a hash of the ray), so the perturbations, which
     // re-evaluate the same path through different rays, would see another
@@ -399,83 +371,3 @@ fn multi_chain<I: Intersector>(
         end,
     })
 }
-
-/// Per-lane result of [`retrace`].
-#[derive(Clone, Copy, Debug)]
-pub struct Retraced {
-    /// The first non-specular vertex reached.
-    pub hit: Shading,
-    /// The vertex before it (for its incoming direction).
-    pub prev: Vec3,
-    /// Throughput of the specular lobes crossed.
-    pub beta: Rgb,
-}
-
-/// Retraces a bundle of rays through `chain` with packets, one packet per
-/// bounce: every lane must hit a specular surface at each link and take the
-/// recorded lobe, then hit a non-specular surface, else it fails (`None`).
-/// `rays` is consumed as the bundle's current rays. `N` ≥ `rays.len()` is
-/// the scratch's lane count: a one-candidate step sets up
-/// one lane, not [`MAX_LANES`].
-pub fn retrace<I: Intersector, const N: usize>(
-    tr: &mut Tracer<'_, I>,
-    rays: &mut [Option<Ray>],
-    chain: &SpecularChain,
-    mode: TransportMode,
-    out: &mut [Option<Retraced>],
-) {
-    let n = rays.len();
-    debug_assert!(n <= N && out.len() == n);
-    let mut hits: [Option<Shading>; N] = [None; N];
-    let mut beta = [Rgb::ONE; N];
-    let mut prev = [Vec3::ZERO; N];
-    for (p, r) in prev.iter_mut().zip(rays.iter()) {
-        if let Some(r) = r {
-            *p = r.o;
-        }
-    }
-    for link in 0..=chain.len {
-        tr.trace_bundle(rays, &mut hits[..n]);
-        for i in 0..n {
-            let (Some(ray), Some(h)) = (rays[i], hits[i]) else {
-                rays[i] = None;
-                continue;
-            };
-            if link == chain.len {
-                continue;
-            }
-            // A specular link: same kind of vertex, same lobe.
-            let wo_world = -ray.d;
-            tr.stats.bsdf_samples.add(h.bsdf.lobe());
-            let next = h
-                .bsdf
-                .specular(h.frame.to_local(wo_world), chain.reflect[link], mode);
-            let Some((wi, w)) = next else {
-                rays[i] = None;
-                continue;
-            };
-            let wi_world = h.frame.to_world(wi);
-            let mut w = w;
-            if mode == TransportMode::Importance {
-                w *= shading_correction(&h.sp, wo_world, wi_world);
-            }
-            beta[i] *= w;
-            prev[i] = h.sp.p;
-            rays[i] = (beta[i].is_finite() && !beta[i].is_black())
-                .then(|| offset::spawn_ray(h.sp.p, h.sp.p_error, h.sp.ng, wi_world));
-        }
-    }
-    for i in 0..n {
-        out[i] = match (rays[i], hits[i]) {
-            (Some(_), Some(h)) if !h.bsdf.is_delta() => Some(Retraced {
-                hit: h,
-                prev: prev[i],
-                beta: beta[i],
-            }),
-            _ => None,
-        };
-    }
-}
-
-/// Reusable storage for a level-1 state's path.
-pub type PathBuf = Vec<PathVertex>;

@@ -11,7 +11,7 @@
 //! zero), so the perturbation continues: the camera ray is retraced
 //! through the first chain to x′_t, a direction ω′ leaving x′_t is traced
 //! through the second chain to x′_u, and x′_u is completed as the lens
-//! perturbation completes x′_t ([`super::path::LensEnd`]: it must emit,
+//! perturbation completes x′_t ([`super::LensEnd`]: it must emit,
 //! or it is joined to the fixed non-specular x_{u+1}).
 //!
 //! State: (raster position, ω), ω the unit direction leaving x_t. Veach
@@ -32,7 +32,7 @@
 //! chain's lobes and the end value. That is Y(f(x̄)) times the Jacobian
 //! from (raster, ω) to the moving vertices' area measure, so the side chain
 //! leaves level 1's distribution, restricted to the path's class,
-//! invariant ([`super::path`], [`super::level2`]).
+//! invariant ([`super`], [`crate::mlt::level2`]).
 //!
 //! A bundle is evaluated as: all camera rays as one packet, one packet per
 //! specular bounce of the first chain, all rays leaving x′_t as one packet,
@@ -42,21 +42,22 @@
 
 use glam::{Vec2, Vec3};
 
+use super::MultiChainAnchor;
 use super::caustic::{CausticProposal, CausticState};
 use super::lens::{LensProposal, LensState, end_values};
-use super::multiple_try::{Proposal, Target};
-use super::path::{Bundled, MultiChainAnchor, Retraced, evaluate_in_bundles, retrace};
+use super::retrace::{Bundled, Retraced, evaluate_in_bundles, retrace};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
 use crate::integrator::bdpt::scatter;
 use crate::math::Rgb;
+use crate::mlt::multiple_try::{Proposal, Target};
 
 /// A multi-chain-perturbed path: where it crosses the image, the direction
 /// it leaves x_t in, and what it carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MultiChainState {
+pub(crate) struct MultiChainState {
     /// Raster position (continuous pixels).
     pub raster: Vec2,
     /// Unit direction leaving x_t towards the second specular chain.
@@ -69,7 +70,7 @@ pub struct MultiChainState {
 /// T(x→·): the lens perturbation's raster offset and the caustic
 /// perturbation's angular offset of ω, independently.
 #[derive(Clone, Copy, Debug)]
-pub struct MultiChainProposal {
+pub(crate) struct MultiChainProposal {
     lens: LensProposal,
     dir: CausticProposal,
 }
@@ -130,7 +131,7 @@ impl Proposal<MultiChainState> for MultiChainProposal {
 }
 
 /// The multi-chain perturbation's target for one side chain.
-pub struct MultiChainTarget<'r, 'a, I: Intersector> {
+pub(crate) struct MultiChainTarget<'r, 'a, I: Intersector> {
     /// The worker's tracer (its counters record the packets).
     pub tracer: &'r mut Tracer<'a, I>,
     /// What the perturbation keeps fixed.

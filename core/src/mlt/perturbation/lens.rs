@@ -5,7 +5,7 @@
 //! point x₀. Proposal: a clamped 2-D Gaussian offset in pixels, so
 //! T(x→y) = q(y − x) per unit raster area is symmetric and exact; positions
 //! that leave the image fail. Target: the path's contribution per unit
-//! raster area with x_{t+1} … x_k fixed ([`super::path`]).
+//! raster area with x_{t+1} … x_k fixed ([`super`]).
 //!
 //! A bundle is evaluated as: all camera rays as one packet, one packet per
 //! specular bounce, then all connection rays to the shared vertex x_{t+1}
@@ -32,8 +32,8 @@
 
 use glam::{Vec2, Vec3};
 
-use super::multiple_try::{Proposal, Target};
-use super::path::{Bundled, LensAnchor, LensEnd, Retraced, evaluate_in_bundles, retrace};
+use super::retrace::{Bundled, Retraced, evaluate_in_bundles, retrace};
+use super::{LensAnchor, LensEnd};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -42,11 +42,12 @@ use crate::integrator::bdpt::{PathVertex, scatter};
 use crate::integrator::tracer::Shading;
 use crate::math::Rgb;
 use crate::math::warp::ClampedGaussian2;
+use crate::mlt::multiple_try::{Proposal, Target};
 use crate::scene::SurfacePoint;
 
 /// A lens-perturbed path: where it crosses the image and what it carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LensState {
+pub(crate) struct LensState {
     /// Raster position (continuous pixels).
     pub raster: Vec2,
     /// Contribution per unit raster area, up to the side chain's constant
@@ -56,7 +57,7 @@ pub struct LensState {
 
 /// T(x→·): a clamped Gaussian offset of the raster position.
 #[derive(Clone, Copy, Debug)]
-pub struct LensProposal {
+pub(crate) struct LensProposal {
     offset: ClampedGaussian2,
     size: Vec2,
 }
@@ -97,7 +98,7 @@ impl Proposal<LensState> for LensProposal {
 
 /// The lens perturbation's target for one side chain: traces bundles of
 /// candidates through `tracer` against the fixed part `anchor`.
-pub struct LensTarget<'r, 'a, I: Intersector> {
+pub(crate) struct LensTarget<'r, 'a, I: Intersector> {
     /// The worker's tracer (its counters record the packets).
     pub tracer: &'r mut Tracer<'a, I>,
     /// What the perturbation keeps fixed.
@@ -227,7 +228,7 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
     /// value is [`Target::evaluate`]'s (the same end value and
     /// specular lobes), up to the rounding of retracing the camera ray.
     /// `None` when the path does not fit the anchor (it always does for
-    /// the anchor [`super::path::classify`] made of it).
+    /// the anchor [`super::classify`] made of it).
     pub fn evaluate_path(&mut self, path: &[PathVertex], raster: Vec2) -> Option<LensState> {
         let t = self.anchor.chain.len() + 1;
         let x_t = path.get(t)?;
@@ -287,3 +288,6 @@ impl<I: Intersector> Bundled<LensState> for LensTarget<'_, '_, I> {
         }
     }
 }
+
+#[cfg(all(test, feature = "std", feature = "specular"))]
+mod tests;

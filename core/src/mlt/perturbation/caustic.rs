@@ -9,7 +9,7 @@
 //! exponential map's area element on the sphere is sin|d|/|d|), which
 //! depends only on the angle, so T is symmetric; the truncation radius is
 //! below π, where the map is one-to-one. Target: the path's contribution
-//! per unit solid angle at x_j with x_j … x_k fixed ([`super::path`]),
+//! per unit solid angle at x_j with x_j … x_k fixed ([`super`]),
 //! i.e. light tracing through the chain and a connection to the lens point.
 //!
 //! A bundle is evaluated as: all rays from x_j as one packet, one packet per
@@ -18,8 +18,8 @@
 
 use glam::{Vec2, Vec3};
 
-use super::multiple_try::{Proposal, Target};
-use super::path::{Bundled, CausticAnchor, Retraced, evaluate_in_bundles, retrace};
+use super::CausticAnchor;
+use super::retrace::{Bundled, Retraced, evaluate_in_bundles, retrace};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -27,10 +27,11 @@ use crate::integrator::Tracer;
 use crate::integrator::bdpt::scatter;
 use crate::math::warp::ClampedGaussian2;
 use crate::math::{Frame, Rgb};
+use crate::mlt::multiple_try::{Proposal, Target};
 
 /// A caustic-perturbed path.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CausticState {
+pub(crate) struct CausticState {
     /// Unit direction leaving x_j.
     pub dir: Vec3,
     /// Where the path lands on the image (set by the evaluation).
@@ -43,7 +44,7 @@ pub struct CausticState {
 /// T(ω→·): a clamped Gaussian offset of the direction by the exponential
 /// map.
 #[derive(Clone, Copy, Debug)]
-pub struct CausticProposal {
+pub(crate) struct CausticProposal {
     offset: ClampedGaussian2,
 }
 
@@ -116,7 +117,7 @@ impl Proposal<CausticState> for CausticProposal {
 }
 
 /// The caustic perturbation's target for one side chain.
-pub struct CausticTarget<'r, 'a, I: Intersector> {
+pub(crate) struct CausticTarget<'r, 'a, I: Intersector> {
     /// The worker's tracer (its counters record the packets).
     pub tracer: &'r mut Tracer<'a, I>,
     /// What the perturbation keeps fixed.

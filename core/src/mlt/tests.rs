@@ -1,0 +1,152 @@
+//! Level 1 with its parts stepped by hand on the white furnace (closed
+//! box, albedo ½, Le = 1: radiance 2 everywhere): the negative control
+//! showing that the furnace tests of `core/tests/suite/mlt.rs` catch a
+//! wrong splatting rule. Also home of the scene builders the unit tests
+//! below `mlt` share with the integration tests.
+
+use rand_core::Rng;
+use rand_pcg::Pcg32;
+
+use super::{Bootstrap, Chain, MltSettings, PrimarySampler, WorkerChains, image_scale, target};
+use crate::accel::bvh::Bvh;
+use crate::film::Film;
+use crate::integrator::{Settings, Tracer, bdpt};
+use crate::math::Rgb;
+use crate::renderer::Estimator;
+use crate::scene::Material;
+
+/// The integration tests' scene builders (`core/tests/common`), compiled
+/// here too so that both kinds of test render the same scenes; they name
+/// this crate `cmlt` (see `lib.rs`).
+#[path = "../../tests/common/mod.rs"]
+pub(super) mod scenes;
+
+/// The bootstrap a one-worker renderer of `mlt` at `settings` with seed
+/// `seed` computes for the scene's camera.
+fn bootstrap(
+    scene: &crate::scene::Scene,
+    settings: Settings,
+    mlt: MltSettings,
+    seed: u64,
+) -> Bootstrap {
+    scenes::render(scene, Estimator::Mlt(mlt), settings, seed, 0).bootstrap
+}
+
+/// The furnace rendered by 64 level-1 chains of depth ≤ 16 stepped by
+/// hand, recording the proposal (weight a) always and the current state
+/// (weight 1 − a) only if `with_current`: the image's mean green.
+fn furnace_mean_by_hand(with_current: bool) -> f32 {
+    let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let st = Settings {
+        max_depth: Some(16),
+        ..Settings::default()
+    };
+    let m = MltSettings {
+        n_bootstrap: 8_000,
+        b_passes: 64,
+        b_min_samples: 0,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    let boot = bootstrap(&scene, st, m, 21);
+    let mut ws = bdpt::PathStorage::new();
+    let mut film = Film::new(16, 12);
+    let mut mutations = 0u64;
+    for c in 0..64u64 {
+        let mut rng = Pcg32::new(c, 99);
+        let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        let depth = boot.depth_at((c as f64 + 0.5) / 64.0).unwrap();
+        let index = boot.pick(depth, u).unwrap();
+        // Bootstrap sample i has depth 1 + i mod D, D = 16.
+        assert_eq!(1 + (index % 16) as u32, depth);
+        let mut s = PrimarySampler::new(boot.seed_of(index), m.sigma, m.large_step_prob);
+        let init = target::evaluate(&mut tracer, &st, &mut ws, depth, &mut s);
+        s.reseed(1000 + c);
+        let mut chain = Chain::new(s, init, 2000 + c);
+        for _ in 0..(64 * 16 * 12 / 64) {
+            let step = chain.step(|s| target::evaluate(&mut tracer, &st, &mut ws, depth, s));
+            mutations += 1;
+            let records = if with_current {
+                [step.proposal, step.current]
+            } else {
+                [step.proposal, None]
+            };
+            for sp in records.into_iter().flatten() {
+                film.add_splat(sp.raster, sp.value);
+            }
+        }
+    }
+    let img = film.resolve_scaled(image_scale(boot.b(), 16 * 12, mutations));
+    let mut sum = Rgb::ZERO;
+    for p in &img {
+        sum += *p;
+    }
+    (sum / img.len() as f32).g
+}
+
+#[test]
+fn negative_control_dropping_current_state_splats_is_caught() {
+    let right = furnace_mean_by_hand(true);
+    let wrong = furnace_mean_by_hand(false);
+    eprintln!("by hand: with current {right}, without {wrong}");
+    assert!(
+        (right - 2.0).abs() / 2.0 < 0.01,
+        "correct splatting: {right}"
+    );
+    // The same 1% check the furnace test applies fails for the bug.
+    assert!(
+        (wrong - 2.0).abs() / 2.0 > 0.05,
+        "dropping the (1 − a) records went unnoticed: {wrong}"
+    );
+}
+
+#[test]
+fn workers_split_the_same_chains_deterministically() {
+    // Two workers with different indices run different chains; running a
+    // worker in two calls equals running it in one. Together they hold a
+    // systematic sample of depths by b_d / b: depth 1 (half of b) gets half
+    // of all chains, to within one.
+    let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let st = Settings {
+        max_depth: Some(16),
+        ..Settings::default()
+    };
+    let m = MltSettings {
+        n_bootstrap: 8_000,
+        b_passes: 64,
+        b_min_samples: 0,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    let boot = bootstrap(&scene, st, m, 2);
+    let mut chains = |worker| {
+        let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
+        c.restart(&mut tracer, &st, &m, &boot, 2, worker, 2);
+        c
+    };
+    let (mut one, mut two, mut other) = (chains(0), chains(0), chains(1));
+    let (mut f1, mut f2, mut f3) = (Film::new(16, 12), Film::new(16, 12), Film::new(16, 12));
+    assert_eq!(one.run(&mut tracer, &st, &mut f1, 10), 640);
+    two.run(&mut tracer, &st, &mut f2, 3);
+    two.run(&mut tracer, &st, &mut f2, 7);
+    other.run(&mut tracer, &st, &mut f3, 10);
+    assert_eq!(f1, f2);
+    assert_ne!(f1, f3);
+    assert_eq!(one.stats(), two.stats());
+    let depth1 = one
+        .chain_depths()
+        .chain(other.chain_depths())
+        .filter(|&d| d == 1)
+        .count();
+    let expected = 128.0 * boot.depth_b()[0] / boot.b();
+    assert!(
+        (depth1 as f64 - expected).abs() <= 1.0,
+        "{depth1} vs {expected}"
+    );
+}
