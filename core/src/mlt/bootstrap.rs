@@ -175,7 +175,7 @@ impl Bootstrap {
 
     /// Builds the bootstrap, in this bootstrap's storage, from the target
     /// values of all bootstrap samples in index order (as
-    /// [`evaluate_samples`] produces them, possibly in pieces) and the
+    /// `evaluate_samples` produces them, possibly in pieces) and the
     /// per-depth luminance sums of all
     /// [`MltSettings::normalisation_passes`] passes over `pixels` pixels
     /// (ignored when `b_passes` is 0: then b_d comes from the bootstrap

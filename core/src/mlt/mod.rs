@@ -3,10 +3,11 @@
 //! `MLTIntegrator` does it. Level 2 (CMLT, Segovia 2007): side chains of
 //! perturbations from each level-1 state.
 //!
-//! The public surface is what a host configures and reads: [`MltSettings`]
-//! (with [`Candidates`] and [`Splatting`]), [`MltStats`], [`Bootstrap`],
-//! [`WorkerChains`] and the functions below. The parts, private to the
-//! crate:
+//! The public surface is what a host configures and reads: the settings
+//! ([`MltSettings`] for level 1, [`Level2Settings`] for CMLT's level 2,
+//! [`CmltSettings`] for both; with [`Candidates`] and [`Splatting`]),
+//! [`MltStats`], [`Bootstrap`] and the functions below. The parts, private
+//! to the crate (the renderer drives a worker's chains, `WorkerChains`):
 //!
 //! - `primary`: the primary-sample vector X, its lazy large/small-step
 //!   mutations and three interleaved streams;
@@ -115,8 +116,8 @@ pub struct MltSettings {
 #[non_exhaustive]
 pub enum Level1 {
     /// Kelemen et al.'s primary sample space: a chain mutates the random
-    /// numbers X that [`target::evaluate`] turns into a BDPT strategy's
-    /// path ([`primary`]).
+    /// numbers X that `target::evaluate` turns into a BDPT strategy's
+    /// path (`mlt/primary.rs`).
     #[default]
     PrimarySample,
 }
@@ -186,14 +187,14 @@ impl MltSettings {
 
 /// Parameters of CMLT's level 2 (Segovia 2007: side chains of lens,
 /// caustic and multi-chain perturbations after each level-1 mutation),
-/// read by [`crate::renderer::Estimator::Cmlt`] only. See [`level2`].
+/// read by [`crate::renderer::Estimator::Cmlt`] only. See `mlt/level2.rs`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Level2Settings {
     /// The side-chain length m(c) of the classes that get a side chain
     /// (lens, caustic and multi-chain paths of at least
     /// `side_chain_min_depth` segments), ≥ 1.
     pub m: u32,
-    /// Candidates per multiple-try step, 1 ≤ k ≤ [`level2::MAX_K`].
+    /// Candidates per multiple-try step, 1 ≤ k ≤ 64.
     pub k: u32,
     /// Standard deviation of the lens perturbation's image-plane offset,
     /// in pixels.
@@ -209,8 +210,8 @@ pub struct Level2Settings {
     /// [`Level2Settings::validate`]).
     pub splatting: Splatting,
     /// Parallel one-proposal side chains (lanes) per level-1 state, traced
-    /// together as packets, 1 ≤ lanes ≤ [`level2::MAX_K`]; more than one
-    /// needs k = 1. See [`lanes`].
+    /// together as packets, 1 ≤ lanes ≤ 64; more than one
+    /// needs k = 1. See `mlt/lanes.rs`.
     pub lanes: u32,
     /// Paths of fewer segments get no side chain (their level-1 records
     /// carry the level-2 share); 0 or 1 = every lens, caustic and
@@ -219,7 +220,7 @@ pub struct Level2Settings {
     /// The level-2 share s, the weight (in records of one mutation) each
     /// level-1 mutation's side chain adds beyond its own record, or
     /// carries in its level-1 record when its state gets no side chain;
-    /// 0 = m. Changes the variance, not the mean. See [`level2`].
+    /// 0 = m. Changes the variance, not the mean. See `mlt/level2.rs`.
     pub share: u32,
 }
 
@@ -530,7 +531,7 @@ fn uniform_f64(rng: &mut Pcg32) -> f64 {
 /// Mutations run in *rounds*, one per chain, so that every chain of a
 /// worker has made the same number of mutations: chains of different
 /// depths must be weighted equally for the normalisation to hold.
-pub struct WorkerChains {
+pub(crate) struct WorkerChains {
     chains: Vec<(Chain, u32)>,
     /// Splat weight of each chain: its depth's share of b over its share
     /// of the chains ([`depth_weights`]).
@@ -565,7 +566,7 @@ impl WorkerChains {
     /// need for `settings`, level 1 `mlt` and, for CMLT, `level2` with
     /// `camera`'s resolution: after this, [`WorkerChains::restart`] and
     /// [`WorkerChains::run`] allocate nothing.
-    pub fn with_capacity(
+    pub(crate) fn with_capacity(
         settings: &Settings,
         mlt: &MltSettings,
         level2: Option<&Level2Settings>,
@@ -829,6 +830,7 @@ impl WorkerChains {
     }
 
     /// The path depth of each chain, in chain order.
+    #[cfg(test)]
     pub fn chain_depths(&self) -> impl Iterator<Item = u32> + '_ {
         self.chains.iter().map(|&(_, d)| d)
     }
