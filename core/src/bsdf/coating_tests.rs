@@ -8,63 +8,29 @@ use glam::{Vec2, Vec3};
 use rand_pcg::Pcg32;
 
 use super::chi2::{self, uniform};
+use super::microfacet::Distribution;
+use super::roughplastic::RoughCoating;
 use super::*;
-use crate::scene::{Distribution, RoughCoating};
-
-fn resolve(kind: MaterialKind, two_sided: bool) -> Bsdf {
-    Bsdf::new(
-        &Material {
-            kind,
-            two_sided,
-            detail: crate::scene::Detail::NONE,
-        },
-        |t| match t {
-            Texture::Constant(c) => *c,
-            _ => panic!("tests use constant textures"),
-        },
-    )
-}
-
-fn c(v: Rgb) -> Texture {
-    Texture::Constant(v)
-}
 
 fn plastic(eta: f32, rho: Rgb, nonlinear: bool, two_sided: bool) -> Bsdf {
-    resolve(
-        MaterialKind::Plastic {
-            eta,
-            diffuse_reflectance: c(rho),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear,
-        },
-        two_sided,
-    )
+    Bsdf::plastic(eta, (rho, Rgb::ONE), nonlinear, two_sided)
 }
 
 fn rough_plastic(dist: Distribution, alpha: f32, eta: f32, rho: Rgb, two_sided: bool) -> Bsdf {
-    resolve(
-        MaterialKind::RoughPlastic {
-            distribution: dist,
-            alpha,
-            eta,
-            diffuse_reflectance: c(rho),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear: false,
-            coating: RoughCoating::new(dist, alpha, eta),
-        },
+    let coating = RoughCoating::new(dist, alpha, eta);
+    Bsdf::rough_plastic(
+        dist,
+        alpha,
+        eta,
+        &coating,
+        (rho, Rgb::ONE),
+        false,
         two_sided,
     )
 }
 
 fn thin(eta: f32, r: Rgb, t: Rgb) -> Bsdf {
-    resolve(
-        MaterialKind::ThinDielectric {
-            eta,
-            specular_reflectance: c(r),
-            specular_transmittance: c(t),
-        },
-        false,
-    )
+    Bsdf::thin_dielectric(eta, (r, t))
 }
 
 fn dir(cos_theta: f32, phi: f32) -> Vec3 {
@@ -331,15 +297,8 @@ fn thin_dielectric_reflects_the_slab_total_and_passes_straight() {
 
 #[test]
 fn dielectric_tints_scale_the_lobes() {
-    let clear = resolve(MaterialKind::Dielectric { eta: 1.5 }, false);
-    let tinted = resolve(
-        MaterialKind::TintedDielectric {
-            eta: 1.5,
-            specular_reflectance: c(Rgb::new(0.8, 0.8, 0.8)),
-            specular_transmittance: c(Rgb::new(0.9, 0.5, 0.2)),
-        },
-        false,
-    );
+    let clear = Bsdf::dielectric(1.5, (Rgb::ONE, Rgb::ONE));
+    let tinted = Bsdf::dielectric(1.5, (Rgb::new(0.8, 0.8, 0.8), Rgb::new(0.9, 0.5, 0.2)));
     assert!(tinted.is_delta() && tinted.lobe() == Lobe::Refraction);
     for co in [0.9f32, -0.95] {
         let wo = dir(co, 0.2);
@@ -359,56 +318,6 @@ fn dielectric_tints_scale_the_lobes() {
     }
 }
 
-#[test]
-fn bad_coating_parameters_are_refused() {
-    let m = |kind| Material {
-        kind,
-        two_sided: false,
-        detail: crate::scene::Detail::NONE,
-    };
-    let ok = m(MaterialKind::Plastic {
-        eta: 1.5,
-        diffuse_reflectance: c(Rgb::splat(0.5)),
-        specular_reflectance: c(Rgb::ONE),
-        nonlinear: false,
-    });
-    assert!(ok.validate().is_ok());
-    for eta in [f32::NAN, -1.0, 0.0] {
-        let bad = m(MaterialKind::Plastic {
-            eta,
-            diffuse_reflectance: c(Rgb::splat(0.5)),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear: false,
-        });
-        assert!(bad.validate().is_err(), "η={eta}");
-    }
-    let rough = |alpha: f32, eta: f32, rho: f32| {
-        m(MaterialKind::RoughPlastic {
-            distribution: Distribution::Ggx,
-            alpha,
-            eta,
-            diffuse_reflectance: c(Rgb::splat(rho)),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear: false,
-            coating: RoughCoating::new(Distribution::Ggx, 0.1, 1.5),
-        })
-    };
-    assert!(rough(0.1, 1.5, 0.5).validate().is_ok());
-    for (a, e, r) in [
-        (0.0, 1.5, 0.5),
-        (f32::NAN, 1.5, 0.5),
-        (0.1, 1.0, 0.5),
-        (0.1, 1.5, -0.1),
-    ] {
-        assert!(rough(a, e, r).validate().is_err(), "{a} {e} {r}");
-    }
-    let thin_bad = m(MaterialKind::ThinDielectric {
-        eta: 1.5,
-        specular_reflectance: c(Rgb::new(f32::NAN, 0.0, 0.0)),
-        specular_transmittance: c(Rgb::ONE),
-    });
-    assert!(thin_bad.validate().is_err());
-}
 /// Values of Mitsuba 3.9.1's `scalar_rgb` plugins (`BSDF::eval` divided by
 /// cos θi, and `BSDF::pdf`), printed by `mi.load_dict(...)` for these
 /// directions (Mitsuba's `si.wi` is our `wo`): (wo, wi, f, pdf).
@@ -481,16 +390,13 @@ fn plastics_agree_with_mitsuba() {
         ],
         [0.258_140_3, 0.830_618_7, 0.205_738_6, 0.069_903_95],
     );
-    let bsdf = resolve(
-        MaterialKind::RoughPlastic {
-            distribution: Distribution::Ggx,
-            alpha: 0.2,
-            eta: 1.49,
-            diffuse_reflectance: c(Rgb::new(0.5, 0.2, 0.8)),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear: false,
-            coating: RoughCoating::new(Distribution::Ggx, 0.2, 1.49),
-        },
+    let bsdf = Bsdf::rough_plastic(
+        Distribution::Ggx,
+        0.2,
+        1.49,
+        &RoughCoating::new(Distribution::Ggx, 0.2, 1.49),
+        (Rgb::new(0.5, 0.2, 0.8), Rgb::ONE),
+        false,
         false,
     );
     against_mitsuba("roughplastic ggx", bsdf, &ggx, 0.01, 0.01);
@@ -503,16 +409,13 @@ fn plastics_agree_with_mitsuba() {
         ],
         [0.269_257_6, 0.495_895, 0.181_159_4, 0.047_513_43],
     );
-    let bsdf = resolve(
-        MaterialKind::RoughPlastic {
-            distribution: Distribution::Beckmann,
-            alpha: 0.3,
-            eta: 1.5046,
-            diffuse_reflectance: c(Rgb::new(0.15, 0.3, 0.8)),
-            specular_reflectance: c(Rgb::ONE),
-            nonlinear: true,
-            coating: RoughCoating::new(Distribution::Beckmann, 0.3, 1.5046),
-        },
+    let bsdf = Bsdf::rough_plastic(
+        Distribution::Beckmann,
+        0.3,
+        1.5046,
+        &RoughCoating::new(Distribution::Beckmann, 0.3, 1.5046),
+        (Rgb::new(0.15, 0.3, 0.8), Rgb::ONE),
+        true,
         false,
     );
     against_mitsuba("roughplastic beckmann", bsdf, &beckmann, 0.01, 0.015);

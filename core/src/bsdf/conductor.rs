@@ -1,21 +1,38 @@
 //! Smooth (`conductor`) and rough (`roughconductor`) metals, in the upper
-//! hemisphere.
-
+//! hemisphere, and their Fresnel term ([`ConductorFresnel`]).
 //!
 //! Each half is built with its feature: `specular` (smooth) and `glossy`
-//! (rough).
+//! (rough); the Fresnel term's type always, since every build's materials
+//! name it.
 
 #[cfg(feature = "glossy")]
 use glam::Vec2;
+#[cfg(any(feature = "glossy", feature = "specular"))]
 use glam::Vec3;
 
 #[cfg(feature = "glossy")]
 use super::microfacet::Microfacet;
+#[cfg(any(feature = "glossy", feature = "specular"))]
 use super::{BsdfSample, fresnel};
 use crate::math::Rgb;
-use crate::scene::ConductorFresnel;
+
+/// Fresnel term of a conductor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConductorFresnel {
+    /// Complex index of refraction `eta + i·k` per channel (relative to the
+    /// exterior medium).
+    Complex {
+        /// Real part.
+        eta: Rgb,
+        /// Imaginary part (absorption).
+        k: Rgb,
+    },
+    /// F = 1: Mitsuba's `material="none"`, an ideal mirror.
+    Perfect,
+}
 
 /// Fresnel reflectance at `cos_i` (cosine to the mirror / micro normal).
+#[cfg(any(feature = "glossy", feature = "specular"))]
 #[inline]
 pub(super) fn fresnel(fresnel: &ConductorFresnel, cos_i: f32) -> Rgb {
     match fresnel {

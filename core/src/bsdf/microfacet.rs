@@ -16,7 +16,16 @@
 use glam::{Vec2, Vec3};
 
 use crate::math::{PI, safe_sqrt};
-use crate::scene::Distribution;
+
+/// Microfacet normal distribution of a rough conductor, plastic or
+/// dielectric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Distribution {
+    /// Beckmann–Spizzichino.
+    Beckmann,
+    /// GGX / Trowbridge–Reitz.
+    Ggx,
+}
 
 /// Smallest α used: below it D(m) of a perfectly aligned normal,
 /// 1/(π α²), would approach the f32 range and the lobe is a mirror for any

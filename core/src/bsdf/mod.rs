@@ -24,31 +24,38 @@
 //!
 //! Files: [`fresnel`] (public Fresnel equations), `microfacet`
 //! (distributions, Smith masking, visible-normal sampling), and one file per
-//! material model.
+//! material model, which owns its parameter types (the conductor's Fresnel
+//! term, the rough plastic's coating table: declared, computed and read
+//! there).
+//!
+//! Like pbrt-v4's BxDFs, the models know nothing of materials or textures:
+//! this module does not use the scene. A scene material evaluates its
+//! textures at a hit and builds its `Bsdf` through the constructors here
+//! (`Bsdf::diffuse`, `Bsdf::rough_plastic`, …); the scene re-exports the
+//! parameter types its materials hold.
 //!
 //! Models other than the diffuse one are built with their cargo features
-//! (`glossy`, `specular`, `refraction`, `coating`, `rough-diffuse`); a build without one
-//! resolves that material to black, which never renders because
+//! (`glossy`, `specular`, `refraction`, `coating`, `rough-refraction`,
+//! `principled`, `rough-diffuse`); a build without one has no constructor
+//! for it, and the material resolves to black, which never renders because
 //! [`crate::scene::SceneBuilder::build`] rejects scenes that use it.
 
-#[cfg(any(feature = "glossy", feature = "specular"))]
-mod conductor;
+// The parameter types of the models (`ConductorFresnel`, `Distribution`,
+// `RoughCoating`) are declared beside the models that read them, in modules
+// built in every build: every build's materials name them (the scene
+// re-exports them), even where the model itself is left out.
+pub(crate) mod conductor;
 #[cfg(feature = "refraction")]
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
-#[cfg(any(
-    feature = "glossy",
-    feature = "coating",
-    feature = "rough-refraction",
-    feature = "principled"
-))]
-// The principled BSDF alone uses only GGX masking of the shared distribution.
+// The principled BSDF alone uses only GGX masking of the shared
+// distribution; a build without any microfacet model only its type.
 #[cfg_attr(
     not(any(feature = "glossy", feature = "coating", feature = "rough-refraction")),
     allow(dead_code)
 )]
-mod microfacet;
+pub(crate) mod microfacet;
 #[cfg(feature = "coating")]
 mod plastic;
 #[cfg(feature = "principled")]
@@ -57,13 +64,14 @@ mod principled;
 mod roughdielectric;
 #[cfg(feature = "rough-diffuse")]
 mod roughdiffuse;
-#[cfg(feature = "coating")]
-mod roughplastic;
+// Without `coating` only the coating table's type is used.
+#[cfg_attr(not(feature = "coating"), allow(dead_code))]
+pub(crate) mod roughplastic;
 #[cfg(feature = "refraction")]
 mod thin_dielectric;
 
-#[cfg(feature = "coating")]
-pub(crate) use roughplastic::rough_coating;
+#[cfg(feature = "principled")]
+pub(crate) use principled::PrincipledValues;
 
 // The tests exercise every model.
 #[cfg(all(test, feature = "std", feature = "effects"))]
@@ -77,10 +85,9 @@ use glam::{Vec2, Vec3};
 
 use crate::math::Rgb;
 #[cfg(any(feature = "glossy", feature = "specular"))]
-use crate::scene::ConductorFresnel;
-use crate::scene::{Material, MaterialKind, Texture};
+use conductor::ConductorFresnel;
 #[cfg(any(feature = "glossy", feature = "coating", feature = "rough-refraction"))]
-use microfacet::Microfacet;
+use microfacet::{Distribution, Microfacet};
 #[cfg(feature = "coating")]
 use plastic::Plastic;
 #[cfg(feature = "principled")]
@@ -90,7 +97,7 @@ use roughdielectric::RoughDielectric;
 #[cfg(feature = "rough-diffuse")]
 use roughdiffuse::RoughDiffuse;
 #[cfg(feature = "coating")]
-use roughplastic::RoughPlastic;
+use roughplastic::{RoughCoating, RoughPlastic};
 
 /// Whether a path carries radiance (camera side) or importance (light side);
 /// refraction scales by 1/η² only for radiance.
@@ -244,71 +251,13 @@ fn flip_z(v: Vec3) -> Vec3 {
 }
 
 impl Bsdf {
-    /// Resolves `material` at one point; `texture` evaluates a texture
-    /// there (the scene supplies it, so this module needs no bitmaps).
-    ///
-    /// Rough-conductor α is clamped to ≥ 1e-4, where the lobe is already a
-    /// mirror for all practical purposes and D(m) still fits in f32.
-    ///
-    /// A model left out of the build (see the module docs) resolves to
-    /// black diffuse.
-    // Forced: with the plain hint the compiler kept it out of line and
-    // every shading point paid a call and a copy of the `Bsdf`.
+    /// The BSDF of `model`, of kind `lobe`. Every constructor ends here.
+    // Forced, as the constructors of the shared scenes' models: the caller
+    // (the scene's material, resolved at every shading point) then writes
+    // the `Bsdf` in place, where an out-of-line constructor returns it
+    // through memory and the caller copies it on.
     #[inline(always)]
-    pub fn new(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
-        // The models of the shared scenes (diffuse, conductors, the clear
-        // dielectric) are built inline, so that the caller writes the
-        // `Bsdf` in place (an out-of-line constructor returns it through
-        // memory and the caller copies it on); the rest out of line
-        // (`new_other`), as in `eval` and `sample`. Their lobes and
-        // two-sidedness are known per arm: only the dielectric transmits.
-        #[allow(unreachable_patterns)]
-        let (model, lobe, two_sided) = match &material.kind {
-            MaterialKind::Diffuse { reflectance } => (
-                Model::Diffuse {
-                    albedo: texture(reflectance),
-                },
-                Lobe::Diffuse,
-                material.two_sided,
-            ),
-            #[cfg(feature = "specular")]
-            MaterialKind::Conductor {
-                fresnel,
-                specular_reflectance,
-            } => (
-                Model::Conductor {
-                    fresnel: *fresnel,
-                    tint: texture(specular_reflectance),
-                },
-                Lobe::SpecularReflection,
-                material.two_sided,
-            ),
-            #[cfg(feature = "glossy")]
-            MaterialKind::RoughConductor {
-                distribution,
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } => (
-                Model::RoughConductor {
-                    mf: Microfacet::new(*distribution, *alpha),
-                    fresnel: *fresnel,
-                    tint: texture(specular_reflectance),
-                },
-                Lobe::Glossy,
-                material.two_sided,
-            ),
-            #[cfg(feature = "refraction")]
-            MaterialKind::Dielectric { eta } => (
-                Model::Dielectric {
-                    eta: *eta,
-                    tints: (Rgb::ONE, Rgb::ONE),
-                },
-                Lobe::Refraction,
-                false,
-            ),
-            _ => return Self::new_other(material, texture),
-        };
+    fn from_model(model: Model, lobe: Lobe, two_sided: bool) -> Self {
         debug_assert_eq!(lobe, Self::lobe_of(&model));
         Bsdf {
             model,
@@ -321,135 +270,160 @@ impl Bsdf {
         }
     }
 
-    /// [`Bsdf::new`] of the models it does not build inline.
-    #[inline(never)]
-    #[allow(unused_variables)]
-    fn new_other(material: &Material, texture: impl Fn(&Texture) -> Rgb) -> Self {
-        // With every model built the fallback arm is unreachable.
-        #[allow(unreachable_patterns)]
-        let model = match &material.kind {
-            #[cfg(feature = "refraction")]
-            MaterialKind::TintedDielectric {
-                eta,
-                specular_reflectance,
-                specular_transmittance,
-            } => Model::Dielectric {
-                eta: *eta,
-                tints: (
-                    texture(specular_reflectance),
-                    texture(specular_transmittance),
-                ),
+    /// Lambertian reflection with albedo `albedo`.
+    #[inline(always)]
+    pub(crate) fn diffuse(albedo: Rgb, two_sided: bool) -> Self {
+        Self::from_model(Model::Diffuse { albedo }, Lobe::Diffuse, two_sided)
+    }
+
+    /// A smooth conductor: Dirac reflection weighted by `fresnel` times
+    /// `tint`.
+    #[cfg(feature = "specular")]
+    #[inline(always)]
+    pub(crate) fn conductor(fresnel: ConductorFresnel, tint: Rgb, two_sided: bool) -> Self {
+        Self::from_model(
+            Model::Conductor { fresnel, tint },
+            Lobe::SpecularReflection,
+            two_sided,
+        )
+    }
+
+    /// A rough conductor of roughness `alpha`, clamped to ≥ 1e-4, where the
+    /// lobe is already a mirror for all practical purposes and D(m) still
+    /// fits in f32.
+    #[cfg(feature = "glossy")]
+    #[inline(always)]
+    pub(crate) fn rough_conductor(
+        distribution: Distribution,
+        alpha: f32,
+        fresnel: ConductorFresnel,
+        tint: Rgb,
+        two_sided: bool,
+    ) -> Self {
+        Self::from_model(
+            Model::RoughConductor {
+                mf: Microfacet::new(distribution, alpha),
+                fresnel,
+                tint,
             },
-            #[cfg(feature = "refraction")]
-            MaterialKind::ThinDielectric {
-                eta,
-                specular_reflectance,
-                specular_transmittance,
-            } => Model::ThinDielectric {
-                eta: *eta,
-                tints: (
-                    texture(specular_reflectance),
-                    texture(specular_transmittance),
-                ),
-            },
-            #[cfg(feature = "coating")]
-            MaterialKind::Plastic {
-                eta,
-                diffuse_reflectance,
-                specular_reflectance,
-                nonlinear,
-            } => {
-                let rho = texture(diffuse_reflectance);
-                let specular = texture(specular_reflectance);
-                let r_int = plastic::diffuse_fresnel(1.0 / *eta);
-                Model::Plastic(Plastic {
-                    eta: *eta,
-                    diffuse: plastic::base_factor(rho, r_int, *nonlinear, *eta),
-                    specular,
-                    spec_weight: plastic::spec_weight(rho, specular),
-                })
-            }
-            #[cfg(feature = "coating")]
-            MaterialKind::RoughPlastic {
-                distribution,
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_reflectance,
-                nonlinear,
-                coating,
-            } => {
-                let rho = texture(diffuse_reflectance);
-                let specular = texture(specular_reflectance);
-                let r_int = coating.internal_reflectance;
-                Model::RoughPlastic(RoughPlastic {
-                    mf: Microfacet::new(*distribution, *alpha),
-                    eta: *eta,
-                    spec_weight: plastic::spec_weight(rho, specular),
-                    diffuse: plastic::base_factor(rho, r_int, *nonlinear, *eta),
-                    specular,
-                    t: coating.transmittance,
-                })
-            }
-            #[cfg(feature = "rough-refraction")]
-            MaterialKind::RoughDielectric {
-                distribution,
-                alpha,
-                eta,
-                specular_reflectance,
-                specular_transmittance,
-            } => Model::RoughDielectric(RoughDielectric {
-                mf: Microfacet::new(*distribution, *alpha),
-                eta: *eta,
-                reflectance: texture(specular_reflectance),
-                transmittance: texture(specular_transmittance),
-            }),
-            #[cfg(feature = "principled")]
-            MaterialKind::Principled(p) => {
-                // Scalars read textures as `Texture::eval_1`. Weights are
-                // kept in [0, 1] (constants are validated; a bitmap's texel
-                // could leave the range, where the model means nothing).
-                let scalar = |t: &Texture| Texture::scalar(texture(t));
-                let unit = |t: &Texture| scalar(t).clamp(0.0, 1.0);
-                Model::Principled(Principled {
-                    base_color: texture(&p.base_color),
-                    roughness: unit(&p.roughness),
-                    anisotropic: unit(&p.anisotropic),
-                    metallic: unit(&p.metallic),
-                    spec_trans: unit(&p.spec_trans),
-                    eta: p.eta,
-                    spec_tint: principled::Unit16::new(scalar(&p.spec_tint)),
-                    sheen: unit(&p.sheen),
-                    sheen_tint: principled::Unit16::new(scalar(&p.sheen_tint)),
-                    clearcoat: unit(&p.clearcoat),
-                    clearcoat_gloss: principled::Unit16::new(scalar(&p.clearcoat_gloss)),
-                    flatness: principled::Unit16::new(scalar(&p.flatness)),
-                })
-            }
-            #[cfg(feature = "rough-diffuse")]
-            MaterialKind::RoughDiffuse {
-                reflectance,
-                alpha,
-                fast_approx,
-            } => Model::RoughDiffuse(RoughDiffuse::new(
-                texture(reflectance),
-                *alpha,
-                *fast_approx,
-            )),
-            _ => Model::Diffuse { albedo: Rgb::ZERO },
-        };
-        let mut bsdf = Bsdf {
-            lobe: Self::lobe_of(&model),
-            model,
-            two_sided: material.two_sided,
-            #[cfg(feature = "normal-mapping")]
-            unperturbed: Vec3::ZERO,
-            #[cfg(feature = "normal-mapping")]
-            perturbed: false,
-        };
-        // A dielectric is one interface with an inside and an outside.
-        bsdf.two_sided &= !bsdf.has_transmission();
-        bsdf
+            Lobe::Glossy,
+            two_sided,
+        )
+    }
+
+    /// A smooth dielectric interface of relative index `eta` whose
+    /// (reflection, transmission) are weighted by `tints`. Never two-sided:
+    /// a dielectric is one interface with an inside and an outside, and so
+    /// are the other transmitting models.
+    #[cfg(feature = "refraction")]
+    #[inline(always)]
+    pub(crate) fn dielectric(eta: f32, tints: (Rgb, Rgb)) -> Self {
+        Self::from_model(Model::Dielectric { eta, tints }, Lobe::Refraction, false)
+    }
+
+    /// A thin dielectric slab of relative index `eta`, (reflection,
+    /// transmission) weighted by `tints`.
+    #[cfg(feature = "refraction")]
+    #[inline]
+    pub(crate) fn thin_dielectric(eta: f32, tints: (Rgb, Rgb)) -> Self {
+        Self::from_model(
+            Model::ThinDielectric { eta, tints },
+            Lobe::Refraction,
+            false,
+        )
+    }
+
+    /// A smooth plastic: a coating of relative index `eta` over a base of
+    /// albedo ρ, with `reflectances` = (ρ, the coating's tint) and
+    /// Mitsuba's `nonlinear`.
+    #[cfg(feature = "coating")]
+    #[inline]
+    pub(crate) fn plastic(
+        eta: f32,
+        reflectances: (Rgb, Rgb),
+        nonlinear: bool,
+        two_sided: bool,
+    ) -> Self {
+        let (rho, specular) = reflectances;
+        let r_int = plastic::diffuse_fresnel(1.0 / eta);
+        let model = Model::Plastic(Plastic {
+            eta,
+            diffuse: plastic::base_factor(rho, r_int, nonlinear, eta),
+            specular,
+            spec_weight: plastic::spec_weight(rho, specular),
+        });
+        Self::from_model(model, Lobe::Coating, two_sided)
+    }
+
+    /// A rough plastic: a microfacet coating (`distribution`, `alpha`,
+    /// `eta`, whose table `coating` was computed from them) over a base,
+    /// with `reflectances` and `nonlinear` as in [`Bsdf::plastic`].
+    #[cfg(feature = "coating")]
+    #[inline]
+    pub(crate) fn rough_plastic(
+        distribution: Distribution,
+        alpha: f32,
+        eta: f32,
+        coating: &RoughCoating,
+        reflectances: (Rgb, Rgb),
+        nonlinear: bool,
+        two_sided: bool,
+    ) -> Self {
+        let (rho, specular) = reflectances;
+        let r_int = coating.internal_reflectance;
+        let model = Model::RoughPlastic(RoughPlastic {
+            mf: Microfacet::new(distribution, alpha),
+            eta,
+            spec_weight: plastic::spec_weight(rho, specular),
+            diffuse: plastic::base_factor(rho, r_int, nonlinear, eta),
+            specular,
+            t: coating.transmittance,
+        });
+        Self::from_model(model, Lobe::Coating, two_sided)
+    }
+
+    /// A rough dielectric interface, (reflection, transmission) weighted
+    /// by `tints`; never two-sided (see [`Bsdf::dielectric`]).
+    #[cfg(feature = "rough-refraction")]
+    #[inline]
+    pub(crate) fn rough_dielectric(
+        distribution: Distribution,
+        alpha: f32,
+        eta: f32,
+        tints: (Rgb, Rgb),
+    ) -> Self {
+        let model = Model::RoughDielectric(RoughDielectric {
+            mf: Microfacet::new(distribution, alpha),
+            eta,
+            reflectance: tints.0,
+            transmittance: tints.1,
+        });
+        Self::from_model(model, Lobe::RoughRefraction, false)
+    }
+
+    /// The principled BSDF of `values`; two-sided only when nothing
+    /// transmits (see [`Bsdf::dielectric`]).
+    #[cfg(feature = "principled")]
+    #[inline]
+    pub(crate) fn principled(values: &PrincipledValues, two_sided: bool) -> Self {
+        let p = Principled::new(values);
+        Self::from_model(
+            Model::Principled(p),
+            Lobe::Principled,
+            two_sided && !p.transmits(),
+        )
+    }
+
+    /// Rough diffuse (Oren–Nayar) reflection with albedo `rho`, Mitsuba's
+    /// roughness `alpha` and `fast_approx`.
+    #[cfg(feature = "rough-diffuse")]
+    #[inline]
+    pub(crate) fn rough_diffuse(rho: Rgb, alpha: f32, fast_approx: bool, two_sided: bool) -> Self {
+        Self::from_model(
+            Model::RoughDiffuse(RoughDiffuse::new(rho, alpha, fast_approx)),
+            Lobe::RoughDiffuse,
+            two_sided,
+        )
     }
 
     /// The BSDF evaluated in a frame perturbed by a normal or bump map,

@@ -35,10 +35,41 @@
 
 use glam::{Vec2, Vec3};
 
-use super::microfacet::{AnisoGgx, Gtr1, Microfacet};
+use super::microfacet::{AnisoGgx, Distribution, Gtr1, Microfacet};
 use super::{BsdfSample, TransportMode, fresnel};
 use crate::math::{INV_PI, Rgb, safe_sqrt, warp};
-use crate::scene::Distribution;
+
+/// The principled parameters at one point as plain numbers, named as
+/// Mitsuba 3 names them: what a principled material's textures evaluate
+/// to (the scalars as their luminance). [`super::Bsdf::principled`] builds
+/// the model from them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PrincipledValues {
+    /// Base colour.
+    pub base_color: Rgb,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// Anisotropy.
+    pub anisotropic: f32,
+    /// Metallic blend.
+    pub metallic: f32,
+    /// Transmission blend.
+    pub spec_trans: f32,
+    /// Relative index of refraction, interior over exterior.
+    pub eta: f32,
+    /// Tint of the dielectric specular towards the base colour.
+    pub spec_tint: f32,
+    /// Sheen weight.
+    pub sheen: f32,
+    /// Tint of the sheen towards the base colour.
+    pub sheen_tint: f32,
+    /// Clearcoat weight.
+    pub clearcoat: f32,
+    /// Clearcoat glossiness.
+    pub clearcoat_gloss: f32,
+    /// Blend of the diffuse lobe towards fake subsurface.
+    pub flatness: f32,
+}
 
 /// A principled material with its textures resolved (every parameter as
 /// Mitsuba 3 names it).
@@ -192,6 +223,28 @@ const CLEARCOAT_MASKING: Microfacet = Microfacet {
 };
 
 impl Principled {
+    /// The model of `v`. Weights are kept in [0, 1] (a material's constants
+    /// are validated; a bitmap's texel could leave the range, where the
+    /// model means nothing).
+    #[inline]
+    pub(super) fn new(v: &PrincipledValues) -> Self {
+        let unit = |x: f32| x.clamp(0.0, 1.0);
+        Principled {
+            base_color: v.base_color,
+            roughness: unit(v.roughness),
+            anisotropic: unit(v.anisotropic),
+            metallic: unit(v.metallic),
+            spec_trans: unit(v.spec_trans),
+            eta: v.eta,
+            spec_tint: Unit16::new(v.spec_tint),
+            sheen: unit(v.sheen),
+            sheen_tint: Unit16::new(v.sheen_tint),
+            clearcoat: unit(v.clearcoat),
+            clearcoat_gloss: Unit16::new(v.clearcoat_gloss),
+            flatness: Unit16::new(v.flatness),
+        }
+    }
+
     /// Weights of the diffuse (BRDF) and transmitting (BSDF) parts:
     /// (1 − metallic)(1 − spec_trans) and (1 − metallic) spec_trans.
     #[inline]

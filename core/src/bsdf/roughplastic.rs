@@ -13,17 +13,91 @@
 //!   f_d = ρ / (1 − R_int) · t(cos θo) t(cos θi) / (η² π).
 //!
 //! t and R_int are integrals over visible microfacet normals computed once
-//! per material ([`rough_coating`], [`crate::scene::RoughCoating`]); the
-//! lobe choice follows Mitsuba: P_spec ∝ (1 − t(cos θo))·w_s, P_diff ∝
-//! t(cos θo)·(1 − w_s).
+//! per material: the [`RoughCoating`] table, which this module declares,
+//! computes ([`RoughCoating::new`]) and interpolates, and which a rough
+//! plastic material holds; the lobe choice follows Mitsuba: P_spec ∝
+//! (1 − t(cos θo))·w_s, P_diff ∝ t(cos θo)·(1 − w_s).
+//!
+//! The table's type is built in every build (every build's materials name
+//! it); the model and the table's computation only with `coating`.
 
 use glam::{Vec2, Vec3};
 
-use super::microfacet::Microfacet;
+use super::microfacet::{Distribution, Microfacet};
 use super::{BsdfSample, diffuse, fresnel};
 use crate::math::{INV_PI, Rgb, warp};
-use crate::scene::material::coating_lerp;
-use crate::scene::{Distribution, RoughCoating};
+
+/// What the diffuse part of a rough plastic needs of its coating, precomputed
+/// per material (Mitsuba's `roughplastic` does the same at load time): the
+/// rough interface's transmittance t(cos θ) into the coating at a few
+/// cosines, and the base's internal reflectance (the hemispherical average
+/// of the interface's reflectance seen from inside).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoughCoating {
+    /// t at [`RoughCoating::node`] k, as a 16-bit fraction of 1.
+    pub(super) transmittance: [u16; RoughCoating::NODES],
+    /// Internal diffuse reflectance in [0, 1].
+    pub(super) internal_reflectance: f32,
+}
+
+impl RoughCoating {
+    /// Number of tabulated cosines (kept small: the table rides in every
+    /// resolved BSDF, which must stay small).
+    pub const NODES: usize = 8;
+
+    /// The k-th tabulated cosine: quadratically spaced, dense near grazing
+    /// where t changes fastest.
+    #[inline]
+    pub fn node(k: usize) -> f32 {
+        let x = k as f32 / (Self::NODES - 1) as f32;
+        x * x
+    }
+
+    /// Integrates the coating's transmittance and internal reflectance for
+    /// `distribution`, roughness `alpha` and relative index `eta` (see
+    /// `rough_coating`). Takes a few milliseconds: call once per
+    /// material. Without the `coating` feature the table is empty (such a
+    /// material is refused by the scene builder anyway).
+    pub fn new(distribution: Distribution, alpha: f32, eta: f32) -> Self {
+        #[cfg(feature = "coating")]
+        {
+            rough_coating(distribution, alpha, eta)
+        }
+        #[cfg(not(feature = "coating"))]
+        {
+            let _ = (distribution, alpha, eta);
+            RoughCoating {
+                transmittance: [0; Self::NODES],
+                internal_reflectance: 0.0,
+            }
+        }
+    }
+
+    /// The internal diffuse reflectance.
+    pub fn internal_reflectance(&self) -> f32 {
+        self.internal_reflectance
+    }
+
+    /// Transmittance into the coating at cosine `cos` (linear
+    /// interpolation of the table).
+    #[inline]
+    pub fn transmittance(&self, cos: f32) -> f32 {
+        coating_lerp(&self.transmittance, cos)
+    }
+}
+
+/// Linear interpolation of a [`RoughCoating`] table at cosine `cos`.
+#[inline]
+fn coating_lerp(t: &[u16; RoughCoating::NODES], cos: f32) -> f32 {
+    let c = cos.clamp(0.0, 1.0);
+    // Nodes are (k/(n−1))², so the interval is found from √cos.
+    let x = libm::sqrtf(c) * (RoughCoating::NODES - 1) as f32;
+    let k = (x as usize).min(RoughCoating::NODES - 2);
+    let (a, b) = (RoughCoating::node(k), RoughCoating::node(k + 1));
+    let w = ((c - a) / (b - a)).clamp(0.0, 1.0);
+    let (ta, tb) = (t[k] as f32, t[k + 1] as f32);
+    (ta + w * (tb - ta)) * (1.0 / 65535.0)
+}
 
 /// The parameters of a resolved rough plastic (kept small: it rides in
 /// every [`super::Bsdf`]).
@@ -172,7 +246,7 @@ fn visible_average(
 /// reflectance 2·mean_μ[μ R(μ)] over 64 evenly spaced μ seen from inside,
 /// with R(μ) = E_m[F(wo·m, 1/η) G1(wr, m)] over reflected directions wr
 /// above the surface (Mitsuba's `eval_reflectance` and its average).
-pub fn rough_coating(distribution: Distribution, alpha: f32, eta: f32) -> RoughCoating {
+fn rough_coating(distribution: Distribution, alpha: f32, eta: f32) -> RoughCoating {
     let mf = Microfacet::new(distribution, alpha);
     let mut nodes = [0.0f64; MAX_QUAD];
     let mut weights = [0.0f64; MAX_QUAD];

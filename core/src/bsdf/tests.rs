@@ -6,33 +6,13 @@ use glam::{Vec2, Vec3};
 use rand_pcg::Pcg32;
 
 use super::chi2::{self, uniform};
-use super::microfacet::Microfacet;
+use super::microfacet::{Distribution, Microfacet};
 use super::*;
-use crate::scene::Distribution;
 
 // ---------------------------------------------------------------- helpers
 
-fn resolve(kind: MaterialKind, two_sided: bool) -> Bsdf {
-    Bsdf::new(
-        &Material {
-            kind,
-            two_sided,
-            detail: Default::default(),
-        },
-        |t| match t {
-            Texture::Constant(c) => *c,
-            _ => panic!("tests use constant textures"),
-        },
-    )
-}
-
 fn diffuse(albedo: f32, two_sided: bool) -> Bsdf {
-    resolve(
-        MaterialKind::Diffuse {
-            reflectance: Texture::Constant(Rgb::splat(albedo)),
-        },
-        two_sided,
-    )
+    Bsdf::diffuse(Rgb::splat(albedo), two_sided)
 }
 
 fn rough(
@@ -41,29 +21,15 @@ fn rough(
     fresnel: ConductorFresnel,
     two_sided: bool,
 ) -> Bsdf {
-    resolve(
-        MaterialKind::RoughConductor {
-            distribution,
-            alpha,
-            fresnel,
-            specular_reflectance: Texture::Constant(Rgb::ONE),
-        },
-        two_sided,
-    )
+    Bsdf::rough_conductor(distribution, alpha, fresnel, Rgb::ONE, two_sided)
 }
 
 fn smooth_conductor(fresnel: ConductorFresnel, tint: Rgb, two_sided: bool) -> Bsdf {
-    resolve(
-        MaterialKind::Conductor {
-            fresnel,
-            specular_reflectance: Texture::Constant(tint),
-        },
-        two_sided,
-    )
+    Bsdf::conductor(fresnel, tint, two_sided)
 }
 
 fn dielectric(eta: f32) -> Bsdf {
-    resolve(MaterialKind::Dielectric { eta }, false)
+    Bsdf::dielectric(eta, (Rgb::ONE, Rgb::ONE))
 }
 
 /// Gold: approximate (η, k) at red, green and blue wavelengths.

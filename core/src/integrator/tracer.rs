@@ -239,7 +239,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         #[allow(unused_mut)]
         let mut sh = Shading {
             sp,
-            bsdf: Bsdf::new(material, |t| t.eval(sp.uv, &scene.bitmaps)),
+            bsdf: material.bsdf(|t| t.eval(sp.uv, &scene.bitmaps)),
             frame: Frame::from_normal(sp.ns),
         };
         #[cfg(feature = "normal-mapping")]

@@ -1,39 +1,24 @@
 //! Materials as the scene describes them, before textures are evaluated.
 //!
-//! A [`Material`] is resolved at a hit point into a [`crate::bsdf::Bsdf`]
-//! with plain colours; the BSDF code never sees textures.
+//! A [`Material`] is resolved at a hit point into a [`Bsdf`] with plain
+//! colours ([`Material::bsdf`]); the BSDF code never sees textures. The
+//! parameter types of the models a material holds ([`ConductorFresnel`],
+//! [`Distribution`], [`RoughCoating`]) are the BSDF module's, re-exported
+//! by the scene.
 
 use super::detail::Detail;
 use super::texture::Texture;
+use crate::bsdf::Bsdf;
+#[cfg(feature = "principled")]
+use crate::bsdf::PrincipledValues;
+use crate::bsdf::conductor::ConductorFresnel;
+use crate::bsdf::microfacet::Distribution;
+use crate::bsdf::roughplastic::RoughCoating;
 use crate::math::Rgb;
 
 /// Index of a [`Material`] in [`crate::scene::Scene::materials`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MaterialId(pub u32);
-
-/// Microfacet normal distribution of a rough conductor.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Distribution {
-    /// Beckmann–Spizzichino.
-    Beckmann,
-    /// GGX / Trowbridge–Reitz.
-    Ggx,
-}
-
-/// Fresnel term of a conductor.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum ConductorFresnel {
-    /// Complex index of refraction `eta + i·k` per channel (relative to the
-    /// exterior medium).
-    Complex {
-        /// Real part.
-        eta: Rgb,
-        /// Imaginary part (absorption).
-        k: Rgb,
-    },
-    /// F = 1: Mitsuba's `material="none"`, an ideal mirror.
-    Perfect,
-}
 
 /// A surface's scattering model.
 // The principled variant carries eleven textures. A material is stored once
@@ -310,78 +295,6 @@ impl PrincipledParams {
     }
 }
 
-/// What the diffuse part of a rough plastic needs of its coating, precomputed
-/// per material (Mitsuba's `roughplastic` does the same at load time): the
-/// rough interface's transmittance t(cos θ) into the coating at a few
-/// cosines, and the base's internal reflectance (the hemispherical average
-/// of the interface's reflectance seen from inside).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RoughCoating {
-    /// t at [`RoughCoating::node`] k, as a 16-bit fraction of 1.
-    pub(crate) transmittance: [u16; RoughCoating::NODES],
-    /// Internal diffuse reflectance in [0, 1].
-    pub(crate) internal_reflectance: f32,
-}
-
-impl RoughCoating {
-    /// Number of tabulated cosines (kept small: the table rides in every
-    /// resolved BSDF, which must stay small).
-    pub const NODES: usize = 8;
-
-    /// The k-th tabulated cosine: quadratically spaced, dense near grazing
-    /// where t changes fastest.
-    #[inline]
-    pub fn node(k: usize) -> f32 {
-        let x = k as f32 / (Self::NODES - 1) as f32;
-        x * x
-    }
-
-    /// Integrates the coating's transmittance and internal reflectance for
-    /// `distribution`, roughness `alpha` and relative index `eta` (see
-    /// `bsdf::roughplastic`). Takes a few milliseconds: call once per
-    /// material. Without the `coating` feature the table is empty (such a
-    /// material is refused by the scene builder anyway).
-    pub fn new(distribution: Distribution, alpha: f32, eta: f32) -> Self {
-        #[cfg(feature = "coating")]
-        {
-            crate::bsdf::rough_coating(distribution, alpha, eta)
-        }
-        #[cfg(not(feature = "coating"))]
-        {
-            let _ = (distribution, alpha, eta);
-            RoughCoating {
-                transmittance: [0; Self::NODES],
-                internal_reflectance: 0.0,
-            }
-        }
-    }
-
-    /// The internal diffuse reflectance.
-    pub fn internal_reflectance(&self) -> f32 {
-        self.internal_reflectance
-    }
-
-    /// Transmittance into the coating at cosine `cos` (linear
-    /// interpolation of the table).
-    #[inline]
-    pub fn transmittance(&self, cos: f32) -> f32 {
-        coating_lerp(&self.transmittance, cos)
-    }
-}
-
-/// Linear interpolation of a [`RoughCoating`] table at cosine `cos`.
-#[inline]
-pub(crate) fn coating_lerp(t: &[u16; RoughCoating::NODES], cos: f32) -> f32 {
-    let c = cos.clamp(0.0, 1.0);
-    // Nodes are (k/(n−1))², so the interval is found from √cos.
-    let x = libm::sqrtf(c) * (RoughCoating::NODES - 1) as f32;
-    let k = (x as usize).min(RoughCoating::NODES - 2);
-    let (a, b) = (RoughCoating::node(k), RoughCoating::node(k + 1));
-    let w = ((c - a) / (b - a)).clamp(0.0, 1.0);
-    let (ta, tb) = (t[k] as f32, t[k + 1] as f32);
-    (ta + w * (tb - ta)) * (1.0 / 65535.0)
-}
-
 /// Largest microfacet roughness α accepted (rough conductor, plastic and
 /// dielectric; Mitsuba's `roughdiffuse` α too). Mitsuba accepts α > 1
 /// ("extremely rough"; single scattering then loses most of the energy);
@@ -440,6 +353,157 @@ impl Material {
     pub fn is_anisotropic(&self) -> bool {
         matches!(&self.kind, MaterialKind::Principled(p)
             if p.anisotropic != Texture::Constant(Rgb::ZERO))
+    }
+
+    /// Resolves the material at one point: its [`Bsdf`], with `texture`
+    /// evaluating a texture there (the caller supplies the point and the
+    /// bitmaps, so the BSDF code needs neither).
+    ///
+    /// A model left out of the build (see [`crate::bsdf`]) resolves to
+    /// black diffuse.
+    // Forced: with the plain hint the compiler kept it out of line and
+    // every shading point paid a call and a copy of the `Bsdf`.
+    #[inline(always)]
+    pub fn bsdf(&self, texture: impl Fn(&Texture) -> Rgb) -> Bsdf {
+        // The models of the shared scenes (diffuse, conductors, the clear
+        // dielectric) are built inline, so that the caller writes the
+        // `Bsdf` in place (an out-of-line constructor returns it through
+        // memory and the caller copies it on); the rest out of line
+        // (`bsdf_other`), as in `Bsdf::eval` and `Bsdf::sample`.
+        #[allow(unreachable_patterns)]
+        match &self.kind {
+            MaterialKind::Diffuse { reflectance } => {
+                Bsdf::diffuse(texture(reflectance), self.two_sided)
+            }
+            #[cfg(feature = "specular")]
+            MaterialKind::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => Bsdf::conductor(*fresnel, texture(specular_reflectance), self.two_sided),
+            #[cfg(feature = "glossy")]
+            MaterialKind::RoughConductor {
+                distribution,
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => Bsdf::rough_conductor(
+                *distribution,
+                *alpha,
+                *fresnel,
+                texture(specular_reflectance),
+                self.two_sided,
+            ),
+            #[cfg(feature = "refraction")]
+            MaterialKind::Dielectric { eta } => Bsdf::dielectric(*eta, (Rgb::ONE, Rgb::ONE)),
+            _ => self.bsdf_other(texture),
+        }
+    }
+
+    /// [`Material::bsdf`] of the models it does not build inline.
+    #[inline(never)]
+    #[allow(unused_variables)]
+    fn bsdf_other(&self, texture: impl Fn(&Texture) -> Rgb) -> Bsdf {
+        // With every model built the fallback arm is unreachable.
+        #[allow(unreachable_patterns)]
+        match &self.kind {
+            #[cfg(feature = "refraction")]
+            MaterialKind::TintedDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Bsdf::dielectric(
+                *eta,
+                (
+                    texture(specular_reflectance),
+                    texture(specular_transmittance),
+                ),
+            ),
+            #[cfg(feature = "refraction")]
+            MaterialKind::ThinDielectric {
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Bsdf::thin_dielectric(
+                *eta,
+                (
+                    texture(specular_reflectance),
+                    texture(specular_transmittance),
+                ),
+            ),
+            #[cfg(feature = "coating")]
+            MaterialKind::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                nonlinear,
+            } => Bsdf::plastic(
+                *eta,
+                (texture(diffuse_reflectance), texture(specular_reflectance)),
+                *nonlinear,
+                self.two_sided,
+            ),
+            #[cfg(feature = "coating")]
+            MaterialKind::RoughPlastic {
+                distribution,
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_reflectance,
+                nonlinear,
+                coating,
+            } => Bsdf::rough_plastic(
+                *distribution,
+                *alpha,
+                *eta,
+                coating,
+                (texture(diffuse_reflectance), texture(specular_reflectance)),
+                *nonlinear,
+                self.two_sided,
+            ),
+            #[cfg(feature = "rough-refraction")]
+            MaterialKind::RoughDielectric {
+                distribution,
+                alpha,
+                eta,
+                specular_reflectance,
+                specular_transmittance,
+            } => Bsdf::rough_dielectric(
+                *distribution,
+                *alpha,
+                *eta,
+                (
+                    texture(specular_reflectance),
+                    texture(specular_transmittance),
+                ),
+            ),
+            #[cfg(feature = "principled")]
+            MaterialKind::Principled(p) => {
+                // Scalars read textures as `Texture::eval_1`.
+                let scalar = |t: &Texture| Texture::scalar(texture(t));
+                let values = PrincipledValues {
+                    base_color: texture(&p.base_color),
+                    roughness: scalar(&p.roughness),
+                    anisotropic: scalar(&p.anisotropic),
+                    metallic: scalar(&p.metallic),
+                    spec_trans: scalar(&p.spec_trans),
+                    eta: p.eta,
+                    spec_tint: scalar(&p.spec_tint),
+                    sheen: scalar(&p.sheen),
+                    sheen_tint: scalar(&p.sheen_tint),
+                    clearcoat: scalar(&p.clearcoat),
+                    clearcoat_gloss: scalar(&p.clearcoat_gloss),
+                    flatness: scalar(&p.flatness),
+                };
+                Bsdf::principled(&values, self.two_sided)
+            }
+            #[cfg(feature = "rough-diffuse")]
+            MaterialKind::RoughDiffuse {
+                reflectance,
+                alpha,
+                fast_approx,
+            } => Bsdf::rough_diffuse(texture(reflectance), *alpha, *fast_approx, self.two_sided),
+            _ => Bsdf::diffuse(Rgb::ZERO, self.two_sided),
+        }
     }
 
     /// Checks the parameters a host may hand in; returns what is wrong.
@@ -581,7 +645,7 @@ impl Material {
                 if !(eta.is_finite() && *eta > 0.0 && *eta != 1.0) {
                     return Err("roughplastic eta must be finite, > 0 and ≠ 1");
                 }
-                let r = coating.internal_reflectance;
+                let r = coating.internal_reflectance();
                 if !(r.is_finite() && (0.0..1.0).contains(&r)) {
                     return Err("roughplastic coating table is invalid");
                 }
@@ -594,70 +658,7 @@ impl Material {
     }
 }
 
+// The material's own rules: validation, and what its `bsdf` makes of
+// `two_sided`; the BSDF models are tested in `bsdf`.
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn with(kind: MaterialKind) -> Result<(), &'static str> {
-        Material {
-            kind,
-            two_sided: false,
-            detail: Detail::NONE,
-        }
-        .validate()
-    }
-
-    fn c(v: f32) -> Texture {
-        Texture::Constant(Rgb::new(0.5, v, 0.5))
-    }
-
-    fn rough_metal(alpha: f32, tint: f32) -> MaterialKind {
-        MaterialKind::RoughConductor {
-            distribution: Distribution::Ggx,
-            alpha,
-            fresnel: ConductorFresnel::Perfect,
-            specular_reflectance: c(tint),
-        }
-    }
-
-    /// Colours in [0, 1], microfacet α in (0, 1e4], for every model: the
-    /// one rule the loader and the C API apply through `validate`.
-    #[test]
-    fn one_rule_for_colours_and_roughness() {
-        for v in [0.0, 0.5, 1.0] {
-            assert_eq!(with(MaterialKind::Diffuse { reflectance: c(v) }), Ok(()));
-        }
-        for v in [1.0001, 2.0, -0.1, f32::NAN, f32::INFINITY] {
-            assert!(
-                with(MaterialKind::Diffuse { reflectance: c(v) }).is_err(),
-                "{v}"
-            );
-            assert!(with(rough_metal(0.3, v)).is_err(), "{v}");
-            let e = with(MaterialKind::ThinDielectric {
-                eta: 1.5,
-                specular_reflectance: c(0.5),
-                specular_transmittance: c(v),
-            });
-            assert!(e.is_err_and(|e| e.contains("[0, 1]")), "{v}");
-            let checker = Texture::Checkerboard {
-                color0: Rgb::splat(0.5),
-                color1: Rgb::new(v, 0.5, 0.5),
-                to_uv: glam::Affine2::IDENTITY,
-            };
-            assert!(
-                with(MaterialKind::Diffuse {
-                    reflectance: checker
-                })
-                .is_err()
-            );
-        }
-        // Roughness: Mitsuba's α > 1 is accepted, up to MAX_ROUGHNESS.
-        for a in [1e-3, 1.0, 2.0, MAX_ROUGHNESS] {
-            assert_eq!(with(rough_metal(a, 1.0)), Ok(()), "{a}");
-        }
-        for a in [0.0, -0.5, 1.0001e4, f32::NAN, f32::INFINITY] {
-            let e = with(rough_metal(a, 1.0));
-            assert_eq!(e, Err("roughconductor alpha must be in (0, 1e4]"), "{a}");
-        }
-    }
-}
+mod tests;

@@ -36,9 +36,13 @@ pub use detail::Detail;
 pub use effects::{Analysis, Effect, EffectSet};
 #[cfg(feature = "alloc")]
 pub use light::Light;
+// The parameter types of the BSDF models that materials hold: declared by
+// the models (in `bsdf`), public here, where the materials naming them are.
+pub use crate::bsdf::conductor::ConductorFresnel;
+pub use crate::bsdf::microfacet::Distribution;
+pub use crate::bsdf::roughplastic::RoughCoating;
 pub use material::{
-    ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId, MaterialKind,
-    PrincipledParams, RoughCoating, roughness_ok,
+    MAX_ROUGHNESS, Material, MaterialId, MaterialKind, PrincipledParams, roughness_ok,
 };
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;

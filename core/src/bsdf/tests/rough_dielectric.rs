@@ -1,7 +1,8 @@
 //! Tests of the rough dielectric (`roughdielectric`): χ² fits of its
 //! sampler inside and outside, agreement of `sample` with `eval`/`pdf`,
 //! reflection reciprocity and the adjoint relation of refraction, energy
-//! bounds, total internal reflection and refused parameters.
+//! bounds and total internal reflection. Its refused parameters and its
+//! ignoring `two_sided` are the material's (`scene::material` tests).
 
 use super::*;
 
@@ -10,16 +11,7 @@ fn rough_glass(dist: Distribution, alpha: f32, eta: f32) -> Bsdf {
 }
 
 fn tinted_glass(dist: Distribution, alpha: f32, eta: f32, refl: Rgb, trans: Rgb) -> Bsdf {
-    resolve(
-        MaterialKind::RoughDielectric {
-            distribution: dist,
-            alpha,
-            eta,
-            specular_reflectance: Texture::Constant(refl),
-            specular_transmittance: Texture::Constant(trans),
-        },
-        false,
-    )
+    Bsdf::rough_dielectric(dist, alpha, eta, (refl, trans))
 }
 
 /// Signed incident cosines: outside (positive) and inside (negative, where
@@ -275,42 +267,4 @@ fn rough_dielectric_tints_and_total_internal_reflection() {
         }
     }
     assert!(n > 9000, "{n}");
-}
-
-#[test]
-fn rough_dielectric_refuses_bad_parameters() {
-    let m = |alpha: f32, eta: f32, t: f32| Material {
-        kind: MaterialKind::RoughDielectric {
-            distribution: Distribution::Ggx,
-            alpha,
-            eta,
-            specular_reflectance: Texture::Constant(Rgb::ONE),
-            specular_transmittance: Texture::Constant(Rgb::splat(t)),
-        },
-        two_sided: false,
-        detail: crate::scene::Detail::NONE,
-    };
-    assert!(m(0.1, 1.5, 1.0).validate().is_ok());
-    for (a, e, t) in [
-        (f32::NAN, 1.5, 1.0),
-        (0.0, 1.5, 1.0),
-        (-0.1, 1.5, 1.0),
-        (0.1, 1.0, 1.0),
-        (0.1, f32::NAN, 1.0),
-        (0.1, -1.5, 1.0),
-        (0.1, 1.5, -1.0),
-        (0.1, 1.5, f32::INFINITY),
-    ] {
-        assert!(m(a, e, t).validate().is_err(), "α {a} η {e} t {t}");
-    }
-    // A rough dielectric is one interface: `two_sided` is ignored, so the
-    // inside keeps its own (different) behaviour.
-    let two = resolve(m(0.3, 1.5, 1.0).kind, true);
-    let wo = dir(-0.6, PHI_O);
-    let wi = dir(-0.6, PHI_O + core::f32::consts::PI);
-    let one = rough_glass(Distribution::Ggx, 0.3, 1.5);
-    assert_eq!(
-        two.eval(wo, wi, TransportMode::Radiance),
-        one.eval(wo, wi, TransportMode::Radiance)
-    );
 }

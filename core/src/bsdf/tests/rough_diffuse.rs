@@ -6,14 +6,7 @@
 use super::*;
 
 fn rough_diffuse(rho: Rgb, alpha: f32, fast: bool, two_sided: bool) -> Bsdf {
-    resolve(
-        MaterialKind::RoughDiffuse {
-            reflectance: Texture::Constant(rho),
-            alpha,
-            fast_approx: fast,
-        },
-        two_sided,
-    )
+    Bsdf::rough_diffuse(rho, alpha, fast, two_sided)
 }
 
 /// Oren–Nayar's model as the paper writes it (Oren and Nayar 1994, eqs.
@@ -133,12 +126,7 @@ fn rough_diffuse_matches_the_published_formula() {
 fn rough_diffuse_at_zero_roughness_is_lambert_exactly() {
     let mut rng = Pcg32::new(62, 1);
     let rho = Rgb::new(0.7, 0.4, 0.1);
-    let lambert = resolve(
-        MaterialKind::Diffuse {
-            reflectance: Texture::Constant(rho),
-        },
-        false,
-    );
+    let lambert = Bsdf::diffuse(rho, false);
     for fast in [false, true] {
         let rd = rough_diffuse(rho, 0.0, fast, false);
         for _ in 0..2000 {
