@@ -1,8 +1,9 @@
 /*
- * example_scene.h — shared by host_geometry.c and embree_host.c: a scene
- * the host owns (a floor under an area light, plus tessellated spheres),
- * in one vertex array with a 16-byte stride, handed to cmlt with or
- * without the host's own intersector, and a small render.
+ * example_scene.h — shared by host_geometry.c, embree_host.c and
+ * frame_loop.c: a scene the host owns (a floor under an area light, plus
+ * tessellated spheres), in one vertex array with a 16-byte stride, handed
+ * to cmlt with or without the host's own intersector, and a small render.
+ * The helpers are static inline: each program uses only some of them.
  */
 #ifndef CMLT_EXAMPLE_SCENE_H
 #define CMLT_EXAMPLE_SCENE_H
@@ -15,7 +16,7 @@
 
 #include "cmlt.h"
 
-static void check(cmlt_status s, const char *what) {
+static inline void check(cmlt_status s, const char *what) {
     if (s != CMLT_OK) {
         fprintf(stderr, "%s failed: %s (%s)\n", what, cmlt_status_name((uint32_t)s), cmlt_last_error());
         exit(1);
@@ -33,7 +34,7 @@ typedef struct host_scene {
     unsigned long single_calls, packet_calls, packet_lanes;
 } host_scene;
 
-static uint32_t add_vertex(host_scene *s, float x, float y, float z) {
+static inline uint32_t add_vertex(host_scene *s, float x, float y, float z) {
     s->verts[s->nverts][0] = x;
     s->verts[s->nverts][1] = y;
     s->verts[s->nverts][2] = z;
@@ -41,7 +42,7 @@ static uint32_t add_vertex(host_scene *s, float x, float y, float z) {
     return s->nverts++;
 }
 
-static void add_tri(host_scene *s, uint32_t a, uint32_t b, uint32_t c) {
+static inline void add_tri(host_scene *s, uint32_t a, uint32_t b, uint32_t c) {
     s->tris[s->ntris][0] = a;
     s->tris[s->ntris][1] = b;
     s->tris[s->ntris][2] = c;
@@ -49,7 +50,7 @@ static void add_tri(host_scene *s, uint32_t a, uint32_t b, uint32_t c) {
 }
 
 /* A quad a-b-c-d (counter-clockwise seen from its front). */
-static void add_quad(host_scene *s, const float q[4][3]) {
+static inline void add_quad(host_scene *s, const float q[4][3]) {
     uint32_t i0 = add_vertex(s, q[0][0], q[0][1], q[0][2]);
     uint32_t i1 = add_vertex(s, q[1][0], q[1][1], q[1][2]);
     uint32_t i2 = add_vertex(s, q[2][0], q[2][1], q[2][2]);
@@ -59,7 +60,7 @@ static void add_quad(host_scene *s, const float q[4][3]) {
 }
 
 /* A UV sphere of `rings` × `segments` quads, outward-facing triangles. */
-static void add_sphere(host_scene *s, float cx, float cy, float cz, float r, int rings, int segments) {
+static inline void add_sphere(host_scene *s, float cx, float cy, float cz, float r, int rings, int segments) {
     uint32_t first = s->nverts;
     int i, j;
     for (i = 0; i <= rings; ++i) {
@@ -81,7 +82,7 @@ static void add_sphere(host_scene *s, float cx, float cy, float cz, float r, int
 }
 
 /* The floor (triangles 0–1) and the light (2–3). */
-static void build_floor_and_light(host_scene *hs) {
+static inline void build_floor_and_light(host_scene *hs) {
     const float floor_q[4][3] = {{-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}};
     const float light_q[4][3] = {{-0.5f, 2.5f, -0.5f}, {0.5f, 2.5f, -0.5f}, {0.5f, 2.5f, 0.5f}, {-0.5f, 2.5f, 0.5f}};
     add_quad(hs, floor_q); /* faces +y */
@@ -89,7 +90,7 @@ static void build_floor_and_light(host_scene *hs) {
 }
 
 /* The estimator named on the command line (CMLT by default). */
-static uint32_t parse_estimator(const char *method) {
+static inline uint32_t parse_estimator(const char *method) {
     if (strcmp(method, "pt") == 0) return CMLT_ESTIMATOR_PT;
     if (strcmp(method, "bdpt") == 0) return CMLT_ESTIMATOR_BDPT;
     if (strcmp(method, "mlt") == 0) return CMLT_ESTIMATOR_MLT;
@@ -100,7 +101,7 @@ static uint32_t parse_estimator(const char *method) {
  * (ids in *m_white, *m_mirror), then the floor and the light (triangles
  * 0–3 of the host, the first two meshes). `mesh` is left describing the
  * host vertex array, ready for further meshes over it. */
-static cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mirror, cmlt_mesh *mesh) {
+static inline cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mirror, cmlt_mesh *mesh) {
     cmlt_scene *scene = NULL;
     /* Designated initialisers: the fields not named are zero, which is
        CMLT_NO_TEXTURE for the texture fields. */
@@ -129,7 +130,7 @@ static cmlt_scene *begin_scene(host_scene *hs, uint32_t *m_white, uint32_t *m_mi
 }
 
 /* Renders a small frame of `scene` and returns its mean (all channels). */
-static double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pixel, cmlt_stats *stats) {
+static inline double render_mean(cmlt_scene *scene, uint32_t estimator, uint64_t per_pixel, cmlt_stats *stats) {
     enum { W = 32, H = 24 };
     cmlt_renderer *r = NULL;
     cmlt_renderer_config config;

@@ -2,7 +2,9 @@
  * frame_loop.c — a game-engine style loop over cmlt.
  *
  * Shows: the host's allocator handed to cmlt (cmlt_set_allocator), all
- * setup first (scene, renderer, two workers), then frames of a camera
+ * setup first (the scene from the host's own arrays — example_scene.h's
+ * floor, area light and mirror sphere, traced by cmlt's BVH — the
+ * renderer, two workers), then frames of a camera
  * orbiting the scene with a fixed per-frame budget (chains kept from frame
  * to frame), each worker prepared (its share of the MLT bootstrap) and
  * rendered on its own host thread, the image resolved into the host's RGBA8
@@ -17,21 +19,10 @@
 /* posix_memalign and pthreads are POSIX, not C99. */
 #define _POSIX_C_SOURCE 200112L
 
-#include <math.h>
 #include <pthread.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 #include <time.h>
 
-#include "cmlt.h"
-
-static void check(cmlt_status s, const char *what) {
-    if (s != CMLT_OK) {
-        fprintf(stderr, "%s failed: %s (%s)\n", what, cmlt_status_name((uint32_t)s), cmlt_last_error());
-        exit(1);
-    }
-}
+#include "example_scene.h"
 
 /* ---- The host's allocator: counts, and aborts once frames start. ---- */
 
@@ -106,29 +97,38 @@ int main(int argc, char **argv) {
     enum { SIZE = 48, WORKERS = 2 };
     int frames = argc > 1 ? atoi(argv[1]) : 8;
     const char *method = argc > 2 ? argv[2] : "cmlt";
-    uint32_t estimator = CMLT_ESTIMATOR_CMLT;
+    uint32_t estimator = parse_estimator(method);
     static host_heap heap;
+    static host_scene hs;
     cmlt_allocator allocator;
     cmlt_scene *scene = NULL;
     cmlt_renderer *renderer = NULL;
-    cmlt_camera start, camera;
+    cmlt_mesh mesh;
+    uint32_t m_white, m_mirror;
+    cmlt_camera start = {{0.0f, 1.0f, -3.0f}, {0.0f, 0.5f, 0.0f}, {0.0f, 1.0f, 0.0f}, 50.0f, 0.0f, 1.0f};
+    cmlt_camera camera;
     cmlt_renderer_config config;
     size_t bytes = 0, alignment = 0;
     uint8_t *image;
     float radius, height;
     int frame, w;
 
-    if (strcmp(method, "pt") == 0) estimator = CMLT_ESTIMATOR_PT;
-    else if (strcmp(method, "bdpt") == 0) estimator = CMLT_ESTIMATOR_BDPT;
-    else if (strcmp(method, "mlt") == 0) estimator = CMLT_ESTIMATOR_MLT;
-
     allocator.user = &heap;
     allocator.alloc = heap_alloc;
     allocator.free = heap_free;
     check(cmlt_set_allocator(&allocator), "cmlt_set_allocator");
 
-    /* Setup: everything is allocated here. */
-    check(cmlt_scene_new_builtin("cornell-box", SIZE, SIZE, &scene, &start), "cmlt_scene_new_builtin");
+    /* Setup: everything is allocated here. The scene: floor (triangles
+     * 0–1), light (2–3) and a mirror sphere (4–) over one host vertex
+     * array, the sphere a third mesh. */
+    build_floor_and_light(&hs);
+    add_sphere(&hs, 0.0f, 0.7f, 0.0f, 0.6f, 12, 24);
+    scene = begin_scene(&hs, &m_white, &m_mirror, &mesh);
+    mesh.indices = &hs.tris[4][0];
+    mesh.triangle_count = hs.ntris - 4;
+    mesh.material = m_mirror;
+    check(cmlt_scene_add_mesh(scene, &mesh, NULL), "add_mesh sphere");
+    check(cmlt_scene_commit(scene), "cmlt_scene_commit");
     check(cmlt_renderer_config_default(estimator, &config), "cmlt_renderer_config_default");
     config.width = SIZE;
     config.height = SIZE;

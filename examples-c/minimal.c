@@ -6,6 +6,11 @@
  * status, and a few deliberately wrong calls being refused. Prints the image's mean RGB on stdout (the tests compare
  * it with a Rust-side render of the same scene).
  *
+ * Needs a library built with the `loader` feature (the built-in scene is
+ * Mitsuba XML, read by the scene loader); without it
+ * cmlt_scene_new_builtin fails with CMLT_ERROR_UNSUPPORTED. The other
+ * examples build their scenes from the host's arrays and need no loader.
+ *
  * Usage: minimal OUT.ppm [pt|bdpt|mlt|cmlt] [BUDGET_PER_PIXEL] [SIZE]
  */
 #include <stdio.h>

@@ -1118,6 +1118,11 @@ enum cmlt_status cmlt_scene_update_mesh(struct cmlt_scene *scene,
 // committed scene with our BVH. `*out_camera`, `*out_width` and
 // `*out_height` (each may be NULL) receive the file's sensor.
 //
+// Only in a library built with the `loader` cargo feature (the Mitsuba
+// loader, with its XML, mesh and image decoders); without it the call
+// returns `CMLT_ERROR_UNSUPPORTED` after checking its arguments, and
+// writes nothing.
+//
 // # Safety
 // `path` is NULL or a NUL-terminated string; the out pointers are NULL or
 // valid.
@@ -1130,6 +1135,11 @@ enum cmlt_status cmlt_scene_load_file(const char *path,
 // A built-in scene by name: `"cornell-box"` (the Cornell box `cmlt render`
 // draws by default) at `width × height` pixels, committed with our BVH;
 // `*out_camera` (may be NULL) receives its camera.
+//
+// Only in a library built with the `loader` cargo feature (the built-in
+// scenes are Mitsuba XML); without it the call returns
+// `CMLT_ERROR_UNSUPPORTED` after checking its arguments, and writes
+// nothing.
 //
 // # Safety
 // `name` is NULL or NUL-terminated; the out pointers are NULL or valid.

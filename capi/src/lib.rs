@@ -10,7 +10,8 @@
 //! - [`error`]: `cmlt_status` results, `cmlt_last_error`, an error
 //!   callback; no panic ever crosses the boundary;
 //! - [`scene`]: materials and meshes by pointer, or a scene file / built-in
-//!   scene, optionally the host's own intersector ([`host`]), then commit;
+//!   scene (with the `loader` feature), optionally the host's own
+//!   intersector ([`host`]), then commit;
 //! - [`renderer`]: a renderer per view with one worker per host thread;
 //!   per frame set the camera, prepare, render each worker under a budget,
 //!   resolve into the host's pixel buffer; statistics.
@@ -24,6 +25,7 @@ pub mod alloc;
 mod call;
 pub mod error;
 pub mod host;
+mod loader;
 pub mod renderer;
 pub mod scene;
 

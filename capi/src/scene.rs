@@ -8,8 +8,8 @@ use std::ffi::{CStr, c_char};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock, RwLockReadGuard};
 
-use ::cmlt_mitsuba::accel::AccelKind;
 use cmlt_core::accel::Intersector;
+use cmlt_core::accel::backend::AccelKind;
 use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use cmlt_core::integrator::Settings;
 use cmlt_core::math::spectrum::srgb_to_linear;
@@ -23,6 +23,7 @@ use cmlt_core::scene::{
 use crate::alloc::{check_oom, try_reserve};
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::host::{HostIntersector, HostShapes, cmlt_intersector, cmlt_shapes};
+use crate::loader::{self, Loaded};
 
 /// Lambertian diffuse: `color` is the albedo.
 pub const CMLT_MATERIAL_DIFFUSE: u32 = 0;
@@ -293,10 +294,10 @@ impl cmlt_camera {
 }
 
 /// What a committed scene traces with: a backend the library builds (our
-/// BVH or Embree, chosen at run time as in `cmlt-mitsuba`) or the host's
-/// callbacks.
+/// BVH or Embree, chosen at run time by the core's `accel::backend`) or
+/// the host's callbacks.
 pub(crate) enum Accel {
-    Built(::cmlt_mitsuba::accel::Accel),
+    Built(cmlt_core::accel::backend::Accel),
     Host(HostIntersector),
 }
 
@@ -1289,7 +1290,7 @@ fn accel_kind(accel: u32) -> Result<AccelKind> {
 
 /// Builds a backend over `scene`'s triangles.
 fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
-    ::cmlt_mitsuba::accel::Accel::build(kind, &scene.triangles().collect::<Vec<_>>())
+    cmlt_core::accel::backend::Accel::build(kind, &scene.triangles().collect::<Vec<_>>())
         .map(Accel::Built)
         .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e))
 }
@@ -1514,6 +1515,11 @@ fn update_error(e: SceneError) -> Error {
 /// committed scene with our BVH. `*out_camera`, `*out_width` and
 /// `*out_height` (each may be NULL) receive the file's sensor.
 ///
+/// Only in a library built with the `loader` cargo feature (the Mitsuba
+/// loader, with its XML, mesh and image decoders); without it the call
+/// returns `CMLT_ERROR_UNSUPPORTED` after checking its arguments, and
+/// writes nothing.
+///
 /// # Safety
 /// `path` is NULL or a NUL-terminated string; the out pointers are NULL or
 /// valid.
@@ -1532,8 +1538,7 @@ pub unsafe extern "C" fn cmlt_scene_load_file(
         let path = unsafe { CStr::from_ptr(path) }
             .to_str()
             .map_err(|_| Error::invalid("path is not UTF-8"))?;
-        let loaded = ::cmlt_mitsuba::load_scene(std::path::Path::new(path), &[])
-            .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_IO, e.to_string()))?;
+        let loaded = loader::file(path)?;
         // SAFETY: the caller's contract.
         unsafe { finish_loaded(loaded, out, out_camera, out_width, out_height) }
     })
@@ -1542,6 +1547,11 @@ pub unsafe extern "C" fn cmlt_scene_load_file(
 /// A built-in scene by name: `"cornell-box"` (the Cornell box `cmlt render`
 /// draws by default) at `width × height` pixels, committed with our BVH;
 /// `*out_camera` (may be NULL) receives its camera.
+///
+/// Only in a library built with the `loader` cargo feature (the built-in
+/// scenes are Mitsuba XML); without it the call returns
+/// `CMLT_ERROR_UNSUPPORTED` after checking its arguments, and writes
+/// nothing.
 ///
 /// # Safety
 /// `name` is NULL or NUL-terminated; the out pointers are NULL or valid.
@@ -1561,17 +1571,7 @@ pub unsafe extern "C" fn cmlt_scene_new_builtin(
         if width == 0 || height == 0 || width > 1 << 14 || height > 1 << 14 {
             return Err(Error::invalid("width and height must be in 1 ..= 16384"));
         }
-        let defines = [
-            ("resx".to_string(), width.to_string()),
-            ("resy".to_string(), height.to_string()),
-        ];
-        let loaded = ::cmlt_mitsuba::builtin_scene(name, &defines)
-            .ok_or_else(|| {
-                Error::invalid(format!(
-                    "no built-in scene named {name:?} (try \"cornell-box\")"
-                ))
-            })?
-            .map_err(|e| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, e.to_string()))?;
+        let loaded = loader::builtin(name, width, height)?;
         // SAFETY: the caller's contract.
         unsafe {
             finish_loaded(
@@ -1590,7 +1590,7 @@ pub unsafe extern "C" fn cmlt_scene_new_builtin(
 /// # Safety
 /// The out pointers other than `out` are NULL or valid.
 unsafe fn finish_loaded(
-    loaded: ::cmlt_mitsuba::LoadedScene,
+    loaded: Loaded,
     out: &mut *mut cmlt_scene,
     out_camera: *mut cmlt_camera,
     out_width: *mut u32,

@@ -4,13 +4,13 @@
 //! compiles as C++, runs the programs and checks their output against
 //! Rust-side renders of the same scenes. With `CMLT_VALGRIND=1` every
 //! program runs under valgrind memcheck and must report no errors and no
-//! definite leaks.
+//! definite leaks. `minimal.c` loads the built-in scene and runs only with
+//! the `loader` feature; the others build their scenes from host arrays
+//! and run in every build.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-use cmlt_core::renderer::{EstimatorKind, RenderWorker, Renderer, RendererConfig};
 
 fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -23,8 +23,8 @@ fn workspace() -> PathBuf {
 /// `deps/` (a separate release build took 4 min 33 s of `cargo test
 /// --workspace`). Cargo names it without a hash, so a later build with
 /// other features overwrites it, and a fresh build does not rewrite it.
-/// The check below makes a library of the other Embree setting an error;
-/// one with other effect features is not told apart.
+/// The checks below make a library of the other Embree or loader setting
+/// an error; one with other effect features is not told apart.
 fn staticlib() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
     LIB.get_or_init(|| {
@@ -40,17 +40,24 @@ fn staticlib() -> &'static Path {
             "{} is missing: it is written with this test binary's library unit",
             lib.display()
         );
-        // The Embree backend's entry points are referenced by, and only
-        // by, a library built with the feature.
+        // The Embree backend's entry points are referenced by, and the
+        // loader crate's symbols are in, only a library built with the
+        // feature.
         let nm = Command::new("nm").arg(&lib).output().expect("run nm");
         assert!(nm.status.success(), "nm {} failed", lib.display());
-        assert_eq!(
-            String::from_utf8_lossy(&nm.stdout).contains("rtcNewDevice"),
-            cfg!(feature = "embree"),
-            "{} was written by a build with other features since this one \
-             (cargo gives staticlibs one name); rebuild it: touch capi/src/lib.rs",
-            lib.display()
-        );
+        let symbols = String::from_utf8_lossy(&nm.stdout);
+        for (symbol, built) in [
+            ("rtcNewDevice", cfg!(feature = "embree")),
+            ("cmlt_mitsuba", cfg!(feature = "loader")),
+        ] {
+            assert_eq!(
+                symbols.contains(symbol),
+                built,
+                "{} was written by a build with other features since this one \
+                 (cargo gives staticlibs one name); rebuild it: touch capi/src/lib.rs",
+                lib.display()
+            );
+        }
         lib
     })
 }
@@ -188,8 +195,11 @@ fn header_compiles_as_cpp() {
 
 /// minimal.c's image equals, to float rounding of the mean, the Rust
 /// renderer's image of the same scene, configuration and seed.
+#[cfg(feature = "loader")]
 #[test]
 fn minimal_matches_a_rust_render() {
+    use cmlt_core::renderer::{EstimatorKind, RenderWorker, Renderer, RendererConfig};
+
     let exe = build_example("minimal");
     for (method, estimator, per_pixel) in [
         ("bdpt", EstimatorKind::Bdpt, 4u64),

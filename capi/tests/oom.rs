@@ -7,7 +7,8 @@
 //! freed again, and the same session run again with a working allocator
 //! succeeds. A second sweep refuses every allocation from the N-th on (a
 //! host that stays out of memory). The same for a session on the built-in
-//! scene (the scene-file loader and obvhs's BVH builder). No N is
+//! scene (the scene-file loader and obvhs's BVH builder) in builds with
+//! the `loader` feature. No N is
 //! excluded: allocations that Rust code makes infallibly (obvhs, `Vec`
 //! growth in the core) are caught by the library's allocator (see
 //! `cmlt_capi::alloc`), those sized by input are reserved fallibly first.
@@ -260,6 +261,7 @@ fn session() -> Outcome {
 
 /// A session on the built-in Cornell box (the scene-file loader's path,
 /// its BVH built by obvhs): scene, renderer, one frame.
+#[cfg(feature = "loader")]
 fn builtin_session() -> Outcome {
     let (mut scene, mut renderer) = (null_mut(), null_mut());
     let mut out = Outcome {
@@ -346,11 +348,12 @@ fn main() {
     // SAFETY: process-lifetime callbacks.
     assert_eq!(unsafe { cmlt_set_allocator(&hooks) }, CMLT_OK);
     let (mut passed, mut failed) = (0u64, 0u64);
-    let sessions: [Session; 2] = [
+    let sessions: &[Session] = &[
         ("a scene built call by call", session, 19),
+        #[cfg(feature = "loader")]
         ("the built-in scene", builtin_session, 5),
     ];
-    for (name, session, calls) in sessions {
+    for &(name, session, calls) in sessions {
         // A working run: how many allocations a whole session makes.
         let start = MADE.load(Ordering::Relaxed);
         let live = LIVE.load(Ordering::Relaxed);

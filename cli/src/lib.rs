@@ -2,9 +2,9 @@
 //! ([`args`]), image files, error metrics, the multi-threaded drivers over
 //! the core's renderer ([`render`], [`frames`]), what `cmlt render`
 //! writes ([`output`]) and the mergeable state of a part of a render split
-//! over machines ([`state`], `cmlt merge`), over the scene loading (Mitsuba 3 XML) and
-//! run-time backend choice of `cmlt-mitsuba`, which it re-exports as
-//! [`scene`] and [`accel`]. The `cmlt` binary is a thin command-line layer
+//! over machines ([`state`], `cmlt merge`), over the scene loading (Mitsuba 3 XML)
+//! of `cmlt-mitsuba` and the core's run-time backend choice, which it
+//! re-exports as [`mitsuba`] and [`accel`]. The `cmlt` binary is a thin command-line layer
 //! over it; the benchmarks (crate `cmlt-bench`) and the tests use it
 //! directly.
 
@@ -18,10 +18,11 @@ pub mod state;
 
 use std::path::Path;
 
+/// The run-time choice of backend (the core's `accel::backend`,
+/// re-exported).
+pub use cmlt::accel::backend as accel;
 /// The Mitsuba 3 loader (crate `cmlt-mitsuba`, re-exported).
 pub use cmlt_mitsuba as mitsuba;
-/// The run-time choice of backend (crate `cmlt-mitsuba`, re-exported).
-pub use cmlt_mitsuba::accel;
 
 use mitsuba::{LoadedScene, builtin_scene, load_scene};
 

@@ -1,10 +1,11 @@
 //! Scenes for hosts with `std`, shared by the command-line front end
-//! (`cmlt-cli`) and the C API (`cmlt-capi`): loading Mitsuba 3 XML scenes
-//! into a `cmlt::scene::Scene` (this crate's root: [`load_scene`],
-//! [`builtin_scene`]) and the ray-tracing backend a scene is traced with,
-//! chosen at run time ([`accel`]). It is a crate of its own so that the C
-//! library and the fuzz targets do not carry the CLI's image writers,
-//! plotting and argument parsing.
+//! (`cmlt-cli`) and the C API (`cmlt-capi`, with its `loader` feature):
+//! loading Mitsuba 3 XML scenes into a `cmlt::scene::Scene` ([`load_scene`],
+//! [`builtin_scene`]). It is a crate of its own so that the C library and
+//! the fuzz targets do not carry the CLI's image writers, plotting and
+//! argument parsing, and so that a C library without it carries no XML,
+//! image or mesh decoders. The ray-tracing backend a scene is traced with,
+//! chosen at run time, is the core's (`cmlt::accel::backend`).
 //!
 //! The supported subset is what Bitterli's scenes in Mitsuba 3 syntax use,
 //! with Mitsuba's semantics (defaults, conventions, error cases) read from
@@ -38,8 +39,6 @@
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
 //! added in document order, one per `<shape>`.
-
-pub mod accel;
 
 mod bsdf;
 mod error;

@@ -6,10 +6,14 @@
 //! - Embree's `rtcIntersect1/4/8/16` (behind the `embree` feature);
 //! - a host's ray tracer through C callbacks (the C API).
 //!
+//! [`backend`] (with `std`) picks one of the first two at run time.
+//!
 //! Packets exist because CMLT's multiple-try step traces k nearby rays at
 //! once (a coherent bundle). A backend without a packet kernel inherits the
 //! lane-by-lane defaults below, which are correct, only slower.
 
+#[cfg(feature = "std")]
+pub mod backend;
 #[cfg(feature = "alloc")]
 pub mod brute;
 pub mod bvh;
