@@ -599,7 +599,7 @@ impl Bsdf {
             // Never two-sided, like the smooth dielectric.
             #[cfg(feature = "rough-refraction")]
             Model::RoughDielectric(rd) => rd.eval(wo, wi, mode),
-            // Two-sided only when nothing transmits (see `Bsdf::new`).
+            // Two-sided only when nothing transmits (see `Bsdf::principled`).
             #[cfg(feature = "principled")]
             Model::Principled(p) => {
                 let (wo, wi) = self.orient(wo, wi);

@@ -54,10 +54,11 @@ impl RoughCoating {
     }
 
     /// Integrates the coating's transmittance and internal reflectance for
-    /// `distribution`, roughness `alpha` and relative index `eta` (see
-    /// `rough_coating`). Takes a few milliseconds: call once per
-    /// material. Without the `coating` feature the table is empty (such a
-    /// material is refused by the scene builder anyway).
+    /// `distribution`, roughness `alpha` and relative index `eta` over the
+    /// visible microfacet normals, as Mitsuba's `roughplastic` does. Takes
+    /// a few milliseconds: call once per material. Without the `coating`
+    /// feature the table is empty (such a material is refused by the scene
+    /// builder anyway).
     pub fn new(distribution: Distribution, alpha: f32, eta: f32) -> Self {
         #[cfg(feature = "coating")]
         {

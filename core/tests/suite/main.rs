@@ -4,6 +4,8 @@
 //! took 280 s of compile time between them). Run one part with a filter,
 //! e.g. `cargo test -p cmlt --test suite stability::`.
 //!
+//! - [`architecture`]: no import cycle between the core's top-level
+//!   modules;
 //! - [`bvh`]: the default BVH against brute force, watertightness, spawn
 //!   offsets, packets with any mask;
 //! - [`detail`]: normal maps, bump maps and alpha masks;
@@ -25,6 +27,7 @@ mod common;
 #[path = "../intersect/mod.rs"]
 mod intersect;
 
+mod architecture;
 mod bvh;
 mod detail;
 mod furnace;
