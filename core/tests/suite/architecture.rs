@@ -529,6 +529,16 @@ fn core_top_level_modules_have_no_import_cycle() {
     assert_acyclic(core_src(), 1);
 }
 
+/// The C API's modules (allocator, errors, calls, scene, renderer, host
+/// callbacks) depend one way too: the workspace keeps the two crates side
+/// by side, so the core's suite reads the C API's tree beside its own.
+#[test]
+fn c_api_modules_have_no_import_cycle() {
+    let capi = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../capi/src"));
+    assert!(capi.join("lib.rs").is_file(), "{}", capi.display());
+    assert_acyclic(capi, 1);
+}
+
 /// The BSDF models know nothing of materials (issue 49): `scene` builds
 /// `Bsdf`s, `bsdf` names nothing of `scene`, not even in its tests.
 #[test]
