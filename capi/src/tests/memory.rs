@@ -115,8 +115,15 @@ fn the_memory_bound_covers_what_creation_allocates() {
             (4, 4, 1024, 1, (1, 1)),
         ] {
             let mut c = config(estimator, workers);
-            (c.chains, c.max_depth, c.k, c.width, c.height) = (chains, depth, k, w, h);
-            (c.bootstrap_samples, c.normalisation_passes) = (10 * chains, chains / 4 + 1);
+            (c.max_depth, c.width, c.height) = (depth, w, h);
+            // Only the fields the estimator reads.
+            if estimator == CMLT_ESTIMATOR_MLT || estimator == CMLT_ESTIMATOR_CMLT {
+                c.chains = chains;
+                (c.bootstrap_samples, c.normalisation_passes) = (10 * chains, chains / 4 + 1);
+            }
+            if estimator == CMLT_ESTIMATOR_CMLT {
+                c.k = k;
+            }
             let mut bytes = 0;
             // SAFETY: valid pointers.
             unsafe {

@@ -495,13 +495,14 @@ impl Renderer {
         let dims = PrimarySampler::dimensions_for_depth(depth as u32) as u64;
         let sampler = dims * 32 + 4 * BLOCK;
         let workspace = 2 * (depth + 2) * vertex + 4 * BLOCK;
-        // Every worker: its film (two RGB f64 layers), path storage, a
-        // bootstrap share; Metropolis ones a state, a sampler and a path per
-        // chain, the multiple-try candidates (k ≤ 64 of them).
+        // Every worker: its film (two RGB f64 layers) and path storage;
+        // Metropolis ones also a bootstrap share (its own path storage and
+        // sampler, its values and pass sums), their chains' path storage,
+        // a state, a sampler and a path per chain, and the multiple-try
+        // candidates (k ≤ 64 of them).
         let film = pixels * Film::BYTES_PER_PIXEL;
-        let mut worker = c(film.checked_add(
-            size_of::<RenderWorker>() as u64 + 4 * workspace + 2 * sampler + 16 * BLOCK,
-        ))?;
+        let mut worker =
+            c(film.checked_add(size_of::<RenderWorker>() as u64 + workspace + 16 * BLOCK))?;
         // Only a Metropolis renderer keeps bootstrap tables and the passes'
         // sums (a small image gets up to `MAX_FLOOR_PASSES` of them).
         let (mut boot_samples, mut passes) = (0, 0);
@@ -515,6 +516,7 @@ impl Renderer {
             worker = c(chains
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
+                .and_then(|b| b.checked_add(3 * workspace + 2 * sampler))
                 .and_then(|b| b.checked_add(level2))
                 .and_then(|b| b.checked_add(boot_samples.div_ceil(workers.max(1)) * 8))
                 .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
