@@ -1,5 +1,4 @@
-//! Scenes: argument checks of building and committing, scene files and
-//! built-in scenes (or their refusal without the loader), mesh updates
+//! Scenes: argument checks of building and committing, mesh updates
 //! between frames, and meshes too far from the origin.
 
 use super::*;
@@ -294,82 +293,6 @@ fn scene_inputs_are_checked_and_leave_the_scene_usable() {
         cmlt_scene_release(s);
         cmlt_scene_release(null_mut());
     }
-}
-
-/// Scene files and built-in scenes (the `loader` feature): a missing file
-/// is an I/O error, a NULL path a NULL pointer, an unknown name or a zero
-/// size an invalid argument, and no failed call writes its out pointer.
-#[cfg(feature = "loader")]
-#[test]
-fn scene_files_and_builtins_are_checked() {
-    // SAFETY: every pointer is valid or deliberately NULL.
-    unsafe {
-        let mut l = null_mut();
-        expect(
-            cmlt_scene_load_file(
-                c"/no/such/scene.xml".as_ptr(),
-                &mut l,
-                null_mut(),
-                null_mut(),
-                null_mut(),
-            ),
-            CMLT_ERROR_IO,
-            "cmlt_scene_load_file",
-        );
-        expect(
-            cmlt_scene_load_file(null(), &mut l, null_mut(), null_mut(), null_mut()),
-            CMLT_ERROR_NULL_POINTER,
-            "cmlt_scene_load_file",
-        );
-        expect(
-            cmlt_scene_new_builtin(c"no-such-scene".as_ptr(), 8, 8, &mut l, null_mut()),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            "cmlt_scene_new_builtin",
-        );
-        expect(
-            cmlt_scene_new_builtin(c"cornell-box".as_ptr(), 0, 8, &mut l, null_mut()),
-            CMLT_ERROR_INVALID_ARGUMENT,
-            "cmlt_scene_new_builtin",
-        );
-        assert!(l.is_null(), "a failed call wrote its out pointer");
-    }
-}
-
-/// Without the `loader` feature both loading functions exist and refuse a
-/// good call as unsupported, naming the feature, and write nothing.
-#[cfg(not(feature = "loader"))]
-#[test]
-fn without_the_loader_files_and_builtins_are_unsupported() {
-    let mut l = null_mut();
-    let mut camera = CAMERA;
-    let (mut width, mut height) = (7, 9);
-    // SAFETY: valid pointers.
-    unsafe {
-        expect(
-            cmlt_scene_load_file(
-                c"scene.xml".as_ptr(),
-                &mut l,
-                &mut camera,
-                &mut width,
-                &mut height,
-            ),
-            CMLT_ERROR_UNSUPPORTED,
-            "cmlt_scene_load_file",
-        );
-        assert!(last_error().contains("`loader`"), "{}", last_error());
-        expect(
-            cmlt_scene_new_builtin(c"cornell-box".as_ptr(), 8, 8, &mut l, &mut camera),
-            CMLT_ERROR_UNSUPPORTED,
-            "cmlt_scene_new_builtin",
-        );
-        assert!(last_error().contains("`loader`"), "{}", last_error());
-    }
-    assert!(l.is_null(), "a refused call wrote its out pointer");
-    assert_eq!((width, height), (7, 9));
-    assert_eq!(
-        (camera.position, camera.target, camera.fov_degrees),
-        (CAMERA.position, CAMERA.target, CAMERA.fov_degrees)
-    );
 }
 
 /// `cmlt_scene_update_mesh`: bad updates are refused and change nothing
