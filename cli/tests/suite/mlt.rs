@@ -154,47 +154,75 @@ fn cornell_box_mlt_matches_reference() {
     assert!(err < 0.05, "relMSE {err}");
 }
 
-/// Level-1 MLT and CMLT converge to the surface-detail scene's reference
-/// (normal and bump maps, an alpha mask with holes and a half-transparent
-/// strip: with masks, level 2 leaves every path at its level-1 state).
+// Each scene and estimator is its own test (not a loop over them), so
+// that the two test threads share the long renders out evenly.
+
+/// Level-1 MLT converges to the surface-detail scene's reference (normal
+/// and bump maps, an alpha mask with holes and a half-transparent strip).
 #[test]
-fn surface_detail_mlt_and_cmlt_match_reference() {
+fn surface_detail_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     check_reference("surface-detail", 2, &mlt, 32, 2.5);
+}
+
+/// CMLT converges to the surface-detail scene's reference: with masks,
+/// level 2 leaves every path at its level-1 state.
+#[test]
+fn surface_detail_cmlt_matches_reference() {
     // Side chains on every path, not only the defaults' long ones.
     let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("surface-detail", 2, &cmlt, 16, 2.5);
 }
 
-/// CMLT (level 2 on) converges to the reference on every shared scene.
-#[test]
-fn cmlt_matches_references() {
-    // Real multiple tries (k > 1, stratified) rather than the speed-chosen
-    // defaults, so that the test covers the whole of level 2.
-    // Side chains on every path, not only the defaults' long ones.
-    let cmlt = cmlt_on(level1(64), 8, 4);
-    // The 320×180 scenes at factor 4 (80×45): 180 is not divisible by 8.
-    // veach-mis is lit by tiny bright spheres: its relMSE is dominated by a
-    // few bright records and b (from 16 BDPT passes) varies by ±10%
-    // between renders, so 4× the mutations cut its error by only 1.7–1.9×
-    // at these budgets (plain MLT: 3.2× from 60 to 240 mutations/pixel).
-    for (scene, factor, mpp, ratio) in [
-        ("cornell-box", 8, 4, 2.5),
-        ("veach-bidir", 8, 4, 2.5),
-        ("veach-mis", 4, 8, 1.4),
-        ("veach-ajar", 4, 4, 2.5),
-    ] {
-        check_reference(scene, factor, &cmlt, mpp, ratio);
-    }
+/// CMLT (level 2 on) as the shared scenes' tests run it: real multiple
+/// tries (k > 1, stratified) rather than the speed-chosen defaults, so
+/// that the tests cover the whole of level 2, and side chains on every
+/// path, not only the defaults' long ones.
+fn cmlt_k8_m4() -> Estimator {
+    cmlt_on(level1(64), 8, 4)
 }
 
-/// MLT and CMLT converge to the reference of the scene lit by point, spot,
-/// directional and constant lights: level 2 leaves their paths alone (no
-/// perturbation applies to a path ending on them), level 1 carries them.
+/// CMLT converges to the Cornell box's reference.
 #[test]
-fn lights_punctual_mlt_and_cmlt_match_reference() {
+fn cornell_box_cmlt_matches_reference() {
+    check_reference("cornell-box", 8, &cmlt_k8_m4(), 4, 2.5);
+}
+
+/// CMLT converges to veach-bidir's reference.
+#[test]
+fn veach_bidir_cmlt_matches_reference() {
+    check_reference("veach-bidir", 8, &cmlt_k8_m4(), 4, 2.5);
+}
+
+/// CMLT converges to veach-mis's reference. The 320×180 scene at factor 4
+/// (80×45): 180 is not divisible by 8. It is lit by tiny bright spheres:
+/// its relMSE is dominated by a few bright records and b (from 16 BDPT
+/// passes) varies by ±10% between renders, so 4× the mutations cut its
+/// error by only 1.7–1.9× at these budgets (plain MLT: 3.2× from 60 to 240
+/// mutations/pixel).
+#[test]
+fn veach_mis_cmlt_matches_reference() {
+    check_reference("veach-mis", 4, &cmlt_k8_m4(), 8, 1.4);
+}
+
+/// CMLT converges to veach-ajar's reference (320×180 at factor 4).
+#[test]
+fn veach_ajar_cmlt_matches_reference() {
+    check_reference("veach-ajar", 4, &cmlt_k8_m4(), 4, 2.5);
+}
+
+/// MLT converges to the reference of the scene lit by point, spot,
+/// directional and constant lights: level 1 carries their paths.
+#[test]
+fn lights_punctual_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     check_reference("lights-punctual", 4, &mlt, 256, 2.5);
+}
+
+/// CMLT converges on the same scene: level 2 leaves its paths alone (no
+/// perturbation applies to a path ending on a punctual light).
+#[test]
+fn lights_punctual_cmlt_matches_reference() {
     let cmlt = cmlt_on(level1(64), 4, 2);
     // Every side-chain step is the identity here (records repeat the
     // level-1 state), so the error falls more slowly per mutation:
@@ -202,13 +230,18 @@ fn lights_punctual_mlt_and_cmlt_match_reference() {
     check_reference("lights-punctual", 4, &cmlt, 256, 2.0);
 }
 
-/// MLT and CMLT converge to the reference of the scene lit by an
-/// environment map: a path ending on it is classified "none" by level 2
-/// (a vertex at infinity), as for the constant environment.
+/// MLT converges to the reference of the scene lit by an environment map.
 #[test]
-fn envmap_mlt_and_cmlt_match_reference() {
+fn envmap_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     check_reference("envmap", 4, &mlt, 256, 2.5);
+}
+
+/// CMLT converges on the environment-map scene: a path ending on the map
+/// is classified "none" by level 2 (a vertex at infinity), as for the
+/// constant environment.
+#[test]
+fn envmap_cmlt_matches_reference() {
     let cmlt = cmlt_on(level1(64), 4, 2);
     check_reference("envmap", 4, &cmlt, 256, 2.0);
 }
@@ -310,38 +343,56 @@ fn cmlt_render_method_mlt_is_deterministic_and_reports_acceptance() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--sigma"));
 }
 
-/// MLT and CMLT converge on the coatings scene: smooth plastic is a mixed
-/// BSDF (a Dirac coating over a diffuse base) whose Dirac paths level 2
-/// must leave alone, and the thin pane transmits without bending.
+/// MLT converges on the coatings scene: smooth plastic is a mixed BSDF (a
+/// Dirac coating over a diffuse base), and the thin pane transmits without
+/// bending.
 #[test]
-fn plastics_mlt_and_cmlt_match_reference() {
+fn plastics_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     check_reference("plastics", 2, &mlt, 32, 2.5);
+}
+
+/// CMLT converges on the coatings scene: level 2 must leave smooth
+/// plastic's Dirac paths alone.
+#[test]
+fn plastics_cmlt_matches_reference() {
     // Side chains on every path, not only the defaults' long ones.
     let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("plastics", 2, &cmlt, 32, 2.5);
 }
 
-/// MLT and CMLT converge on the principled scene: its lobes are all
-/// smooth (never delta), and the glass sphere's transmission refracts
-/// through non-delta vertices as the rough dielectric does.
+/// MLT converges on the principled scene: its lobes are all smooth (never
+/// delta), and the glass sphere's transmission refracts through non-delta
+/// vertices as the rough dielectric does.
 #[test]
-fn principled_mlt_and_cmlt_match_reference() {
+fn principled_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     check_reference("principled", 2, &mlt, 64, 2.5);
+}
+
+/// CMLT converges on the principled scene, its side chains perturbing
+/// through the smooth lobes.
+#[test]
+fn principled_cmlt_matches_reference() {
     // Side chains on every path, not only the defaults' long ones.
     let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("principled", 2, &cmlt, 32, 1.7);
 }
 
-/// Level-1 MLT and CMLT converge on the rough-glass scene: paths
-/// refract through rough dielectrics, which the perturbations treat as
-/// non-delta vertices and reconnect through.
+/// Level-1 MLT converges on the rough-glass scene: paths refract through
+/// rough dielectrics, which the perturbations treat as non-delta vertices
+/// and reconnect through.
 #[test]
-fn rough_glass_mlt_and_cmlt_match_reference() {
+fn rough_glass_mlt_matches_reference() {
     let mlt = Estimator::Mlt(level1(64));
     // Measured: relMSE 0.073 at 128 mutations/pixel, 0.026 at 512 (2.8×).
     check_reference("rough-glass", 2, &mlt, 128, 2.5);
+}
+
+/// CMLT converges on the rough-glass scene, its lens side chains
+/// refracting through the rough dielectrics.
+#[test]
+fn rough_glass_cmlt_matches_reference() {
     // Side chains on every path, not only the defaults' long ones.
     let cmlt = cmlt_on(level1(64), 8, 4);
     // Measured: relMSE 0.085 at 32 mutations/pixel, 0.042 at 128 (ratio
@@ -369,7 +420,7 @@ fn metropolis_scene_settings() -> MltSettings {
     }
 }
 
-/// MLT and CMLT converge to the reference of the caustic seen through
+/// MLT converges to the reference of the caustic seen through
 /// water (tests/scenes/caustic-pool): the floor's light arrives on
 /// E S D S L paths, which no perturbation applies to (Veach's multi-chain
 /// perturbation is not built), so level 1 carries them and level 2 repeats
@@ -380,17 +431,21 @@ fn metropolis_scene_settings() -> MltSettings {
 /// channel means (b and the colour balance) to the reference, not the
 /// per-pixel error to a 1/N rate.
 #[test]
-fn caustic_pool_mlt_and_cmlt_match_reference() {
+fn caustic_pool_mlt_matches_reference() {
     let mlt = metropolis_scene_settings();
     check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 128);
+}
+
+/// CMLT on the caustic pool: as [`caustic_pool_mlt_matches_reference`],
+/// the channel means against the reference.
+#[test]
+fn caustic_pool_cmlt_matches_reference() {
+    let mlt = metropolis_scene_settings();
     check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
 }
 
-/// MLT and CMLT converge to the reference of the glossy room lit by a
-/// small lamp (tests/scenes/glossy-room): lens perturbations through rough
-/// aluminium, copper, gold and plastic.
-#[test]
-fn glossy_room_mlt_and_cmlt_match_reference() {
+/// Level 1 for the glossy room.
+fn glossy_room_settings() -> MltSettings {
     // Four times the chains of the pool's settings: with 128 the red
     // channel (red wall, copper, gold) varied by ±2% between seeds, the
     // share of chains that start on the red surfaces. And 1 024 b passes:
@@ -398,15 +453,29 @@ fn glossy_room_mlt_and_cmlt_match_reference() {
     // test's five seeds against 0.317 (skewed low, all five means 2.6%
     // low); with 1 024, 0.311–0.318. 1 000 bootstrap samples per depth suffice
     // here (20 000 were for the pool's floor).
-    let mlt = MltSettings {
+    MltSettings {
         n_chains: 256,
         b_passes: 1024,
         b_min_samples: 0,
         n_bootstrap: 1_000,
         ..metropolis_scene_settings()
-    };
-    check_reference("glossy-room", 2, &Estimator::Mlt(mlt), 128, 2.5);
-    check_reference("glossy-room", 2, &cmlt_on(mlt, 1, 4), 32, 2.0);
+    }
+}
+
+/// MLT converges to the reference of the glossy room lit by a small lamp
+/// (tests/scenes/glossy-room): rough aluminium, copper, gold and plastic.
+#[test]
+fn glossy_room_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(glossy_room_settings());
+    check_reference("glossy-room", 2, &mlt, 128, 2.5);
+}
+
+/// CMLT converges on the glossy room: lens perturbations through its rough
+/// metals and plastic.
+#[test]
+fn glossy_room_cmlt_matches_reference() {
+    let cmlt = cmlt_on(glossy_room_settings(), 1, 4);
+    check_reference("glossy-room", 2, &cmlt, 32, 2.0);
 }
 
 /// CMLT with parallel lanes and side chains only on paths of at least

@@ -158,47 +158,65 @@ fn check_merge(
     );
 }
 
-#[test]
-fn two_parts_merge_like_twice_the_budget_pt_bdpt() {
+/// [`check_merge`] of two parts of `budget` on the Cornell box at 1/8 of
+/// its resolution, over 4 seeds, on two workers.
+fn check_merge_cornell_box(estimator: Estimator, budget: u64) {
     let (loaded, reference) = load_reduced("cornell-box", 8);
-    for (estimator, spp) in [(Estimator::Path, 4), (Estimator::Bdpt, 2)] {
-        let config = RendererConfig {
-            estimator,
-            settings: loaded.settings,
-            workers: 2,
-            ..RendererConfig::default()
-        };
-        check_merge(estimator.kind().name(), &loaded, &reference, config, spp, 4);
-    }
+    let config = RendererConfig {
+        estimator,
+        settings: loaded.settings,
+        workers: 2,
+        ..RendererConfig::default()
+    };
+    check_merge(
+        estimator.kind().name(),
+        &loaded,
+        &reference,
+        config,
+        budget,
+        4,
+    );
 }
 
-#[test]
-fn two_parts_merge_like_twice_the_budget_mlt_cmlt() {
-    let (loaded, reference) = load_reduced("cornell-box", 8);
-    let mlt = MltSettings {
+/// Level 1 of the MLT and CMLT parts.
+fn parts_mlt() -> MltSettings {
+    MltSettings {
         n_bootstrap: 1_000,
         b_passes: 16,
         b_min_samples: 0,
         n_chains: 64,
         ..MltSettings::default()
-    };
+    }
+}
+
+// One test per estimator, so that the two test threads share them out.
+
+#[test]
+fn two_parts_merge_like_twice_the_budget_pt() {
+    check_merge_cornell_box(Estimator::Path, 4);
+}
+
+#[test]
+fn two_parts_merge_like_twice_the_budget_bdpt() {
+    check_merge_cornell_box(Estimator::Bdpt, 2);
+}
+
+#[test]
+fn two_parts_merge_like_twice_the_budget_mlt() {
+    check_merge_cornell_box(Estimator::Mlt(parts_mlt()), 8);
+}
+
+#[test]
+fn two_parts_merge_like_twice_the_budget_cmlt() {
     let cmlt = Estimator::Cmlt(CmltSettings {
-        mlt,
+        mlt: parts_mlt(),
         level2: Level2Settings {
             k: 4,
             m: 2,
             ..Level2Settings::default()
         },
     });
-    for (estimator, mpp) in [(Estimator::Mlt(mlt), 8), (cmlt, 4)] {
-        let config = RendererConfig {
-            estimator,
-            settings: loaded.settings,
-            workers: 2,
-            ..RendererConfig::default()
-        };
-        check_merge(estimator.kind().name(), &loaded, &reference, config, mpp, 4);
-    }
+    check_merge_cornell_box(cmlt, 4);
 }
 
 fn cmlt() -> Command {
