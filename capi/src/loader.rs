@@ -5,7 +5,7 @@
 //! Only with the `loader` feature: the loader brings XML, mesh and image
 //! decoders that an engine handing over its own arrays does not need.
 //! Without it both functions exist all the same (the header and the ABI do
-//! not depend on the feature) and [`file`] and [`builtin`] refuse with
+//! not depend on the feature) and [`file()`] and [`builtin()`] refuse with
 //! `CMLT_ERROR_UNSUPPORTED`.
 
 use cmlt_core::integrator::Settings;
