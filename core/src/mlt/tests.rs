@@ -21,6 +21,24 @@ use crate::scene::Material;
 #[path = "../../tests/common/mod.rs"]
 pub(super) mod scenes;
 
+/// The furnace's settings: depth 16 (the series 2·(1 − 2⁻¹⁶) is 2 to
+/// 3·10⁻⁵) and 64 chains from 8 000 bootstrap samples per depth, b from 64
+/// passes.
+fn furnace_settings() -> (Settings, MltSettings) {
+    let st = Settings {
+        max_depth: Some(16),
+        ..Settings::default()
+    };
+    let m = MltSettings {
+        n_bootstrap: 8_000,
+        b_passes: 64,
+        b_min_samples: 0,
+        n_chains: 64,
+        ..MltSettings::default()
+    };
+    (st, m)
+}
+
 /// The bootstrap a one-worker renderer of `mlt` at `settings` with seed
 /// `seed` computes for the scene's camera.
 fn bootstrap(
@@ -40,17 +58,7 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(&scene, &accel);
-    let st = Settings {
-        max_depth: Some(16),
-        ..Settings::default()
-    };
-    let m = MltSettings {
-        n_bootstrap: 8_000,
-        b_passes: 64,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let (st, m) = furnace_settings();
     let boot = bootstrap(&scene, st, m, 21);
     let mut ws = bdpt::PathStorage::new();
     let mut film = Film::new(16, 12);
@@ -113,17 +121,7 @@ fn workers_split_the_same_chains_deterministically() {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(&scene, &accel);
-    let st = Settings {
-        max_depth: Some(16),
-        ..Settings::default()
-    };
-    let m = MltSettings {
-        n_bootstrap: 8_000,
-        b_passes: 64,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    };
+    let (st, m) = furnace_settings();
     let boot = bootstrap(&scene, st, m, 2);
     let mut chains = |worker| {
         let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);

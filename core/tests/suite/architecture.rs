@@ -539,7 +539,7 @@ fn c_api_modules_have_no_import_cycle() {
     assert_acyclic(capi, 1);
 }
 
-/// The BSDF models know nothing of materials (issue 49): `scene` builds
+/// The BSDF models know nothing of materials, as pbrt-v4's BxDFs: `scene` builds
 /// `Bsdf`s, `bsdf` names nothing of `scene`, not even in its tests.
 #[test]
 fn bsdf_does_not_use_scene() {
