@@ -12,6 +12,9 @@
 //!   switches;
 //! - [`effects`]: samples/s and mutations/s with the scene analysis on
 //!   versus `--all-effects`;
+//! - [`frames`]: a game engine's frame loop through the C API (the C++
+//!   host `examples-c/frame_trial.cpp`) against frame-time, set-up, black
+//!   pixel and flicker targets;
 //! - [`prepare`]: a first frame's bootstrap on one thread versus spread
 //!   over the workers' threads;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
@@ -20,6 +23,7 @@
 pub mod convergence;
 pub mod effects;
 pub mod flicker;
+pub mod frames;
 pub mod params;
 pub mod plot;
 pub mod prepare;

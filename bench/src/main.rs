@@ -272,6 +272,31 @@ enum BenchCommand {
         #[arg(long)]
         csv: PathBuf,
     },
+    /// A game engine's frame loop through the C API (the C++17 host
+    /// `examples-c/frame_trial.cpp`, built with the examples' Makefile):
+    /// moving camera and mesh, two workers, a time budget per frame; p50/p95
+    /// frame time, set-up after the first frame, black pixels, flicker and
+    /// allocations per frame against issue 50's targets.
+    Frames {
+        /// Estimators.
+        #[arg(long, value_delimiter = ',', default_value = "pt,bdpt,mlt,cmlt")]
+        estimators: Vec<String>,
+        /// Image sizes, WIDTHxHEIGHT.
+        #[arg(long, value_delimiter = ',', default_value = "320x180,640x360")]
+        sizes: Vec<String>,
+        /// Frame budgets, milliseconds.
+        #[arg(long, value_delimiter = ',', default_value = "30,60")]
+        budgets: Vec<f64>,
+        /// Frames per run.
+        #[arg(long, default_value_t = 120)]
+        frames: u32,
+        /// A host built already (default: `make -C examples-c frame_trial`).
+        #[arg(long)]
+        host: Option<PathBuf>,
+        /// Print every frame's line.
+        #[arg(long)]
+        verbose: bool,
+    },
     /// Wall time of a first frame's MLT/CMLT bootstrap on the calling
     /// thread (`cmlt_renderer_prepare`) against spread over one thread per
     /// worker (`cmlt_renderer_prepare_begin` / `_worker` / `_finish`), in
@@ -401,6 +426,38 @@ fn run(cli: Cli) -> Result<(), String> {
                 let worst = d.iter().fold(0.0f64, |a, x| a.max(x.abs()));
                 println!("largest |difference|: {:.2}%", 100.0 * worst);
             }
+            Ok(())
+        }
+        BenchCommand::Frames {
+            estimators,
+            sizes,
+            budgets,
+            frames,
+            host,
+            verbose,
+        } => {
+            use cmlt_bench::frames;
+            let host = match host {
+                Some(h) => h,
+                None => {
+                    frames::build_host(Path::new(env!("CARGO_MANIFEST_DIR")).join("..").as_path())?
+                }
+            };
+            let mut trials = Vec::new();
+            for size in &sizes {
+                let (w, h) = size
+                    .split_once('x')
+                    .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+                    .ok_or_else(|| format!("size {size}: expected WIDTHxHEIGHT"))?;
+                for &budget in &budgets {
+                    for e in &estimators {
+                        let t = frames::run(&host, e, (w, h), budget, frames, verbose)?;
+                        eprintln!("{e} {size} {budget} ms: p95 {:.1} ms", t.p95_ms);
+                        trials.push(t);
+                    }
+                }
+            }
+            print!("{}", frames::table(&trials));
             Ok(())
         }
         BenchCommand::Prepare {

@@ -1,0 +1,203 @@
+//! `cmlt-bench frames`: a game engine's frame loop as a benchmark. The host
+//! is `examples-c/frame_trial.cpp` (C++17 over `include/cmlt.hpp`, the C
+//! API): a ~5k-triangle room from its own arrays, a dolly camera, one mesh
+//! moved by `cmlt_scene_update_mesh` every frame, two workers on its own
+//! threads, each frame bounded by `cmlt_renderer_render_while` and the
+//! host's clock. This module builds it (`make -C examples-c frame_trial`,
+//! the release staticlib), runs it once per estimator × size × budget and
+//! prints its figures against the targets of issue 50:
+//!
+//! - p95 frame time ≤ budget + 10 %;
+//! - set-up after the first frame ≤ 10 % of the budget;
+//! - black-pixel fraction of MLT/CMLT ≤ BDPT's at the same size and budget;
+//! - mean-luminance flicker (rms of the relative frame-to-frame change of
+//!   the mean) ≤ 2 %, with the moving camera;
+//! - allocations per frame: 0.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// One run of the host.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trial {
+    /// `pt`, `bdpt`, `mlt` or `cmlt`.
+    pub estimator: String,
+    /// Image size.
+    pub width: u32,
+    /// Image size.
+    pub height: u32,
+    /// The frame budget, milliseconds.
+    pub budget_ms: f64,
+    /// Frames rendered.
+    pub frames: u32,
+    /// Median frame time, milliseconds.
+    pub p50_ms: f64,
+    /// 95th percentile of the frame time, milliseconds.
+    pub p95_ms: f64,
+    /// Mean preparation time of the frames after the first, milliseconds.
+    pub setup_ms: f64,
+    /// Mean fraction of exactly black pixels.
+    pub black: f64,
+    /// Rms relative frame-to-frame change of the mean luminance.
+    pub flicker: f64,
+    /// cmlt's allocations per frame.
+    pub allocs_per_frame: f64,
+}
+
+impl Trial {
+    /// Parses the host's `trial …` line (see `frame_trial.cpp`).
+    pub fn parse(line: &str) -> Option<Trial> {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        if w.first() != Some(&"trial") {
+            return None;
+        }
+        let (width, height) = w.get(2)?.split_once('x')?;
+        let value = |key: &str| -> Option<f64> {
+            let i = w.iter().position(|&x| x == key)?;
+            w.get(i + 1)?.parse().ok()
+        };
+        Some(Trial {
+            estimator: w.get(1)?.to_string(),
+            width: width.parse().ok()?,
+            height: height.parse().ok()?,
+            budget_ms: value("budget_ms")?,
+            frames: value("frames")? as u32,
+            p50_ms: value("p50_ms")?,
+            p95_ms: value("p95_ms")?,
+            setup_ms: value("setup_ms")?,
+            black: value("black")?,
+            flicker: value("flicker")?,
+            allocs_per_frame: value("allocs_per_frame")?,
+        })
+    }
+
+    /// Whether the p95 frame time is within the budget + 10 %.
+    pub fn budget_held(&self) -> bool {
+        self.p95_ms <= 1.1 * self.budget_ms
+    }
+
+    /// Whether the set-up after the first frame is within 10 % of the
+    /// budget.
+    pub fn setup_held(&self) -> bool {
+        self.setup_ms <= 0.1 * self.budget_ms
+    }
+}
+
+/// Builds the host with the examples' Makefile (the release staticlib
+/// first); returns its path.
+pub fn build_host(workspace: &Path) -> Result<PathBuf, String> {
+    let dir = workspace.join("examples-c");
+    let status = Command::new("make")
+        .arg("-C")
+        .arg(&dir)
+        .arg("frame_trial")
+        .status()
+        .map_err(|e| format!("make: {e}"))?;
+    if !status.success() {
+        return Err(format!("make -C {} frame_trial failed", dir.display()));
+    }
+    Ok(dir.join("frame_trial"))
+}
+
+/// Runs the host once; its per-frame lines go to stderr when `verbose`.
+pub fn run(
+    host: &Path,
+    estimator: &str,
+    (width, height): (u32, u32),
+    budget_ms: f64,
+    frames: u32,
+    verbose: bool,
+) -> Result<Trial, String> {
+    let o = Command::new(host)
+        .args([
+            estimator,
+            &width.to_string(),
+            &height.to_string(),
+            &budget_ms.to_string(),
+            &frames.to_string(),
+        ])
+        .output()
+        .map_err(|e| format!("{}: {e}", host.display()))?;
+    let out = String::from_utf8_lossy(&o.stdout);
+    if !o.status.success() {
+        return Err(format!(
+            "{} {estimator} failed: {}{}",
+            host.display(),
+            out,
+            String::from_utf8_lossy(&o.stderr)
+        ));
+    }
+    if verbose {
+        eprint!("{out}");
+    }
+    out.lines()
+        .find_map(Trial::parse)
+        .ok_or_else(|| format!("no trial line in:\n{out}"))
+}
+
+/// The table of `trials`, each row against the targets ("ok"/"MISS"); the
+/// black fraction of MLT/CMLT is compared with BDPT's of the same size and
+/// budget when there is one.
+pub fn table(trials: &[Trial]) -> String {
+    let mut s = String::from(
+        "estimator  size     budget  p50 ms  p95 ms  p95/budget  setup ms  setup/budget  black    black/bdpt  flicker  allocs/frame\n",
+    );
+    let mark = |ok: bool| if ok { "ok " } else { "MISS" };
+    for t in trials {
+        let bdpt = trials.iter().find(|b| {
+            b.estimator == "bdpt"
+                && (b.width, b.height) == (t.width, t.height)
+                && b.budget_ms == t.budget_ms
+        });
+        let vs_bdpt = match bdpt {
+            Some(b) if t.estimator == "mlt" || t.estimator == "cmlt" => format!(
+                "{:>6.2} {}",
+                t.black / b.black.max(1e-6),
+                mark(t.black <= b.black)
+            ),
+            _ => format!("{:>11}", "-"),
+        };
+        s += &format!(
+            "{:<10} {:>4}x{:<4} {:>5.0}  {:>6.1}  {:>6.1}  {:>6.2} {}  {:>8.2}  {:>8.3} {}  {:>7.4}  {}  {:>6.4} {}  {:>6.2} {}\n",
+            t.estimator,
+            t.width,
+            t.height,
+            t.budget_ms,
+            t.p50_ms,
+            t.p95_ms,
+            t.p95_ms / t.budget_ms,
+            mark(t.budget_held()),
+            t.setup_ms,
+            t.setup_ms / t.budget_ms,
+            mark(t.setup_held()),
+            t.black,
+            vs_bdpt,
+            t.flicker,
+            mark(t.flicker <= 0.02),
+            t.allocs_per_frame,
+            mark(t.allocs_per_frame == 0.0),
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_trial_line_parses() {
+        let t = Trial::parse(
+            "trial bdpt 320x180 triangles 5250 budget_ms 30.0 frames 8 p50_ms 31.5 p95_ms 34.0 \
+             setup_ms 0.10 black 0.0001 flicker 0.0075 allocs_per_frame 0.00",
+        )
+        .unwrap();
+        assert_eq!((t.width, t.height, t.frames), (320, 180, 8));
+        assert_eq!(t.estimator, "bdpt");
+        assert!(t.budget_held() && t.setup_held());
+        assert_eq!(t.p95_ms, 34.0);
+        assert!(Trial::parse("frame 0 ms 3").is_none());
+        let late = Trial { p95_ms: 33.1, ..t };
+        assert!(!late.budget_held());
+    }
+}

@@ -1,0 +1,270 @@
+// frame_trial.cpp — a game engine's frame loop over cmlt, in C++17 through
+// include/cmlt.hpp, and the measurement behind `cmlt-bench frames`.
+//
+// The host owns a ~5k-triangle room in its own arrays (six subdivided
+// walls, a ceiling light, two spheres and a third one that it moves every
+// frame with cmlt_scene_update_mesh), dollies the camera forwards, renders
+// every frame on two host threads (one per worker) within a time budget
+// through cmlt_renderer_render_while, and resolves the image. Every cmlt
+// allocation goes through a counting allocator (cmlt_set_allocator).
+//
+// Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES]]]]
+//   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120.
+// MLT and CMLT keep their chains across frames and average b over 8
+// frames. Prints one line per frame, then one `trial` line:
+//   trial <estimator> <w>x<h> budget_ms <b> frames <n> p50_ms <..> p95_ms <..>
+//   setup_ms <..> black <..> flicker <..> allocs_per_frame <..>
+// setup_ms: the mean time of the preparation after the first frame;
+// black: the mean fraction of exactly black pixels; flicker: the rms of
+// the relative frame-to-frame change of the mean luminance.
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cmlt.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+void check(cmlt::Status s, const char *what) {
+    if (s != cmlt::Status::Ok) {
+        std::fprintf(stderr, "%s failed: %s (%s)\n", what, cmlt::name(s), cmlt::last_error());
+        std::exit(1);
+    }
+}
+
+// ---- The host's allocator: counts every block cmlt asks for. ----
+
+std::atomic<unsigned long> g_allocations{0};
+
+void *count_alloc(void *, std::size_t size, std::size_t align) {
+    g_allocations.fetch_add(1, std::memory_order_relaxed);
+    return std::aligned_alloc(std::max(align, sizeof(void *)),
+                              (size + std::max(align, sizeof(void *)) - 1) / std::max(align, sizeof(void *)) *
+                                  std::max(align, sizeof(void *)));
+}
+
+void count_free(void *, void *ptr, std::size_t, std::size_t) { std::free(ptr); }
+
+// ---- The host's geometry: packed xyz positions per mesh. ----
+
+struct Mesh {
+    std::vector<float> positions; // x, y, z per vertex
+    std::vector<std::uint32_t> indices;
+};
+
+// A w × h grid of quads spanning corner + s·u + t·v, s, t ∈ [0, 1]
+// (front side: u × v).
+Mesh grid(const std::array<float, 3> &corner, const std::array<float, 3> &u, const std::array<float, 3> &v,
+          int n) {
+    Mesh m;
+    for (int j = 0; j <= n; ++j)
+        for (int i = 0; i <= n; ++i) {
+            float s = float(i) / float(n), t = float(j) / float(n);
+            for (int k = 0; k < 3; ++k) m.positions.push_back(corner[k] + s * u[k] + t * v[k]);
+        }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            std::uint32_t a = std::uint32_t(j * (n + 1) + i), b = a + 1, c = a + std::uint32_t(n + 1), d = c + 1;
+            m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+        }
+    return m;
+}
+
+Mesh sphere(float cx, float cy, float cz, float r, int rings, int segments) {
+    Mesh m;
+    for (int i = 0; i <= rings; ++i) {
+        float th = 3.14159265f * float(i) / float(rings);
+        for (int j = 0; j < segments; ++j) {
+            float ph = 6.2831853f * float(j) / float(segments);
+            m.positions.insert(m.positions.end(), {cx + r * std::sin(th) * std::cos(ph), cy + r * std::cos(th),
+                                                   cz + r * std::sin(th) * std::sin(ph)});
+        }
+    }
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segments; ++j) {
+            auto a = std::uint32_t(i * segments + j), b = std::uint32_t(i * segments + (j + 1) % segments);
+            auto c = a + std::uint32_t(segments), d = b + std::uint32_t(segments);
+            m.indices.insert(m.indices.end(), {a, b, d, a, d, c});
+        }
+    return m;
+}
+
+cmlt_material diffuse(float r, float g, float b) {
+    cmlt_material m{};
+    m.type_ = CMLT_MATERIAL_DIFFUSE;
+    m.color[0] = r;
+    m.color[1] = g;
+    m.color[2] = b;
+    m.ior = 1.0f;
+    m.bump_scale = 1.0f;
+    for (int k = 0; k < 3; ++k) m.specular_color[k] = m.transmission_color[k] = 1.0f;
+    m.distribution = CMLT_DISTRIBUTION_GGX;
+    return m;
+}
+
+void add(cmlt::Scene &scene, const Mesh &m, std::uint32_t material, float emission = 0.0f) {
+    cmlt_mesh d{};
+    d.positions = m.positions.data();
+    d.vertex_count = m.positions.size() / 3;
+    d.indices = m.indices.data();
+    d.triangle_count = m.indices.size() / 3;
+    d.material = material;
+    d.emission[0] = d.emission[1] = d.emission[2] = emission;
+    check(scene.add_mesh(d), "add_mesh");
+}
+
+double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[std::min(v.size() - 1, std::size_t(p * double(v.size() - 1) + 0.5))];
+}
+
+} // namespace
+
+int main(int argc, char **argv) {
+    const std::string method = argc > 1 ? argv[1] : "pt";
+    const std::uint32_t width = argc > 3 ? std::uint32_t(std::atoi(argv[2])) : 320;
+    const std::uint32_t height = argc > 3 ? std::uint32_t(std::atoi(argv[3])) : 180;
+    const double budget_ms = argc > 4 ? std::atof(argv[4]) : 30.0;
+    const int frames = argc > 5 ? std::atoi(argv[5]) : 120;
+    constexpr std::uint32_t workers = 2;
+    cmlt::Estimator estimator = method == "bdpt"  ? cmlt::Estimator::Bdpt
+                                : method == "mlt"  ? cmlt::Estimator::Mlt
+                                : method == "cmlt" ? cmlt::Estimator::Cmlt
+                                                   : cmlt::Estimator::Pt;
+    const bool metropolis = estimator == cmlt::Estimator::Mlt || estimator == cmlt::Estimator::Cmlt;
+
+    cmlt_allocator allocator{nullptr, count_alloc, count_free};
+    if (cmlt_set_allocator(&allocator) != CMLT_OK) return 1;
+
+    // The room: 10 × 3 × 10, walls of 16 × 16 quads facing inwards.
+    const int n = 16;
+    std::vector<Mesh> walls = {
+        grid({-5, 0, -5}, {0, 0, 10}, {10, 0, 0}, n), // floor (+y)
+        grid({-5, 3, -5}, {10, 0, 0}, {0, 0, 10}, n), // ceiling (−y)
+        grid({-5, 0, 5}, {0, 3, 0}, {10, 0, 0}, n),   // far wall (−z)
+        grid({-5, 0, -5}, {10, 0, 0}, {0, 3, 0}, n),  // near wall (+z)
+        grid({-5, 0, -5}, {0, 3, 0}, {0, 0, 10}, n),  // left wall (+x)
+        grid({5, 0, -5}, {0, 0, 10}, {0, 3, 0}, n),   // right wall (−x)
+    };
+    Mesh light = grid({-1, 2.99f, -1}, {2, 0, 0}, {0, 0, 2}, 1);
+    Mesh ball_a = sphere(-2.0f, 0.8f, 2.0f, 0.8f, 12, 24);
+    Mesh ball_b = sphere(2.0f, 0.6f, 0.5f, 0.6f, 12, 24);
+    Mesh mover = sphere(0.0f, 0.5f, 1.0f, 0.5f, 16, 32);
+    std::vector<float> moved = mover.positions;
+
+    cmlt::Scene scene;
+    check(cmlt::Scene::create(scene), "cmlt_scene_new");
+    std::uint32_t white, red, green;
+    check(scene.add_material(diffuse(0.7f, 0.7f, 0.7f), white), "add_material");
+    check(scene.add_material(diffuse(0.7f, 0.15f, 0.1f), red), "add_material");
+    check(scene.add_material(diffuse(0.1f, 0.6f, 0.15f), green), "add_material");
+    for (std::size_t i = 0; i < walls.size(); ++i) add(scene, walls[i], i == 4 ? red : i == 5 ? green : white);
+    add(scene, light, white, 12.0f);
+    add(scene, ball_a, white);
+    add(scene, ball_b, red);
+    add(scene, mover, green);
+    const std::uint32_t mover_id = std::uint32_t(walls.size()) + 3;
+    check(scene.commit(), "cmlt_scene_commit");
+    std::uint32_t triangles = 0;
+    check(cmlt::Status(cmlt_scene_triangle_count(scene.get(), &triangles)), "triangle_count");
+
+    cmlt_renderer_config config = cmlt::config_default(estimator);
+    config.width = width;
+    config.height = height;
+    config.workers = workers;
+    config.max_depth = 5;
+    if (metropolis) {
+        config.keep_chains = 1;
+        config.b_window = 8;
+    }
+    cmlt_camera camera{{0.0f, 1.5f, -4.5f}, {0.0f, 1.2f, 3.0f}, {0.0f, 1.0f, 0.0f}, 70.0f, 0.0f, 1.0f};
+    cmlt::Renderer renderer;
+    check(cmlt::Renderer::create(scene, config, camera, renderer), "cmlt_renderer_new");
+    std::vector<float> image(std::size_t(width) * height * 3);
+
+    std::vector<double> frame_ms, setup_ms, black, means;
+    const unsigned long before = g_allocations.load();
+    for (int f = 0; f < frames; ++f) {
+        const auto t0 = Clock::now();
+        const auto deadline = t0 + std::chrono::duration<double, std::milli>(budget_ms);
+        auto keep_going = [deadline](std::uint64_t) { return Clock::now() < deadline; };
+        // The dolly: 2 cm forwards a frame; the green ball slides sideways.
+        camera.position[2] = -4.5f + 0.02f * float(f);
+        check(renderer.set_camera(camera), "set_camera");
+        const float dx = 1.5f * std::sin(0.05f * float(f));
+        for (std::size_t v = 0; v < moved.size(); v += 3) moved[v] = mover.positions[v] + dx;
+        check(scene.update_mesh(mover_id, moved.data(), moved.size() / 3), "update_mesh");
+
+        const auto s0 = Clock::now();
+        bool pending = false;
+        check(renderer.prepare_begin(pending), "prepare_begin");
+        if (pending) {
+            std::array<cmlt::Status, workers> st{};
+            std::array<std::thread, workers> threads;
+            for (std::uint32_t w = 0; w < workers; ++w)
+                threads[w] = std::thread([&, w] { st[w] = renderer.prepare_worker(w); });
+            for (auto &t : threads) t.join();
+            for (auto s : st) check(s, "prepare_worker");
+            check(renderer.prepare_finish(), "prepare_finish");
+        }
+        const double setup = std::chrono::duration<double, std::milli>(Clock::now() - s0).count();
+        {
+            std::array<cmlt::Status, workers> st{};
+            std::array<std::thread, workers> threads;
+            for (std::uint32_t w = 0; w < workers; ++w)
+                threads[w] = std::thread([&, w] { st[w] = renderer.render_while(w, UINT64_MAX, keep_going); });
+            for (auto &t : threads) t.join();
+            for (auto s : st) check(s, "render_while");
+        }
+        check(renderer.resolve(cmlt::Format::Rgb32f, image.data(), 0, image.size() * sizeof(float)), "resolve");
+        const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+
+        std::size_t dark = 0;
+        double sum = 0.0;
+        for (std::size_t i = 0; i < image.size(); i += 3) {
+            double y = 0.2126 * image[i] + 0.7152 * image[i + 1] + 0.0722 * image[i + 2];
+            dark += image[i] == 0.0f && image[i + 1] == 0.0f && image[i + 2] == 0.0f;
+            sum += y;
+        }
+        const double mean = sum / double(width * height);
+        frame_ms.push_back(ms);
+        if (f > 0) setup_ms.push_back(setup);
+        black.push_back(double(dark) / double(width * height));
+        means.push_back(mean);
+        std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f\n", f, ms, setup, mean, black.back());
+    }
+    const unsigned long allocations = g_allocations.load() - before;
+
+    double flicker = 0.0;
+    int pairs = 0;
+    for (std::size_t f = 1; f < means.size(); ++f) {
+        double a = means[f - 1], b = means[f];
+        double rel = a + b > 0.0 ? (b - a) / (0.5 * (a + b)) : 0.0;
+        flicker += rel * rel;
+        ++pairs;
+    }
+    flicker = pairs > 0 ? std::sqrt(flicker / pairs) : 0.0;
+    double setup_mean = 0.0;
+    for (double s : setup_ms) setup_mean += s;
+    setup_mean = setup_ms.empty() ? 0.0 : setup_mean / double(setup_ms.size());
+    double black_mean = 0.0;
+    for (double b : black) black_mean += b;
+    black_mean /= double(std::max<std::size_t>(black.size(), 1));
+    std::printf("trial %s %ux%u triangles %u budget_ms %.1f frames %d p50_ms %.2f p95_ms %.2f setup_ms %.2f black "
+                "%.4f flicker %.4f allocs_per_frame %.2f\n",
+                method.c_str(), width, height, triangles, budget_ms, frames, percentile(frame_ms, 0.5),
+                percentile(frame_ms, 0.95), setup_mean, black_mean, flicker,
+                double(allocations) / double(std::max(frames, 1)));
+    return 0;
+}

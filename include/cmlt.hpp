@@ -1,0 +1,171 @@
+// cmlt.hpp — a small header-only C++17 wrapper over cmlt.h: RAII handles
+// (move-only, released in their destructors), enum classes for the C
+// constants, and callbacks taken as any callable. It adds no behaviour:
+// every member is one C call, returns that call's `Status`
+// ([[nodiscard]]) and throws nothing, so engines built without exceptions
+// can use it. `cmlt_last_error()` has the message of a failed call.
+#ifndef CMLT_HPP
+#define CMLT_HPP
+
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+
+#include "cmlt.h"
+
+namespace cmlt {
+
+/// The result of every call (`cmlt_status`).
+enum class Status : std::uint32_t {
+    Ok = CMLT_OK,
+    NullPointer = CMLT_ERROR_NULL_POINTER,
+    InvalidArgument = CMLT_ERROR_INVALID_ARGUMENT,
+    InvalidOperation = CMLT_ERROR_INVALID_OPERATION,
+    Busy = CMLT_ERROR_BUSY,
+    Io = CMLT_ERROR_IO,
+    Unsupported = CMLT_ERROR_UNSUPPORTED,
+    Internal = CMLT_ERROR_INTERNAL,
+    OutOfMemory = CMLT_ERROR_OUT_OF_MEMORY,
+};
+
+/// The estimators (`CMLT_ESTIMATOR_*`).
+enum class Estimator : std::uint32_t {
+    Pt = CMLT_ESTIMATOR_PT,
+    Bdpt = CMLT_ESTIMATOR_BDPT,
+    Mlt = CMLT_ESTIMATOR_MLT,
+    Cmlt = CMLT_ESTIMATOR_CMLT,
+};
+
+/// Pixel formats of `Renderer::resolve` (`CMLT_FORMAT_*`).
+enum class Format : std::uint32_t {
+    Rgb32f = CMLT_FORMAT_RGB32F,
+    Rgba8Srgb = CMLT_FORMAT_RGBA8_SRGB,
+};
+
+/// A status's readable name.
+inline const char *name(Status s) { return cmlt_status_name(static_cast<std::uint32_t>(s)); }
+
+/// The message of the last failed call on this thread.
+inline const char *last_error() { return cmlt_last_error(); }
+
+namespace detail {
+inline Status status(cmlt_status s) { return static_cast<Status>(s); }
+
+/// Calls a host callable through the C callback `cmlt_keep_going_fn`.
+template <class F> std::uint32_t keep_going(void *user, std::uint64_t done) {
+    return (*static_cast<F *>(user))(done) ? 1u : 0u;
+}
+} // namespace detail
+
+/// The defaults of a renderer configuration for `estimator`
+/// (`cmlt_renderer_config_default`); set width and height.
+inline cmlt_renderer_config config_default(Estimator estimator) {
+    cmlt_renderer_config c{};
+    // Cannot fail for an `Estimator` value.
+    (void)cmlt_renderer_config_default(static_cast<std::uint32_t>(estimator), &c);
+    return c;
+}
+
+/// A scene (`cmlt_scene`): built from the host's arrays, then committed.
+class Scene {
+  public:
+    Scene() = default;
+    Scene(const Scene &) = delete;
+    Scene &operator=(const Scene &) = delete;
+    Scene(Scene &&o) noexcept : p_(std::exchange(o.p_, nullptr)) {}
+    Scene &operator=(Scene &&o) noexcept {
+        std::swap(p_, o.p_);
+        return *this;
+    }
+    ~Scene() { cmlt_scene_release(p_); }
+
+    /// A new empty scene into `out`.
+    [[nodiscard]] static Status create(Scene &out) {
+        cmlt_scene *p = nullptr;
+        Status s = detail::status(cmlt_scene_new(&p));
+        if (s == Status::Ok) out = Scene(p);
+        return s;
+    }
+    [[nodiscard]] Status add_material(const cmlt_material &m, std::uint32_t &id) {
+        return detail::status(cmlt_scene_add_material(p_, &m, &id));
+    }
+    [[nodiscard]] Status add_mesh(const cmlt_mesh &m, std::uint32_t *first_triangle = nullptr) {
+        return detail::status(cmlt_scene_add_mesh(p_, &m, first_triangle));
+    }
+    [[nodiscard]] Status commit() { return detail::status(cmlt_scene_commit(p_)); }
+    /// Moves mesh `mesh` (packed or strided positions; normals optional).
+    [[nodiscard]] Status update_mesh(std::uint32_t mesh, const float *positions, std::size_t vertex_count,
+                                     std::size_t position_stride = 0, const float *normals = nullptr,
+                                     std::size_t normal_stride = 0) {
+        return detail::status(
+            cmlt_scene_update_mesh(p_, mesh, positions, vertex_count, position_stride, normals, normal_stride));
+    }
+    cmlt_scene *get() const { return p_; }
+
+  private:
+    explicit Scene(cmlt_scene *p) : p_(p) {}
+    cmlt_scene *p_ = nullptr;
+};
+
+/// A renderer (`cmlt_renderer`) over a committed scene.
+class Renderer {
+  public:
+    Renderer() = default;
+    Renderer(const Renderer &) = delete;
+    Renderer &operator=(const Renderer &) = delete;
+    Renderer(Renderer &&o) noexcept : p_(std::exchange(o.p_, nullptr)) {}
+    Renderer &operator=(Renderer &&o) noexcept {
+        std::swap(p_, o.p_);
+        return *this;
+    }
+    ~Renderer() { cmlt_renderer_release(p_); }
+
+    /// A renderer of `scene` through `camera` into `out`.
+    [[nodiscard]] static Status create(const Scene &scene, const cmlt_renderer_config &config,
+                                       const cmlt_camera &camera, Renderer &out) {
+        cmlt_renderer *p = nullptr;
+        Status s = detail::status(cmlt_renderer_new(scene.get(), &config, &camera, &p));
+        if (s == Status::Ok) out = Renderer(p);
+        return s;
+    }
+    [[nodiscard]] Status set_camera(const cmlt_camera &camera) {
+        return detail::status(cmlt_renderer_set_camera(p_, &camera));
+    }
+    [[nodiscard]] Status prepare() { return detail::status(cmlt_renderer_prepare(p_)); }
+    [[nodiscard]] Status prepare_begin(bool &pending) {
+        std::uint32_t p = 0;
+        Status s = detail::status(cmlt_renderer_prepare_begin(p_, &p));
+        pending = p != 0;
+        return s;
+    }
+    [[nodiscard]] Status prepare_worker(std::uint32_t worker) {
+        return detail::status(cmlt_renderer_prepare_worker(p_, worker));
+    }
+    [[nodiscard]] Status prepare_finish() { return detail::status(cmlt_renderer_prepare_finish(p_)); }
+    [[nodiscard]] Status render(std::uint32_t worker, std::uint64_t budget, std::uint64_t *done = nullptr) {
+        return detail::status(cmlt_renderer_render(p_, worker, budget, done));
+    }
+    /// Renders worker `worker` while `keep_going(done)` says yes (any
+    /// callable taking the units done so far), up to `budget` units.
+    template <class F>
+    [[nodiscard]] Status render_while(std::uint32_t worker, std::uint64_t budget, F &&keep_going,
+                                      std::uint64_t *done = nullptr) {
+        using Fn = std::remove_reference_t<F>;
+        return detail::status(cmlt_renderer_render_while(p_, worker, budget, &detail::keep_going<Fn>,
+                                                         static_cast<void *>(&keep_going), done));
+    }
+    [[nodiscard]] Status resolve(Format format, void *pixels, std::size_t row_stride, std::size_t size) const {
+        return detail::status(cmlt_renderer_resolve(p_, static_cast<std::uint32_t>(format),
+                                                    static_cast<std::uint8_t *>(pixels), row_stride, size));
+    }
+    [[nodiscard]] Status stats(cmlt_stats &out) const { return detail::status(cmlt_renderer_get_stats(p_, &out)); }
+    cmlt_renderer *get() const { return p_; }
+
+  private:
+    explicit Renderer(cmlt_renderer *p) : p_(p) {}
+    cmlt_renderer *p_ = nullptr;
+};
+
+} // namespace cmlt
+
+#endif // CMLT_HPP
