@@ -55,6 +55,17 @@
 // the current state with 1 − a (unbiased).
 #define CMLT_SPLATTING_EXPECTED_VALUE 1
 
+// PT, BDPT: every frame starts a new accumulation (the default).
+#define CMLT_ACCUMULATION_RESET 0
+
+// PT, BDPT: frames add to the earlier ones (converges while the camera
+// and scene stay; smears when they move).
+#define CMLT_ACCUMULATION_KEEP 1
+
+// PT, BDPT: earlier frames' samples weigh `decay` per frame of age (an
+// exponential moving average).
+#define CMLT_ACCUMULATION_DECAY 2
+
 // Linear RGB, 3 × `float` per pixel.
 #define CMLT_FORMAT_RGB32F 0
 
@@ -850,6 +861,22 @@ void cmlt_renderer_release(struct cmlt_renderer *renderer);
 enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
                                           const struct cmlt_camera *camera);
 
+// How PT and BDPT carry their accumulation into the frames after this
+// one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
+// image), `CMLT_ACCUMULATION_KEEP` (frames add up) or
+// `CMLT_ACCUMULATION_DECAY` (earlier samples weigh `decay` per frame of
+// age, 0 < `decay` < 1; ignored by the other modes). May change every
+// frame. MLT and CMLT refuse anything but reset
+// (`CMLT_ERROR_INVALID_ARGUMENT`; they keep chains instead), as do an
+// unknown mode and a decay out of range; nothing changes then.
+// `CMLT_ERROR_BUSY` while a worker renders.
+//
+// # Safety
+// `renderer` is NULL or valid.
+enum cmlt_status cmlt_renderer_set_accumulation(struct cmlt_renderer *renderer,
+                                                uint32_t mode,
+                                                float decay);
+
 // Readies the renderer for this frame's `cmlt_renderer_render` calls on
 // the calling thread: exactly `cmlt_renderer_prepare_begin`, then
 // `cmlt_renderer_prepare_worker` for every worker in turn, then
@@ -888,11 +915,40 @@ enum cmlt_status cmlt_renderer_prepare_begin(struct cmlt_renderer *renderer, uin
 enum cmlt_status cmlt_renderer_prepare_worker(const struct cmlt_renderer *renderer,
                                               uint32_t worker);
 
+// `cmlt_renderer_prepare_worker` in pieces of about a millisecond of
+// work (16 bootstrap samples or normalisation-pass pixels), calling
+// `keep_going(user, done)` before every piece after the first and
+// stopping when it returns 0: the set-up bounded by the host's clock.
+// `*out_finished` (may be NULL) is 1 when the worker's share is complete,
+// 0 when the next call must go on (it continues where this one stopped,
+// in a later frame too). The share is the same, bit for bit, however it
+// was cut. Same thread rules as `cmlt_renderer_render`; the callback
+// must not call into cmlt.
+//
+// With `keep_chains`, frames after the first bootstrap need none to
+// render: `cmlt_renderer_prepare_begin` then readies the renderer at
+// once (the kept chains go on with the b of earlier frames) while a new
+// bootstrap proceeds in whatever pieces the host's calls allow, spanning
+// frames, and is joined by the `cmlt_renderer_prepare_finish` after it
+// completes.
+//
+// # Safety
+// `renderer` is NULL or valid; `keep_going` is callable with `user`;
+// `out_finished` is NULL or valid.
+enum cmlt_status cmlt_renderer_prepare_worker_while(const struct cmlt_renderer *renderer,
+                                                    uint32_t worker,
+                                                    cmlt_keep_going_fn keep_going,
+                                                    void *user,
+                                                    uint32_t *out_finished);
+
 // Joins the workers' shares of the bootstrap (after
 // `cmlt_renderer_prepare_worker` for every worker): the renderer is then
-// ready for `cmlt_renderer_render`. A share missing is
+// ready for `cmlt_renderer_render`. A share missing or incomplete is
 // `CMLT_ERROR_INVALID_OPERATION` (nothing changes; run the missing
-// workers and call again). `CMLT_ERROR_BUSY` while a worker renders.
+// workers and call again) — unless kept chains go on with an earlier
+// bootstrap (see `cmlt_renderer_prepare_worker_while`): then the
+// incomplete bootstrap stays pending for later frames and the call
+// succeeds. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` is NULL or valid.
@@ -926,8 +982,11 @@ enum cmlt_status cmlt_renderer_render(const struct cmlt_renderer *renderer,
                                       uint64_t budget,
                                       uint64_t *out_done);
 
-// `cmlt_renderer_render` in steps (one round of mutations, or one pass),
-// calling `keep_going(user, done)` before every step after the first and
+// `cmlt_renderer_render` in pieces — 16 camera samples (PT, BDPT: about
+// a millisecond of work; a frame may end inside a pass, the next call
+// goes on from there, and each pixel is normalised by its own sample
+// count) or one round of mutations (MLT, CMLT) — calling
+// `keep_going(user, done)` before every piece after the first and
 // stopping when it returns 0 or `budget` units are done: a frame bounded
 // by the host's own clock (the library never reads time). `*out_done`
 // (may be NULL) receives the units rendered. Same thread rules as

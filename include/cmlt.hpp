@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "cmlt.h"
@@ -42,6 +43,14 @@ enum class Format : std::uint32_t {
     Rgba8Srgb = CMLT_FORMAT_RGBA8_SRGB,
 };
 
+/// How PT and BDPT carry their accumulation into the next frame
+/// (`CMLT_ACCUMULATION_*`, `Renderer::set_accumulation`).
+enum class Accumulation : std::uint32_t {
+    Reset = CMLT_ACCUMULATION_RESET,
+    Keep = CMLT_ACCUMULATION_KEEP,
+    Decay = CMLT_ACCUMULATION_DECAY,
+};
+
 /// A status's readable name.
 inline const char *name(Status s) { return cmlt_status_name(static_cast<std::uint32_t>(s)); }
 
@@ -50,6 +59,9 @@ inline const char *last_error() { return cmlt_last_error(); }
 
 namespace detail {
 inline Status status(cmlt_status s) { return static_cast<Status>(s); }
+
+/// A callable's address as the C callbacks' `user` pointer.
+template <class F> void *user(F &f) { return const_cast<void *>(static_cast<const void *>(&f)); }
 
 /// Calls a host callable through the C callback `cmlt_keep_going_fn`.
 template <class F> std::uint32_t keep_going(void *user, std::uint64_t done) {
@@ -131,11 +143,27 @@ class Renderer {
     [[nodiscard]] Status set_camera(const cmlt_camera &camera) {
         return detail::status(cmlt_renderer_set_camera(p_, &camera));
     }
+    /// PT, BDPT: keep, decay (by `decay` per frame) or reset the
+    /// accumulation at the next frames.
+    [[nodiscard]] Status set_accumulation(Accumulation mode, float decay = 0.0f) {
+        return detail::status(cmlt_renderer_set_accumulation(p_, static_cast<std::uint32_t>(mode), decay));
+    }
     [[nodiscard]] Status prepare() { return detail::status(cmlt_renderer_prepare(p_)); }
     [[nodiscard]] Status prepare_begin(bool &pending) {
         std::uint32_t p = 0;
         Status s = detail::status(cmlt_renderer_prepare_begin(p_, &p));
         pending = p != 0;
+        return s;
+    }
+    /// Worker `worker`'s share of the set-up, asking `keep_going(done)`
+    /// between pieces; `finished` says whether the share is complete.
+    template <class F>
+    [[nodiscard]] Status prepare_worker_while(std::uint32_t worker, F &&keep_going, bool &finished) {
+        using Fn = std::remove_reference_t<F>;
+        std::uint32_t f = 0;
+        Status s = detail::status(cmlt_renderer_prepare_worker_while(
+            p_, worker, &detail::keep_going<Fn>, detail::user(keep_going), &f));
+        finished = f != 0;
         return s;
     }
     [[nodiscard]] Status prepare_worker(std::uint32_t worker) {
@@ -152,7 +180,7 @@ class Renderer {
                                       std::uint64_t *done = nullptr) {
         using Fn = std::remove_reference_t<F>;
         return detail::status(cmlt_renderer_render_while(p_, worker, budget, &detail::keep_going<Fn>,
-                                                         static_cast<void *>(&keep_going), done));
+                                                         detail::user(keep_going), done));
     }
     [[nodiscard]] Status resolve(Format format, void *pixels, std::size_t row_stride, std::size_t size) const {
         return detail::status(cmlt_renderer_resolve(p_, static_cast<std::uint32_t>(format),

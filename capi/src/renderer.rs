@@ -21,8 +21,8 @@ use cmlt_core::math::Rgb;
 use cmlt_core::math::spectrum::linear_to_srgb;
 use cmlt_core::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
 use cmlt_core::renderer::{
-    Accumulator, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
-    RendererConfig, Temporal,
+    Accumulation, Accumulator, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker,
+    Renderer, RendererConfig, Temporal,
 };
 
 use crate::alloc::{check_oom, measure_allocations, try_reserve};
@@ -55,6 +55,15 @@ pub const CMLT_SPLATTING_RECYCLED: u32 = 0;
 /// CMLT: each step records the chosen candidate with its acceptance a and
 /// the current state with 1 − a (unbiased).
 pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
+
+/// PT, BDPT: every frame starts a new accumulation (the default).
+pub const CMLT_ACCUMULATION_RESET: u32 = 0;
+/// PT, BDPT: frames add to the earlier ones (converges while the camera
+/// and scene stay; smears when they move).
+pub const CMLT_ACCUMULATION_KEEP: u32 = 1;
+/// PT, BDPT: earlier frames' samples weigh `decay` per frame of age (an
+/// exponential moving average).
+pub const CMLT_ACCUMULATION_DECAY: u32 = 2;
 
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
@@ -635,6 +644,41 @@ pub unsafe extern "C" fn cmlt_renderer_set_camera(
     })
 }
 
+/// How PT and BDPT carry their accumulation into the frames after this
+/// one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
+/// image), `CMLT_ACCUMULATION_KEEP` (frames add up) or
+/// `CMLT_ACCUMULATION_DECAY` (earlier samples weigh `decay` per frame of
+/// age, 0 < `decay` < 1; ignored by the other modes). May change every
+/// frame. MLT and CMLT refuse anything but reset
+/// (`CMLT_ERROR_INVALID_ARGUMENT`; they keep chains instead), as do an
+/// unknown mode and a decay out of range; nothing changes then.
+/// `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_set_accumulation(
+    renderer: *mut cmlt_renderer,
+    mode: u32,
+    decay: f32,
+) -> cmlt_status {
+    guard("cmlt_renderer_set_accumulation", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let mode = match mode {
+            CMLT_ACCUMULATION_RESET => Accumulation::Reset,
+            CMLT_ACCUMULATION_KEEP => Accumulation::Keep,
+            CMLT_ACCUMULATION_DECAY => Accumulation::Decay(decay),
+            _ => return Err(Error::invalid("unknown accumulation mode")),
+        };
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
+        inner.set_accumulation(mode).map_err(render_error)
+    })
+}
+
 /// Runs `f` on worker `worker` with the renderer read-locked and the worker
 /// locked: the thread rules of `cmlt_renderer_render` (an index out of
 /// range is `INVALID_ARGUMENT`, a renderer being prepared or a worker being
@@ -775,11 +819,62 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_worker(
     })
 }
 
+/// `cmlt_renderer_prepare_worker` in pieces of about a millisecond of
+/// work (16 bootstrap samples or normalisation-pass pixels), calling
+/// `keep_going(user, done)` before every piece after the first and
+/// stopping when it returns 0: the set-up bounded by the host's clock.
+/// `*out_finished` (may be NULL) is 1 when the worker's share is complete,
+/// 0 when the next call must go on (it continues where this one stopped,
+/// in a later frame too). The share is the same, bit for bit, however it
+/// was cut. Same thread rules as `cmlt_renderer_render`; the callback
+/// must not call into cmlt.
+///
+/// With `keep_chains`, frames after the first bootstrap need none to
+/// render: `cmlt_renderer_prepare_begin` then readies the renderer at
+/// once (the kept chains go on with the b of earlier frames) while a new
+/// bootstrap proceeds in whatever pieces the host's calls allow, spanning
+/// frames, and is joined by the `cmlt_renderer_prepare_finish` after it
+/// completes.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `keep_going` is callable with `user`;
+/// `out_finished` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_prepare_worker_while(
+    renderer: *const cmlt_renderer,
+    worker: u32,
+    keep_going: cmlt_keep_going_fn,
+    user: *mut c_void,
+    out_finished: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_renderer_prepare_worker_while", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let keep_going = keep_going.ok_or_else(|| Error::null("keep_going"))?;
+        // SAFETY: the caller's contract on the callback.
+        let ask = |done: u64| unsafe { keep_going(user, done) } != 0;
+        let c = r.scene.live()?;
+        let finished = with_worker(r, worker, |inner, w| {
+            inner
+                .prepare_worker_while(w, &c.scene, &c.accel, ask)
+                .map(u64::from)
+        })?;
+        if !out_finished.is_null() {
+            // SAFETY: the caller's contract.
+            unsafe { *out_finished = finished as u32 };
+        }
+        Ok(())
+    })
+}
+
 /// Joins the workers' shares of the bootstrap (after
 /// `cmlt_renderer_prepare_worker` for every worker): the renderer is then
-/// ready for `cmlt_renderer_render`. A share missing is
+/// ready for `cmlt_renderer_render`. A share missing or incomplete is
 /// `CMLT_ERROR_INVALID_OPERATION` (nothing changes; run the missing
-/// workers and call again). `CMLT_ERROR_BUSY` while a worker renders.
+/// workers and call again) — unless kept chains go on with an earlier
+/// bootstrap (see `cmlt_renderer_prepare_worker_while`): then the
+/// incomplete bootstrap stays pending for later frames and the call
+/// succeeds. `CMLT_ERROR_BUSY` while a worker renders.
 ///
 /// # Safety
 /// `renderer` is NULL or valid.
@@ -865,8 +960,11 @@ pub unsafe extern "C" fn cmlt_renderer_render(
 #[allow(non_camel_case_types)]
 pub type cmlt_keep_going_fn = Option<unsafe extern "C" fn(user: *mut c_void, done: u64) -> u32>;
 
-/// `cmlt_renderer_render` in steps (one round of mutations, or one pass),
-/// calling `keep_going(user, done)` before every step after the first and
+/// `cmlt_renderer_render` in pieces — 16 camera samples (PT, BDPT: about
+/// a millisecond of work; a frame may end inside a pass, the next call
+/// goes on from there, and each pixel is normalised by its own sample
+/// count) or one round of mutations (MLT, CMLT) — calling
+/// `keep_going(user, done)` before every piece after the first and
 /// stopping when it returns 0 or `budget` units are done: a frame bounded
 /// by the host's own clock (the library never reads time). `*out_done`
 /// (may be NULL) receives the units rendered. Same thread rules as

@@ -8,6 +8,8 @@
 //! - [`cli`]: the `cmlt` binary end to end, bad input included;
 //! - [`corpus`]: Bitterli's 25 Mitsuba scenes against an expectation table;
 //! - [`effects`]: the effect analysis of the shared scenes;
+//! - [`frames`]: kept Metropolis chains after a camera that moves and
+//!   returns against the Cornell-box reference;
 //! - [`loader`]: the Mitsuba 3 XML loader and its malformed corpus;
 //! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
 //! - [`parts`]: renders split into parts and merged (`--part`, `cmlt
@@ -24,6 +26,7 @@ mod bvh_scenes;
 mod cli;
 mod corpus;
 mod effects;
+mod frames;
 mod loader;
 mod mlt;
 mod parts;

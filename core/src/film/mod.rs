@@ -119,6 +119,17 @@ impl Film {
         self.nonfinite = 0;
     }
 
+    /// Multiplies every sum (samples and splats) by `factor`, keeping the
+    /// pass count: the decay of an exponentially weighted accumulation
+    /// (`renderer::Accumulation::Decay`).
+    pub fn scale(&mut self, factor: f64) {
+        for p in self.sum.iter_mut().chain(self.splat.iter_mut()) {
+            for c in p {
+                *c *= factor;
+            }
+        }
+    }
+
     /// Pixel `index`'s camera-sample sum and splat sum, apart: a merge of
     /// several films that adds each layer on its own and the two at the
     /// end (as [`Film::merge`] then [`Film::resolve`] do) rounds the same.

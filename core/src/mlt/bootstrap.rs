@@ -88,15 +88,19 @@ pub fn evaluate_samples<I: Intersector>(
     }
 }
 
-/// Renders normalisation pass `pass` — one BDPT sample per pixel, depths
-/// 1 … D, all strategies with MIS — and adds the luminance of every
-/// contribution to `sums[depth − 1]` (`sums.len()` ≥ D).
+/// Renders the pixels `pixels` (row-major indices) of normalisation pass
+/// `pass` — one BDPT sample per pixel, depths 1 … D, all strategies with
+/// MIS — and adds the luminance of every contribution to `sums[depth − 1]`
+/// (`sums.len()` ≥ D). A pass evaluated in consecutive pieces into the
+/// same `sums` adds in the same order as in one go: the same sums, bit for
+/// bit (how a frame loop spreads its set-up over calls).
 pub(crate) fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     ws: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
+    pixels: Range<u64>,
     sums: &mut [f64],
 ) {
     let depths = depths(settings);
@@ -105,19 +109,18 @@ pub(crate) fn evaluate_pass<I: Intersector>(
         ..*settings
     };
     let camera = tracer.camera;
-    let (w, h) = (camera.width(), camera.height());
+    let w = camera.width() as u64;
     let pass_seed = mix64(seed ^ 0x0B5E_ED00_0000_0000);
-    for y in 0..h {
-        for x in 0..w {
-            let mut rng = SampleStream::new(pass_seed, pass, y as u64 * w as u64 + x as u64);
-            let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
-            bdpt::sample_each(tracer, &capped, ws, raster, &mut rng, |s, t, l, _| {
-                let y = l.luminance();
-                if y.is_finite() && y > 0.0 {
-                    sums[s + t - 2] += y as f64;
-                }
-            });
-        }
+    for i in pixels.start..pixels.end.min(camera.pixel_count()) {
+        let (x, y) = ((i % w) as u32, (i / w) as u32);
+        let mut rng = SampleStream::new(pass_seed, pass, i);
+        let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+        bdpt::sample_each(tracer, &capped, ws, raster, &mut rng, |s, t, l, _| {
+            let y = l.luminance();
+            if y.is_finite() && y > 0.0 {
+                sums[s + t - 2] += y as f64;
+            }
+        });
     }
 }
 

@@ -77,6 +77,7 @@
 //! re-evaluated, b is averaged over a window of frames while the camera
 //! stays put, and/or every frame reuses the same random sequences.
 
+mod accumulation;
 mod estimator;
 
 use alloc::vec::Vec;
@@ -93,7 +94,16 @@ use crate::mlt::{self, Bootstrap, MltSettings, MltStats, PrimarySampler, WorkerC
 use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
+pub use accumulation::Accumulation;
+use accumulation::Weights;
 pub use estimator::{Estimator, EstimatorKind};
+
+/// The smallest piece of work between two questions of a time budget's
+/// callback ([`Renderer::render_while`] for PT and BDPT,
+/// [`Renderer::prepare_worker_while`] for the Metropolis set-up): camera
+/// samples, bootstrap samples or normalisation-pass pixels. At tens of
+/// microseconds per BDPT sample, about a millisecond of work.
+pub const PIECE: u64 = 16;
 
 /// The deepest path (segments) a renderer accepts, through `max_depth` or
 /// the depth cap: every worker's storage is sized for it at creation.
@@ -295,12 +305,25 @@ pub struct Renderer {
     /// analysis; MLT, CMLT: also the bootstrap).
     prepared: Option<u64>,
     bootstrap: Bootstrap,
-    /// The generation whose bootstrap the workers are evaluating between
-    /// `begin_prepare` and `finish_prepare`.
+    /// The bootstrap the workers are evaluating (its number among the
+    /// bootstraps begun) between `begin_prepare` and `finish_prepare`;
+    /// with kept chains it may span frames (see `begin_prepare`).
     pending: Option<u64>,
+    /// Bootstraps begun so far.
+    epochs: u64,
+    /// The generation the pending bootstrap was begun for.
+    pending_generation: u64,
     /// The level-1 settings of the pending bootstrap (fewer bootstrap
     /// samples for kept chains, see `begin_prepare`).
     boot_mlt: MltSettings,
+    /// The path settings and seed the pending bootstrap evaluates with.
+    boot_settings: Settings,
+    boot_seed: u64,
+    /// Whether a bootstrap has been joined: kept chains can then go on
+    /// with it while the next one is evaluated.
+    has_bootstrap: bool,
+    /// How PT and BDPT workers carry their films into the next frame.
+    accumulation: Accumulation,
     /// Where `finish_prepare` joins the workers' shares.
     shares: Shares,
     /// Identifies this renderer's workers.
@@ -339,11 +362,15 @@ pub struct RenderWorker {
     /// The scene revision of this worker's last accumulation.
     scene_revision: Option<u64>,
     film: Film,
+    /// PT, BDPT: samples per pixel in `film` (empty for MLT, CMLT).
+    weights: Weights,
+    /// PT, BDPT: the next pixel of the open pass (0 between passes).
+    cursor: u64,
     bdpt: bdpt::PathStorage,
     mlt: Option<WorkerChains>,
     /// This worker's share of a split bootstrap (MLT, CMLT).
     boot: Option<WorkerBootstrap>,
-    /// Passes this worker has rendered since the last reset.
+    /// Passes this worker has completed since the last reset.
     passes: u64,
     stats: Stats,
 }
@@ -354,10 +381,20 @@ pub struct RenderWorker {
 /// rays it traced, and the storage it evaluates with — all sized when the
 /// worker is made.
 struct WorkerBootstrap {
-    /// The generation these values are for.
-    generation: Option<u64>,
+    /// The bootstrap (`Renderer::pending`) these values are for.
+    epoch: Option<u64>,
+    /// Whether the share is complete.
+    complete: bool,
+    /// The next bootstrap sample to evaluate (global index).
+    next_sample: u64,
+    /// The worker's next normalisation pass (its `j`-th: pass `i + W·j`)
+    /// and the next pixel of it.
+    pass_j: u64,
+    pixel: u64,
     values: Vec<f32>,
     passes: Vec<f64>,
+    /// Rays of the set-up since the worker's last frame began (they count
+    /// towards its next frame).
     stats: Stats,
     ws: bdpt::PathStorage,
     sampler: PrimarySampler,
@@ -406,7 +443,13 @@ impl Renderer {
         Ok(Renderer {
             bootstrap: Bootstrap::with_capacity(&config.settings, &mlt),
             pending: None,
+            epochs: 0,
+            pending_generation: 0,
             boot_mlt: mlt,
+            boot_settings: config.settings,
+            boot_seed: config.seed,
+            has_bootstrap: false,
+            accumulation: Accumulation::Reset,
             shares: Shares {
                 values: Vec::with_capacity(Bootstrap::sample_count(&config.settings, &mlt) as usize),
                 passes: Vec::with_capacity(passes * depths),
@@ -500,7 +543,8 @@ impl Renderer {
         // sampler, its values and pass sums), their chains' path storage,
         // a state, a sampler and a path per chain, and the multiple-try
         // candidates (k ≤ 64 of them).
-        let film = pixels * Film::BYTES_PER_PIXEL;
+        // PT and BDPT also count samples per pixel (an f32 each).
+        let film = pixels * (Film::BYTES_PER_PIXEL + 4);
         let mut worker =
             c(film.checked_add(size_of::<RenderWorker>() as u64 + workspace + 16 * BLOCK))?;
         // Only a Metropolis renderer keeps bootstrap tables and the passes'
@@ -607,16 +651,49 @@ impl Renderer {
         self.prepared = None;
     }
 
+    /// How PT and BDPT workers carry their films into the frames after this
+    /// one (each worker applies it when it starts its next frame):
+    /// [`Accumulation::Reset`] by default. Metropolis renderers refuse
+    /// anything else ([`RenderError::Config`]): their chains carry over
+    /// instead ([`Temporal::keep_chains`]). Nothing changes on error.
+    pub fn set_accumulation(&mut self, mode: Accumulation) -> Result<(), RenderError> {
+        mode.validate().map_err(RenderError::Config)?;
+        if self.config.estimator.is_metropolis() && mode != Accumulation::Reset {
+            return Err(RenderError::Config(
+                "keeping or decaying the accumulation is for PT and BDPT (MLT and CMLT keep chains)",
+            ));
+        }
+        self.accumulation = mode;
+        Ok(())
+    }
+
+    /// The accumulation mode ([`Renderer::set_accumulation`]).
+    pub fn accumulation(&self) -> Accumulation {
+        self.accumulation
+    }
+
     /// The first of the three steps that make the renderer ready for
     /// `render` after creation, a camera change or a scene update (see the
     /// module docs): starts a new frame if the scene changed (a
     /// [`Scene::revision`] other than the one the frame was prepared for:
     /// meshes moved, as `set_camera` does), finds what the scene calls
     /// for, and returns whether the workers have bootstrap work to do —
-    /// then every worker runs [`Renderer::prepare_worker`] and one thread
+    /// then every worker runs [`Renderer::prepare_worker`] (or
+    /// [`Renderer::prepare_worker_while`]) and one thread
     /// [`Renderer::finish_prepare`]. `false` (already prepared, or PT and
     /// BDPT, which need no bootstrap): the renderer is ready. `scene` must
     /// be the one every `render` uses.
+    ///
+    /// With [`Temporal::keep_chains`], once a first bootstrap has been
+    /// joined the renderer is ready at once: the kept chains go on under
+    /// the new camera and scene with the b of the earlier frames, while a
+    /// new bootstrap (fewer bootstrap samples: [`KEPT_BOOTSTRAP_SHARE`]) is
+    /// evaluated in the background of the frames, in whatever pieces the
+    /// host's `prepare_worker_while` calls allow, and joined by the
+    /// `finish_prepare` after it is complete: b is tracked over the frames
+    /// that bootstrap spanned. A bootstrap that is still being evaluated
+    /// carries over a camera change or a scene update instead of starting
+    /// again.
     pub fn begin_prepare(&mut self, scene: &Scene) -> bool {
         let revision = Some(scene.revision());
         if self.scene_revision.is_some() && self.scene_revision != revision {
@@ -624,59 +701,98 @@ impl Renderer {
             self.next_frame();
         }
         self.scene_revision = revision;
-        if self.prepared == Some(self.generation) {
+        let fresh = self.prepared != Some(self.generation);
+        if !fresh && self.pending.is_none() {
             return false;
         }
-        if self.pending == Some(self.generation) {
-            return true;
+        if fresh {
+            // The camera (its lens) may have changed with the frame; the
+            // scene's materials never do while it is borrowed.
+            self.analysis = if self.config.all_effects {
+                Analysis::all()
+            } else {
+                scene.analysis(&self.camera)
+            };
+            self.settings = self.config.settings.specialised(&self.analysis);
         }
-        // The camera (its lens) may have changed with the frame; the
-        // scene's materials never do while it is borrowed.
-        self.analysis = if self.config.all_effects {
-            Analysis::all()
-        } else {
-            scene.analysis(&self.camera)
-        };
-        self.settings = self.config.settings.specialised(&self.analysis);
-        let Some(mlt) = self.config.estimator.mlt() else {
+        let Some(mlt) = self.config.estimator.mlt().copied() else {
             self.prepared = Some(self.generation);
             return false;
         };
-        // Kept chains need bootstrap samples only to restart the few the new
-        // view leaves at zero (and those search further when none of
-        // theirs contributes: `WorkerChains::reevaluate`), so a frame after
-        // the first draws a share of them. b comes from the normalisation
-        // passes then, not from the bootstrap samples.
-        self.boot_mlt = if self.config.temporal.keep_chains && self.frame > 0 && mlt.b_passes > 0 {
-            MltSettings {
-                n_bootstrap: (mlt.n_bootstrap / KEPT_BOOTSTRAP_SHARE).max(1),
-                ..*mlt
-            }
-        } else {
-            *mlt
+        let keep = self.config.temporal.keep_chains;
+        // Without kept chains every frame's chains start from its own
+        // bootstrap; with them a bootstrap under way goes on (unless the
+        // analysis changed what it evaluates).
+        let restart = match self.pending {
+            None => true,
+            Some(_) if keep => self.boot_settings != self.settings,
+            Some(_) => self.pending_generation != self.generation,
         };
-        self.pending = Some(self.generation);
+        if restart {
+            // Kept chains need bootstrap samples only to restart the few a
+            // new view leaves at zero (and those search further when none
+            // of theirs contributes: `WorkerChains::reevaluate`), so a
+            // bootstrap after the first draws a share of them. b comes
+            // from the normalisation passes then, not from the bootstrap
+            // samples.
+            self.boot_mlt = if keep && self.has_bootstrap && mlt.b_passes > 0 {
+                MltSettings {
+                    n_bootstrap: (mlt.n_bootstrap / KEPT_BOOTSTRAP_SHARE).max(1),
+                    ..mlt
+                }
+            } else {
+                mlt
+            };
+            self.epochs += 1;
+            self.pending = Some(self.epochs);
+            self.pending_generation = self.generation;
+            self.boot_settings = self.settings;
+            self.boot_seed = self.frame_seed();
+        }
+        if keep && self.has_bootstrap {
+            self.prepared = Some(self.generation);
+        }
         true
     }
 
     /// Worker `worker`'s share of the bootstrap begun by
-    /// [`Renderer::begin_prepare`]: the `i`-th of `W` contiguous ranges of
-    /// bootstrap samples and the normalisation passes `i, i + W, …`, into the
-    /// worker's own storage. Workers may run it at the same time on
-    /// different threads. Does nothing when no bootstrap is pending.
-    /// Allocates nothing.
+    /// [`Renderer::begin_prepare`], evaluated to the end:
+    /// [`Renderer::prepare_worker_while`] with a callback that always says
+    /// yes.
     pub fn prepare_worker<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
         accel: &I,
     ) -> Result<(), RenderError> {
+        self.prepare_worker_while(worker, scene, accel, |_| true)
+            .map(|_| ())
+    }
+
+    /// Worker `worker`'s share of the bootstrap begun by
+    /// [`Renderer::begin_prepare`]: the `i`-th of `W` contiguous ranges of
+    /// bootstrap samples and the normalisation passes `i, i + W, …`, into the
+    /// worker's own storage, in pieces of [`PIECE`] bootstrap samples or
+    /// pass pixels, asking `keep_going(units so far)` before every piece
+    /// after the first. Returns whether the share is complete; when not,
+    /// the next call goes on where this one stopped (in a later frame too,
+    /// as long as the bootstrap is pending). The values are the same bit
+    /// for bit however the share was cut. Workers may run it at the same
+    /// time on different threads. Returns `Ok(true)` at once when no
+    /// bootstrap is pending. Allocates nothing.
+    pub fn prepare_worker_while<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        scene: &Scene,
+        accel: &I,
+        mut keep_going: impl FnMut(u64) -> bool,
+    ) -> Result<bool, RenderError> {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
-        if self.pending != Some(self.generation) {
-            return Ok(());
-        }
+        let Some(epoch) = self.pending else {
+            return Ok(true);
+        };
         if self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
         }
@@ -684,40 +800,74 @@ impl Renderer {
             return Err(RenderError::Worker);
         };
         let (i, w) = (worker.index as u64, self.config.workers as u64);
-        let mlt = &self.boot_mlt;
-        let seed = self.frame_seed();
-        let mut tracer = self.tracer(scene, accel);
-        let n = Bootstrap::sample_count(&self.settings, mlt);
+        let (settings, mlt, seed) = (&self.boot_settings, &self.boot_mlt, self.boot_seed);
+        let n = Bootstrap::sample_count(settings, mlt);
         let chunk = n.div_ceil(w);
         let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
-        boot.values.clear();
-        bootstrap::evaluate_samples(
-            &mut tracer,
-            &self.settings,
-            seed,
-            range,
-            &mut boot.ws,
-            &mut boot.sampler,
-            &mut boot.values,
-        );
-        let depths = mlt::depths(&self.settings) as usize;
-        boot.passes.clear();
-        let passes = mlt.normalisation_passes(self.pixels());
-        for pass in (i..u64::from(passes)).step_by(w as usize) {
-            let at = boot.passes.len();
-            boot.passes.resize(at + depths, 0.0);
+        if boot.epoch != Some(epoch) {
+            boot.epoch = Some(epoch);
+            boot.complete = false;
+            boot.next_sample = range.start;
+            boot.pass_j = 0;
+            boot.pixel = 0;
+            boot.values.clear();
+            boot.passes.clear();
+        }
+        if boot.complete {
+            return Ok(true);
+        }
+        let mut tracer = self.tracer(scene, accel);
+        let depths = mlt::depths(settings) as usize;
+        let passes = u64::from(mlt.normalisation_passes(self.pixels()));
+        let pixels = self.pixels();
+        let mut done = 0;
+        loop {
+            if done > 0 && !keep_going(done) {
+                break;
+            }
+            if boot.next_sample < range.end {
+                let end = (boot.next_sample + PIECE).min(range.end);
+                bootstrap::evaluate_samples(
+                    &mut tracer,
+                    settings,
+                    seed,
+                    boot.next_sample..end,
+                    &mut boot.ws,
+                    &mut boot.sampler,
+                    &mut boot.values,
+                );
+                done += end - boot.next_sample;
+                boot.next_sample = end;
+                continue;
+            }
+            let pass = i + w * boot.pass_j;
+            if pass >= passes {
+                boot.complete = true;
+                break;
+            }
+            if boot.pixel == 0 {
+                boot.passes.resize(boot.passes.len() + depths, 0.0);
+            }
+            let end = (boot.pixel + PIECE).min(pixels);
+            let at = boot.passes.len() - depths;
             bootstrap::evaluate_pass(
                 &mut tracer,
-                &self.settings,
+                settings,
                 &mut boot.ws,
                 seed,
                 pass,
+                boot.pixel..end,
                 &mut boot.passes[at..],
             );
+            done += end - boot.pixel;
+            boot.pixel = end;
+            if end == pixels {
+                boot.pixel = 0;
+                boot.pass_j += 1;
+            }
         }
-        boot.stats = tracer.stats;
-        boot.generation = Some(self.generation);
-        Ok(())
+        boot.stats.merge(&tracer.stats);
+        Ok(boot.complete)
     }
 
     /// The last of the three steps: joins the shares of the bootstrap that
@@ -729,19 +879,23 @@ impl Renderer {
     /// `workers` must be all of the renderer's, in any order, each once;
     /// they are read one at a time (a host holding each worker behind its
     /// own lock hands over guards), so the host need not collect them.
-    /// A worker missing, given twice or without its share is
-    /// [`RenderError::BootstrapIncomplete`] and changes nothing. Does
-    /// nothing when no bootstrap is pending. Allocates nothing.
+    /// A worker missing, given twice or without its complete share is
+    /// [`RenderError::BootstrapIncomplete`] and changes nothing — except
+    /// when kept chains go on with an earlier bootstrap (see
+    /// [`Renderer::begin_prepare`]): then an incomplete bootstrap is left
+    /// pending for later frames and the call succeeds. Does nothing when
+    /// no bootstrap is pending. Allocates nothing.
     pub fn finish_prepare<W: Deref<Target = RenderWorker>>(
         &mut self,
         workers: impl IntoIterator<Item = W>,
     ) -> Result<(), RenderError> {
-        if self.pending != Some(self.generation) {
+        let Some(epoch) = self.pending else {
             return Ok(());
-        }
-        let (pixels, seed) = (self.pixels(), self.frame_seed());
-        let depths = mlt::depths(&self.settings) as usize;
-        let n = Bootstrap::sample_count(&self.settings, &self.boot_mlt) as usize;
+        };
+        let carried = self.prepared == Some(self.generation);
+        let pixels = self.pixels();
+        let depths = mlt::depths(&self.boot_settings) as usize;
+        let n = Bootstrap::sample_count(&self.boot_settings, &self.boot_mlt) as usize;
         let passes = self.boot_mlt.normalisation_passes(pixels) as usize;
         let shares = &mut self.shares;
         shares.values.clear();
@@ -750,17 +904,23 @@ impl Renderer {
         shares.passes.resize(passes * depths, 0.0);
         shares.joined.fill(false);
         let w = self.config.workers as usize;
+        let mut incomplete = false;
         for worker in workers {
             if worker.renderer != self.id {
                 return Err(RenderError::Worker);
             }
             let i = worker.index as usize;
+            if shares.joined[i] {
+                return Err(RenderError::BootstrapIncomplete);
+            }
+            shares.joined[i] = true;
             let share = worker
                 .boot
                 .as_ref()
-                .filter(|b| b.generation == Some(self.generation));
-            let (Some(share), false) = (share, shares.joined[i]) else {
-                return Err(RenderError::BootstrapIncomplete);
+                .filter(|b| b.epoch == Some(epoch) && b.complete);
+            let Some(share) = share else {
+                incomplete = true;
+                continue;
             };
             let start = (i * n.div_ceil(w)).min(n);
             shares.values[start..start + share.values.len()].copy_from_slice(&share.values);
@@ -768,10 +928,13 @@ impl Renderer {
                 let p = i + w * j;
                 shares.passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
             }
-            shares.joined[i] = true;
         }
-        if shares.joined.contains(&false) {
-            return Err(RenderError::BootstrapIncomplete);
+        if incomplete || shares.joined.contains(&false) {
+            return if carried {
+                Ok(())
+            } else {
+                Err(RenderError::BootstrapIncomplete)
+            };
         }
         shares.sums.clear();
         shares.sums.resize(depths, 0.0);
@@ -779,14 +942,15 @@ impl Renderer {
             bootstrap::add_pass(&mut shares.sums, pass);
         }
         self.bootstrap.fill(
-            &self.settings,
+            &self.boot_settings,
             &self.boot_mlt,
-            seed,
+            self.boot_seed,
             &shares.values,
             &shares.sums,
             pixels,
         );
         self.pending = None;
+        self.has_bootstrap = true;
         self.push_b(self.bootstrap.b());
         self.prepared = Some(self.generation);
         Ok(())
@@ -871,8 +1035,9 @@ impl Renderer {
     }
 
     /// Checks a `render` call and, at a worker's first call of a frame,
-    /// clears its film and (MLT) restarts, re-evaluates or keeps its
-    /// chains. Returns the tracer the steps run with.
+    /// clears, keeps or decays its film ([`Accumulation`]; PT, BDPT) or
+    /// restarts, re-evaluates or keeps its chains (MLT, CMLT). Returns the
+    /// tracer the steps run with.
     fn begin_render<'a, I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -889,16 +1054,16 @@ impl Renderer {
         let settings = &self.settings;
         let mut tracer = self.tracer(scene, accel);
         if worker.generation != Some(self.generation) {
-            worker.film.clear();
-            worker.passes = 0;
-            // The rays of this worker's share of the bootstrap count
-            // towards the frame.
-            worker.stats = match &worker.boot {
-                Some(b) if b.generation == Some(self.generation) => b.stats,
-                _ => Stats::default(),
+            // The rays of this worker's set-up since its last frame count
+            // towards this one.
+            worker.stats = match &mut worker.boot {
+                Some(b) => core::mem::take(&mut b.stats),
+                None => Stats::default(),
             };
             let seed = self.frame_seed();
             if let (Some(m), Some(mlt)) = (&mut worker.mlt, c.estimator.mlt()) {
+                worker.film.clear();
+                worker.passes = 0;
                 let kept =
                     c.temporal.keep_chains && worker.generation.is_some() && m.chain_count() > 0;
                 if !kept {
@@ -918,6 +1083,16 @@ impl Renderer {
                 } else {
                     m.reset_stats();
                 }
+            } else {
+                worker
+                    .weights
+                    .next_frame(&mut worker.film, self.accumulation);
+                if self.accumulation == Accumulation::Reset {
+                    // A new accumulation: the open pass is dropped and the
+                    // passes are numbered from 0 again.
+                    worker.passes = 0;
+                    worker.cursor = 0;
+                }
             }
             worker.generation = Some(self.generation);
             worker.camera = Some(self.camera);
@@ -926,43 +1101,68 @@ impl Renderer {
         Ok(tracer)
     }
 
-    /// Runs `steps` passes or rounds into a worker `begin_render` readied;
-    /// returns the units rendered.
+    /// Runs `steps` steps into a worker `begin_render` readied — rounds
+    /// (MLT, CMLT), or (PT, BDPT) the samples up to the end of the open
+    /// pass, or of the next when none is open; returns the units rendered.
     fn run_steps<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
         tracer: &mut Tracer<'_, I>,
         steps: u64,
     ) -> u64 {
-        let c = &self.config;
-        let settings = &self.settings;
         if let Some(m) = &mut worker.mlt {
-            return m.run(tracer, settings, &mut worker.film, steps);
+            return m.run(tracer, &self.settings, &mut worker.film, steps);
         }
-        let pt = c.estimator.kind() == EstimatorKind::Path;
+        let mut done = 0;
         for _ in 0..steps {
-            let pass = worker.index as u64 + c.workers as u64 * worker.passes;
-            render_pass(
-                tracer,
-                settings,
-                pt,
-                &mut worker.bdpt,
-                self.frame_seed(),
-                pass,
-                &mut worker.film,
-            );
-            worker.passes += 1;
+            done += self.run_samples(worker, tracer, self.pixels() - worker.cursor);
         }
-        steps * self.pixels()
+        done
     }
 
-    /// [`Renderer::render`] in steps — one round of mutations (MLT) or one
-    /// pass (PT, BDPT) — asking `keep_going(units_so_far)` before every
-    /// step after the first, up to `budget` units: how a host bounds a
-    /// frame by its own clock (the core never reads time, so it stays
-    /// `no_std`). The image then depends on how many steps the clock
-    /// allowed; with a callback that always says yes it equals
-    /// `render(budget)`. Returns the units rendered.
+    /// PT, BDPT: renders the next `count` samples of the worker's passes
+    /// (at most to the end of the open pass) — pass `i + W·passes`, pixels
+    /// from the cursor on, in row-major order — and returns how many.
+    fn run_samples<I: Intersector>(
+        &self,
+        worker: &mut RenderWorker,
+        tracer: &mut Tracer<'_, I>,
+        count: u64,
+    ) -> u64 {
+        let c = &self.config;
+        let pixels = self.pixels();
+        let end = (worker.cursor + count).min(pixels);
+        let pass = worker.index as u64 + c.workers as u64 * worker.passes;
+        render_samples(
+            tracer,
+            &self.settings,
+            c.estimator.kind() == EstimatorKind::Path,
+            &mut worker.bdpt,
+            self.frame_seed(),
+            pass,
+            worker.cursor..end,
+            &mut worker.film,
+            &mut worker.weights,
+        );
+        let done = end - worker.cursor;
+        worker.cursor = end;
+        if end == pixels {
+            worker.film.end_pass();
+            worker.passes += 1;
+            worker.cursor = 0;
+        }
+        done
+    }
+
+    /// [`Renderer::render`] in pieces, asking `keep_going(units_so_far)`
+    /// before every piece after the first, up to `budget` units: how a
+    /// host bounds a frame by its own clock (the core never reads time, so
+    /// it stays `no_std`). A piece is [`PIECE`] camera samples (PT, BDPT:
+    /// a frame may end inside a pass, whose samples count per pixel, and
+    /// the next call goes on from there) or one round of mutations (MLT,
+    /// CMLT). The image then depends on how many pieces the clock allowed;
+    /// with a callback that always says yes it equals `render(budget)`
+    /// whenever that budget ends on a pass. Returns the units rendered.
     pub fn render_while<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -971,17 +1171,23 @@ impl Renderer {
         budget: u64,
         mut keep_going: impl FnMut(u64) -> bool,
     ) -> Result<u64, RenderError> {
+        let mut tracer = self.begin_render(worker, scene, accel)?;
         let mut done = 0;
         while done < budget {
             if done > 0 && !keep_going(done) {
                 break;
             }
-            let step = self.render_steps(worker, scene, accel, 1)?;
+            let step = if worker.mlt.is_some() {
+                self.run_steps(worker, &mut tracer, 1)
+            } else {
+                self.run_samples(worker, &mut tracer, PIECE)
+            };
             if step == 0 {
                 break;
             }
             done += step;
         }
+        worker.stats.merge(&tracer.stats);
         Ok(done)
     }
 
@@ -1005,9 +1211,9 @@ impl Renderer {
         for i in 0..self.pixels() as usize {
             let mut sum = Layers::default();
             for w in workers.iter().filter(|w| self.is_current(w)) {
-                sum.add(&w.film, i);
+                sum.add(w, i);
             }
-            out(i, scaled(sum.total(), scale));
+            out(i, self.pixel(&sum, &totals, scale));
         }
         Ok(())
     }
@@ -1035,7 +1241,7 @@ impl Renderer {
         }
         if self.is_current(worker) {
             for (i, s) in acc.sums.iter_mut().enumerate() {
-                s.add(&worker.film, i);
+                s.add(worker, i);
             }
         }
         acc.totals.add(self, worker);
@@ -1054,7 +1260,7 @@ impl Renderer {
         }
         let scale = self.scale(&acc.totals);
         for (i, s) in acc.sums.iter_mut().enumerate() {
-            out(i, scaled(s.total(), scale));
+            out(i, self.pixel(s, &acc.totals, scale));
             *s = Layers::default();
         }
         acc.totals = Totals::default();
@@ -1110,51 +1316,80 @@ impl Renderer {
         w.generation == Some(self.generation)
     }
 
-    /// The factor from summed films to radiance: 1 / passes (PT, BDPT) or
-    /// b · pixels / records (MLT); 0 before anything was rendered.
+    /// The factor from summed films to radiance of MLT and CMLT: b ·
+    /// pixels / records; 0 before anything was rendered (PT and BDPT
+    /// normalise per pixel: [`Renderer::pixel`]).
     fn scale(&self, t: &Totals) -> f64 {
         if self.config.estimator.is_metropolis() {
             mlt::image_scale(self.b_used, self.pixels(), t.records)
-        } else if t.passes == 0 {
-            0.0
         } else {
-            1.0 / t.passes as f64
+            0.0
+        }
+    }
+
+    /// One merged pixel's radiance: its sums times the Metropolis `scale`,
+    /// or (PT, BDPT) its camera samples over its sample weight and its
+    /// splats over the whole image's (see `renderer/accumulation.rs`) —
+    /// after whole passes both are the pass count and the pixel is (samples
+    /// + splats) / passes.
+    fn pixel(&self, l: &Layers, t: &Totals, scale: f64) -> Rgb {
+        if self.config.estimator.is_metropolis() {
+            return scaled(l.total(), scale);
+        }
+        let inv = |w: f64| if w > 0.0 { 1.0 / w } else { 0.0 };
+        let splat_weight = t.samples / self.pixels() as f64;
+        if l.weight == splat_weight {
+            scaled(l.total(), inv(l.weight))
+        } else {
+            let (a, b) = (inv(l.weight), inv(splat_weight));
+            let (s, p) = (l.samples, l.splats);
+            scaled(
+                [
+                    s[0] * a + p[0] * b,
+                    s[1] * a + p[1] * b,
+                    s[2] * a + p[2] * b,
+                ],
+                1.0,
+            )
         }
     }
 }
 
-/// Renders pass `pass` — one sample in every pixel — into `film`, by path
-/// tracing (`pt`) or BDPT: the step of PT and BDPT (the Metropolis
-/// estimators' normalisation passes are `mlt::bootstrap`'s).
+/// Renders the samples of pass `pass` in the pixels `range` (row-major
+/// indices) into `film`, counting them in `weights`, by path tracing
+/// (`pt`) or BDPT: the step of PT and BDPT (the Metropolis estimators'
+/// normalisation passes are `mlt::bootstrap`'s). Consecutive ranges render
+/// exactly what the whole pass renders.
 ///
 /// The random stream of each sample depends only on `(seed, pass, pixel)`,
 /// so the same passes give the same samples whichever worker renders them.
-fn render_pass<I: Intersector>(
+#[allow(clippy::too_many_arguments)]
+fn render_samples<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
     pt: bool,
     paths: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
+    range: core::ops::Range<u64>,
     film: &mut Film,
+    weights: &mut Weights,
 ) {
-    let camera = tracer.camera;
-    let (w, h) = (camera.width(), camera.height());
-    for y in 0..h {
-        for x in 0..w {
-            let mut rng = SampleStream::new(seed, pass, y as u64 * w as u64 + x as u64);
-            let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
-            if pt {
-                let ray = tracer.camera_ray(raster, rng.next_2d());
-                let l = pt::radiance(tracer, settings, ray, &mut rng);
-                film.add_sample(x, y, l);
-            } else {
-                bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film);
-            }
-            tracer.stats.samples += 1;
+    let w = tracer.camera.width() as u64;
+    for i in range {
+        let (x, y) = ((i % w) as u32, (i / w) as u32);
+        let mut rng = SampleStream::new(seed, pass, i);
+        let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+        if pt {
+            let ray = tracer.camera_ray(raster, rng.next_2d());
+            let l = pt::radiance(tracer, settings, ray, &mut rng);
+            film.add_sample(x, y, l);
+        } else {
+            bdpt::sample(tracer, settings, paths, raster, x, y, &mut rng, film);
         }
+        weights.add(i as usize);
+        tracer.stats.samples += 1;
     }
-    film.end_pass();
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's
@@ -1166,17 +1401,18 @@ fn check_lens(camera: &Camera) -> Result<(), RenderError> {
     Ok(())
 }
 
-/// Passes and Metropolis records of the current accumulation.
+/// The sample weight (PT, BDPT) and Metropolis records of the current
+/// accumulation.
 #[derive(Clone, Copy, Debug, Default)]
 struct Totals {
-    passes: u64,
+    samples: f64,
     records: u64,
 }
 
 impl Totals {
     fn add(&mut self, r: &Renderer, w: &RenderWorker) {
         if w.renderer == r.id && r.is_current(w) {
-            self.passes += w.passes;
+            self.samples += w.weights.total();
             self.records += w.mlt.as_ref().map_or(0, |m| m.stats().records);
         }
     }
@@ -1198,15 +1434,18 @@ fn scaled(total: [f64; 3], scale: f64) -> Rgb {
 struct Layers {
     samples: [f64; 3],
     splats: [f64; 3],
+    /// PT, BDPT: the pixel's sample weight.
+    weight: f64,
 }
 
 impl Layers {
-    fn add(&mut self, film: &Film, pixel: usize) {
-        let (s, p) = film.pixel_parts(pixel);
+    fn add(&mut self, worker: &RenderWorker, pixel: usize) {
+        let (s, p) = worker.film.pixel_parts(pixel);
         for c in 0..3 {
             self.samples[c] += s[c];
             self.splats[c] += p[c];
         }
+        self.weight += worker.weights.at(pixel);
     }
 
     fn total(&self) -> [f64; 3] {
@@ -1252,6 +1491,12 @@ impl RenderWorker {
             camera: None,
             scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
+            weights: Weights::new(if mlt.is_some() {
+                0
+            } else {
+                camera.pixel_count() as usize
+            }),
+            cursor: 0,
             bdpt: bdpt::PathStorage::with_capacity(depth),
             mlt: mlt.map(|m| WorkerChains::with_capacity(&c.settings, m, level2, camera)),
             boot: mlt.map(|m| {
@@ -1262,7 +1507,11 @@ impl RenderWorker {
                 let passes = (m.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
-                    generation: None,
+                    epoch: None,
+                    complete: false,
+                    next_sample: 0,
+                    pass_j: 0,
+                    pixel: 0,
                     values: Vec::with_capacity(boot_samples as usize),
                     passes: Vec::with_capacity(passes as usize),
                     stats: Stats::default(),

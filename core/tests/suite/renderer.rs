@@ -15,7 +15,8 @@ use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec3};
 use cmlt::mlt::{Bootstrap, CmltSettings, Level2Settings, MltSettings};
 use cmlt::renderer::{
-    Estimator, EstimatorKind, RenderError, RenderWorker, Renderer, RendererConfig, Temporal,
+    Accumulation, Estimator, EstimatorKind, PIECE, RenderError, RenderWorker, Renderer,
+    RendererConfig, Temporal,
 };
 use cmlt::scene::{
     Camera, ConductorFresnel, FovAxis, Material, MaterialKind, Mesh, Scene, SceneBuilder, Texture,
@@ -372,10 +373,35 @@ fn frames_allocate_nothing_after_setup() {
         let mut img = vec![Rgb::ZERO; 16 * 12];
         let (_, n) = allocations(|| {
             for frame in 0..3 {
+                if !cfg.estimator.is_metropolis() {
+                    // Every accumulation mode, frames ending inside passes.
+                    let mode = [
+                        Accumulation::Reset,
+                        Accumulation::Keep,
+                        Accumulation::Decay(0.5),
+                    ][frame];
+                    r.set_accumulation(mode).unwrap();
+                }
                 r.set_camera(camera(0.1 * frame as f32)).unwrap();
-                prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+                if r.begin_prepare(&scene) {
+                    let mut asked = 0;
+                    while !r
+                        .prepare_worker_while(&mut w, &scene, &bvh, |_| {
+                            asked += 1;
+                            asked % 7 != 0
+                        })
+                        .unwrap()
+                    {}
+                    r.finish_prepare([&w]).unwrap();
+                }
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
+                let mut n = 0;
+                r.render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+                    n += 1;
+                    n < 5
+                })
+                .unwrap();
                 r.resolve(&[&w], |i, c| img[i] = c).unwrap();
             }
         });
@@ -501,34 +527,270 @@ fn temporal_switches_keep_moving_frames_right_and_steady_frames_steady() {
     assert!(s_win < s_own, "windowed {s_win} vs own {s_own}");
 }
 
+/// `render_while` asks before every piece — PT and BDPT: [`PIECE`]
+/// camera samples, MLT and CMLT: one round — and stops at the first no:
+/// the units done are exactly the pieces the clock allowed, none more.
+/// A BDPT frame that stopped inside a pass goes on from there, and the
+/// finished pass is the one `render` renders at once, bit for bit.
 #[test]
 fn render_while_stops_when_the_host_clock_says_so() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for estimator in [Estimator::Bdpt, cmlt(2, 1)] {
+    for estimator in [Estimator::Path, Estimator::Bdpt, cmlt(2, 1)] {
         let kind = estimator.kind();
         let cfg = config(estimator, 1);
-        let step = if kind.is_metropolis() { 24 } else { 16 * 12 };
-        // A "clock" that allows three steps.
+        let piece = if kind.is_metropolis() { 24 } else { PIECE };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
         prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
-        let mut asked = 0;
-        let done = r
-            .render_while(&mut w, &scene, &bvh, 100 * step, |_| {
-                asked += 1;
-                asked < 3
-            })
-            .unwrap();
-        assert_eq!(done, 3 * step, "{kind:?}");
-        let timed = resolve(&r, &[&w]);
-        // The same as rendering those units at once.
+        for allowed in [1, 3] {
+            // A "clock" that says yes `allowed − 1` times: `allowed` pieces.
+            let mut asked = 0;
+            let done = r
+                .render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+                    asked += 1;
+                    asked < allowed
+                })
+                .unwrap();
+            assert_eq!(done, allowed * piece, "{kind:?}");
+            assert_eq!(asked, allowed, "{kind:?}: asked {asked} times");
+        }
         let mut r2 = Renderer::new(cfg, scene.camera).unwrap();
         let mut w2 = RenderWorker::new(&r2, 0).unwrap();
         prepare(&mut r2, std::slice::from_mut(&mut w2), &scene, &bvh);
-        r2.render(&mut w2, &scene, &bvh, 3 * step).unwrap();
-        assert_eq!(timed, resolve(&r2, &[&w2]), "{kind:?}");
+        if kind.is_metropolis() {
+            r2.render(&mut w2, &scene, &bvh, 4 * piece).unwrap();
+        } else {
+            // The rest of the open pass, then one whole pass at once.
+            assert_eq!(
+                r.render_steps(&mut w, &scene, &bvh, 1).unwrap(),
+                16 * 12 - 4 * PIECE
+            );
+            r2.render(&mut w2, &scene, &bvh, 16 * 12).unwrap();
+        }
+        assert_eq!(resolve(&r, &[&w]), resolve(&r2, &[&w2]), "{kind:?}");
     }
+}
+
+/// A frame that ends inside a pass shows the pixels it reached with their
+/// own samples: with PT (no splats) exactly the first pass's values where
+/// the pass got to, black beyond; BDPT's light-tracing splats, which land
+/// anywhere, are normalised by the samples taken over the whole image, so
+/// the partial image's mean is that of the whole pass within noise.
+#[test]
+fn a_frame_ending_inside_a_pass_normalises_each_pixel_by_its_samples() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = config(Estimator::Path, 1);
+    let whole = {
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 3 * 16 * 12).unwrap();
+        (resolve(&r, &[&w]), r)
+    };
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+    // Two whole passes, then 5 pieces of the third.
+    r.render(&mut w, &scene, &bvh, 2 * 16 * 12).unwrap();
+    let mut n = 0;
+    r.render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+        n += 1;
+        n < 5
+    })
+    .unwrap();
+    let partial = resolve(&r, &[&w]);
+    let two = {
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 2 * 16 * 12).unwrap();
+        resolve(&r, &[&w])
+    };
+    let reached = (5 * PIECE) as usize;
+    assert_eq!(partial[..reached], whole.0[..reached]);
+    assert_eq!(partial[reached..], two[reached..]);
+    drop(whole.1);
+}
+
+/// PT and BDPT accumulation across frames. With the same random sequence
+/// every frame and a still camera: kept frames equal one frame of all
+/// their passes, bit for bit; decayed frames weigh the older pass by the
+/// factor (pixel = (f·s₀ + s₁) / (f + 1)); reset frames are each their own
+/// pass. Metropolis renderers refuse keeping and decaying, and a factor
+/// out of (0, 1) is refused.
+#[test]
+fn accumulation_is_kept_decayed_or_reset_per_frame() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [Estimator::Path, Estimator::Bdpt] {
+        let cfg = RendererConfig {
+            temporal: Temporal {
+                fixed_sequence: true,
+                ..Temporal::default()
+            },
+            ..config(estimator, 1)
+        };
+        let frames = |mode: Accumulation, n: usize| {
+            let mut r = Renderer::new(cfg, scene.camera).unwrap();
+            r.set_accumulation(mode).unwrap();
+            let mut w = RenderWorker::new(&r, 0).unwrap();
+            let mut out = Vec::new();
+            for f in 0..n {
+                if f > 0 {
+                    r.set_camera(scene.camera).unwrap();
+                }
+                prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+                r.render(&mut w, &scene, &bvh, 16 * 12).unwrap();
+                out.push(resolve(&r, &[&w]));
+            }
+            out
+        };
+        let reset = frames(Accumulation::Reset, 2);
+        assert_eq!(reset[0], reset[1], "{estimator:?}: fixed sequence, reset");
+        let kept = frames(Accumulation::Keep, 2);
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut w = RenderWorker::new(&r, 0).unwrap();
+        prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        r.render(&mut w, &scene, &bvh, 2 * 16 * 12).unwrap();
+        assert_eq!(kept[1], resolve(&r, &[&w]), "{estimator:?}: kept");
+        let f = 0.25f32;
+        let decayed = frames(Accumulation::Decay(f), 2);
+        for i in 0..16 * 12 {
+            let s0 = kept[0][i].luminance() as f64;
+            let s1 = 2.0 * kept[1][i].luminance() as f64 - s0;
+            let want = (f as f64 * s0 + s1) / (f as f64 + 1.0);
+            let got = decayed[1][i].luminance() as f64;
+            assert!(
+                (got - want).abs() <= 1e-4 * want.abs().max(1.0),
+                "{estimator:?} pixel {i}: {got} vs {want}"
+            );
+        }
+    }
+    let mut r = Renderer::new(config(Estimator::Path, 1), scene.camera).unwrap();
+    for bad in [0.0, 1.0, f32::NAN] {
+        assert!(matches!(
+            r.set_accumulation(Accumulation::Decay(bad)),
+            Err(RenderError::Config(_))
+        ));
+    }
+    assert_eq!(r.accumulation(), Accumulation::Reset);
+    let mut r = Renderer::new(config(mlt(), 1), scene.camera).unwrap();
+    assert!(matches!(
+        r.set_accumulation(Accumulation::Keep),
+        Err(RenderError::Config(_))
+    ));
+}
+
+/// The Metropolis set-up in pieces: `prepare_worker_while` stops when the
+/// clock says so and goes on at the next call, and the bootstrap it ends
+/// with is the one `prepare_worker` makes in one go, bit for bit; until
+/// every share is complete a first frame is not ready. With kept chains,
+/// a later frame is ready at once (the chains go on with the earlier b)
+/// while its bootstrap goes on across frames, and joining it changes b.
+/// None of it allocates.
+#[test]
+fn the_metropolis_set_up_runs_in_pieces_across_calls_and_frames() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = RendererConfig {
+        temporal: Temporal {
+            keep_chains: true,
+            ..Temporal::default()
+        },
+        ..config(mlt(), 2)
+    };
+    let mut whole = Renderer::new(cfg, scene.camera).unwrap();
+    let mut wws: Vec<RenderWorker> = (0..2)
+        .map(|i| RenderWorker::new(&whole, i).unwrap())
+        .collect();
+    prepare(&mut whole, &mut wws, &scene, &bvh);
+
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+    let ((calls, b1), n) = allocations(|| {
+        assert!(r.begin_prepare(&scene));
+        let mut calls = 0;
+        loop {
+            calls += 1;
+            let mut finished = true;
+            for w in ws.iter_mut() {
+                // Three pieces per call.
+                let mut asked = 0;
+                finished &= r
+                    .prepare_worker_while(w, &scene, &bvh, |_| {
+                        asked += 1;
+                        asked < 3
+                    })
+                    .unwrap();
+            }
+            match r.finish_prepare(ws.iter()) {
+                Ok(()) => break,
+                Err(e) => {
+                    assert_eq!(e, RenderError::BootstrapIncomplete);
+                    assert!(!finished);
+                    assert_eq!(
+                        r.render(&mut ws[0], &scene, &bvh, 1),
+                        Err(RenderError::NotPrepared)
+                    );
+                }
+            }
+        }
+        for w in ws.iter_mut() {
+            r.render(w, &scene, &bvh, 16 * 12).unwrap();
+        }
+        let b0 = r.b();
+        // The next frame is ready at once; its bootstrap goes on over
+        // frames, one piece per worker per frame.
+        let mut frames = 0;
+        loop {
+            frames += 1;
+            r.set_camera(camera(0.02 * frames as f32)).unwrap();
+            assert!(r.begin_prepare(&scene));
+            for w in ws.iter_mut() {
+                r.prepare_worker_while(w, &scene, &bvh, |_| false).unwrap();
+            }
+            r.finish_prepare(ws.iter()).unwrap();
+            for w in ws.iter_mut() {
+                r.render(w, &scene, &bvh, 16 * 12).unwrap();
+            }
+            if r.b() != b0 {
+                break;
+            }
+            assert!(frames < 10_000);
+        }
+        (calls, r.b())
+    });
+    assert_eq!(n, 0, "{n} allocations");
+    assert!(calls > 10, "{calls} calls");
+    assert!(b1 > 0.0);
+    assert_eq!(
+        r.bootstrap().depth_b().len(),
+        whole.bootstrap().depth_b().len()
+    );
+    // The first bootstrap, cut into pieces, is the one made in one go.
+    let mut again = Renderer::new(cfg, scene.camera).unwrap();
+    let mut aws: Vec<RenderWorker> = (0..2)
+        .map(|i| RenderWorker::new(&again, i).unwrap())
+        .collect();
+    assert!(again.begin_prepare(&scene));
+    loop {
+        for w in aws.iter_mut() {
+            let mut asked = 0;
+            again
+                .prepare_worker_while(w, &scene, &bvh, |_| {
+                    asked += 1;
+                    asked < 2
+                })
+                .unwrap();
+        }
+        if again.finish_prepare(aws.iter()).is_ok() {
+            break;
+        }
+    }
+    assert_eq!(again.bootstrap(), whole.bootstrap());
+    assert_eq!(again.b(), whole.b());
 }
 
 /// Moving a mesh between frames (`Scene::update_mesh` + `Bvh::refit`):
