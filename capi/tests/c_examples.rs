@@ -70,8 +70,16 @@ fn out_dir() -> PathBuf {
 
 /// Compiles `examples-c/NAME.c` into an executable; returns its path.
 fn build_example(name: &str) -> PathBuf {
+    build_source(name, false)
+}
+
+/// Compiles `examples-c/NAME.c` (C99) or, with `cpp`, `NAME.cpp` (C++17,
+/// the header-only wrapper `include/cmlt.hpp`), with every warning an
+/// error; returns the executable's path.
+fn build_source(name: &str, cpp: bool) -> PathBuf {
     let out = out_dir();
     let compiler = cc::Build::new()
+        .cpp(cpp)
         .cargo_metadata(false)
         .cargo_warnings(false)
         .opt_level(2)
@@ -82,7 +90,7 @@ fn build_example(name: &str) -> PathBuf {
     let exe = out.join(name);
     let mut cmd = compiler.to_command();
     cmd.args([
-        "-std=c99",
+        if cpp { "-std=c++17" } else { "-std=c99" },
         "-Wall",
         "-Wextra",
         "-Werror",
@@ -91,7 +99,10 @@ fn build_example(name: &str) -> PathBuf {
         "-I",
     ])
     .arg(workspace().join("include"))
-    .arg(workspace().join(format!("examples-c/{name}.c")))
+    .arg(workspace().join(format!(
+        "examples-c/{name}.{}",
+        if cpp { "cpp" } else { "c" }
+    )))
     .arg(staticlib())
     .arg("-o")
     .arg(&exe);
@@ -273,6 +284,32 @@ fn frame_loop_allocates_nothing_per_frame() {
             "{method}: {means:?}"
         );
         assert!(numbers(&out, "renderer needs")[0] > 0.0);
+    }
+}
+
+/// frame_trial.cpp (the host of `cmlt-bench frames`): the C++17 wrapper
+/// compiles with -Wall -Wextra -pedantic -Werror, and a moving camera and
+/// mesh, frames bounded by the host's clock, every estimator (PT and BDPT
+/// with each accumulation mode), the Metropolis set-up in pieces: nothing
+/// allocates per frame and every frame shows light.
+#[test]
+fn cpp_frame_trial_runs_every_estimator_without_allocating() {
+    let exe = build_source("frame_trial", true);
+    for method in ["pt", "bdpt+keep", "bdpt+decay", "mlt", "cmlt"] {
+        let out = run(&exe, &[method, "64", "36", "20", "4"]);
+        let trial = numbers(&out, &format!("trial {method} 64x36 triangles"));
+        // triangles, budget, frames, p50, p95, setup, black, flicker, allocations
+        assert_eq!(trial.len(), 9, "{out}");
+        assert!(trial[0] > 5000.0, "{out}");
+        assert_eq!(trial[2], 4.0, "{out}");
+        assert_eq!(trial[8], 0.0, "{method}: allocations per frame\n{out}");
+        let means: Vec<f64> = out
+            .lines()
+            .filter(|l| l.starts_with("frame "))
+            .map(|l| numbers(l, "frame")[3])
+            .collect();
+        assert_eq!(means.len(), 4, "{out}");
+        assert!(means.iter().all(|&m| m > 0.0), "{method}: {means:?}");
     }
 }
 

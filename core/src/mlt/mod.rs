@@ -475,6 +475,10 @@ const START_SEARCH: u64 = 4;
 /// Least number of samples a chain searches for a start.
 const START_SEARCH_MIN: u64 = 8192;
 
+/// Bootstrap samples a kept chain whose state a new view left dark picks,
+/// ∝ Y, before it stays dark ([`WorkerChains::reevaluate`]).
+const RESTART_PICKS: u32 = 8;
+
 /// The bootstrap sample a chain of `depth` starts from, `u` uniform in [0, 1).
 ///
 /// Normally one of the bootstrap's, drawn ∝ Y by [`Bootstrap::pick`]. When
@@ -680,9 +684,12 @@ impl WorkerChains {
     /// `tracer` (a new camera or scene): the temporal alternative to
     /// [`WorkerChains::restart`] (the chains keep their depths and random
     /// streams). A chain whose state no longer contributes restarts from a
-    /// bootstrap sample of its depth in `bootstrap` (the new frame's, seeded by
-    /// `seed`; see `start_sample`): left at zero it would record nothing
-    /// until a proposal hits, and those records would darken the image.
+    /// bootstrap sample of its depth in `bootstrap` (seeded by `seed`; see
+    /// `start_sample`), the first of up to [`RESTART_PICKS`] picks that
+    /// contributes under the new view (a bootstrap carried from earlier
+    /// frames weighs its samples by their old luminance): left at zero it
+    /// would record nothing until a proposal hits, and those records would
+    /// darken the image.
     /// Counters start again from zero. Allocates nothing.
     pub(crate) fn reevaluate<I: Intersector>(
         &mut self,
@@ -709,12 +716,18 @@ impl WorkerChains {
         for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
             let depth = *depth;
             chain.reevaluate(|s| target::evaluate(tracer, settings, ws, depth, s));
-            if !(chain.current().target() > 0.0) {
-                let cs = mix64(seeds[ci] ^ seed);
-                let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            let cs = mix64(seeds[ci] ^ seed);
+            let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            let mut evaluate =
+                |s: &mut PrimarySampler| target::evaluate(tracer, settings, ws, depth, s);
+            // The bootstrap's luminances may be of earlier views (a
+            // bootstrap carried while the next one is evaluated): a sample
+            // picked ∝ Y can be dark under this one, so a few more picks.
+            for _ in 0..RESTART_PICKS {
+                if chain.current().target() > 0.0 {
+                    break;
+                }
                 let u = uniform_f64(&mut rng);
-                let mut evaluate =
-                    |s: &mut PrimarySampler| target::evaluate(tracer, settings, ws, depth, s);
                 let start = start_sample(bootstrap, depth, u, *start_tries, &mut rng, |i| {
                     chain.restart(bootstrap.seed_of(i), cs, &mut evaluate);
                     chain.current().target() > 0.0
@@ -724,7 +737,14 @@ impl WorkerChains {
                 }
             }
             if let Some(l2) = level2 {
-                classes[ci] = l2.classify_stored(tracer, ws, depth, &mut paths[ci]);
+                // A chain left on a dead path has no path to perturb (the
+                // path storage holds none): no side chain until it moves.
+                classes[ci] = if chain.current().target() > 0.0 {
+                    l2.classify_stored(tracer, ws, depth, &mut paths[ci])
+                } else {
+                    paths[ci].clear();
+                    (Applicable::Neither, 0)
+                };
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);

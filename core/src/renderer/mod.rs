@@ -50,8 +50,14 @@
 //! workers, or seconds. [`Renderer::steps_for`] turns a per-pixel budget
 //! into each worker's steps: whole passes (PT, BDPT: passes `i, i + W, …`
 //! below n) or whole rounds (MLT, CMLT: [`mlt::rounds_for`] on every
-//! worker); a time budget is a clock the host asks between steps
-//! ([`Renderer::render_while`]; the core never reads time).
+//! worker); a time budget is a clock the host asks between pieces of
+//! work ([`Renderer::render_while`]: [`PIECE`] camera samples for PT and
+//! BDPT, about a millisecond, or a round of mutations;
+//! [`Renderer::prepare_worker_while`] for the Metropolis set-up: [`PIECE`]
+//! bootstrap samples or normalisation-pass pixels). The core never reads
+//! time. A PT or BDPT frame may end inside a pass: each pixel is then
+//! normalised by its own sample count (`renderer/accumulation.rs`), and
+//! the next call goes on with the open pass.
 //!
 //! At the lowest level a budget is a number of *units*: camera samples for PT and BDPT (rounded
 //! up to whole passes, one sample per pixel), level-1 mutations for MLT and
@@ -76,6 +82,18 @@
 //! numbers: independent frames); with the switches on, chains are kept and
 //! re-evaluated, b is averaged over a window of frames while the camera
 //! stays put, and/or every frame reuses the same random sequences.
+//!
+//! Kept chains also make change cheap: once a first bootstrap is joined,
+//! a frame after a camera move or a scene update is ready at
+//! `begin_prepare` — the chains are re-evaluated under the new view at
+//! the worker's first `render` and go on with the b of earlier frames —
+//! while the next bootstrap is evaluated in the pieces the host's
+//! `prepare_worker_while` calls allow, across as many frames as it takes,
+//! and joined by the `finish_prepare` after it completes (b is then an
+//! estimate over the views of those frames). A b estimated from the
+//! chains' own large steps (issue 53) would plug in at that join.
+//! PT and BDPT carry their films by [`Accumulation`]: reset (default),
+//! keep or decay, set per frame by [`Renderer::set_accumulation`].
 
 mod accumulation;
 mod estimator;
@@ -364,8 +382,12 @@ pub struct RenderWorker {
     film: Film,
     /// PT, BDPT: samples per pixel in `film` (empty for MLT, CMLT).
     weights: Weights,
-    /// PT, BDPT: the next pixel of the open pass (0 between passes).
+    /// PT, BDPT: the position of the next sample in the open pass's
+    /// order (0 between passes).
     cursor: u64,
+    /// PT, BDPT: whether the open pass visits the pixels in the strided
+    /// order of `render_while` (else row-major; see `Renderer::stride`).
+    strided: bool,
     bdpt: bdpt::PathStorage,
     mlt: Option<WorkerChains>,
     /// This worker's share of a split bootstrap (MLT, CMLT).
@@ -1088,10 +1110,11 @@ impl Renderer {
                     .weights
                     .next_frame(&mut worker.film, self.accumulation);
                 if self.accumulation == Accumulation::Reset {
-                    // A new accumulation: the open pass is dropped and the
-                    // passes are numbered from 0 again.
+                    // A new accumulation: passes are numbered from 0 again.
+                    // An open pass goes on from where it stopped (with the
+                    // streams of pass 0 for its remaining pixels), so that
+                    // frames ending inside passes cover the image in turn.
                     worker.passes = 0;
-                    worker.cursor = 0;
                 }
             }
             worker.generation = Some(self.generation);
@@ -1115,22 +1138,28 @@ impl Renderer {
         }
         let mut done = 0;
         for _ in 0..steps {
-            done += self.run_samples(worker, tracer, self.pixels() - worker.cursor);
+            done += self.run_samples(worker, tracer, self.pixels() - worker.cursor, false);
         }
         done
     }
 
     /// PT, BDPT: renders the next `count` samples of the worker's passes
-    /// (at most to the end of the open pass) — pass `i + W·passes`, pixels
-    /// from the cursor on, in row-major order — and returns how many.
+    /// (at most to the end of the open pass) — pass `i + W·passes`, from
+    /// the cursor on in the pass's order — and returns how many. A pass
+    /// begun here is row-major, or with `strided` in the order of
+    /// [`Renderer::stride`].
     fn run_samples<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
         tracer: &mut Tracer<'_, I>,
         count: u64,
+        strided: bool,
     ) -> u64 {
         let c = &self.config;
         let pixels = self.pixels();
+        if worker.cursor == 0 {
+            worker.strided = strided;
+        }
         let end = (worker.cursor + count).min(pixels);
         let pass = worker.index as u64 + c.workers as u64 * worker.passes;
         render_samples(
@@ -1140,7 +1169,10 @@ impl Renderer {
             &mut worker.bdpt,
             self.frame_seed(),
             pass,
-            worker.cursor..end,
+            (
+                worker.cursor..end,
+                if worker.strided { self.stride() } else { 1 },
+            ),
             &mut worker.film,
             &mut worker.weights,
         );
@@ -1160,9 +1192,12 @@ impl Renderer {
     /// it stays `no_std`). A piece is [`PIECE`] camera samples (PT, BDPT:
     /// a frame may end inside a pass, whose samples count per pixel, and
     /// the next call goes on from there) or one round of mutations (MLT,
-    /// CMLT). The image then depends on how many pieces the clock allowed;
-    /// with a callback that always says yes it equals `render(budget)`
-    /// whenever that budget ends on a pass. Returns the units rendered.
+    /// CMLT). A pass begun here visits the pixels in a strided order
+    /// ([`Renderer::stride`]) rather than row by row, so that a frame that
+    /// ends inside it has samples spread over the whole image, not a band
+    /// at the top; whole passes differ from `render`'s only in the order
+    /// BDPT's splats are added (rounding). The image then depends on how
+    /// many pieces the clock allowed. Returns the units rendered.
     pub fn render_while<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -1180,7 +1215,7 @@ impl Renderer {
             let step = if worker.mlt.is_some() {
                 self.run_steps(worker, &mut tracer, 1)
             } else {
-                self.run_samples(worker, &mut tracer, PIECE)
+                self.run_samples(worker, &mut tracer, PIECE, true)
             };
             if step == 0 {
                 break;
@@ -1311,6 +1346,27 @@ impl Renderer {
         self.camera.pixel_count()
     }
 
+    /// The step of the order in which a pass begun by
+    /// [`Renderer::render_while`] visits the pixels: its k-th sample is in
+    /// pixel `k · stride mod P` (row-major index). The stride is the odd
+    /// number nearest P·(√5 − 1)/2 that is coprime with P (the order is a
+    /// permutation); golden-ratio steps spread any prefix of the order
+    /// evenly over the image (Weyl's sequence).
+    pub fn stride(&self) -> u64 {
+        let p = self.pixels();
+        let gcd = |mut a: u64, mut b: u64| {
+            while b != 0 {
+                (a, b) = (b, a % b);
+            }
+            a
+        };
+        let mut s = ((p as f64 * 0.618_033_988_749_894_9) as u64) | 1;
+        while gcd(s, p) != 1 {
+            s += 2;
+        }
+        s % p.max(1)
+    }
+
     /// Whether `w`'s film belongs to the current accumulation.
     fn is_current(&self, w: &RenderWorker) -> bool {
         w.generation == Some(self.generation)
@@ -1355,11 +1411,12 @@ impl Renderer {
     }
 }
 
-/// Renders the samples of pass `pass` in the pixels `range` (row-major
-/// indices) into `film`, counting them in `weights`, by path tracing
-/// (`pt`) or BDPT: the step of PT and BDPT (the Metropolis estimators'
-/// normalisation passes are `mlt::bootstrap`'s). Consecutive ranges render
-/// exactly what the whole pass renders.
+/// Renders the samples `range` of pass `pass` into `film`, counting them
+/// in `weights`, by path tracing (`pt`) or BDPT: the step of PT and BDPT
+/// (the Metropolis estimators' normalisation passes are
+/// `mlt::bootstrap`'s). Sample k is in pixel `k · stride mod P` (stride
+/// 1: row-major). Consecutive ranges render exactly what the whole pass
+/// renders.
 ///
 /// The random stream of each sample depends only on `(seed, pass, pixel)`,
 /// so the same passes give the same samples whichever worker renders them.
@@ -1371,12 +1428,14 @@ fn render_samples<I: Intersector>(
     paths: &mut bdpt::PathStorage,
     seed: u64,
     pass: u64,
-    range: core::ops::Range<u64>,
+    (range, stride): (core::ops::Range<u64>, u64),
     film: &mut Film,
     weights: &mut Weights,
 ) {
     let w = tracer.camera.width() as u64;
-    for i in range {
+    let p = tracer.camera.pixel_count();
+    for k in range {
+        let i = if stride == 1 { k } else { k * stride % p };
         let (x, y) = ((i % w) as u32, (i / w) as u32);
         let mut rng = SampleStream::new(seed, pass, i);
         let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
@@ -1497,6 +1556,7 @@ impl RenderWorker {
                 camera.pixel_count() as usize
             }),
             cursor: 0,
+            strided: false,
             bdpt: bdpt::PathStorage::with_capacity(depth),
             mlt: mlt.map(|m| WorkerChains::with_capacity(&c.settings, m, level2, camera)),
             boot: mlt.map(|m| {
