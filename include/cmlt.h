@@ -897,8 +897,11 @@ enum cmlt_status cmlt_renderer_prepare(struct cmlt_renderer *renderer);
 // `cmlt_renderer_prepare_worker` once for every worker (concurrently, from
 // different threads if the host likes) and `cmlt_renderer_prepare_finish`
 // once — or 0 when the renderer is ready (the other two calls then return
-// at once). The image is bit for bit the same whichever threads run the
-// workers. `CMLT_ERROR_BUSY` while a worker renders.
+// at once). With `keep_chains`, once a first bootstrap is joined, the
+// renderer is ready at once even when this sets 1: the next bootstrap
+// then runs in the pieces `cmlt_renderer_prepare_worker_while` is given,
+// across frames. The image is bit for bit the same whichever threads run
+// the workers. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety
 // `renderer` is NULL or valid; `out_pending` is NULL or valid.

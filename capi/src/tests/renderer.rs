@@ -584,3 +584,133 @@ fn config_default_is_the_cores_default() {
     // SAFETY: handle from this test.
     unsafe { cmlt_scene_release(s) };
 }
+
+/// The frame loop's pieces through C: `cmlt_renderer_prepare_worker_while`
+/// stops when the host's clock says so and a first frame is not ready until
+/// every share is complete; with `keep_chains` a later frame renders at
+/// once while its bootstrap waits. `cmlt_renderer_set_accumulation` takes
+/// PT's modes and refuses an unknown mode, a decay out of (0, 1) and any
+/// mode but reset for MLT.
+#[test]
+fn set_up_in_pieces_and_accumulation_modes() {
+    unsafe extern "C" fn never(_user: *mut c_void, _done: u64) -> u32 {
+        0
+    }
+    let s = scene(None);
+    let mut c = config(CMLT_ESTIMATOR_MLT, 2);
+    c.keep_chains = 1;
+    let r = renderer(s, &c);
+    // SAFETY: valid handles and out pointers; workers in range.
+    unsafe {
+        let mut pending = 0;
+        expect(
+            cmlt_renderer_prepare_begin(r, &mut pending),
+            CMLT_OK,
+            "begin",
+        );
+        assert_eq!(pending, 1);
+        expect(
+            cmlt_renderer_prepare_worker_while(r, 0, None, null_mut(), null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_renderer_prepare_worker_while",
+        );
+        let mut calls = 0;
+        loop {
+            calls += 1;
+            let mut finished = [7u32; 2];
+            for (w, f) in finished.iter_mut().enumerate() {
+                expect(
+                    cmlt_renderer_prepare_worker_while(r, w as u32, Some(never), null_mut(), f),
+                    CMLT_OK,
+                    "prepare_worker_while",
+                );
+            }
+            assert!(finished.iter().all(|&f| f <= 1));
+            let status = cmlt_renderer_prepare_finish(r);
+            if status == CMLT_OK {
+                assert_eq!(finished, [1, 1]);
+                break;
+            }
+            expect(
+                status,
+                CMLT_ERROR_INVALID_OPERATION,
+                "cmlt_renderer_prepare_finish",
+            );
+            expect(
+                cmlt_renderer_render(r, 0, 1, null_mut()),
+                CMLT_ERROR_INVALID_OPERATION,
+                "cmlt_renderer_render",
+            );
+        }
+        assert!(calls > 2, "{calls} calls");
+        let mut cam = cmlt_camera {
+            position: [0.0, 1.0, -3.0],
+            target: [0.0, 0.5, 0.0],
+            up: [0.0, 1.0, 0.0],
+            fov_degrees: 50.0,
+            aperture_radius: 0.0,
+            focus_distance: 1.0,
+        };
+        for frame in 1..4 {
+            cam.position[0] = 0.05 * frame as f32;
+            expect(cmlt_renderer_set_camera(r, &cam), CMLT_OK, "set_camera");
+            expect(
+                cmlt_renderer_prepare_begin(r, &mut pending),
+                CMLT_OK,
+                "begin",
+            );
+            assert_eq!(pending, 1);
+            // No set-up time at all: the kept chains render anyway.
+            for w in 0..2 {
+                let mut f = 7;
+                expect(
+                    cmlt_renderer_prepare_worker_while(r, w, Some(never), null_mut(), &mut f),
+                    CMLT_OK,
+                    "prepare_worker_while",
+                );
+                assert_eq!(f, 0);
+            }
+            expect(cmlt_renderer_prepare_finish(r), CMLT_OK, "prepare_finish");
+            for w in 0..2 {
+                expect(
+                    cmlt_renderer_render(r, w, 64, null_mut()),
+                    CMLT_OK,
+                    "render",
+                );
+            }
+            assert!(image(r).iter().any(|&v| v > 0.0));
+        }
+        expect(
+            cmlt_renderer_set_accumulation(r, CMLT_ACCUMULATION_KEEP, 0.0),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            "cmlt_renderer_set_accumulation",
+        );
+        expect(
+            cmlt_renderer_set_accumulation(r, CMLT_ACCUMULATION_RESET, 0.0),
+            CMLT_OK,
+            "set_accumulation",
+        );
+        cmlt_renderer_release(r);
+
+        let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+        for (mode, decay, want) in [
+            (CMLT_ACCUMULATION_DECAY, 0.5, CMLT_OK),
+            (CMLT_ACCUMULATION_KEEP, f32::NAN, CMLT_OK),
+            (CMLT_ACCUMULATION_DECAY, 1.5, CMLT_ERROR_INVALID_ARGUMENT),
+            (
+                CMLT_ACCUMULATION_DECAY,
+                f32::NAN,
+                CMLT_ERROR_INVALID_ARGUMENT,
+            ),
+            (7, 0.5, CMLT_ERROR_INVALID_ARGUMENT),
+        ] {
+            expect(
+                cmlt_renderer_set_accumulation(r, mode, decay),
+                want,
+                "cmlt_renderer_set_accumulation",
+            );
+        }
+        cmlt_renderer_release(r);
+        cmlt_scene_release(s);
+    }
+}
