@@ -993,9 +993,11 @@ impl Renderer {
     }
 
     /// Renders `budget` units (see the module docs) into `worker`, after
-    /// clearing it if the camera changed since its last call. Returns the
-    /// units rendered: whole passes · pixels, or whole rounds · chains (0
-    /// when b = 0 leaves no chain to run, or when `budget` is 0).
+    /// starting its frame if the camera changed since its last call.
+    /// Returns the units rendered: samples up to a pass's end (a pass left
+    /// open by [`Renderer::render_while`] is finished first), or whole
+    /// rounds · chains (0 when b = 0 leaves no chain to run, or when
+    /// `budget` is 0).
     pub fn render<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -1038,9 +1040,9 @@ impl Renderer {
         }
     }
 
-    /// Renders `steps` steps into `worker` — whole passes (PT, BDPT) or
-    /// whole rounds of every chain (MLT, CMLT) — after clearing it if the
-    /// camera changed since its last call. Returns the units rendered, as
+    /// Renders `steps` steps into `worker` — passes, the open one first
+    /// (PT, BDPT), or whole rounds of every chain (MLT, CMLT) — after
+    /// starting its frame if the camera changed since its last call. Returns the units rendered, as
     /// [`Renderer::render`] does; `render_steps(worker, …, n)` then
     /// `render_steps(worker, …, m)` equals `render_steps(worker, …, n + m)`.
     pub fn render_steps<I: Intersector>(
