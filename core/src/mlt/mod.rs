@@ -560,6 +560,11 @@ pub(crate) struct WorkerChains {
     /// Level 2: the path of the latest proposal, classified for its
     /// level-1 record's weight and swapped in when it is accepted.
     proposal_path: Vec<PathVertex>,
+    /// The position of the next mutation in the open round (0 between
+    /// rounds) and whether that round visits the chains in a strided
+    /// order ([`WorkerChains::advance`]).
+    next: usize,
+    strided: bool,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -602,6 +607,8 @@ impl WorkerChains {
             paths,
             classes: Vec::with_capacity(if l2 { n } else { 0 }),
             proposal_path: Vec::with_capacity(if l2 { max_vertices } else { 0 }),
+            next: 0,
+            strided: false,
         }
     }
 
@@ -639,6 +646,7 @@ impl WorkerChains {
             ..
         } = self;
         spare.extend(chains.drain(..).map(|(c, _)| c.into_sampler()));
+        self.next = 0;
         seeds.clear();
         classes.clear();
         *stats = MltStats::default();
@@ -766,9 +774,10 @@ impl WorkerChains {
 
     /// Runs `rounds` rounds — one mutation of every chain, in chain order,
     /// each followed by its level-2 side chain (CMLT) — splatting every
-    /// record into `film`. Returns the number of level-1 mutations (0 when
-    /// there are no chains: b = 0); [`MltStats::records`] counts the
-    /// records.
+    /// record into `film`; a round left open by [`WorkerChains::advance`]
+    /// is finished first and counts as one. Returns the number of level-1
+    /// mutations (0 when there are no chains: b = 0);
+    /// [`MltStats::records`] counts the records.
     pub fn run<I: Intersector>(
         &mut self,
         tracer: &mut Tracer<'_, I>,
@@ -776,6 +785,44 @@ impl WorkerChains {
         film: &mut Film,
         rounds: u64,
     ) -> u64 {
+        let mut done = 0;
+        for _ in 0..rounds {
+            let left = self.chains.len() - self.next;
+            done += self.advance(tracer, settings, film, left, false);
+        }
+        done
+    }
+
+    /// Makes the next `count` mutations of the open round (at most to its
+    /// end; a round begun here visits the chains in chain order, or with
+    /// `strided` in the order k · s mod n, s coprime with the chain count
+    /// n and near n·(√5 − 1)/2), each followed by its side chain; returns
+    /// how many.
+    ///
+    /// Why strided: the chains are ordered by depth (the systematic sample
+    /// of b_d / b), and the image is normalised by the records of all of
+    /// them, so a round cut short in chain order would over-weigh the
+    /// shallow depths by up to one mutation per chain — 50 % when a frame
+    /// holds two rounds. Golden-ratio steps spread any prefix of the round
+    /// over the depths in proportion within a few chains, so a frame that
+    /// ends inside a round is off by a few mutations' worth per depth.
+    pub(crate) fn advance<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        film: &mut Film,
+        count: usize,
+        strided: bool,
+    ) -> u64 {
+        let n = self.chains.len();
+        if n == 0 {
+            return 0;
+        }
+        if self.next == 0 {
+            self.strided = strided;
+        }
+        let stride = if self.strided { coprime_stride(n) } else { 1 };
+        let end = (self.next + count).min(n);
         let WorkerChains {
             chains,
             weights,
@@ -788,60 +835,62 @@ impl WorkerChains {
             proposal_path,
             ..
         } = self;
-        for _ in 0..rounds {
-            for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
-                let depth = *depth;
-                let w = weights[ci];
-                let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
-                stats.record(&st);
-                let Some(l2) = level2 else {
-                    for sp in st.splats() {
-                        film.add_splat(sp.raster, sp.value * w);
-                    }
-                    continue;
-                };
-                // A state of a class without side chain carries the
-                // level-2 share in its level-1 record (see `level2`): the
-                // proposal's class is needed whenever it is recorded. The
-                // path storage still holds its subpaths (nothing traced
-                // since).
-                let share = l2.share() as f32;
-                let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
-                let mut y_class = (Applicable::Neither, 0);
-                if let Some(sp) = st.proposal {
-                    y_class = l2.classify_stored(tracer, ws, depth, proposal_path);
-                    film.add_splat(sp.raster, sp.value * (w * carry(y_class.1)));
+        for k in self.next..end {
+            let ci = k * stride % n;
+            let (chain, depth) = &mut chains[ci];
+            let depth = *depth;
+            let w = weights[ci];
+            let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
+            stats.record(&st);
+            let Some(l2) = level2 else {
+                for sp in st.splats() {
+                    film.add_splat(sp.raster, sp.value * w);
                 }
-                if let Some(sp) = st.current {
-                    film.add_splat(sp.raster, sp.value * (w * carry(classes[ci].1)));
-                }
-                // Accepted implies a > 0, so the proposal was classified
-                // (and its path copied, if it can have a side chain).
-                if st.accepted {
-                    core::mem::swap(&mut paths[ci], proposal_path);
-                    classes[ci] = y_class;
-                }
-                let (class, length) = &classes[ci];
-                if *length > 0 {
-                    let mut rng =
-                        SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);
-                    l2.side_chain(
-                        tracer,
-                        &paths[ci],
-                        class,
-                        *length,
-                        &chain.current(),
-                        &mut rng,
-                        stats,
-                        &mut |r, v| film.add_splat(r, v * w),
-                    );
-                } else {
-                    stats.identity_steps += l2.share() as u64;
-                }
-                stats.records += l2.share() as u64;
+                continue;
+            };
+            // A state of a class without side chain carries the
+            // level-2 share in its level-1 record (see `level2`): the
+            // proposal's class is needed whenever it is recorded. The
+            // path storage still holds its subpaths (nothing traced
+            // since).
+            let share = l2.share() as f32;
+            let carry = |length: u32| if length == 0 { 1.0 + share } else { 1.0 };
+            let mut y_class = (Applicable::Neither, 0);
+            if let Some(sp) = st.proposal {
+                y_class = l2.classify_stored(tracer, ws, depth, proposal_path);
+                film.add_splat(sp.raster, sp.value * (w * carry(y_class.1)));
             }
+            if let Some(sp) = st.current {
+                film.add_splat(sp.raster, sp.value * (w * carry(classes[ci].1)));
+            }
+            // Accepted implies a > 0, so the proposal was classified
+            // (and its path copied, if it can have a side chain).
+            if st.accepted {
+                core::mem::swap(&mut paths[ci], proposal_path);
+                classes[ci] = y_class;
+            }
+            let (class, length) = &classes[ci];
+            if *length > 0 {
+                let mut rng =
+                    SampleStream::new(seeds[ci], chain.sampler().iteration(), LEVEL2_STREAM);
+                l2.side_chain(
+                    tracer,
+                    &paths[ci],
+                    class,
+                    *length,
+                    &chain.current(),
+                    &mut rng,
+                    stats,
+                    &mut |r, v| film.add_splat(r, v * w),
+                );
+            } else {
+                stats.identity_steps += l2.share() as u64;
+            }
+            stats.records += l2.share() as u64;
         }
-        rounds * chains.len() as u64
+        let done = end - self.next;
+        self.next = if end == n { 0 } else { end };
+        done as u64
     }
 
     /// This worker's counters.
@@ -884,6 +933,23 @@ fn depth_weights(chains: &[(Chain, u32)], bootstrap: &Bootstrap, n: u32, weights
         let e_d = if b > 0.0 { n as f64 * b_d / b } else { 0.0 };
         weights.push(if e_d >= 1.0 { (e_d / n_d) as f32 } else { 1.0 });
     }
+}
+
+/// The step of a strided visit of `n` items: the odd number nearest
+/// n·(√5 − 1)/2 that is coprime with n, reduced mod n (a permutation;
+/// golden-ratio steps spread every prefix evenly, Weyl's sequence).
+pub(crate) fn coprime_stride(n: usize) -> usize {
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut s = ((n as f64 * 0.618_033_988_749_894_9) as usize) | 1;
+    while gcd(s, n) != 1 {
+        s += 2;
+    }
+    s % n.max(1)
 }
 
 /// Rounds that give at least `mutations_per_pixel · pixels` mutations over

@@ -148,3 +148,52 @@ fn workers_split_the_same_chains_deterministically() {
         "{depth1} vs {expected}"
     );
 }
+
+#[test]
+fn a_partial_round_in_strided_order_keeps_the_depths_in_proportion() {
+    // The chains are ordered by depth; a round cut short after k of its n
+    // mutations steps, per depth d, about k·n_d/n chains in the strided
+    // order `advance` uses for time budgets, where chain order would step
+    // the shallow depths only. Whole rounds step every chain once either
+    // way.
+    let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let (st, m) = furnace_settings();
+    let boot = bootstrap(&scene, st, m, 3);
+    let mut depths = |strided: bool, k: usize| -> Vec<(u32, usize, usize)> {
+        let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
+        c.restart(&mut tracer, &st, &m, &boot, 3, 0, 1);
+        let mut film = Film::new(16, 12);
+        // A step draws from the chain's random streams, accepted or not:
+        // its state (seen through Debug) changes.
+        let before: Vec<String> = c.chains.iter().map(|(ch, _)| format!("{ch:?}")).collect();
+        assert_eq!(c.advance(&mut tracer, &st, &mut film, k, strided), k as u64);
+        // (depth, chains of that depth, chains of it stepped)
+        let mut out: Vec<(u32, usize, usize)> = Vec::new();
+        for ((chain, d), b) in c.chains.iter().zip(&before) {
+            let stepped = (format!("{chain:?}") != *b) as usize;
+            match out.iter_mut().find(|e| e.0 == *d) {
+                Some(e) => {
+                    e.1 += 1;
+                    e.2 += stepped;
+                }
+                None => out.push((*d, 1, stepped)),
+            }
+        }
+        out
+    };
+    let n = m.n_chains as usize;
+    let k = 24;
+    let worst = |v: &[(u32, usize, usize)]| {
+        v.iter()
+            .map(|&(_, n_d, stepped)| (stepped as f64 - (k * n_d) as f64 / n as f64).abs())
+            .fold(0.0, f64::max)
+    };
+    let (strided, ordered) = (depths(true, k), depths(false, k));
+    assert!(strided.len() >= 4, "{strided:?}");
+    assert!(worst(&strided) <= 2.0, "strided: {strided:?}");
+    assert!(worst(&ordered) > 4.0, "chain order: {ordered:?}");
+    assert!(depths(true, n).iter().all(|&(_, n_d, s)| s == n_d));
+}

@@ -52,7 +52,7 @@
 //! below n) or whole rounds (MLT, CMLT: [`mlt::rounds_for`] on every
 //! worker); a time budget is a clock the host asks between pieces of
 //! work ([`Renderer::render_while`]: [`PIECE`] camera samples for PT and
-//! BDPT, about a millisecond, or a round of mutations;
+//! BDPT, about a millisecond, or [`PIECE`] level-1 mutations;
 //! [`Renderer::prepare_worker_while`] for the Metropolis set-up: [`PIECE`]
 //! bootstrap samples or normalisation-pass pixels). The core never reads
 //! time. A PT or BDPT frame may end inside a pass: each pixel is then
@@ -1193,8 +1193,11 @@ impl Renderer {
     /// host bounds a frame by its own clock (the core never reads time, so
     /// it stays `no_std`). A piece is [`PIECE`] camera samples (PT, BDPT:
     /// a frame may end inside a pass, whose samples count per pixel, and
-    /// the next call goes on from there) or one round of mutations (MLT,
-    /// CMLT). A pass begun here visits the pixels in a strided order
+    /// the next call goes on from there) or [`PIECE`] level-1 mutations
+    /// with their side chains (MLT, CMLT: a frame may end inside a round,
+    /// whose chains are then visited in a strided order that keeps the
+    /// depths of a partial round in proportion, `WorkerChains::advance`).
+    /// A pass begun here visits the pixels in a strided order
     /// ([`Renderer::stride`]) rather than row by row, so that a frame that
     /// ends inside it has samples spread over the whole image, not a band
     /// at the top; whole passes differ from `render`'s only in the order
@@ -1214,10 +1217,15 @@ impl Renderer {
             if done > 0 && !keep_going(done) {
                 break;
             }
-            let step = if worker.mlt.is_some() {
-                self.run_steps(worker, &mut tracer, 1)
-            } else {
-                self.run_samples(worker, &mut tracer, PIECE, true)
+            let step = match &mut worker.mlt {
+                Some(m) => m.advance(
+                    &mut tracer,
+                    &self.settings,
+                    &mut worker.film,
+                    PIECE as usize,
+                    true,
+                ),
+                None => self.run_samples(worker, &mut tracer, PIECE, true),
             };
             if step == 0 {
                 break;
@@ -1355,18 +1363,7 @@ impl Renderer {
     /// permutation); golden-ratio steps spread any prefix of the order
     /// evenly over the image (Weyl's sequence).
     pub fn stride(&self) -> u64 {
-        let p = self.pixels();
-        let gcd = |mut a: u64, mut b: u64| {
-            while b != 0 {
-                (a, b) = (b, a % b);
-            }
-            a
-        };
-        let mut s = ((p as f64 * 0.618_033_988_749_894_9) as u64) | 1;
-        while gcd(s, p) != 1 {
-            s += 2;
-        }
-        s % p.max(1)
+        mlt::coprime_stride(self.pixels() as usize) as u64
     }
 
     /// Whether `w`'s film belongs to the current accumulation.

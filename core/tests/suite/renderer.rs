@@ -527,24 +527,33 @@ fn temporal_switches_keep_moving_frames_right_and_steady_frames_steady() {
     assert!(s_win < s_own, "windowed {s_win} vs own {s_own}");
 }
 
-/// `render_while` asks before every piece — PT and BDPT: [`PIECE`]
-/// camera samples, MLT and CMLT: one round — and stops at the first no:
-/// the units done are exactly the pieces the clock allowed, none more.
-/// A frame that stopped inside a pass goes on from there, and the finished
-/// pass is the one `render` renders at once — bit for bit with PT, up to
-/// the order BDPT's splats were added in (the pieces visit the pixels in
-/// a strided order, `render` row by row).
+/// `render_while` asks before every piece — [`PIECE`] camera samples (PT,
+/// BDPT) or level-1 mutations (MLT, CMLT; a piece ends with its round) —
+/// and stops at the first no: the units done are exactly the pieces the
+/// clock allowed, none more. A frame that stopped inside a pass or round
+/// goes on from there, and the finished pass or rounds are the ones
+/// `render` renders at once — bit for bit with PT, and up to the order the
+/// splats were added in otherwise (the pieces visit pixels and chains in
+/// a strided order; every sample and every chain's mutations are the
+/// same).
 #[test]
 fn render_while_stops_when_the_host_clock_says_so() {
     let scene = room();
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    for estimator in [Estimator::Path, Estimator::Bdpt, cmlt(2, 1)] {
+    for estimator in [Estimator::Path, Estimator::Bdpt, mlt(), cmlt(2, 1)] {
         let kind = estimator.kind();
         let cfg = config(estimator, 1);
-        let piece = if kind.is_metropolis() { 24 } else { PIECE };
         let mut r = Renderer::new(cfg, scene.camera).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();
         prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        // The pieces' sizes: 16 each, and for 24 chains a round's end
+        // cuts every second one to 8.
+        let sizes: [u64; 4] = if kind.is_metropolis() {
+            [16, 8, 16, 8]
+        } else {
+            [PIECE; 4]
+        };
+        let mut at = 0;
         for allowed in [1, 3] {
             // A "clock" that says yes `allowed − 1` times: `allowed` pieces.
             let mut asked = 0;
@@ -554,14 +563,17 @@ fn render_while_stops_when_the_host_clock_says_so() {
                     asked < allowed
                 })
                 .unwrap();
-            assert_eq!(done, allowed * piece, "{kind:?}");
+            let want: u64 = sizes[at..at + allowed].iter().sum();
+            at += allowed;
+            assert_eq!(done, want, "{kind:?}");
             assert_eq!(asked, allowed, "{kind:?}: asked {asked} times");
         }
         let mut r2 = Renderer::new(cfg, scene.camera).unwrap();
         let mut w2 = RenderWorker::new(&r2, 0).unwrap();
         prepare(&mut r2, std::slice::from_mut(&mut w2), &scene, &bvh);
         if kind.is_metropolis() {
-            r2.render(&mut w2, &scene, &bvh, 4 * piece).unwrap();
+            // Two whole rounds of the 24 chains.
+            r2.render(&mut w2, &scene, &bvh, 48).unwrap();
         } else {
             // The rest of the open pass, then one whole pass at once.
             assert_eq!(
@@ -571,16 +583,58 @@ fn render_while_stops_when_the_host_clock_says_so() {
             r2.render(&mut w2, &scene, &bvh, 16 * 12).unwrap();
         }
         let (a, b) = (resolve(&r, &[&w]), resolve(&r2, &[&w2]));
-        if kind == EstimatorKind::Bdpt {
+        let refs = [&w];
+        assert_eq!(r.stats(&refs).mlt.mutations, r2.stats(&[&w2]).mlt.mutations);
+        if kind == EstimatorKind::Path {
+            assert_eq!(a, b, "{kind:?}");
+        } else {
             for (x, y) in a.iter().zip(&b) {
                 let (x, y) = (x.luminance(), y.luminance());
-                assert!((x - y).abs() <= 1e-5 * y.abs().max(1e-3), "{x} vs {y}");
+                assert!(
+                    (x - y).abs() <= 1e-5 * y.abs().max(1e-3),
+                    "{kind:?}: {x} vs {y}"
+                );
             }
             assert_ne!(mean(&a), 0.0);
-        } else {
-            assert_eq!(a, b, "{kind:?}");
         }
     }
+}
+
+/// MLT frames that end inside a round are normalised by the mutations
+/// they made: frames of one and a half rounds have the image mean of
+/// whole rounds, b (that the partial round's depths stay in proportion is
+/// `mlt::tests`' `a_partial_round_in_strided_order_keeps_the_depths_in_proportion`).
+#[test]
+fn frames_ending_inside_a_round_keep_the_depths_in_proportion() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let estimator = Estimator::Mlt(MltSettings {
+        n_chains: 96,
+        ..mlt_settings()
+    });
+    let cfg = config(estimator, 1);
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+    let (mut sum, frames) = (0.0, 40);
+    for f in 0..frames {
+        if f > 0 {
+            r.set_camera(scene.camera).unwrap();
+            prepare(&mut r, std::slice::from_mut(&mut w), &scene, &bvh);
+        }
+        // One and a half rounds: 9 pieces of 16 of the 96 chains.
+        let mut n = 0;
+        let done = r
+            .render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+                n += 1;
+                n < 9
+            })
+            .unwrap();
+        assert_eq!(done, 144);
+        sum += mean(&resolve(&r, &[&w])) / r.b();
+    }
+    let ratio = sum / frames as f64;
+    assert!((ratio - 1.0).abs() < 0.03, "mean / b = {ratio}");
 }
 
 /// A frame that ends inside a pass shows each pixel with its own samples:
