@@ -988,7 +988,10 @@ enum cmlt_status cmlt_renderer_render(const struct cmlt_renderer *renderer,
 // `cmlt_renderer_render` in pieces — 16 camera samples (PT, BDPT: about
 // a millisecond of work; a frame may end inside a pass, the next call
 // goes on from there, and each pixel is normalised by its own sample
-// count) or one round of mutations (MLT, CMLT) — calling
+// count) or 16 level-1 mutations with their side chains (MLT, CMLT: a
+// frame may end inside a round, whose chains are then visited in an
+// order that keeps the path depths of the partial round in proportion)
+// — calling
 // `keep_going(user, done)` before every piece after the first and
 // stopping when it returns 0 or `budget` units are done: a frame bounded
 // by the host's own clock (the library never reads time). `*out_done`
