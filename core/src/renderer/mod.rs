@@ -624,7 +624,8 @@ impl Renderer {
 
     /// The normalisation b the current accumulation is scaled with (MLT,
     /// once prepared: this frame's bootstrap estimate, or the mean over
-    /// the b window; 0 otherwise).
+    /// the b window — with kept chains, of the last bootstrap joined while
+    /// the next one is evaluated; 0 otherwise).
     pub fn b(&self) -> f64 {
         self.b_used
     }
