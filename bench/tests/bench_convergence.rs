@@ -13,6 +13,8 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use cmlt_bench::convergence::{CSV_HEADER, curves, read_csv};
+use cmlt_cli::accel::{Accel, AccelKind};
+use cmlt_cli::render::render_accel;
 
 fn bench() -> Command {
     Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
@@ -120,7 +122,8 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
         ],
     )
     .unwrap();
-    let bvh = cmlt::accel::bvh::Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
+    let tris: Vec<_> = loaded.scene.triangles().collect();
+    let accel = Accel::build(AccelKind::Ours, &tris).unwrap();
     let config = cmlt::renderer::RendererConfig {
         estimator: cmlt::renderer::Estimator::Path,
         settings: loaded.settings,
@@ -128,7 +131,9 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
         ..Default::default()
     };
     let budget = cmlt::renderer::Budget::PerPixel(8);
-    let out = cmlt_cli::render::render(&loaded.scene, &bvh, config, budget, &|_| {}).unwrap();
+    // The non-generic driver: this binary links it instead of compiling
+    // the renderer again.
+    let out = render_accel(&loaded.scene, &accel, config, budget, &|_| {}).unwrap();
     cmlt_cli::image_io::write_image(&img, &out.image).unwrap();
     ok(bench()
         .args(["score"])

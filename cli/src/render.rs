@@ -15,6 +15,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use cmlt::accel::Intersector;
+use cmlt::accel::backend::Accel;
 use cmlt::film::Film;
 use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
@@ -235,6 +236,22 @@ pub fn render<I: Intersector + Sync>(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
     render_inner(scene, accel, config, budget, progress, false, None).map(|(out, _)| out)
+}
+
+/// [`render`] over [`Accel`], the intersector the CLI picks at run time.
+/// Not generic, so it is compiled once, here: every crate that calls the
+/// generic [`render`] with its own intersector compiles the whole renderer
+/// again (the benchmarks' test binary spent most of its 150 s of compile
+/// time on that), while callers of this one only link it.
+#[inline(never)]
+pub fn render_accel(
+    scene: &Scene,
+    accel: &Accel,
+    config: RendererConfig,
+    budget: Budget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderOutput, String> {
+    render(scene, accel, config, budget, progress)
 }
 
 /// [`render`], also handing back the workers' film sums.

@@ -9,9 +9,13 @@
 //! - [`bvh`]: the default BVH against brute force, watertightness, spawn
 //!   offsets, packets with any mask;
 //! - [`detail`]: normal maps, bump maps and alpha masks;
+//! - [`effects`]: scenes needing an effect whose feature is off are
+//!   refused (here, with every effect, they render);
 //! - [`furnace`]: white-furnace answers of every estimator;
 //! - [`lights`]: point, spot, directional and environment lights with
 //!   analytic answers;
+//! - [`miri`]: the subset Miri runs (scalar BVH kernel, packets, tiny
+//!   render passes), natively;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
@@ -19,8 +23,9 @@
 //! - [`shapes`]: host-intersected analytic shapes;
 //! - [`stability`]: the adversarial suite.
 //!
-//! `effects`, `miri` and `embree` stay separate binaries: CI builds them
-//! with other features or under Miri.
+//! `effects` and `miri` also have roots of their own (`tests/effects.rs`,
+//! `tests/miri.rs`) that `cargo test` skips: CI builds those without the
+//! effects and under Miri. `embree` is a separate binary with its feature.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -30,8 +35,10 @@ mod intersect;
 mod architecture;
 mod bvh;
 mod detail;
+mod effects;
 mod furnace;
 mod lights;
+mod miri;
 mod mlt;
 mod renderer;
 mod rough_diffuse;
