@@ -146,6 +146,10 @@ pub struct cmlt_renderer_config {
     /// grow as the image shrinks; 0 = exactly `normalisation_passes`. At
     /// most 2²⁴.
     pub normalisation_min_samples: u32,
+    /// MLT: chains for emitters seen directly (paths of one segment), as
+    /// a factor on their share of the image's luminance, in (0, 1]; 1 =
+    /// chains in proportion to luminance at every path depth.
+    pub direct_allocation: f32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -305,6 +309,7 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         side_chain_min_depth: l2.side_chain_min_depth,
         share: l2.share,
         normalisation_min_samples: mlt.b_min_samples,
+        direct_allocation: mlt.direct_allocation,
     }
 }
 
@@ -346,6 +351,11 @@ fn unread_field(
             "small_step_sigma",
             MLT,
             f(c.small_step_sigma, d.small_step_sigma),
+        ),
+        (
+            "direct_allocation",
+            MLT,
+            f(c.direct_allocation, d.direct_allocation),
         ),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
@@ -413,6 +423,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         n_chains: c.chains,
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
+        direct_allocation: c.direct_allocation,
         ..MltSettings::default()
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {

@@ -75,6 +75,13 @@ fn renderer_inputs_and_call_order_are_checked() {
                     ..good
                 },
             ),
+            (
+                "direct allocation 0",
+                cmlt_renderer_config {
+                    direct_allocation: 0.0,
+                    ..good
+                },
+            ),
             ("no chains", cmlt_renderer_config { chains: 0, ..good }),
             (
                 "no bootstrap",

@@ -28,16 +28,22 @@
 //! its error is a floor under the image's error that more mutations do not
 //! lower.
 //!
-//! Chains are assigned depths by *systematic* sampling of b_d / b
-//! ([`Bootstrap::depth_at`] with evenly spaced points and one random
-//! offset): every depth gets ⌊C·b_d/b⌋ or ⌈C·b_d/b⌉ of C chains, in
-//! expectation exactly C·b_d/b, which is what makes the histogram of all
-//! chains, each run for the same number of mutations, one estimate
-//! normalised by b. (pbrt draws each chain's depth independently, which
-//! adds multinomial noise to the split between depths.) The rounding of
-//! C·b_d/b to whole chains is then removed by weighting each chain
-//! (`depth_weights` in the parent module), so every depth with at least
-//! one expected chain contributes exactly its b_d.
+//! Chains are assigned depths by *systematic* sampling of an allocation
+//! q_d / Q ([`Bootstrap::chain_depth_at`] with evenly spaced points and one
+//! random offset): every depth gets ⌊C·q_d/Q⌋ or ⌈C·q_d/Q⌉ of C chains.
+//! q_d = b_d (pbrt, Tungsten), except for depth 1, the emitters seen
+//! directly: q_1 = [`MltSettings::direct_allocation`] · b_1. Those paths
+//! are one camera ray each, their pixels bright and their histogram flat,
+//! so b-proportional chains spend many mutations where the image's error
+//! is least (on Tungsten's Cornell box depth 1 is 43 % of b:
+//! `docs/accuracy.md`, "Level 1 against Tungsten's MMLT"). Each chain is
+//! then weighted so that its depth contributes exactly b_d
+//! (`depth_weights` in the parent module), which also removes the rounding
+//! of C·q_d/Q to whole chains; every chain of a worker runs the same
+//! number of mutations, so the weighted histogram of all chains is one
+//! estimate normalised by b. (pbrt draws each chain's depth
+//! independently, which adds multinomial noise to the split between
+//! depths.)
 //!
 //! Everything can be evaluated in any split across workers (index ranges of
 //! bootstrap samples, pass numbers) and combined in index order: the result does
@@ -145,8 +151,10 @@ pub struct Bootstrap {
     depth_b: Vec<f64>,
     /// b_d as the bootstrap samples estimate it (pbrt's estimate).
     sample_depth_b: Vec<f64>,
-    /// Prefix sums of `depth_b` (for [`Bootstrap::depth_at`]).
-    depth_cdf: Vec<f64>,
+    /// Prefix sums of the chain allocation q_d: b_d, times
+    /// [`MltSettings::direct_allocation`] for depth 1 (for
+    /// [`Bootstrap::chain_depth_at`]).
+    chain_cdf: Vec<f64>,
     b: f64,
 }
 
@@ -168,7 +176,7 @@ impl Bootstrap {
             cdf: Vec::with_capacity(Self::sample_count(settings, mlt) as usize),
             depth_b: Vec::with_capacity(depths),
             sample_depth_b: Vec::with_capacity(depths),
-            depth_cdf: Vec::with_capacity(depths),
+            chain_cdf: Vec::with_capacity(depths),
             b: 0.0,
         }
     }
@@ -205,7 +213,7 @@ impl Bootstrap {
             cdf,
             depth_b,
             sample_depth_b,
-            depth_cdf,
+            chain_cdf,
             ..
         } = self;
         cdf.clear();
@@ -236,11 +244,16 @@ impl Bootstrap {
         } else {
             depth_b.extend_from_slice(sample_depth_b);
         }
-        depth_cdf.clear();
-        let mut b = 0.0;
-        for &bd in depth_b.iter() {
+        chain_cdf.clear();
+        let (mut b, mut q) = (0.0, 0.0);
+        for (d, &bd) in depth_b.iter().enumerate() {
             b += bd;
-            depth_cdf.push(b);
+            q += if d == 0 {
+                bd * f64::from(mlt.direct_allocation)
+            } else {
+                bd
+            };
+            chain_cdf.push(q);
         }
         self.seed = seed;
         self.depths = depths as u32;
@@ -265,21 +278,35 @@ impl Bootstrap {
         &self.sample_depth_b
     }
 
-    /// The depth at position `u` ∈ [0, 1) of the distribution b_d / b
-    /// (`None` when b = 0).
-    pub(crate) fn depth_at(&self, u: f64) -> Option<u32> {
-        if !(self.b > 0.0) {
+    /// The depth at position `u` ∈ [0, 1) of the chain allocation q_d / Q:
+    /// q_d = b_d, except q_1 = [`MltSettings::direct_allocation`] · b_1
+    /// (`None` when b = 0). The chains' systematic sample draws from this;
+    /// `depth_weights` (parent module) then gives each depth its b_d.
+    pub(crate) fn chain_depth_at(&self, u: f64) -> Option<u32> {
+        let total = self.chain_cdf.last().copied().unwrap_or(0.0);
+        if !(self.b > 0.0 && total > 0.0) {
             return None;
         }
-        let target = u * self.b;
-        let i = self.depth_cdf.partition_point(|&c| c <= target);
-        // Past the end only by rounding: take the last depth with weight.
+        let i = self.chain_cdf.partition_point(|&c| c <= u * total);
         let i = if i < self.depths as usize {
             i
         } else {
             self.depth_b.iter().rposition(|&b| b > 0.0)?
         };
         Some(i as u32 + 1)
+    }
+
+    /// The share q_d / Q of the chains that depth `depth` is allocated
+    /// ([`Bootstrap::chain_depth_at`]); 0 for a depth out of range or
+    /// when nothing contributes.
+    pub(crate) fn chain_share(&self, depth: u32) -> f64 {
+        let total = self.chain_cdf.last().copied().unwrap_or(0.0);
+        let d = depth as usize;
+        if d == 0 || d > self.chain_cdf.len() || !(total > 0.0) {
+            return 0.0;
+        }
+        let below = if d >= 2 { self.chain_cdf[d - 2] } else { 0.0 };
+        (self.chain_cdf[d - 1] - below) / total
     }
 
     /// The bootstrap sample a chain of `depth` starts from, with probability

@@ -34,6 +34,9 @@ fn furnace_settings() -> (Settings, MltSettings) {
         b_passes: 64,
         b_min_samples: 0,
         n_chains: 64,
+        // Chains in proportion to b_d at every depth: the hand-stepped
+        // chains below are unweighted.
+        direct_allocation: 1.0,
         ..MltSettings::default()
     };
     (st, m)
@@ -66,7 +69,7 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
     for c in 0..64u64 {
         let mut rng = Pcg32::new(c, 99);
         let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        let depth = boot.depth_at((c as f64 + 0.5) / 64.0).unwrap();
+        let depth = boot.chain_depth_at((c as f64 + 0.5) / 64.0).unwrap();
         let index = boot.pick(depth, u).unwrap();
         // Bootstrap sample i has depth 1 + i mod D, D = 16.
         assert_eq!(1 + (index % 16) as u32, depth);
@@ -147,4 +150,41 @@ fn workers_split_the_same_chains_deterministically() {
         (depth1 as f64 - expected).abs() <= 1.0,
         "{depth1} vs {expected}"
     );
+}
+
+#[test]
+fn direct_allocation_moves_chains_off_depth_one() {
+    // With q_1 = 0.1·b_1 the systematic sample gives depth 1 its share of
+    // q (to within one chain), and the weights still give it b_1/b of the
+    // image: the chains' weights by depth, times their counts, are the
+    // depths' shares of b.
+    let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let (st, m) = furnace_settings();
+    let m = MltSettings {
+        direct_allocation: 0.1,
+        ..m
+    };
+    let boot = bootstrap(&scene, st, m, 2);
+    let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
+    c.restart(&mut tracer, &st, &m, &boot, 2, 0, 1);
+    let (b1, b) = (boot.depth_b()[0], boot.b());
+    let q1 = 0.1 * b1 / (0.1 * b1 + (b - b1));
+    let depth1 = c.chain_depths().filter(|&d| d == 1).count();
+    assert!(
+        (depth1 as f64 - 64.0 * q1).abs() <= 1.0,
+        "{depth1} chains at depth 1, expected {}",
+        64.0 * q1
+    );
+    assert!((boot.chain_share(1) - q1).abs() < 1e-9);
+    let share1: f64 = c
+        .chain_depths()
+        .zip(&c.weights)
+        .filter(|&(d, _)| d == 1)
+        .map(|(_, &w)| w as f64)
+        .sum::<f64>()
+        / 64.0;
+    assert!((share1 - b1 / b).abs() < 1e-5, "{share1} vs {}", b1 / b);
 }

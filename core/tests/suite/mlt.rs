@@ -497,3 +497,60 @@ fn normalisation_floor_raises_the_passes_of_a_small_image() {
     assert!(with(4, mlt::MAX_B_MIN_SAMPLES).validate().is_ok());
     assert!(with(4, mlt::MAX_B_MIN_SAMPLES + 1).validate().is_err());
 }
+
+/// Fewer chains for emitters seen directly (`direct_allocation` < 1) change
+/// where the mutations go, not the image: a bright sphere seen directly in
+/// a grey box renders the same in its own pixels (depth 1 dominates) and
+/// elsewhere with a tenth of the b-proportional chains at depth 1 as with
+/// all of them. Without the chains' weights the sphere's pixels would come
+/// out about ten times too dark and the walls too bright.
+#[test]
+fn direct_allocation_keeps_the_image() {
+    let mut b = SceneBuilder::new();
+    let walls = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let lamp = b.add_material(Material::diffuse(Rgb::ZERO));
+    b.add_mesh(common::inward_box(walls, 0.0));
+    let mut sphere = common::sphere(Vec3::new(0.1, -0.1, 0.4), 0.2, lamp);
+    sphere.emission = Some(Rgb::splat(5.0));
+    b.add_mesh(sphere);
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    let scene = b.build().unwrap();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let covered = common::covered_pixels(&scene.camera, |ray| {
+        cmlt::accel::Intersector::intersect(&bvh, ray).is_some_and(|h| h.prim >= 12)
+    });
+    assert!(covered.len() >= 8, "{}", covered.len());
+    let regions = |img: &[Rgb]| {
+        let lamp = covered.iter().map(|&i| img[i].g).sum::<f32>() / covered.len() as f32;
+        let all = img.iter().map(|p| p.g).sum::<f32>();
+        let walls = (all - lamp * covered.len() as f32) / (img.len() - covered.len()) as f32;
+        (lamp, walls)
+    };
+    let with = |direct_allocation| MltSettings {
+        direct_allocation,
+        ..mlt_settings()
+    };
+    let (img, r) = render(&scene, Estimator::Mlt(with(0.1)), 7, 256);
+    let boot = &r.bootstrap;
+    assert!(
+        boot.depth_b()[0] > 0.3 * boot.b(),
+        "depth 1 must hold much of b ({} of {})",
+        boot.depth_b()[0],
+        boot.b()
+    );
+    let (lamp, walls) = regions(&img);
+    let (lamp_all, walls_all) = regions(&render(&scene, Estimator::Mlt(with(1.0)), 7, 256).0);
+    eprintln!("lamp {lamp} vs {lamp_all}, walls {walls} vs {walls_all}");
+    assert!(
+        (lamp - 5.0).abs() < 0.03 * 5.0,
+        "lamp pixels {lamp}, expected 5"
+    );
+    assert!(
+        (lamp_all - 5.0).abs() < 0.03 * 5.0,
+        "lamp pixels {lamp_all}"
+    );
+    assert!(
+        (walls / walls_all - 1.0).abs() < 0.05,
+        "walls {walls} vs {walls_all}"
+    );
+}
