@@ -6,7 +6,7 @@
 //! The public surface is what a host configures and reads: the settings
 //! ([`MltSettings`] for level 1, [`Level2Settings`] for CMLT's level 2,
 //! [`CmltSettings`] for both; with [`Candidates`] and [`Splatting`]),
-//! [`MltStats`], [`Bootstrap`] and the functions below. The parts, private
+//! [`MltStats`], [`Bootstrap`], [`LargeStepTally`] and the functions below. The parts, private
 //! to the crate (the renderer drives a worker's chains, `WorkerChains`):
 //!
 //! - `primary`: the primary-sample vector X, its lazy large/small-step
