@@ -129,7 +129,7 @@ mod tests {
     use glam::Vec2;
 
     /// Y(u) = 1 + 3x + 8·[y > ¾] on the unit square: ∫Y = 4.5, and a
-    /// chain's states, distributed ∝ Y, have mean ∫Y²/∫Y = 9.5.
+    /// chain's states, distributed ∝ Y, have mean ∫Y²/∫Y = 33/4.5 ≈ 7.3.
     fn toy(s: &mut PrimarySampler) -> PathSample {
         s.start_stream(CAMERA_STREAM);
         let u = s.next_2d();
@@ -171,9 +171,10 @@ mod tests {
         );
         assert!((b - 4.5).abs() < 4.0 * err && err < 0.02, "b {b} ± {err}");
         // Negative control: all proposals, small steps included, follow
-        // the chain (∝ Y) and overestimate: 0.3·4.5 + 0.7·9.5 ≈ 8.
+        // the chain (∝ Y) and overestimate: about 0.3·4.5 + 0.7·7.3 ≈ 6.5
+        // (a little less: small steps from the bright strip fall off it).
         let all = t.depth_b(2).unwrap();
-        assert!(all > 7.0, "every proposal's mean {all} looked unbiased");
+        assert!(all > 5.5, "every proposal's mean {all} looked unbiased");
     }
 
     #[test]
@@ -189,10 +190,9 @@ mod tests {
         b.merge(&a);
         assert_eq!((b.count(1), b.depth_b(1)), (3, Some(4.0)));
         assert_eq!((b.count(3), b.depth_b(3)), (1, Some(0.0)));
-        assert_eq!(
-            (b.count(2), b.depth_b(2), b.depth_b_error(1)),
-            (0, None, Some(2.0 / 3f64.sqrt()))
-        );
+        assert_eq!((b.count(2), b.depth_b(2)), (0, None));
+        // Sample standard deviation 2 over √3.
+        assert!((b.depth_b_error(1).unwrap() - 2.0 / 3f64.sqrt()).abs() < 1e-12);
         b.clear();
         assert_eq!((b.count(1), b.depths()), (0, 3));
     }

@@ -135,7 +135,7 @@ pub enum Level1 {
 }
 
 impl Default for MltSettings {
-    /// Primary-sample level 1, 2 000 bootstrap samples per depth, 4
+    /// Primary-sample level 1, 2 000 bootstrap samples per depth, 2
     /// normalisation passes and at least 65 536 normalisation samples, 256
     /// chains per worker, large steps 0.1, σ = 0.01, a tenth of the
     /// b-proportional chains for emitters seen directly.
@@ -143,7 +143,7 @@ impl Default for MltSettings {
         MltSettings {
             level1: Level1::PrimarySample,
             n_bootstrap: 2_000,
-            b_passes: 4,
+            b_passes: 2,
             b_min_samples: DEFAULT_B_MIN_SAMPLES,
             n_chains: 256,
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
@@ -325,8 +325,8 @@ impl CmltSettings {
     }
 }
 
-/// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, the four
-/// default passes over a 128 × 128 image; smaller images get more passes.
+/// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, four passes
+/// over a 128 × 128 image; smaller images get more passes.
 pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
 
 /// Default of [`MltSettings::direct_allocation`].

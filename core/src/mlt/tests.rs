@@ -171,7 +171,8 @@ fn direct_allocation_moves_chains_off_depth_one() {
     let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
     c.restart(&mut tracer, &st, &m, &boot, 2, 0, 1);
     let (b1, b) = (boot.depth_b()[0], boot.b());
-    let q1 = 0.1 * b1 / (0.1 * b1 + (b - b1));
+    let a = f64::from(0.1f32);
+    let q1 = a * b1 / (a * b1 + (b - b1));
     let depth1 = c.chain_depths().filter(|&d| d == 1).count();
     assert!(
         (depth1 as f64 - 64.0 * q1).abs() <= 1.0,
