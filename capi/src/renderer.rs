@@ -146,9 +146,10 @@ pub struct cmlt_renderer_config {
     /// grow as the image shrinks; 0 = exactly `normalisation_passes`. At
     /// most 2²⁴.
     pub normalisation_min_samples: u32,
-    /// MLT: chains for emitters seen directly (paths of one segment), as
-    /// a factor on their share of the image's luminance, in (0, 1]; 1 =
-    /// chains in proportion to luminance at every path depth.
+    /// MLT: least factor on the chains for emitters seen directly (paths
+    /// of one segment) against their share of the image's luminance, in
+    /// (0, 1]: they get chains for the area that sees an emitter, at least
+    /// this share; 1 = chains in proportion to luminance at every depth.
     pub direct_allocation: f32,
 }
 

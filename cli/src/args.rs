@@ -177,9 +177,10 @@ pub struct MltArgs {
     /// exactly --b-passes; at most 16777216.
     #[arg(long, default_value_t = MltSettings::default().b_min_samples)]
     pub b_min_samples: u32,
-    /// Chains for emitters seen directly (paths of one segment), as a
-    /// factor on their share of the image's luminance, in (0, 1]; 1 =
-    /// chains in proportion to luminance at every path depth.
+    /// Least factor on the chains for emitters seen directly (paths of one
+    /// segment) against their share of the image's luminance, in (0, 1]:
+    /// they get chains for the area that sees an emitter, at least this
+    /// share; 1 = chains in proportion to luminance at every path depth.
     #[arg(long, default_value_t = MltSettings::default().direct_allocation)]
     pub direct_allocation: f32,
 }

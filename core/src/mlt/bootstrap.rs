@@ -32,11 +32,18 @@
 //! q_d / Q ([`Bootstrap::chain_depth_at`] with evenly spaced points and one
 //! random offset): every depth gets ⌊C·q_d/Q⌋ or ⌈C·q_d/Q⌉ of C chains.
 //! q_d = b_d (pbrt, Tungsten), except for depth 1, the emitters seen
-//! directly: q_1 = [`MltSettings::direct_allocation`] · b_1. Those paths
-//! are one camera ray each, their pixels bright and their histogram flat,
-//! so b-proportional chains spend many mutations where the image's error
-//! is least (on Tungsten's Cornell box depth 1 is 43 % of b:
-//! `docs/accuracy.md`, "Level 1 against Tungsten's MMLT"). Each chain is
+//! directly: q_1 = c · b_1 with c = A_1 · b / b_1, A_1 the share of the
+//! image that sees an emitter (depth-1 bootstrap samples with a
+//! contribution), clamped to [[`MltSettings::direct_allocation`], 1]. An
+//! emitter seen directly far brighter than the image's mean (a small lamp:
+//! A_1 · b ≪ b_1) is a flat bright patch whose pixels' relative error
+//! b-proportional chains drive far below the rest's; depth 1 then gets
+//! chains for its area, not its luminance, down to the floor. On
+//! Tungsten's Cornell box depth 1 is 43 % of b on 0.3 % of the pixels (c
+//! is the floor, 0.1); an environment or emitting walls seen behind the
+//! scene are no brighter than its mean and keep c = 1 (at c = 0.1 the
+//! envmap test scene's error rose 4×: `docs/accuracy.md`, "Level 1
+//! against Tungsten's MMLT"). Each chain is
 //! then weighted so that its depth contributes exactly b_d
 //! (`depth_weights` in the parent module), which also removes the rounding
 //! of C·q_d/Q to whole chains; every chain of a worker runs the same
@@ -190,9 +197,8 @@ pub struct Bootstrap {
     depth_b: Vec<f64>,
     /// b_d as the bootstrap samples estimate it (pbrt's estimate).
     sample_depth_b: Vec<f64>,
-    /// Prefix sums of the chain allocation q_d: b_d, times
-    /// [`MltSettings::direct_allocation`] for depth 1 (for
-    /// [`Bootstrap::chain_depth_at`]).
+    /// Prefix sums of the chain allocation q_d: b_d, times depth 1's
+    /// factor for depth 1 (for [`Bootstrap::chain_depth_at`]).
     chain_cdf: Vec<f64>,
     b: f64,
 }
@@ -284,14 +290,21 @@ impl Bootstrap {
             depth_b.extend_from_slice(sample_depth_b);
         }
         chain_cdf.clear();
-        let (mut b, mut q) = (0.0, 0.0);
+        let b: f64 = depth_b.iter().sum();
+        // Depth 1's factor (see the module docs): its share of the image
+        // area (the bootstrap samples of depth 1 that see an emitter) over
+        // its share of b, at least `direct_allocation`, at most 1.
+        let seen = (0..n).filter(|&k| values[k * depths] > 0.0).count() as f64;
+        let area = if n > 0 { seen / n as f64 } else { 1.0 };
+        let b1 = depth_b.first().copied().unwrap_or(0.0);
+        let direct = if b1 > 0.0 {
+            (area * b / b1).clamp(f64::from(mlt.direct_allocation), 1.0)
+        } else {
+            1.0
+        };
+        let mut q = 0.0;
         for (d, &bd) in depth_b.iter().enumerate() {
-            b += bd;
-            q += if d == 0 {
-                bd * f64::from(mlt.direct_allocation)
-            } else {
-                bd
-            };
+            q += if d == 0 { bd * direct } else { bd };
             chain_cdf.push(q);
         }
         self.seed = seed;

@@ -108,16 +108,17 @@ pub struct MltSettings {
     /// Independent chains per worker (pbrt: 1000 in total).
     pub n_chains: u32,
     /// Probability of a large step (pbrt: 0.3; Tungsten's multiplexed
-    /// MLT, and ours by default: 0.1).
+    /// MLT: 0.1).
     pub large_step_prob: f32,
     /// Small-step width σ in primary sample space (pbrt: 0.01).
     pub sigma: f32,
-    /// Chains for paths of one segment (emitters seen directly), as a
-    /// factor on their share of b, in (0, 1]: 1 = chains in proportion to
-    /// b_d at every depth (pbrt, Tungsten). Fewer chains there leave the
-    /// image's expectation alone (each depth's chains are weighted to
-    /// give its b_d; `mlt/bootstrap.rs`) and give the mutations to the
-    /// deeper paths.
+    /// The least factor on the chains of paths of one segment (emitters
+    /// seen directly) against their share of b, in (0, 1]. Depth 1 gets
+    /// chains for the image area that sees an emitter rather than for its
+    /// luminance, but no fewer than this factor times its b-proportional
+    /// share (`mlt/bootstrap.rs`); 1 = chains in proportion to b_d at
+    /// every depth (pbrt, Tungsten). The image's expectation is the same
+    /// either way (each depth's chains are weighted to give its b_d).
     pub direct_allocation: f32,
 }
 
@@ -137,8 +138,8 @@ pub enum Level1 {
 impl Default for MltSettings {
     /// Primary-sample level 1, 2 000 bootstrap samples per depth, 2
     /// normalisation passes and at least 65 536 normalisation samples, 256
-    /// chains per worker, large steps 0.1, σ = 0.01, a tenth of the
-    /// b-proportional chains for emitters seen directly.
+    /// chains per worker, large steps 0.3, σ = 0.01, at least a tenth of
+    /// the b-proportional chains for emitters seen directly.
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
@@ -330,9 +331,9 @@ impl CmltSettings {
 pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
 
 /// Default of [`MltSettings::direct_allocation`].
-/// On Tungsten's Cornell box, 0.1 gave 1.6× less error per mutation than
-/// 1 (0.03 no better): `docs/accuracy.md`, "Level 1 against Tungsten's
-/// MMLT".
+/// On Tungsten's Cornell box, where depth 1 is a small bright lamp, 0.1
+/// gave 1.6× less error per mutation than 1 (0.03 no better):
+/// `docs/accuracy.md`, "Level 1 against Tungsten's MMLT".
 pub const DEFAULT_DIRECT_ALLOCATION: f32 = 0.1;
 
 /// Largest [`MltSettings::b_min_samples`].
