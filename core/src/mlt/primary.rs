@@ -30,6 +30,7 @@ use alloc::vec::Vec;
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 
+use crate::math::PI;
 use crate::sampler::{STREAM_COUNT, Sampler, mix64};
 
 /// pbrt's default small-step width σ (in units of the unit interval).
@@ -233,26 +234,23 @@ impl PrimarySampler {
         (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
-    /// A standard normal deviate (Marsaglia's polar method; the pair's
-    /// second value is kept for the next call). Box–Muller's sine and
-    /// cosine made this function a tenth of a level-1 mutation's time on
-    /// Tungsten's Cornell box; the polar method needs one logarithm and
-    /// one square root per pair and rejects 1 − π/4 of its points.
+    /// A standard normal deviate (Box–Muller; the pair's second value is
+    /// kept for the next call). Marsaglia's polar method (no sine or
+    /// cosine) was tried: it converged measurably slower on the
+    /// lights-punctual test scene at 12×12 (relMSE 0.0226 against 0.0185
+    /// at 1024 mutations per pixel, seeds 1–4), not understood; Box–Muller
+    /// stays until that is.
     fn normal(&mut self) -> f32 {
         if let Some(z) = self.spare_normal.take() {
             return z;
         }
-        loop {
-            let u = 2.0 * self.uniform() - 1.0;
-            let v = 2.0 * self.uniform() - 1.0;
-            let s = u * u + v * v;
-            // s = 0 would divide by zero; s ≥ 1 lies outside the disc.
-            if s > 0.0 && s < 1.0 {
-                let f = libm::sqrtf(-2.0 * libm::logf(s) / s);
-                self.spare_normal = Some(v * f);
-                return u * f;
-            }
-        }
+        // 1 − u ∈ (0, 1]: the logarithm stays finite.
+        let u1 = 1.0 - self.uniform();
+        let u2 = self.uniform();
+        let r = libm::sqrtf(-2.0 * libm::logf(u1));
+        let (s, c) = libm::sincosf(2.0 * PI * u2);
+        self.spare_normal = Some(r * s);
+        r * c
     }
 
     /// σ·√n: the width of n small steps applied at once.
