@@ -389,6 +389,11 @@ typedef struct cmlt_renderer_config {
   // grow as the image shrinks; 0 = exactly `normalisation_passes`. At
   // most 2²⁴.
   uint32_t normalisation_min_samples;
+  // MLT: least factor on the chains for emitters seen directly (paths
+  // of one segment) against their share of the image's luminance, in
+  // (0, 1]: they get chains for the area that sees an emitter, at least
+  // this share; 1 = chains in proportion to luminance at every depth.
+  float direct_allocation;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -155,6 +155,11 @@ pub struct cmlt_renderer_config {
     /// grow as the image shrinks; 0 = exactly `normalisation_passes`. At
     /// most 2²⁴.
     pub normalisation_min_samples: u32,
+    /// MLT: least factor on the chains for emitters seen directly (paths
+    /// of one segment) against their share of the image's luminance, in
+    /// (0, 1]: they get chains for the area that sees an emitter, at least
+    /// this share; 1 = chains in proportion to luminance at every depth.
+    pub direct_allocation: f32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -314,6 +319,7 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         side_chain_min_depth: l2.side_chain_min_depth,
         share: l2.share,
         normalisation_min_samples: mlt.b_min_samples,
+        direct_allocation: mlt.direct_allocation,
     }
 }
 
@@ -355,6 +361,11 @@ fn unread_field(
             "small_step_sigma",
             MLT,
             f(c.small_step_sigma, d.small_step_sigma),
+        ),
+        (
+            "direct_allocation",
+            MLT,
+            f(c.direct_allocation, d.direct_allocation),
         ),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
@@ -422,6 +433,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         n_chains: c.chains,
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
+        direct_allocation: c.direct_allocation,
         ..MltSettings::default()
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {

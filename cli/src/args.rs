@@ -177,6 +177,12 @@ pub struct MltArgs {
     /// exactly --b-passes; at most 16777216.
     #[arg(long, default_value_t = MltSettings::default().b_min_samples)]
     pub b_min_samples: u32,
+    /// Least factor on the chains for emitters seen directly (paths of one
+    /// segment) against their share of the image's luminance, in (0, 1]:
+    /// they get chains for the area that sees an emitter, at least this
+    /// share; 1 = chains in proportion to luminance at every path depth.
+    #[arg(long, default_value_t = MltSettings::default().direct_allocation)]
+    pub direct_allocation: f32,
 }
 
 impl MltArgs {
@@ -192,12 +198,13 @@ impl MltArgs {
             n_chains: self.chains,
             large_step_prob: self.large_step,
             sigma: self.sigma,
+            direct_allocation: self.direct_allocation,
             ..MltSettings::default()
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {})",
-                self.large_step, self.sigma, self.chains, self.b_min_samples
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {})",
+                self.large_step, self.sigma, self.chains, self.b_min_samples, self.direct_allocation
             )
         })?;
         Ok(mlt)

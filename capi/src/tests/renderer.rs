@@ -75,6 +75,13 @@ fn renderer_inputs_and_call_order_are_checked() {
                     ..good
                 },
             ),
+            (
+                "direct allocation 0",
+                cmlt_renderer_config {
+                    direct_allocation: 0.0,
+                    ..good
+                },
+            ),
             ("no chains", cmlt_renderer_config { chains: 0, ..good }),
             (
                 "no bootstrap",
@@ -405,7 +412,7 @@ fn fields_the_estimator_does_not_read_are_refused() {
         }),
         (CMLT_ESTIMATOR_PT, "chains", |c| c.chains = 8),
         (CMLT_ESTIMATOR_BDPT, "normalisation_passes", |c| {
-            c.normalisation_passes = 2
+            c.normalisation_passes = 3
         }),
         (CMLT_ESTIMATOR_PT, "keep_chains", |c| c.keep_chains = 1),
         (CMLT_ESTIMATOR_BDPT, "b_window", |c| c.b_window = 2),

@@ -335,7 +335,7 @@ fn cli_merges_parts_and_refuses_what_does_not_belong() {
     let (m0, m1) = (tmp("m0.part"), tmp("m1.part"));
     let mlt = ["--method", "mlt", "--spp", "1", "--bootstrap", "100"];
     part(&m0, "0/2", &mlt);
-    part(&m1, "1/2", &[&mlt[..], &["--b-passes", "2"]].concat());
+    part(&m1, "1/2", &[&mlt[..], &["--b-passes", "3"]].concat());
     refused(&[&m0, &m1], "the settings");
     let three = tmp("three.part");
     part(&three, "1/3", &pt);

@@ -28,16 +28,29 @@
 //! its error is a floor under the image's error that more mutations do not
 //! lower.
 //!
-//! Chains are assigned depths by *systematic* sampling of b_d / b
-//! ([`Bootstrap::depth_at`] with evenly spaced points and one random
-//! offset): every depth gets ⌊C·b_d/b⌋ or ⌈C·b_d/b⌉ of C chains, in
-//! expectation exactly C·b_d/b, which is what makes the histogram of all
-//! chains, each run for the same number of mutations, one estimate
-//! normalised by b. (pbrt draws each chain's depth independently, which
-//! adds multinomial noise to the split between depths.) The rounding of
-//! C·b_d/b to whole chains is then removed by weighting each chain
-//! (`depth_weights` in the parent module), so every depth with at least
-//! one expected chain contributes exactly its b_d.
+//! Chains are assigned depths by *systematic* sampling of an allocation
+//! q_d / Q ([`Bootstrap::chain_depth_at`] with evenly spaced points and one
+//! random offset): every depth gets ⌊C·q_d/Q⌋ or ⌈C·q_d/Q⌉ of C chains.
+//! q_d = b_d (pbrt, Tungsten), except for depth 1, the emitters seen
+//! directly: q_1 = c · b_1 with c = A_1 · b / b_1, A_1 the share of the
+//! image that sees an emitter (depth-1 bootstrap samples with a
+//! contribution), clamped to [[`MltSettings::direct_allocation`], 1]. An
+//! emitter seen directly far brighter than the image's mean (a small lamp:
+//! A_1 · b ≪ b_1) is a flat bright patch whose pixels' relative error
+//! b-proportional chains drive far below the rest's; depth 1 then gets
+//! chains for its area, not its luminance, down to the floor. On
+//! Tungsten's Cornell box depth 1 is 43 % of b on 0.3 % of the pixels (c
+//! is the floor, 0.1); an environment or emitting walls seen behind the
+//! scene are no brighter than its mean and keep c = 1 (at c = 0.1 the
+//! envmap test scene's error rose 4×: `docs/accuracy.md`, "Level 1
+//! against Tungsten's MMLT"). Each chain is
+//! then weighted so that its depth contributes exactly b_d
+//! (`depth_weights` in the parent module), which also removes the rounding
+//! of C·q_d/Q to whole chains; every chain of a worker runs the same
+//! number of mutations, so the weighted histogram of all chains is one
+//! estimate normalised by b. (pbrt draws each chain's depth
+//! independently, which adds multinomial noise to the split between
+//! depths.)
 //!
 //! Everything can be evaluated in any split across workers (index ranges of
 //! bootstrap samples, pass numbers) and combined in index order: the result does
@@ -88,12 +101,28 @@ pub fn evaluate_samples<I: Intersector>(
     }
 }
 
+/// Camera rays per pixel and pass that estimate b_1 (a
+/// [`DIRECT_GRID`]² stratified grid), instead of the pass's one BDPT
+/// sample: see [`evaluate_pass`].
+const DIRECT_GRID: u32 = 2;
+
 /// Renders the pixels `pixels` (row-major indices) of normalisation pass
 /// `pass` — one BDPT sample per pixel, depths 1 … D, all strategies with
 /// MIS — and adds the luminance of every contribution to `sums[depth − 1]`
 /// (`sums.len()` ≥ D). A pass evaluated in consecutive pieces into the
 /// same `sums` adds in the same order as in one go: the same sums, bit for
 /// bit (how a frame loop spreads its set-up over calls).
+///
+/// Depth 1 (emitters seen directly) is tallied from its own
+/// [`DIRECT_GRID`]² camera rays per pixel, stratified over the pixel,
+/// instead of the BDPT sample's one ray: b_1's error is the coverage noise
+/// of the pixels on an emitter's outline, which one jittered ray per pixel
+/// leaves large (on Tungsten's Cornell box, 0.46 % of b over 4 passes —
+/// an error of the whole image that no mutation removes) and a stratified
+/// grid shrinks faster than its cost (one ray and a light sample each, a
+/// few per cent of a BDPT sample). Both estimate the same integral: a
+/// depth-1 path is the (s = 0, t = 2) strategy alone, BDPT having no
+/// (1, 1).
 pub(crate) fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
@@ -104,23 +133,45 @@ pub(crate) fn evaluate_pass<I: Intersector>(
     sums: &mut [f64],
 ) {
     let depths = depths(settings);
+    if depths == 0 {
+        return;
+    }
     let capped = Settings {
         max_depth: Some(depths),
+        ..*settings
+    };
+    let direct = Settings {
+        max_depth: Some(1),
         ..*settings
     };
     let camera = tracer.camera;
     let w = camera.width() as u64;
     let pass_seed = mix64(seed ^ 0x0B5E_ED00_0000_0000);
-    for i in pixels.start..pixels.end.min(camera.pixel_count()) {
-        let (x, y) = ((i % w) as u32, (i / w) as u32);
-        let mut rng = SampleStream::new(pass_seed, pass, i);
-        let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
+    let direct_seed = mix64(seed ^ 0xD1EC_7000_0000_0000);
+    let cell = 1.0 / DIRECT_GRID as f32;
+    let direct_weight = 1.0 / f64::from(DIRECT_GRID * DIRECT_GRID);
+    for pixel in pixels.start..pixels.end.min(camera.pixel_count()) {
+        let (x, y) = ((pixel % w) as u32, (pixel / w) as u32);
+        let corner = Vec2::new(x as f32, y as f32);
+        let mut rng = SampleStream::new(pass_seed, pass, pixel);
+        let raster = corner + rng.next_2d();
         bdpt::sample_each(tracer, &capped, ws, raster, &mut rng, |s, t, l, _| {
             let y = l.luminance();
-            if y.is_finite() && y > 0.0 {
+            if s + t > 2 && y.is_finite() && y > 0.0 {
                 sums[s + t - 2] += y as f64;
             }
         });
+        let mut rng = SampleStream::new(direct_seed, pass, pixel);
+        for k in 0..DIRECT_GRID * DIRECT_GRID {
+            let stratum = Vec2::new((k % DIRECT_GRID) as f32, (k / DIRECT_GRID) as f32);
+            let raster = corner + (stratum + rng.next_2d()) * cell;
+            bdpt::sample_each(tracer, &direct, ws, raster, &mut rng, |_, _, l, _| {
+                let y = l.luminance();
+                if y.is_finite() && y > 0.0 {
+                    sums[0] += y as f64 * direct_weight;
+                }
+            });
+        }
     }
 }
 
@@ -148,8 +199,9 @@ pub struct Bootstrap {
     depth_b: Vec<f64>,
     /// b_d as the bootstrap samples estimate it (pbrt's estimate).
     sample_depth_b: Vec<f64>,
-    /// Prefix sums of `depth_b` (for [`Bootstrap::depth_at`]).
-    depth_cdf: Vec<f64>,
+    /// Prefix sums of the chain allocation q_d: b_d, times depth 1's
+    /// factor for depth 1 (for [`Bootstrap::chain_depth_at`]).
+    chain_cdf: Vec<f64>,
     b: f64,
 }
 
@@ -171,7 +223,7 @@ impl Bootstrap {
             cdf: Vec::with_capacity(Self::sample_count(settings, mlt) as usize),
             depth_b: Vec::with_capacity(depths),
             sample_depth_b: Vec::with_capacity(depths),
-            depth_cdf: Vec::with_capacity(depths),
+            chain_cdf: Vec::with_capacity(depths),
             b: 0.0,
         }
     }
@@ -208,7 +260,7 @@ impl Bootstrap {
             cdf,
             depth_b,
             sample_depth_b,
-            depth_cdf,
+            chain_cdf,
             ..
         } = self;
         cdf.clear();
@@ -239,11 +291,23 @@ impl Bootstrap {
         } else {
             depth_b.extend_from_slice(sample_depth_b);
         }
-        depth_cdf.clear();
-        let mut b = 0.0;
-        for &bd in depth_b.iter() {
-            b += bd;
-            depth_cdf.push(b);
+        chain_cdf.clear();
+        let b: f64 = depth_b.iter().sum();
+        // Depth 1's factor (see the module docs): its share of the image
+        // area (the bootstrap samples of depth 1 that see an emitter) over
+        // its share of b, at least `direct_allocation`, at most 1.
+        let seen = (0..n).filter(|&k| values[k * depths] > 0.0).count() as f64;
+        let area = if n > 0 { seen / n as f64 } else { 1.0 };
+        let b1 = depth_b.first().copied().unwrap_or(0.0);
+        let direct = if b1 > 0.0 {
+            (area * b / b1).clamp(f64::from(mlt.direct_allocation), 1.0)
+        } else {
+            1.0
+        };
+        let mut q = 0.0;
+        for (d, &bd) in depth_b.iter().enumerate() {
+            q += if d == 0 { bd * direct } else { bd };
+            chain_cdf.push(q);
         }
         self.seed = seed;
         self.depths = depths as u32;
@@ -268,21 +332,35 @@ impl Bootstrap {
         &self.sample_depth_b
     }
 
-    /// The depth at position `u` ∈ [0, 1) of the distribution b_d / b
-    /// (`None` when b = 0).
-    pub(crate) fn depth_at(&self, u: f64) -> Option<u32> {
-        if !(self.b > 0.0) {
+    /// The depth at position `u` ∈ [0, 1) of the chain allocation q_d / Q:
+    /// q_d = b_d, except q_1 = [`MltSettings::direct_allocation`] · b_1
+    /// (`None` when b = 0). The chains' systematic sample draws from this;
+    /// `depth_weights` (parent module) then gives each depth its b_d.
+    pub(crate) fn chain_depth_at(&self, u: f64) -> Option<u32> {
+        let total = self.chain_cdf.last().copied().unwrap_or(0.0);
+        if !(self.b > 0.0 && total > 0.0) {
             return None;
         }
-        let target = u * self.b;
-        let i = self.depth_cdf.partition_point(|&c| c <= target);
-        // Past the end only by rounding: take the last depth with weight.
+        let i = self.chain_cdf.partition_point(|&c| c <= u * total);
         let i = if i < self.depths as usize {
             i
         } else {
             self.depth_b.iter().rposition(|&b| b > 0.0)?
         };
         Some(i as u32 + 1)
+    }
+
+    /// The share q_d / Q of the chains that depth `depth` is allocated
+    /// ([`Bootstrap::chain_depth_at`]); 0 for a depth out of range or
+    /// when nothing contributes.
+    pub(crate) fn chain_share(&self, depth: u32) -> f64 {
+        let total = self.chain_cdf.last().copied().unwrap_or(0.0);
+        let d = depth as usize;
+        if d == 0 || d > self.chain_cdf.len() || !(total > 0.0) {
+            return 0.0;
+        }
+        let below = if d >= 2 { self.chain_cdf[d - 2] } else { 0.0 };
+        (self.chain_cdf[d - 1] - below) / total
     }
 
     /// The bootstrap sample a chain of `depth` starts from, with probability

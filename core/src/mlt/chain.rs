@@ -77,6 +77,10 @@ pub(crate) struct Step {
     pub large: bool,
     /// Whether the proposal had zero (or non-finite) contribution.
     pub zero: bool,
+    /// The proposal's target value Y (0 when `zero`): for a large step,
+    /// an independent sample of the chain's normalisation
+    /// (`mlt/large_steps.rs`).
+    pub proposal_target: f32,
 }
 
 impl Step {
@@ -205,6 +209,7 @@ impl Chain {
             accepted,
             large,
             zero: y_new <= 0.0,
+            proposal_target: y_new,
         }
     }
 }

@@ -6,7 +6,7 @@
 //! The public surface is what a host configures and reads: the settings
 //! ([`MltSettings`] for level 1, [`Level2Settings`] for CMLT's level 2,
 //! [`CmltSettings`] for both; with [`Candidates`] and [`Splatting`]),
-//! [`MltStats`], [`Bootstrap`] and the functions below. The parts, private
+//! [`MltStats`], [`Bootstrap`], [`LargeStepTally`] and the functions below. The parts, private
 //! to the crate (the renderer drives a worker's chains, `WorkerChains`):
 //!
 //! - `primary`: the primary-sample vector X, its lazy large/small-step
@@ -15,6 +15,8 @@
 //!   expected-value splatting;
 //! - `target`: the target a chain of depth d samples, Y(f_d(u));
 //! - `bootstrap`: the normalisation b and the chains' starting points;
+//! - `large_steps`: b by depth from the large steps of a render
+//!   ([`LargeStepTally`]);
 //! - `level2`: the side chain run from a level-1 state, by its class;
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
@@ -50,6 +52,7 @@
 pub(crate) mod bootstrap;
 mod chain;
 mod lanes;
+mod large_steps;
 mod level2;
 mod multiple_try;
 mod perturbation;
@@ -60,6 +63,7 @@ mod target;
 mod tests;
 
 pub use bootstrap::Bootstrap;
+pub use large_steps::LargeStepTally;
 pub use multiple_try::{Candidates, Splatting};
 pub(crate) use primary::PrimarySampler;
 
@@ -103,10 +107,19 @@ pub struct MltSettings {
     pub b_min_samples: u32,
     /// Independent chains per worker (pbrt: 1000 in total).
     pub n_chains: u32,
-    /// Probability of a large step (pbrt: 0.3).
+    /// Probability of a large step (pbrt: 0.3; Tungsten's multiplexed
+    /// MLT: 0.1).
     pub large_step_prob: f32,
     /// Small-step width σ in primary sample space (pbrt: 0.01).
     pub sigma: f32,
+    /// The least factor on the chains of paths of one segment (emitters
+    /// seen directly) against their share of b, in (0, 1]. Depth 1 gets
+    /// chains for the image area that sees an emitter rather than for its
+    /// luminance, but no fewer than this factor times its b-proportional
+    /// share (`mlt/bootstrap.rs`); 1 = chains in proportion to b_d at
+    /// every depth (pbrt, Tungsten). The image's expectation is the same
+    /// either way (each depth's chains are weighted to give its b_d).
+    pub direct_allocation: f32,
 }
 
 /// The space the level-1 chains mutate in: one variant today, the field
@@ -123,18 +136,20 @@ pub enum Level1 {
 }
 
 impl Default for MltSettings {
-    /// Primary-sample level 1, 2 000 bootstrap samples per depth, 4
+    /// Primary-sample level 1, 2 000 bootstrap samples per depth, 2
     /// normalisation passes and at least 65 536 normalisation samples, 256
-    /// chains per worker, large steps 0.3, σ = 0.01.
+    /// chains per worker, large steps 0.3, σ = 0.01, at least a tenth of
+    /// the b-proportional chains for emitters seen directly.
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
             n_bootstrap: 2_000,
-            b_passes: 4,
+            b_passes: 2,
             b_min_samples: DEFAULT_B_MIN_SAMPLES,
             n_chains: 256,
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
+            direct_allocation: DEFAULT_DIRECT_ALLOCATION,
         }
     }
 }
@@ -180,6 +195,9 @@ impl MltSettings {
         }
         if self.n_chains == 0 {
             return Err("at least one chain per worker is needed");
+        }
+        if !(self.direct_allocation > 0.0 && self.direct_allocation <= 1.0) {
+            return Err("the direct-view chain allocation must be in (0, 1]");
         }
         Ok(())
     }
@@ -308,9 +326,15 @@ impl CmltSettings {
     }
 }
 
-/// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, the four
-/// default passes over a 128 × 128 image; smaller images get more passes.
+/// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, four passes
+/// over a 128 × 128 image; smaller images get more passes.
 pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
+
+/// Default of [`MltSettings::direct_allocation`].
+/// On Tungsten's Cornell box, where depth 1 is a small bright lamp, 0.1
+/// gave 1.6× less error per mutation than 1 (0.03 no better):
+/// `docs/accuracy.md`, "Level 1 against Tungsten's MMLT".
+pub const DEFAULT_DIRECT_ALLOCATION: f32 = 0.1;
 
 /// Largest [`MltSettings::b_min_samples`].
 pub const MAX_B_MIN_SAMPLES: u32 = 1 << 24;
@@ -550,6 +574,9 @@ pub(crate) struct WorkerChains {
     seeds: Vec<u64>,
     ws: bdpt::PathStorage,
     stats: MltStats,
+    /// The large steps' targets by depth since the counters were last
+    /// zeroed.
+    large_steps: LargeStepTally,
     /// Level 2 (CMLT), with each chain's current path (copied from
     /// the path storage when a proposal is accepted).
     level2: Option<Level2>,
@@ -603,6 +630,7 @@ impl WorkerChains {
             seeds: Vec::with_capacity(n),
             ws: bdpt::PathStorage::with_capacity(depth),
             stats: MltStats::default(),
+            large_steps: LargeStepTally::with_depths(depth),
             level2,
             paths,
             classes: Vec::with_capacity(if l2 { n } else { 0 }),
@@ -639,6 +667,7 @@ impl WorkerChains {
             seeds,
             ws,
             stats,
+            large_steps,
             level2,
             paths,
             classes,
@@ -650,6 +679,7 @@ impl WorkerChains {
         seeds.clear();
         classes.clear();
         *stats = MltStats::default();
+        large_steps.clear();
         let workers = workers.max(1);
         let total = mlt.n_chains as u64 * workers;
         // The systematic sample's single random offset, shared by all
@@ -657,7 +687,8 @@ impl WorkerChains {
         let offset = uniform_f64(&mut Pcg32::new(mix64(seed ^ 0x0FF5_E700), 7));
         for c in 0..mlt.n_chains as u64 {
             let global = worker + workers * c;
-            let Some(depth) = bootstrap.depth_at((global as f64 + offset) / total as f64) else {
+            let Some(depth) = bootstrap.chain_depth_at((global as f64 + offset) / total as f64)
+            else {
                 break;
             };
             let cs = chain_seed(seed, worker, c);
@@ -711,6 +742,7 @@ impl WorkerChains {
             seeds,
             ws,
             stats,
+            large_steps,
             level2,
             paths,
             classes,
@@ -721,6 +753,7 @@ impl WorkerChains {
             chains: chains.len() as u64,
             ..MltStats::default()
         };
+        large_steps.clear();
         for (ci, (chain, depth)) in chains.iter_mut().enumerate() {
             let depth = *depth;
             chain.reevaluate(|s| target::evaluate(tracer, settings, ws, depth, s));
@@ -765,6 +798,7 @@ impl WorkerChains {
             chains: self.chains.len() as u64,
             ..MltStats::default()
         };
+        self.large_steps.clear();
     }
 
     /// Number of chains (mutations per round).
@@ -829,6 +863,7 @@ impl WorkerChains {
             seeds,
             ws,
             stats,
+            large_steps,
             level2,
             paths,
             classes,
@@ -842,6 +877,9 @@ impl WorkerChains {
             let w = weights[ci];
             let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
             stats.record(&st);
+            if st.large {
+                large_steps.add(depth, st.proposal_target);
+            }
             let Some(l2) = level2 else {
                 for sp in st.splats() {
                     film.add_splat(sp.raster, sp.value * w);
@@ -898,6 +936,12 @@ impl WorkerChains {
         &self.stats
     }
 
+    /// This worker's large steps by depth since its counters were last
+    /// zeroed (chains started or re-evaluated, or a new frame).
+    pub fn large_steps(&self) -> &LargeStepTally {
+        &self.large_steps
+    }
+
     /// The path depth of each chain, in chain order.
     #[cfg(test)]
     pub fn chain_depths(&self) -> impl Iterator<Item = u32> + '_ {
@@ -906,20 +950,21 @@ impl WorkerChains {
 }
 
 /// Sets `weights[c]` to the splat weight of chain `c` of a worker whose
-/// chains were a systematic sample of `n` points over the depths by
-/// b_d / b (see [`bootstrap`]).
+/// chains were a systematic sample of `n` points over the depths by the
+/// allocation q_d / Q ([`Bootstrap::chain_share`]; see [`bootstrap`]).
 ///
-/// A depth d expects e_d = n·b_d/b chains and gets n_d ∈ {⌊e_d⌋, ⌈e_d⌉}.
-/// Unweighted, its share of the image is n_d/n of b instead of b_d/b: an
-/// error of up to one chain in e_d that more mutations never average out
-/// (a sphere lit only at depth 2 rendered 15% dark with 32 chains, still
-/// 8% at 4096 mutations per pixel). Where e_d ≥ 1, weighting its chains
-/// by e_d/n_d gives the depth exactly b_d. Where e_d < 1, n_d is 0 or 1 with probability e_d of 1, so
-/// weight 1 is right in expectation, and no weight could restore a depth
-/// that got no chain. The weights sum to about n, so the image's scale
-/// ([`image_scale`]) is unchanged. Chains kept from another frame
-/// ([`WorkerChains::reevaluate`]) get the weights of the new b_d for the
-/// depths they have.
+/// A depth d expects e_d = n·q_d/Q chains and gets n_d ∈ {⌊e_d⌋, ⌈e_d⌉};
+/// its share of the image must be b_d/b. Unweighted, with q = b, it is
+/// n_d/n instead: an error of up to one chain in e_d that more mutations
+/// never average out (a sphere lit only at depth 2 rendered 15% dark with
+/// 32 chains, still 8% at 4096 mutations per pixel). Where e_d ≥ 1,
+/// weighting its chains by n·(b_d/b)/n_d gives the depth exactly b_d.
+/// Where e_d < 1, n_d is 0 or 1 with probability e_d of 1, so weight
+/// (b_d/b)/(q_d/Q) is right in expectation (1 when q = b), and no weight
+/// could restore a depth that got no chain. The weights sum to about n,
+/// so the image's scale ([`image_scale`]) is unchanged. Chains kept from
+/// another frame ([`WorkerChains::reevaluate`]) get the weights of the new
+/// b_d for the depths they have.
 fn depth_weights(chains: &[(Chain, u32)], bootstrap: &Bootstrap, n: u32, weights: &mut Vec<f32>) {
     weights.clear();
     let b = bootstrap.b();
@@ -930,8 +975,17 @@ fn depth_weights(chains: &[(Chain, u32)], bootstrap: &Bootstrap, n: u32, weights
             .get(depth as usize - 1)
             .copied()
             .unwrap_or(0.0);
-        let e_d = if b > 0.0 { n as f64 * b_d / b } else { 0.0 };
-        weights.push(if e_d >= 1.0 { (e_d / n_d) as f32 } else { 1.0 });
+        let share = if b > 0.0 { b_d / b } else { 0.0 };
+        let q = bootstrap.chain_share(depth);
+        let e_d = n as f64 * q;
+        let w = if e_d >= 1.0 {
+            n as f64 * share / n_d
+        } else if q > 0.0 {
+            share / q
+        } else {
+            1.0
+        };
+        weights.push(w as f32);
     }
 }
 

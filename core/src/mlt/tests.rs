@@ -11,9 +11,9 @@ use super::{Bootstrap, Chain, MltSettings, PrimarySampler, WorkerChains, image_s
 use crate::accel::bvh::Bvh;
 use crate::film::Film;
 use crate::integrator::{Settings, Tracer, bdpt};
-use crate::math::Rgb;
+use crate::math::{Rgb, Vec3};
 use crate::renderer::Estimator;
-use crate::scene::Material;
+use crate::scene::{Material, SceneBuilder};
 
 /// The integration tests' scene builders (`core/tests/common`), compiled
 /// here too so that both kinds of test render the same scenes; they name
@@ -34,6 +34,9 @@ fn furnace_settings() -> (Settings, MltSettings) {
         b_passes: 64,
         b_min_samples: 0,
         n_chains: 64,
+        // Chains in proportion to b_d at every depth: the hand-stepped
+        // chains below are unweighted.
+        direct_allocation: 1.0,
         ..MltSettings::default()
     };
     (st, m)
@@ -66,7 +69,7 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
     for c in 0..64u64 {
         let mut rng = Pcg32::new(c, 99);
         let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
-        let depth = boot.depth_at((c as f64 + 0.5) / 64.0).unwrap();
+        let depth = boot.chain_depth_at((c as f64 + 0.5) / 64.0).unwrap();
         let index = boot.pick(depth, u).unwrap();
         // Bootstrap sample i has depth 1 + i mod D, D = 16.
         assert_eq!(1 + (index % 16) as u32, depth);
@@ -196,4 +199,60 @@ fn a_partial_round_in_strided_order_keeps_the_depths_in_proportion() {
     assert!(worst(&strided) <= 2.0, "strided: {strided:?}");
     assert!(worst(&ordered) > 4.0, "chain order: {ordered:?}");
     assert!(depths(true, n).iter().all(|&(_, n_d, s)| s == n_d));
+}
+
+#[test]
+fn direct_allocation_moves_chains_off_a_small_bright_emitter() {
+    // A lamp seen directly, bright against the image's mean: depth 1 gets
+    // fewer chains than its share of b (the systematic sample gives it
+    // its share of q to within one chain), and the weights still give it
+    // b_1/b of the image. The furnace's walls, seen everywhere and no
+    // brighter than the mean, keep their b-proportional chains.
+    let mut b = SceneBuilder::new();
+    let walls = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let lamp = b.add_material(Material::diffuse(Rgb::ZERO));
+    b.add_mesh(scenes::inward_box(walls, 0.0));
+    let mut sphere = scenes::sphere(Vec3::new(0.1, -0.1, 0.4), 0.15, lamp);
+    sphere.emission = Some(Rgb::splat(20.0));
+    b.add_mesh(sphere);
+    b.set_camera(scenes::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    let lamp_scene = b.build().unwrap();
+    let furnace = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let (st, m) = furnace_settings();
+    let m = MltSettings {
+        direct_allocation: 0.1,
+        ..m
+    };
+    for (scene, small) in [(&lamp_scene, true), (&furnace, false)] {
+        let tris: Vec<_> = scene.triangles().collect();
+        let accel = Bvh::build(&tris);
+        let mut tracer = Tracer::new(scene, &accel);
+        let boot = bootstrap(scene, st, m, 2);
+        let mut c = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
+        c.restart(&mut tracer, &st, &m, &boot, 2, 0, 1);
+        let share_b = boot.depth_b()[0] / boot.b();
+        let q1 = boot.chain_share(1);
+        if small {
+            assert!(
+                share_b > 0.3 && q1 < 0.5 * share_b && q1 >= 0.099 * share_b,
+                "lamp: b_1/b {share_b}, q_1 {q1}"
+            );
+        } else {
+            assert!((q1 - share_b).abs() < 1e-9, "furnace: {q1} vs {share_b}");
+        }
+        let depth1 = c.chain_depths().filter(|&d| d == 1).count();
+        assert!(
+            (depth1 as f64 - 64.0 * q1).abs() <= 1.0,
+            "{depth1} chains at depth 1, expected {}",
+            64.0 * q1
+        );
+        let weighted: f64 = c
+            .chain_depths()
+            .zip(&c.weights)
+            .filter(|&(d, _)| d == 1)
+            .map(|(_, &w)| w as f64)
+            .sum::<f64>()
+            / 64.0;
+        assert!((weighted - share_b).abs() < 1e-5, "{weighted} vs {share_b}");
+    }
 }

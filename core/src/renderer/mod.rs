@@ -108,7 +108,9 @@ use crate::film::Film;
 use crate::integrator::{Settings, Stats, Tracer, bdpt, pt};
 use crate::math::Rgb;
 use crate::mlt::bootstrap;
-use crate::mlt::{self, Bootstrap, MltSettings, MltStats, PrimarySampler, WorkerChains};
+use crate::mlt::{
+    self, Bootstrap, LargeStepTally, MltSettings, MltStats, PrimarySampler, WorkerChains,
+};
 use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
@@ -1592,5 +1594,13 @@ impl RenderWorker {
     /// This worker's film (unscaled sums; resolve through the renderer).
     pub fn film(&self) -> &Film {
         &self.film
+    }
+
+    /// MLT, CMLT: this worker's large steps by path depth in the current
+    /// frame (since its chains were started, re-evaluated or last kept
+    /// into a new frame), an independent estimate of b by depth that a
+    /// host can merge across workers and frames; `None` for PT and BDPT.
+    pub fn large_steps(&self) -> Option<&LargeStepTally> {
+        self.mlt.as_ref().map(WorkerChains::large_steps)
     }
 }
