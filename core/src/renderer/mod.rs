@@ -78,6 +78,7 @@
 //! stays put, and/or every frame reuses the same random sequences.
 
 mod estimator;
+mod resolve;
 
 use alloc::vec::Vec;
 use core::ops::Deref;
@@ -94,6 +95,7 @@ use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
 pub use estimator::{Estimator, EstimatorKind};
+pub(crate) use resolve::check_buffer;
 
 /// The deepest path (segments) a renderer accepts, through `max_depth` or
 /// the depth cap: every worker's storage is sized for it at creation.
@@ -236,6 +238,9 @@ pub enum RenderError {
     /// The renderer and its workers would need more memory than the
     /// address space holds ([`Renderer::memory_bound`] overflows).
     TooLarge,
+    /// An output buffer or row range does not fit the image (the message
+    /// says which): [`Renderer::resolve_rows`], [`crate::aov`].
+    Output(&'static str),
 }
 
 impl core::fmt::Display for RenderError {
@@ -262,6 +267,7 @@ impl core::fmt::Display for RenderError {
                 "the renderer would need more memory than the address space holds \
                  (fewer workers, chains, bootstrap samples or pixels)",
             ),
+            RenderError::Output(m) => write!(f, "invalid output: {m}"),
         }
     }
 }

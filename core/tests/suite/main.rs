@@ -13,6 +13,8 @@
 //! - [`lights`]: point, spot, directional and environment lights with
 //!   analytic answers;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
+//! - [`outputs`]: the resolve by rows in every pixel format and the
+//!   auxiliary outputs (depth, normal, albedo, motion) on analytic scenes;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
 //! - [`rough_diffuse`]: an Oren–Nayar plane under a sun, analytic;
@@ -33,6 +35,7 @@ mod detail;
 mod furnace;
 mod lights;
 mod mlt;
+mod outputs;
 mod renderer;
 mod rough_diffuse;
 mod shapes;

@@ -1,0 +1,179 @@
+//! Auxiliary outputs (AOVs) for a denoiser and a temporal upscaler:
+//! albedo, shading normal, depth and screen-space motion vectors, from one
+//! primary ray per pixel through its centre, traced as packets.
+//!
+//! [`render_rows`] writes rows `[y0, y1)` of the outputs a host asks for
+//! ([`AovBuffers`]) into its buffers, as `f32` or half floats
+//! ([`AovFormat`]); it reads the scene and allocates nothing, so host
+//! threads can each compute a band of rows at the same time. Every pixel
+//! depends only on its own ray, so any split of the rows gives the same
+//! bytes.
+//!
+//! What each output holds, at the first surface the pixel's centre ray
+//! hits (the pinhole ray through the lens centre: the outputs are sharp
+//! whatever the aperture). The first hit, not the first non-specular one:
+//! one deterministic ray gives outputs without noise and keeps depth,
+//! normal and motion of the same point, which is what a temporal upscaler
+//! reprojects; OIDN and OptiX take the first hit's normal and, for mirrors
+//! and glass, an albedo of their reflectance (or 1) rather than the surface
+//! seen through them.
+//! - **albedo**: the BSDF's directional-hemispherical reflectance
+//!   towards the camera, textures and normal maps applied (`albedo.rs`
+//!   says how it is estimated); 0 where the ray leaves the scene.
+//! - **normal**: the shading normal (normal or bump map applied) in world
+//!   space, unit length, turned to face the camera; 0 on a miss.
+//! - **depth**: camera-space z, the distance from the camera's position
+//!   along its viewing direction ((p − position) · forward, not the
+//!   distance along the ray); +∞ on a miss.
+//! - **motion**: where the visible point was in the previous frame, in
+//!   pixels, minus the pixel's centre (x + ½, y + ½): +x to the right, +y
+//!   down, as raster coordinates (DLSS and FSR read "previous minus
+//!   current"; scale it by −1 or to UV units as the upscaler asks). The
+//!   point is projected through `previous` (the previous frame's camera);
+//!   on a mesh moved since [`Scene::begin_frame`] it is first carried back
+//!   by its triangle's vertex displacements through its barycentric
+//!   coordinates ([`Scene::previous_point`]). Where the ray leaves the
+//!   scene, the point at infinity in its direction (the environment
+//!   moves only with the camera's rotation). 0 where the previous camera
+//!   cannot see the point (behind it).
+
+mod albedo;
+mod layer;
+
+use core::ops::Range;
+
+use glam::{Vec2, Vec3};
+
+pub use layer::{AovBuffers, AovFormat, AovLayer};
+
+use crate::accel::Intersector;
+use crate::geometry::Ray;
+use crate::integrator::Tracer;
+use crate::integrator::tracer::Shading;
+use crate::renderer::RenderError;
+use crate::scene::{Camera, Scene};
+
+/// Pixels of a row traced as one packet.
+const LANES: usize = 8;
+
+/// Writes rows `rows` of the outputs `out` asks for, seen through
+/// `camera`, with motion vectors to where each point was through
+/// `previous` (the last frame's camera; `camera` itself for none): row
+/// `rows.start` is each layer's first row. [`RenderError::Resolution`]
+/// when the two cameras' resolutions differ, [`RenderError::Output`] when
+/// the rows leave the image or a layer is too small for them (nothing is
+/// written then). Allocates nothing.
+pub fn render_rows<I: Intersector>(
+    scene: &Scene,
+    accel: &I,
+    camera: &Camera,
+    previous: &Camera,
+    rows: Range<u32>,
+    out: &mut AovBuffers<'_>,
+) -> Result<(), RenderError> {
+    if (previous.width(), previous.height()) != (camera.width(), camera.height()) {
+        return Err(RenderError::Resolution);
+    }
+    if rows.start > rows.end || rows.end > camera.height() {
+        return Err(RenderError::Output("the rows leave the image"));
+    }
+    let (width, n) = (camera.width() as usize, rows.len());
+    for (layer, channels) in [
+        (&mut out.albedo, 3),
+        (&mut out.normal, 3),
+        (&mut out.depth, 1),
+        (&mut out.motion, 2),
+    ] {
+        if let Some(l) = layer {
+            l.check(n, width, channels)?;
+        }
+    }
+    let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
+    let mut rays = [None; LANES];
+    let mut hits: [Option<Shading>; LANES] = [None; LANES];
+    for (row, y) in rows.enumerate() {
+        for x0 in (0..width).step_by(LANES) {
+            let lanes = LANES.min(width - x0);
+            for (i, r) in rays[..lanes].iter_mut().enumerate() {
+                *r = Some(camera.pinhole_ray(centre(x0 + i, y)));
+            }
+            tracer.trace_bundle(&rays[..lanes], &mut hits[..lanes]);
+            for i in 0..lanes {
+                let ray = rays[i].expect("set above");
+                let x = x0 + i;
+                write_pixel(
+                    &mut tracer,
+                    previous,
+                    &ray,
+                    hits[i].as_ref(),
+                    centre(x, y),
+                    out,
+                    row,
+                    x,
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The centre of pixel (x, y) in raster coordinates.
+fn centre(x: usize, y: u32) -> Vec2 {
+    Vec2::new(x as f32 + 0.5, y as f32 + 0.5)
+}
+
+/// Computes and writes the wanted outputs of one pixel.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn write_pixel<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    previous: &Camera,
+    ray: &Ray,
+    hit: Option<&Shading>,
+    centre: Vec2,
+    out: &mut AovBuffers<'_>,
+    row: usize,
+    x: usize,
+) {
+    let camera = tracer.camera;
+    let Some(sh) = hit else {
+        if let Some(l) = &mut out.albedo {
+            l.put(row, x, &[0.0; 3]);
+        }
+        if let Some(l) = &mut out.normal {
+            l.put(row, x, &[0.0; 3]);
+        }
+        if let Some(l) = &mut out.depth {
+            l.put(row, x, &[f32::INFINITY]);
+        }
+        if let Some(l) = &mut out.motion {
+            let m = previous
+                .project_direction(ray.d)
+                .map_or(Vec2::ZERO, |p| p - centre);
+            l.put(row, x, &[m.x, m.y]);
+        }
+        return;
+    };
+    let p = sh.sp.p;
+    if let Some(l) = &mut out.albedo {
+        let a = albedo::albedo(tracer, sh, -ray.d);
+        l.put(row, x, &[a.r, a.g, a.b]);
+    }
+    if let Some(l) = &mut out.normal {
+        let n = facing(sh.sp.ns, ray.d);
+        l.put(row, x, &[n.x, n.y, n.z]);
+    }
+    if let Some(l) = &mut out.depth {
+        l.put(row, x, &[(p - camera.position()).dot(camera.forward())]);
+    }
+    if let Some(l) = &mut out.motion {
+        let before = tracer.scene.previous_point(sh.sp.prim, p);
+        let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
+        l.put(row, x, &[m.x, m.y]);
+    }
+}
+
+/// `n` turned to the side the ray (direction `d`) came from.
+fn facing(n: Vec3, d: Vec3) -> Vec3 {
+    if n.dot(d) > 0.0 { -n } else { n }
+}
