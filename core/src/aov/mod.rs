@@ -14,9 +14,10 @@
 //! whatever the aperture). The first hit, not the first non-specular one:
 //! one deterministic ray gives outputs without noise and keeps depth,
 //! normal and motion of the same point, which is what a temporal upscaler
-//! reprojects; OIDN and OptiX take the first hit's normal and, for mirrors
-//! and glass, an albedo of their reflectance (or 1) rather than the surface
-//! seen through them.
+//! reprojects. OIDN reads a normal in world or view space with 0 where
+//! nothing is hit, and an albedo in [0, 1], for which its documentation
+//! allows a mirror's or glass's own reflectance (or 1) instead of the
+//! surface seen through them.
 //! - **albedo**: the BSDF's directional-hemispherical reflectance
 //!   towards the camera, textures and normal maps applied (`albedo.rs`
 //!   says how it is estimated); 0 where the ray leaves the scene.

@@ -13,6 +13,8 @@
 //!     }
 //!     renderer.render(&mut worker_i, …, budget)      (any thread, one call per worker)
 //!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
+//!       or resolve_rows(workers, y0..y1, format, …)  (a band of rows, any thread)
+//!     aov::render_rows(scene, accel, camera, previous, y0..y1, …)  (optional)
 //! ```
 //!
 //! Preparing is that one three-step form: `begin_prepare` finds what the
