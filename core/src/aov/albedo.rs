@@ -3,7 +3,8 @@
 //! towards the camera.
 //!
 //! Estimated with the BSDF's own importance sampling at a fixed set of
-//! [`SAMPLES`] stratified points, the same for every pixel, so the output
+//! stratified points (one for the Lambertian and smooth conductor models,
+//! [`SAMPLES`] for the others), the same for every pixel, so the output
 //! has no noise (a denoiser takes noise in its guide for detail): each
 //! sample's weight f·|cos θi|/pdf is exactly the model's reflectance for a
 //! Lambertian surface (cosine sampling), for mirrors (the Fresnel weight)
@@ -19,7 +20,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::accel::Intersector;
-use crate::bsdf::TransportMode;
+use crate::bsdf::{Lobe, TransportMode};
 use crate::integrator::Tracer;
 use crate::integrator::tracer::Shading;
 use crate::math::Rgb;
@@ -40,11 +41,17 @@ fn point(i: usize) -> (f32, Vec2) {
 }
 
 /// ρ(ωo) of the BSDF at `sh`, seen from unit world direction `wo` (from
-/// the surface towards the camera), clamped to [0, 1].
+/// the surface towards the camera), clamped to [0, 1]. One sample for the
+/// models whose every sample weighs ρ exactly (Lambertian, a smooth
+/// conductor's single Dirac lobe), [`SAMPLES`] for the others.
 pub(super) fn albedo<I: Intersector>(tracer: &mut Tracer<'_, I>, sh: &Shading, wo: Vec3) -> Rgb {
     let wo = sh.frame.to_local(wo);
+    let n = match sh.bsdf.lobe() {
+        Lobe::Diffuse | Lobe::SpecularReflection => 1,
+        _ => SAMPLES,
+    };
     let mut sum = Rgb::ZERO;
-    for i in 0..SAMPLES {
+    for i in 0..n {
         let (u_lobe, u) = point(i);
         if let Some(s) = tracer.sample_bsdf(&sh.bsdf, wo, u_lobe, u, TransportMode::Importance)
             && s.pdf > 0.0
@@ -52,5 +59,5 @@ pub(super) fn albedo<I: Intersector>(tracer: &mut Tracer<'_, I>, sh: &Shading, w
             sum += s.f * (s.wi.z.abs() / s.pdf);
         }
     }
-    (sum / SAMPLES as f32).map(|v| if v > 0.0 { v.min(1.0) } else { 0.0 })
+    (sum / n as f32).map(|v| if v > 0.0 { v.min(1.0) } else { 0.0 })
 }

@@ -48,11 +48,11 @@ use glam::{Vec2, Vec3};
 pub use layer::{AovBuffers, AovFormat, AovLayer};
 
 use crate::accel::Intersector;
-use crate::geometry::Ray;
+use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket};
 use crate::integrator::Tracer;
 use crate::integrator::tracer::Shading;
 use crate::renderer::RenderError;
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Scene, SurfacePoint};
 
 /// Pixels of a row traced as one packet.
 const LANES: usize = 8;
@@ -90,32 +90,70 @@ pub fn render_rows<I: Intersector>(
         }
     }
     let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
+    // Depth and motion need only the hit point: the BSDF and shading
+    // frame are resolved only for albedo and normal (or when alpha masks
+    // make the tracer walk through surfaces).
+    let shaded = out.albedo.is_some() || out.normal.is_some() || tracer.has_alpha_masks();
     let mut rays = [None; LANES];
     let mut hits: [Option<Shading>; LANES] = [None; LANES];
+    let mut points: [Option<SurfacePoint>; LANES] = [None; LANES];
     for (row, y) in rows.enumerate() {
         for x0 in (0..width).step_by(LANES) {
             let lanes = LANES.min(width - x0);
             for (i, r) in rays[..lanes].iter_mut().enumerate() {
                 *r = Some(camera.pinhole_ray(centre(x0 + i, y)));
             }
-            tracer.trace_bundle(&rays[..lanes], &mut hits[..lanes]);
+            if shaded {
+                tracer.trace_bundle(&rays[..lanes], &mut hits[..lanes]);
+                for (p, h) in points.iter_mut().zip(&hits[..lanes]) {
+                    *p = h.map(|h| h.sp);
+                }
+            } else {
+                intersect_points(scene, accel, &rays[..lanes], &mut points[..lanes]);
+            }
             for i in 0..lanes {
                 let ray = rays[i].expect("set above");
                 let x = x0 + i;
-                write_pixel(
-                    &mut tracer,
-                    previous,
-                    &ray,
-                    hits[i].as_ref(),
-                    centre(x, y),
-                    out,
-                    row,
-                    x,
-                );
+                let hit = PixelHit {
+                    point: points[i].as_ref(),
+                    shading: if shaded { hits[i].as_ref() } else { None },
+                };
+                write_pixel(&mut tracer, previous, &ray, hit, centre(x, y), out, row, x);
             }
         }
     }
     Ok(())
+}
+
+/// What a pixel's ray found: the surface point, and its shading when
+/// albedo or normal are wanted.
+#[derive(Clone, Copy)]
+struct PixelHit<'a> {
+    point: Option<&'a SurfacePoint>,
+    shading: Option<&'a Shading>,
+}
+
+/// The surface points along `rays` (one packet of up to [`LANES`]), without
+/// resolving their BSDFs: what depth and motion read.
+fn intersect_points<I: Intersector>(
+    scene: &Scene,
+    accel: &I,
+    rays: &[Option<Ray>],
+    out: &mut [Option<SurfacePoint>],
+) {
+    let mut packet = RayPacket::<LANES>::default();
+    let mut active = LaneMask::NONE;
+    for (i, r) in rays.iter().enumerate() {
+        if let Some(r) = r {
+            packet.set(i, r);
+            active.set(i);
+        }
+    }
+    let mut hits = HitPacket::<LANES>::default();
+    accel.intersect_packet(&packet, active, &mut hits);
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = hits.get(i).and_then(|h| scene.hit_point(&h));
+    }
 }
 
 /// The centre of pixel (x, y) in raster coordinates.
@@ -130,14 +168,14 @@ fn write_pixel<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     previous: &Camera,
     ray: &Ray,
-    hit: Option<&Shading>,
+    hit: PixelHit<'_>,
     centre: Vec2,
     out: &mut AovBuffers<'_>,
     row: usize,
     x: usize,
 ) {
     let camera = tracer.camera;
-    let Some(sh) = hit else {
+    let Some(sp) = hit.point else {
         if let Some(l) = &mut out.albedo {
             l.put(row, x, &[0.0; 3]);
         }
@@ -155,20 +193,22 @@ fn write_pixel<I: Intersector>(
         }
         return;
     };
-    let p = sh.sp.p;
-    if let Some(l) = &mut out.albedo {
-        let a = albedo::albedo(tracer, sh, -ray.d);
-        l.put(row, x, &[a.r, a.g, a.b]);
-    }
-    if let Some(l) = &mut out.normal {
-        let n = facing(sh.sp.ns, ray.d);
-        l.put(row, x, &[n.x, n.y, n.z]);
+    let p = sp.p;
+    if let Some(sh) = hit.shading {
+        if let Some(l) = &mut out.albedo {
+            let a = albedo::albedo(tracer, sh, -ray.d);
+            l.put(row, x, &[a.r, a.g, a.b]);
+        }
+        if let Some(l) = &mut out.normal {
+            let n = facing(sh.sp.ns, ray.d);
+            l.put(row, x, &[n.x, n.y, n.z]);
+        }
     }
     if let Some(l) = &mut out.depth {
         l.put(row, x, &[(p - camera.position()).dot(camera.forward())]);
     }
     if let Some(l) = &mut out.motion {
-        let before = tracer.scene.previous_point(sh.sp.prim, p);
+        let before = tracer.scene.previous_point(sp.prim, p);
         let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
         l.put(row, x, &[m.x, m.y]);
     }

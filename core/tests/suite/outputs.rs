@@ -275,6 +275,26 @@ fn aov_rows_split_anyhow_give_the_same_bytes_and_halves_round_the_floats() {
 }
 
 #[test]
+fn depth_and_motion_alone_equal_their_values_among_all_outputs() {
+    // Without albedo and normal the hit points are traced without their
+    // BSDFs; the points, and so depth and motion, are the same.
+    let scene = wall_scene(1.5);
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cam = camera(Vec3::ZERO);
+    let previous = camera(Vec3::new(0.1, 0.2, -0.3));
+    let [_, _, depth, motion] = aov_bytes(&scene, &bvh, &cam, &previous, 0..H, AovFormat::F32);
+    let n = (W * H) as usize * 4;
+    let (mut d, mut m) = (vec![0u8; n], vec![0u8; 2 * n]);
+    let mut out = AovBuffers {
+        depth: Some(AovLayer::packed(&mut d, AovFormat::F32)),
+        motion: Some(AovLayer::packed(&mut m, AovFormat::F32)),
+        ..AovBuffers::default()
+    };
+    aov::render_rows(&scene, &bvh, &cam, &previous, 0..H, &mut out).unwrap();
+    assert_eq!((d, m), (depth, motion));
+}
+
+#[test]
 fn bad_aov_calls_are_refused_and_write_nothing() {
     let scene = wall_scene(20.0);
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
