@@ -32,7 +32,7 @@
 //!   current"; scale it by −1 or to UV units as the upscaler asks). The
 //!   point is projected through `previous` (the previous frame's camera);
 //!   on a mesh moved since [`Scene::begin_frame`] it is first carried back
-//!   by its triangle's vertex displacements through its barycentric
+//!   by its triangle's vertex displacements through the hit's barycentric
 //!   coordinates ([`Scene::previous_point`]). Where the ray leaves the
 //!   scene, the point at infinity in its direction (the environment
 //!   moves only with the camera's rotation). 0 where the previous camera
@@ -48,11 +48,11 @@ use glam::{Vec2, Vec3};
 pub use layer::{AovBuffers, AovFormat, AovLayer};
 
 use crate::accel::Intersector;
-use crate::geometry::{HitPacket, LaneMask, Ray, RayPacket};
+use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use crate::integrator::Tracer;
 use crate::integrator::tracer::Shading;
 use crate::renderer::RenderError;
-use crate::scene::{Camera, Scene, SurfacePoint};
+use crate::scene::{Camera, SHAPE_PRIM_BIT, Scene, SurfacePoint};
 
 /// Pixels of a row traced as one packet.
 const LANES: usize = 8;
@@ -90,34 +90,44 @@ pub fn render_rows<I: Intersector>(
         }
     }
     let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
-    // Depth and motion need only the hit point: the BSDF and shading
-    // frame are resolved only for albedo and normal (or when alpha masks
-    // make the tracer walk through surfaces).
-    let shaded = out.albedo.is_some() || out.normal.is_some() || tracer.has_alpha_masks();
+    let shade = out.albedo.is_some() || out.normal.is_some();
+    // With alpha masks the tracer walks through masked surfaces ray by ray
+    // (and hands back shaded points); otherwise one packet per LANES
+    // pixels, and the BSDF and shading frame are resolved only for albedo
+    // and normal: depth and motion read the hit's distance and
+    // barycentric coordinates (hit points and shading were most of the
+    // cost of depth and motion).
+    let masks = tracer.has_alpha_masks();
     let mut rays = [None; LANES];
-    let mut hits: [Option<Shading>; LANES] = [None; LANES];
-    let mut points: [Option<SurfacePoint>; LANES] = [None; LANES];
+    let mut shaded: [Option<Shading>; LANES] = [None; LANES];
+    let mut points: [Option<PixelPoint>; LANES] = [None; LANES];
     for (row, y) in rows.enumerate() {
         for x0 in (0..width).step_by(LANES) {
             let lanes = LANES.min(width - x0);
             for (i, r) in rays[..lanes].iter_mut().enumerate() {
                 *r = Some(camera.pinhole_ray(centre(x0 + i, y)));
             }
-            if shaded {
-                tracer.trace_bundle(&rays[..lanes], &mut hits[..lanes]);
-                for (p, h) in points.iter_mut().zip(&hits[..lanes]) {
-                    *p = h.map(|h| h.sp);
+            if masks {
+                tracer.trace_bundle(&rays[..lanes], &mut shaded[..lanes]);
+                for (p, h) in points.iter_mut().zip(&shaded[..lanes]) {
+                    *p = h.map(|h| PixelPoint::of_surface(scene, &h.sp));
                 }
             } else {
-                intersect_points(scene, accel, &rays[..lanes], &mut points[..lanes]);
+                let hits = intersect(accel, &rays[..lanes]);
+                for i in 0..lanes {
+                    let ray = rays[i].expect("set above");
+                    let hit = hits.get(i);
+                    points[i] = hit.map(|h| PixelPoint::of_hit(&ray, &h));
+                    shaded[i] = hit
+                        .filter(|_| shade)
+                        .and_then(|h| scene.hit_point(&h))
+                        .map(|sp| tracer.shade(sp));
+                }
             }
             for i in 0..lanes {
                 let ray = rays[i].expect("set above");
                 let x = x0 + i;
-                let hit = PixelHit {
-                    point: points[i].as_ref(),
-                    shading: if shaded { hits[i].as_ref() } else { None },
-                };
+                let hit = (points[i], shaded[i].as_ref().filter(|_| shade));
                 write_pixel(&mut tracer, previous, &ray, hit, centre(x, y), out, row, x);
             }
         }
@@ -125,22 +135,56 @@ pub fn render_rows<I: Intersector>(
     Ok(())
 }
 
-/// What a pixel's ray found: the surface point, and its shading when
-/// albedo or normal are wanted.
+/// Where a pixel's ray stopped: the point, its primitive and its
+/// barycentric coordinates (b1, b2) there (what motion carries back).
 #[derive(Clone, Copy)]
-struct PixelHit<'a> {
-    point: Option<&'a SurfacePoint>,
-    shading: Option<&'a Shading>,
+struct PixelPoint {
+    p: Vec3,
+    prim: u32,
+    b1: f32,
+    b2: f32,
 }
 
-/// The surface points along `rays` (one packet of up to [`LANES`]), without
-/// resolving their BSDFs: what depth and motion read.
-fn intersect_points<I: Intersector>(
-    scene: &Scene,
-    accel: &I,
-    rays: &[Option<Ray>],
-    out: &mut [Option<SurfacePoint>],
-) {
+impl PixelPoint {
+    /// The point of an intersector's hit: o + t·d, with the hit's own
+    /// barycentric coordinates.
+    fn of_hit(ray: &Ray, h: &Hit) -> Self {
+        PixelPoint {
+            p: ray.o + ray.d * h.t,
+            prim: h.prim,
+            b1: h.b1,
+            b2: h.b2,
+        }
+    }
+
+    /// The point of a shaded surface point (alpha-masked scenes), its
+    /// barycentric coordinates those of its projection onto the
+    /// triangle's plane (Cramer's rule on the edges' Gram matrix; 0 for
+    /// host shapes and degenerate triangles, which do not move).
+    fn of_surface(scene: &Scene, sp: &SurfacePoint) -> Self {
+        let (mut b1, mut b2) = (0.0, 0.0);
+        if sp.prim & SHAPE_PRIM_BIT == 0 {
+            let [p0, p1, p2] = scene.triangle(sp.prim);
+            let (e1, e2, d) = (p1 - p0, p2 - p0, sp.p - p0);
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let (dp1, dp2) = (d.dot(e1), d.dot(e2));
+            let det = d11 * d22 - d12 * d12;
+            if det > 0.0 && det.is_finite() {
+                b1 = (d22 * dp1 - d12 * dp2) / det;
+                b2 = (d11 * dp2 - d12 * dp1) / det;
+            }
+        }
+        PixelPoint {
+            p: sp.p,
+            prim: sp.prim,
+            b1,
+            b2,
+        }
+    }
+}
+
+/// Closest hits of `rays` (up to [`LANES`]) as one packet.
+fn intersect<I: Intersector>(accel: &I, rays: &[Option<Ray>]) -> HitPacket<LANES> {
     let mut packet = RayPacket::<LANES>::default();
     let mut active = LaneMask::NONE;
     for (i, r) in rays.iter().enumerate() {
@@ -151,9 +195,7 @@ fn intersect_points<I: Intersector>(
     }
     let mut hits = HitPacket::<LANES>::default();
     accel.intersect_packet(&packet, active, &mut hits);
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = hits.get(i).and_then(|h| scene.hit_point(&h));
-    }
+    hits
 }
 
 /// The centre of pixel (x, y) in raster coordinates.
@@ -161,21 +203,22 @@ fn centre(x: usize, y: u32) -> Vec2 {
     Vec2::new(x as f32 + 0.5, y as f32 + 0.5)
 }
 
-/// Computes and writes the wanted outputs of one pixel.
+/// Computes and writes the wanted outputs of one pixel: `hit` is where its
+/// ray stopped and, when albedo or normal are wanted, the shaded surface.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn write_pixel<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     previous: &Camera,
     ray: &Ray,
-    hit: PixelHit<'_>,
+    hit: (Option<PixelPoint>, Option<&Shading>),
     centre: Vec2,
     out: &mut AovBuffers<'_>,
     row: usize,
     x: usize,
 ) {
     let camera = tracer.camera;
-    let Some(sp) = hit.point else {
+    let (Some(point), shading) = hit else {
         if let Some(l) = &mut out.albedo {
             l.put(row, x, &[0.0; 3]);
         }
@@ -193,22 +236,27 @@ fn write_pixel<I: Intersector>(
         }
         return;
     };
-    let p = sp.p;
-    if let Some(sh) = hit.shading {
-        if let Some(l) = &mut out.albedo {
+    // A hit whose surface point is degenerate has no BSDF or normal.
+    let zero = [0.0; 3];
+    if let Some(l) = &mut out.albedo {
+        let a = shading.map_or(zero, |sh| {
             let a = albedo::albedo(tracer, sh, -ray.d);
-            l.put(row, x, &[a.r, a.g, a.b]);
-        }
-        if let Some(l) = &mut out.normal {
-            let n = facing(sh.sp.ns, ray.d);
-            l.put(row, x, &[n.x, n.y, n.z]);
-        }
+            [a.r, a.g, a.b]
+        });
+        l.put(row, x, &a);
     }
+    if let Some(l) = &mut out.normal {
+        let n = shading.map_or(zero, |sh| facing(sh.sp.ns, ray.d).to_array());
+        l.put(row, x, &n);
+    }
+    let p = point.p;
     if let Some(l) = &mut out.depth {
         l.put(row, x, &[(p - camera.position()).dot(camera.forward())]);
     }
     if let Some(l) = &mut out.motion {
-        let before = tracer.scene.previous_point(sp.prim, p);
+        let before = tracer
+            .scene
+            .previous_point(point.prim, point.b1, point.b2, p);
         let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
         l.put(row, x, &[m.x, m.y]);
     }

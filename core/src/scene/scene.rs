@@ -864,13 +864,13 @@ impl Scene {
         self.motion_frame += 1;
     }
 
-    /// Where the surface point `p` on global primitive `prim` was when
-    /// the current motion frame began ([`Scene::begin_frame`]): `p` moved
-    /// back by its triangle's vertex displacements, weighted by `p`'s
-    /// barycentric coordinates, when the triangle's mesh was updated in
-    /// this frame; `p` itself otherwise (static meshes, host shapes,
-    /// degenerate triangles).
-    pub fn previous_point(&self, prim: u32, p: Vec3) -> Vec3 {
+    /// Where the point `p` at barycentric coordinates `(b1, b2)` of global
+    /// primitive `prim` (a [`Hit`]'s) was when the current motion frame
+    /// began ([`Scene::begin_frame`]): `p` moved back by its triangle's
+    /// vertex displacements, weighted by the barycentric coordinates, when
+    /// the triangle's mesh was updated in this frame; `p` itself otherwise
+    /// (static meshes, host shapes).
+    pub fn previous_point(&self, prim: u32, b1: f32, b2: f32, p: Vec3) -> Vec3 {
         if prim & SHAPE_PRIM_BIT != 0 {
             return p;
         }
@@ -881,22 +881,11 @@ impl Scene {
         let m = &self.meshes[mi];
         let idx = m.indices[ti].map(|i| i as usize);
         let [p0, p1, p2] = idx.map(|i| m.positions[i]);
-        // Barycentric coordinates of p's projection onto the triangle's
-        // plane (Cramer's rule on the edge vectors' Gram matrix).
-        let (e1, e2, d) = (p1 - p0, p2 - p0, p - p0);
-        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-        let (dp1, dp2) = (d.dot(e1), d.dot(e2));
-        let det = d11 * d22 - d12 * d12;
-        if !(det > 0.0 && det.is_finite()) {
-            return p;
-        }
-        let b1 = (d22 * dp1 - d12 * dp2) / det;
-        let b2 = (d11 * dp2 - d12 * dp1) / det;
-        let b0 = 1.0 - b1 - b2;
         let base = self.first_vertex[mi];
         let [q0, q1, q2] = idx.map(|i| self.previous[base + i]);
         // As displacements: a translation moves p back exactly (the
         // weights sum to 1), whatever the rounding of each weight.
+        let b0 = 1.0 - b1 - b2;
         p + (q0 - p0) * b0 + (q1 - p1) * b1 + (q2 - p2) * b2
     }
 
