@@ -1031,8 +1031,8 @@ enum cmlt_status cmlt_renderer_resolve_rows(const struct cmlt_renderer *renderer
 // primary ray per pixel through its centre and the lens centre, traced
 // as packets, through the renderer's current camera:
 // - albedo: the directional reflectance of the surface first hit, towards
-//   the camera (textures applied; mirrors their reflectance, smooth glass
-//   1 − its absorption), in [0, 1]; 0 where the ray leaves the scene;
+//   the camera (textures applied; a mirror its reflectance, clear smooth
+//   glass 1), in [0, 1]; 0 where the ray leaves the scene;
 // - normal: that surface's shading normal (normal maps applied), world
 //   space, unit, turned towards the camera; 0 on a miss;
 // - depth: camera-space z, (point − camera position) · view direction;
