@@ -14,12 +14,15 @@
 //!   versus `--all-effects`;
 //! - [`prepare`]: a first frame's bootstrap on one thread versus spread
 //!   over the workers' threads;
+//! - [`outputs`]: the per-frame resolve in every pixel format against the
+//!   resolve before `resolve_rows`, and the auxiliary outputs;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
 //! - [`plot`]: their PNG/SVG plots.
 
 pub mod convergence;
 pub mod effects;
 pub mod flicker;
+pub mod outputs;
 pub mod params;
 pub mod plot;
 pub mod prepare;
