@@ -295,6 +295,53 @@ fn depth_and_motion_alone_equal_their_values_among_all_outputs() {
 }
 
 #[test]
+fn masked_scenes_see_through_transparent_surfaces_and_move_with_them() {
+    // A masked square at depth 2 in front of the wall: of opacity 0 the
+    // outputs see the wall (depth 4), of opacity 1 the square (depth 2,
+    // its own motion when moved: 0.25 along +x at depth 2 is 1 pixel).
+    for (opacity, depth_seen) in [(0.0, DEPTH), (1.0, 2.0)] {
+        let mut b = SceneBuilder::new();
+        let m = b.add_material(Material::diffuse(ALBEDO));
+        let masked = b.add_material(Material {
+            detail: cmlt::scene::Detail {
+                opacity: Some(cmlt::scene::Texture::Constant(Rgb::splat(opacity))),
+                ..Default::default()
+            },
+            ..Material::diffuse(ALBEDO)
+        });
+        b.add_mesh(wall(20.0, m));
+        let mut front = wall(20.0, masked);
+        for p in &mut front.positions {
+            p.z = 2.0;
+        }
+        b.add_mesh(front);
+        b.set_camera(camera(Vec3::ZERO));
+        let mut scene = b.build().unwrap();
+        let mut bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+        let cam = camera(Vec3::ZERO);
+        scene.begin_frame();
+        let moved: Vec<Vec3> = scene.meshes[1]
+            .positions
+            .iter()
+            .map(|p| *p + Vec3::new(0.25, 0.0, 0.0))
+            .collect();
+        scene.update_mesh(1, &moved, None).unwrap();
+        bvh.refit(|t| scene.triangle(t));
+        let (albedo, _, depth, motion) = aovs(&scene, &bvh, &cam, &cam);
+        let want_motion = if opacity > 0.5 { 1.0 } else { 0.0 };
+        for i in 0..(W * H) as usize {
+            assert!(close(depth[i], depth_seen, 4e-7), "{}", depth[i]);
+            assert!(close(albedo[3 * i], 0.25, 1e-6));
+            assert!(
+                (motion[2 * i] - want_motion).abs() < TOL && motion[2 * i + 1].abs() < TOL,
+                "opacity {opacity}: {:?}",
+                &motion[2 * i..2 * i + 2]
+            );
+        }
+    }
+}
+
+#[test]
 fn bad_aov_calls_are_refused_and_write_nothing() {
     let scene = wall_scene(20.0);
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
