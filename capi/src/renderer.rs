@@ -997,8 +997,9 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
 /// can each resolve a band of rows at the same time and get the same bytes
 /// as one call — as long as no worker renders between their calls.
 /// Allocates nothing. `CMLT_ERROR_INVALID_ARGUMENT` for rows outside the
-/// image, an unknown format, a stride shorter than a row or a buffer too
-/// small (nothing is written); `CMLT_ERROR_BUSY` while a worker renders or
+/// image, an unknown format, a stride shorter than a row, a buffer too
+/// small, or a float or half buffer or stride not aligned to its element
+/// size (nothing is written); `CMLT_ERROR_BUSY` while a worker renders or
 /// is prepared, or the renderer is being prepared or moved.
 ///
 /// # Safety
