@@ -69,8 +69,23 @@
 // Linear RGB, 3 × `float` per pixel.
 #define CMLT_FORMAT_RGB32F 0
 
-// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255.
+// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255 (each channel
+// clamped to [0, 1], sRGB-encoded and rounded to nearest).
 #define CMLT_FORMAT_RGBA8_SRGB 1
+
+// Linear RGBA, 4 × `float` per pixel, alpha 1.
+#define CMLT_FORMAT_RGBA32F 2
+
+// Linear RGBA, 4 × IEEE 754 binary16 (half) per pixel, alpha 1, rounded
+// to nearest even (a GPU's `R16G16B16A16_FLOAT`; values past 65504
+// become +∞).
+#define CMLT_FORMAT_RGBA16F 3
+
+// Auxiliary outputs as `float`, in the machine's byte order.
+#define CMLT_AOV_F32 0
+
+// Auxiliary outputs as IEEE 754 binary16 (half), rounded to nearest even.
+#define CMLT_AOV_F16 1
 
 // Lambertian diffuse: `color` is the albedo.
 #define CMLT_MATERIAL_DIFFUSE 0
@@ -419,6 +434,36 @@ typedef struct cmlt_camera {
 // the worker render another step, 0 to stop. `done` is the number of units
 // rendered so far in this call.
 typedef uint32_t (*cmlt_keep_going_fn)(void *user, uint64_t done);
+
+// One auxiliary output's rows in the host's memory: row `first_row` of
+// the call at `data`, each next row `row_stride` bytes further (0 =
+// packed: width × channels × element size), in `buffer_size` bytes (the
+// last row needs only its own bytes). `data` = NULL: the output is not
+// wanted (and not computed).
+typedef struct cmlt_aov_layer {
+  // The host's buffer, or NULL for none. Aligned to the element size
+  // (4 bytes for `float`, 2 for half), as is `row_stride`.
+  void *data;
+  // Bytes from one row to the next; 0 = packed.
+  size_t row_stride;
+  // Bytes of `data`.
+  size_t buffer_size;
+  // `CMLT_AOV_F32` or `CMLT_AOV_F16`.
+  uint32_t format;
+} cmlt_aov_layer;
+
+// The auxiliary outputs a call writes (see `cmlt_renderer_aov_rows` for
+// what each holds); leave `data` NULL for those not wanted.
+typedef struct cmlt_aov_buffers {
+  // Albedo: 3 channels, linear RGB in [0, 1].
+  struct cmlt_aov_layer albedo;
+  // Shading normal: 3 channels, world space, unit, facing the camera.
+  struct cmlt_aov_layer normal;
+  // Depth: 1 channel, camera-space z.
+  struct cmlt_aov_layer depth;
+  // Motion vector: 2 channels, pixels, previous minus current.
+  struct cmlt_aov_layer motion;
+} cmlt_aov_buffers;
 
 // Counters of the current accumulation (since the last camera change).
 typedef struct cmlt_stats {
@@ -1016,7 +1061,8 @@ enum cmlt_status cmlt_renderer_render_while(const struct cmlt_renderer *renderer
 // Writes the image of all workers (merged in worker order) into `pixels`:
 // `height` rows of `width` pixels of `format`, row 0 at the top, rows
 // `row_stride` bytes apart (0 = packed), in a buffer of `buffer_size`
-// bytes. `CMLT_ERROR_BUSY` while a worker renders.
+// bytes: `cmlt_renderer_resolve_rows` over every row. `CMLT_ERROR_BUSY`
+// while a worker renders or is prepared.
 //
 // # Safety
 // `renderer` is NULL or valid; `pixels` is NULL or valid for writing
@@ -1026,6 +1072,67 @@ enum cmlt_status cmlt_renderer_resolve(const struct cmlt_renderer *renderer,
                                        uint8_t *pixels,
                                        size_t row_stride,
                                        size_t buffer_size);
+
+// Writes rows `[first_row, end_row)` of the image of all workers (merged
+// in worker order) into `pixels` as `format`: row `first_row` at
+// `pixels`, each next row `row_stride` bytes further (0 = packed), in a
+// buffer of `buffer_size` bytes (the last row needs only its own bytes).
+// Each pixel is the one `cmlt_renderer_resolve` writes, so host threads
+// can each resolve a band of rows at the same time and get the same bytes
+// as one call — as long as no worker renders between their calls.
+// Allocates nothing. `CMLT_ERROR_INVALID_ARGUMENT` for rows outside the
+// image, an unknown format, a stride shorter than a row, a buffer too
+// small, or a float or half buffer or stride not aligned to its element
+// size (nothing is written); `CMLT_ERROR_BUSY` while a worker renders or
+// is prepared, or the renderer is being prepared or moved.
+//
+// # Safety
+// `renderer` is NULL or valid; `pixels` is NULL or valid for writing
+// `buffer_size` bytes.
+enum cmlt_status cmlt_renderer_resolve_rows(const struct cmlt_renderer *renderer,
+                                            uint32_t format,
+                                            uint32_t first_row,
+                                            uint32_t end_row,
+                                            uint8_t *pixels,
+                                            size_t row_stride,
+                                            size_t buffer_size);
+
+// Writes rows `[first_row, end_row)` of the auxiliary outputs a denoiser
+// or a temporal upscaler reads into the host's buffers (`out`), from one
+// primary ray per pixel through its centre and the lens centre, traced
+// as packets, through the renderer's current camera:
+// - albedo: the directional reflectance of the surface first hit, towards
+//   the camera (textures applied; a mirror its reflectance, clear smooth
+//   glass 1), in [0, 1]; 0 where the ray leaves the scene;
+// - normal: that surface's shading normal (normal maps applied), world
+//   space, unit, turned towards the camera; 0 on a miss;
+// - depth: camera-space z, (point − camera position) · view direction;
+//   +infinity on a miss;
+// - motion: where the point was in the previous frame, in pixels, minus
+//   the pixel's centre (x + 0.5, y + 0.5), +x right, +y down: the point
+//   carried back by its mesh's motion since `cmlt_scene_begin_frame`
+//   (`cmlt_scene_update_mesh`'s previous positions through the hit's
+//   barycentric coordinates) and projected through `previous` (the last
+//   frame's camera; NULL = the camera did not move); on a miss, the
+//   direction's point at infinity; 0 where the previous camera cannot see
+//   the point.
+//
+// Reads the scene and the camera only: host threads may compute bands of
+// rows at the same time, also while workers render; any split gives the
+// same bytes. Allocates nothing. `CMLT_ERROR_INVALID_ARGUMENT` for rows
+// outside the image, an unknown format, a misaligned or too small layer,
+// or a bad `previous` camera (nothing is written); `CMLT_ERROR_BUSY`
+// while the renderer's camera changes or the scene is updated.
+//
+// # Safety
+// `renderer`, `previous` and `out` are NULL or valid; each layer's
+// `data` is NULL or valid for writing its `buffer_size` bytes, and the
+// layers do not overlap.
+enum cmlt_status cmlt_renderer_aov_rows(const struct cmlt_renderer *renderer,
+                                        const struct cmlt_camera *previous,
+                                        uint32_t first_row,
+                                        uint32_t end_row,
+                                        const struct cmlt_aov_buffers *out);
 
 // `*out` = the counters of the current accumulation over all workers.
 //
@@ -1183,6 +1290,19 @@ enum cmlt_status cmlt_scene_update_mesh(struct cmlt_scene *scene,
                                         size_t position_stride,
                                         const float *normals,
                                         size_t normal_stride);
+
+// Starts a new animation frame of a committed scene: every mesh's current
+// positions become the ones the motion vectors of
+// `cmlt_renderer_aov_rows` measure from. Call it once per frame, before
+// that frame's `cmlt_scene_update_mesh` calls: a mesh then moves from
+// where it was when the frame began (however often it is updated), and a
+// mesh not updated does not move. Changes no geometry (renderers do not
+// restart) and allocates nothing. `CMLT_ERROR_BUSY` while a renderer of
+// the scene prepares, renders or computes auxiliary outputs.
+//
+// # Safety
+// `scene` is NULL or a valid handle.
+enum cmlt_status cmlt_scene_begin_frame(struct cmlt_scene *scene);
 
 // Loads a Mitsuba 3 XML scene file (the subset `cmlt render` reads) as a
 // committed scene with our BVH. `*out_camera`, `*out_width` and

@@ -17,6 +17,8 @@
 //!   pixel and flicker targets;
 //! - [`prepare`]: a first frame's bootstrap on one thread versus spread
 //!   over the workers' threads;
+//! - [`outputs`]: the per-frame resolve in every pixel format against the
+//!   resolve before `resolve_rows`, and the auxiliary outputs;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
 //! - [`plot`]: their PNG/SVG plots.
 
@@ -24,6 +26,7 @@ pub mod convergence;
 pub mod effects;
 pub mod flicker;
 pub mod frames;
+pub mod outputs;
 pub mod params;
 pub mod plot;
 pub mod prepare;

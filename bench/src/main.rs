@@ -318,6 +318,25 @@ enum BenchCommand {
         #[arg(short = 'D', value_parser = parse_define)]
         define: Vec<(String, String)>,
     },
+    /// The per-frame outputs: the resolve in every pixel format (and split
+    /// into two bands of rows on two threads) against the resolve the C
+    /// API did before, and the auxiliary outputs (albedo, normal, depth,
+    /// motion), at each size, in turns.
+    Outputs {
+        /// Scene (a shared scene name or path; default the built-in Cornell
+        /// box).
+        #[arg(long)]
+        scene: Option<String>,
+        /// Image sizes, WIDTHxHEIGHT.
+        #[arg(long, value_delimiter = ',', default_value = "320x180,1280x720")]
+        sizes: Vec<String>,
+        /// Workers whose films are merged.
+        #[arg(long, default_value_t = 2)]
+        workers: u32,
+        /// Turns of every variant.
+        #[arg(long, default_value_t = 21)]
+        repeats: usize,
+    },
     /// Redraws a `bench convergence` CSV (ours and peers' rows) as a plot
     /// and prints the curves; optionally how long each method takes to
     /// reach the error one method reaches at a given time.
@@ -728,6 +747,43 @@ fn run(cli: Cli) -> Result<(), String> {
                 m,
             };
             convergence::append_csv(&csv, &row)
+        }
+        BenchCommand::Outputs {
+            scene,
+            sizes,
+            workers,
+            repeats,
+        } => {
+            use cmlt_bench::outputs::{print, rendered, run};
+            for size in &sizes {
+                let (w, h) = size
+                    .split_once('x')
+                    .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+                    .ok_or_else(|| format!("bad size {size:?} (WIDTHxHEIGHT)"))?;
+                let define = [
+                    ("resx".to_string(), w.to_string()),
+                    ("resy".to_string(), h.to_string()),
+                ];
+                let loaded =
+                    load_scene_or_builtin(scene.as_deref().unwrap_or("cornell-box"), &define)?;
+                let scene = &loaded.scene;
+                let accel = Accel::build(AccelKind::Ours, &scene.triangles().collect::<Vec<_>>())?;
+                let config = RendererConfig {
+                    settings: loaded.settings,
+                    workers: workers.max(1),
+                    ..RendererConfig::for_estimator(EstimatorKind::Bdpt)
+                };
+                let (r, ws) = rendered(scene, &accel, config, 1)?;
+                let rows = run(scene, &accel, &r, &ws, repeats.max(1))?;
+                print(
+                    &format!(
+                        "{w}x{h}, {} workers, {} turns (new resolves identical to the old for rgb32f and rgba8-srgb)",
+                        config.workers, repeats
+                    ),
+                    &rows,
+                );
+            }
+            Ok(())
         }
         BenchCommand::Plot {
             csv,

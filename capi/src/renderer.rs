@@ -14,15 +14,15 @@
 //! `cmlt_renderer_render_while` with the host's clock for seconds).
 
 use std::ffi::c_void;
-use std::sync::{Arc, Mutex, RwLock};
+use std::sync::{Arc, RwLock};
 
+use cmlt_core::aov::{self, AovBuffers, AovFormat, AovLayer};
+use cmlt_core::film::PixelFormat;
 use cmlt_core::integrator::LobeCounts;
-use cmlt_core::math::Rgb;
-use cmlt_core::math::spectrum::linear_to_srgb;
 use cmlt_core::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
 use cmlt_core::renderer::{
-    Accumulation, Accumulator, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker,
-    Renderer, RendererConfig, Temporal,
+    Accumulation, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
+    RendererConfig, Temporal,
 };
 
 use crate::alloc::{check_oom, measure_allocations, try_reserve};
@@ -67,8 +67,15 @@ pub const CMLT_ACCUMULATION_DECAY: u32 = 2;
 
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
-/// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255.
+/// sRGB-encoded RGBA, 4 × `uint8_t` per pixel, alpha 255 (each channel
+/// clamped to [0, 1], sRGB-encoded and rounded to nearest).
 pub const CMLT_FORMAT_RGBA8_SRGB: u32 = 1;
+/// Linear RGBA, 4 × `float` per pixel, alpha 1.
+pub const CMLT_FORMAT_RGBA32F: u32 = 2;
+/// Linear RGBA, 4 × IEEE 754 binary16 (half) per pixel, alpha 1, rounded
+/// to nearest even (a GPU's `R16G16B16A16_FLOAT`; values past 65504
+/// become +∞).
+pub const CMLT_FORMAT_RGBA16F: u32 = 3;
 
 /// What fixes a renderer. Start from `cmlt_renderer_config_default`.
 ///
@@ -245,13 +252,14 @@ fn split_lobes(c: &LobeCounts) -> ([u64; 4], [u64; 4]) {
 #[allow(non_camel_case_types)]
 pub struct cmlt_renderer {
     scene: Arc<Committed>,
-    /// Read-locked by `render` (workers render concurrently), write-locked
-    /// by `prepare`, `set_camera` and `resolve`.
+    /// Read-locked by `render` (workers render concurrently) and `resolve`
+    /// (host threads resolve rows concurrently), write-locked by
+    /// `prepare`, `set_camera`.
     renderer: RwLock<Renderer>,
-    /// One lock per worker: a worker is rendered by one thread at a time.
-    workers: Box<[Mutex<RenderWorker>]>,
-    /// The merged image of `resolve` (allocated once).
-    accumulator: Mutex<Accumulator>,
+    /// One lock per worker, write-locked by the thread that renders or
+    /// prepares it, read-locked by `resolve` (each resolving thread holds
+    /// all of them for its call).
+    workers: Box<[RwLock<RenderWorker>]>,
 }
 
 /// `*out` = the defaults, with `estimator` set: 1 worker, seed 0, the
@@ -496,6 +504,7 @@ fn render_error(e: RenderError) -> Error {
         RenderError::BootstrapIncomplete => Error::operation(
             "every worker must run prepare_worker for this frame before finish_prepare",
         ),
+        RenderError::Output(m) => Error::invalid(m),
     }
 }
 
@@ -523,13 +532,12 @@ fn build(
     let mut workers = Vec::new();
     try_reserve(&mut workers, cfg.workers as usize)?;
     for i in 0..cfg.workers {
-        workers.push(Mutex::new(
+        workers.push(RwLock::new(
             RenderWorker::new(&renderer, i).map_err(render_error)?,
         ));
     }
     Ok(cmlt_renderer {
         scene,
-        accumulator: Mutex::new(renderer.accumulator()),
         renderer: RwLock::new(renderer),
         workers: workers.into_boxed_slice(),
     })
@@ -710,7 +718,7 @@ fn with_worker(
         .map_err(|e| Error::lock(e, "the renderer is being prepared or moved"))?;
     // Literal messages: this runs inside frames, which allocate nothing.
     let mut w = slot
-        .try_lock()
+        .try_write()
         .map_err(|e| Error::lock(e, "the worker is being rendered by another thread"))?;
     crate::error::bug_hook();
     f(&inner, &mut w).map_err(render_error)
@@ -739,7 +747,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
         if inner.begin_prepare(&live.scene) {
             for slot in r.workers.iter() {
                 let mut w = slot
-                    .try_lock()
+                    .try_write()
                     .map_err(|e| Error::lock(e, "a worker is being prepared or rendered"))?;
                 inner
                     .prepare_worker(&mut w, &live.scene, &live.accel)
@@ -756,7 +764,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare(renderer: *mut cmlt_renderer) -> 
 /// another thread is `CMLT_ERROR_BUSY` and changes nothing.
 fn finish_prepare(r: &cmlt_renderer, inner: &mut Renderer) -> Result<()> {
     let mut busy = None;
-    let workers = r.workers.iter().map_while(|slot| match slot.try_lock() {
+    let workers = r.workers.iter().map_while(|slot| match slot.try_write() {
         Ok(w) => Some(w),
         Err(e) => {
             busy = Some(Error::lock(e, "a worker is being prepared or rendered"));
@@ -1018,19 +1026,67 @@ pub unsafe extern "C" fn cmlt_renderer_render_while(
     })
 }
 
-/// Bytes per pixel of a format, or an error for an unknown one.
-fn pixel_size(format: u32) -> Result<usize> {
+/// The core's pixel format of a `CMLT_FORMAT_*` value, or an error for an
+/// unknown one.
+fn pixel_format(format: u32) -> Result<PixelFormat> {
     match format {
-        CMLT_FORMAT_RGB32F => Ok(12),
-        CMLT_FORMAT_RGBA8_SRGB => Ok(4),
+        CMLT_FORMAT_RGB32F => Ok(PixelFormat::Rgb32F),
+        CMLT_FORMAT_RGBA8_SRGB => Ok(PixelFormat::Rgba8Srgb),
+        CMLT_FORMAT_RGBA32F => Ok(PixelFormat::Rgba32F),
+        CMLT_FORMAT_RGBA16F => Ok(PixelFormat::Rgba16F),
         _ => Err(Error::invalid("unknown pixel format")),
+    }
+}
+
+/// One read-locked worker, its guard held by a frame of [`hold_workers`],
+/// linked to the next worker's.
+struct Held<'a> {
+    worker: &'a RenderWorker,
+    next: Option<&'a Held<'a>>,
+}
+
+/// The held workers in index order.
+#[derive(Clone)]
+struct HeldWorkers<'a>(Option<&'a Held<'a>>);
+
+impl<'a> Iterator for HeldWorkers<'a> {
+    type Item = &'a RenderWorker;
+    fn next(&mut self) -> Option<&'a RenderWorker> {
+        let held = self.0?;
+        self.0 = held.next;
+        Some(held.worker)
+    }
+}
+
+/// Runs `f` over all of `slots`' workers, each read-locked for the whole
+/// call (a worker being rendered or prepared is `CMLT_ERROR_BUSY`). The
+/// guards live in the frames of this recursion, one per worker from the
+/// last to the first, so the list of them needs no allocation.
+fn hold_workers<R>(
+    slots: &[RwLock<RenderWorker>],
+    next: Option<&Held<'_>>,
+    f: impl for<'a> FnOnce(HeldWorkers<'a>) -> R,
+) -> Result<R> {
+    match slots.split_last() {
+        None => Ok(f(HeldWorkers(next))),
+        Some((last, rest)) => {
+            let guard = last
+                .try_read()
+                .map_err(|e| Error::lock(e, "a worker is being rendered or prepared"))?;
+            let held = Held {
+                worker: &guard,
+                next,
+            };
+            hold_workers(rest, Some(&held), f)
+        }
     }
 }
 
 /// Writes the image of all workers (merged in worker order) into `pixels`:
 /// `height` rows of `width` pixels of `format`, row 0 at the top, rows
 /// `row_stride` bytes apart (0 = packed), in a buffer of `buffer_size`
-/// bytes. `CMLT_ERROR_BUSY` while a worker renders.
+/// bytes: `cmlt_renderer_resolve_rows` over every row. `CMLT_ERROR_BUSY`
+/// while a worker renders or is prepared.
 ///
 /// # Safety
 /// `renderer` is NULL or valid; `pixels` is NULL or valid for writing
@@ -1045,82 +1101,235 @@ pub unsafe extern "C" fn cmlt_renderer_resolve(
 ) -> cmlt_status {
     guard("cmlt_renderer_resolve", || {
         // SAFETY: the caller's contract.
-        let r = unsafe { read(renderer, "renderer") }?;
-        if pixels.is_null() {
-            return Err(Error::null("pixels"));
-        }
-        let px = pixel_size(format)?;
-        // Exclusive: no worker renders while the image is read out.
-        let inner = r.renderer.try_write().map_err(|e| {
-            Error::lock(
-                e,
-                "workers are rendering, or the renderer is being prepared",
-            )
-        })?;
-        let (w, h) = (
-            inner.camera().width() as usize,
-            inner.camera().height() as usize,
-        );
-        let row = w * px;
-        let stride = if row_stride == 0 { row } else { row_stride };
-        if stride < row {
-            return Err(Error::invalid("row_stride is less than a row's bytes"));
-        }
-        // Checked: a huge row_stride wrapped (h − 1) · stride around in
-        // release builds, passed the size check and wrote out of bounds
-        // (debug builds panicked).
-        let needed = (h - 1)
-            .checked_mul(stride)
-            .and_then(|b| b.checked_add(row))
-            .ok_or(Error::invalid(
-                "row_stride × height overflows the address space",
-            ))?;
-        if buffer_size < needed {
-            return Err(Error::invalid(
-                "buffer_size is less than height rows at row_stride need",
-            ));
-        }
-        if format == CMLT_FORMAT_RGB32F && (!(pixels as usize).is_multiple_of(4) || stride % 4 != 0)
-        {
-            return Err(Error::invalid(
-                "float pixels need a 4-byte aligned buffer and row_stride",
-            ));
-        }
-        let mut acc = r
-            .accumulator
-            .try_lock()
-            .map_err(|e| Error::lock(e, "another thread is resolving"))?;
-        for slot in r.workers.iter() {
-            let w = slot
-                .try_lock()
-                .map_err(|e| Error::lock(e, "a worker is being rendered"))?;
-            inner.accumulate(&mut acc, &w).map_err(render_error)?;
-        }
-        inner
-            .finish(&mut acc, |i, c: Rgb| {
-                let (x, y) = (i % w, i / w);
-                let offset = y * stride + x * px;
-                // SAFETY: offset + px ≤ needed ≤ buffer_size, and the buffer
-                // is the caller's to write; floats are 4-byte aligned
-                // (checked above).
-                unsafe {
-                    let p = pixels.add(offset);
-                    if format == CMLT_FORMAT_RGB32F {
-                        let f = p.cast::<f32>();
-                        f.write(c.r);
-                        f.add(1).write(c.g);
-                        f.add(2).write(c.b);
-                    } else {
-                        let enc = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
-                        p.write(enc(c.r));
-                        p.add(1).write(enc(c.g));
-                        p.add(2).write(enc(c.b));
-                        p.add(3).write(255);
-                    }
-                }
-            })
-            .map_err(render_error)
+        unsafe { resolve_rows(renderer, format, None, pixels, row_stride, buffer_size) }
     })
+}
+
+/// Writes rows `[first_row, end_row)` of the image of all workers (merged
+/// in worker order) into `pixels` as `format`: row `first_row` at
+/// `pixels`, each next row `row_stride` bytes further (0 = packed), in a
+/// buffer of `buffer_size` bytes (the last row needs only its own bytes).
+/// Each pixel is the one `cmlt_renderer_resolve` writes, so host threads
+/// can each resolve a band of rows at the same time and get the same bytes
+/// as one call — as long as no worker renders between their calls.
+/// Allocates nothing. `CMLT_ERROR_INVALID_ARGUMENT` for rows outside the
+/// image, an unknown format, a stride shorter than a row, a buffer too
+/// small, or a float or half buffer or stride not aligned to its element
+/// size (nothing is written); `CMLT_ERROR_BUSY` while a worker renders or
+/// is prepared, or the renderer is being prepared or moved.
+///
+/// # Safety
+/// `renderer` is NULL or valid; `pixels` is NULL or valid for writing
+/// `buffer_size` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_resolve_rows(
+    renderer: *const cmlt_renderer,
+    format: u32,
+    first_row: u32,
+    end_row: u32,
+    pixels: *mut u8,
+    row_stride: usize,
+    buffer_size: usize,
+) -> cmlt_status {
+    guard("cmlt_renderer_resolve_rows", || {
+        let rows = Some(first_row..end_row);
+        // SAFETY: the caller's contract.
+        unsafe { resolve_rows(renderer, format, rows, pixels, row_stride, buffer_size) }
+    })
+}
+
+/// The body of both resolves: `rows` (all of them for `None`) into the
+/// host's buffer.
+///
+/// # Safety
+/// As `cmlt_renderer_resolve_rows`.
+unsafe fn resolve_rows(
+    renderer: *const cmlt_renderer,
+    format: u32,
+    rows: Option<std::ops::Range<u32>>,
+    pixels: *mut u8,
+    row_stride: usize,
+    buffer_size: usize,
+) -> Result<()> {
+    // SAFETY: the caller's contract.
+    let r = unsafe { read(renderer, "renderer") }?;
+    if pixels.is_null() {
+        return Err(Error::new(
+            cmlt_status::CMLT_ERROR_NULL_POINTER,
+            "pixels is NULL",
+        ));
+    }
+    let format = pixel_format(format)?;
+    let inner = r
+        .renderer
+        .try_read()
+        .map_err(|e| Error::lock(e, "the renderer is being prepared or its camera changed"))?;
+    let rows = rows.unwrap_or(0..inner.camera().height());
+    // The core writes bytes, but a C host reads its floats in place: a
+    // float or half buffer whose rows are not aligned for its elements is
+    // a host bug, refused as before.
+    let align = match format {
+        PixelFormat::Rgb32F | PixelFormat::Rgba32F => 4,
+        PixelFormat::Rgba16F => 2,
+        PixelFormat::Rgba8Srgb => 1,
+    };
+    if !(pixels as usize).is_multiple_of(align) || !row_stride.is_multiple_of(align) {
+        return Err(Error::invalid(
+            "float pixels need a buffer and row_stride aligned to their element size",
+        ));
+    }
+    // SAFETY: the caller's contract: `pixels` is valid for writing
+    // `buffer_size` bytes, and nothing else reads or writes them during
+    // the call.
+    let out = unsafe { std::slice::from_raw_parts_mut(pixels, buffer_size) };
+    hold_workers(&r.workers, None, |workers| {
+        inner.resolve_rows(workers, rows, format, out, row_stride)
+    })?
+    .map_err(render_error)
+}
+
+/// Auxiliary outputs as `float`, in the machine's byte order.
+pub const CMLT_AOV_F32: u32 = 0;
+/// Auxiliary outputs as IEEE 754 binary16 (half), rounded to nearest even.
+pub const CMLT_AOV_F16: u32 = 1;
+
+/// One auxiliary output's rows in the host's memory: row `first_row` of
+/// the call at `data`, each next row `row_stride` bytes further (0 =
+/// packed: width × channels × element size), in `buffer_size` bytes (the
+/// last row needs only its own bytes). `data` = NULL: the output is not
+/// wanted (and not computed).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_aov_layer {
+    /// The host's buffer, or NULL for none. Aligned to the element size
+    /// (4 bytes for `float`, 2 for half), as is `row_stride`.
+    pub data: *mut c_void,
+    /// Bytes from one row to the next; 0 = packed.
+    pub row_stride: usize,
+    /// Bytes of `data`.
+    pub buffer_size: usize,
+    /// `CMLT_AOV_F32` or `CMLT_AOV_F16`.
+    pub format: u32,
+}
+
+/// The auxiliary outputs a call writes (see `cmlt_renderer_aov_rows` for
+/// what each holds); leave `data` NULL for those not wanted.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+#[allow(non_camel_case_types)]
+pub struct cmlt_aov_buffers {
+    /// Albedo: 3 channels, linear RGB in [0, 1].
+    pub albedo: cmlt_aov_layer,
+    /// Shading normal: 3 channels, world space, unit, facing the camera.
+    pub normal: cmlt_aov_layer,
+    /// Depth: 1 channel, camera-space z.
+    pub depth: cmlt_aov_layer,
+    /// Motion vector: 2 channels, pixels, previous minus current.
+    pub motion: cmlt_aov_layer,
+}
+
+/// Writes rows `[first_row, end_row)` of the auxiliary outputs a denoiser
+/// or a temporal upscaler reads into the host's buffers (`out`), from one
+/// primary ray per pixel through its centre and the lens centre, traced
+/// as packets, through the renderer's current camera:
+/// - albedo: the directional reflectance of the surface first hit, towards
+///   the camera (textures applied; a mirror its reflectance, clear smooth
+///   glass 1), in [0, 1]; 0 where the ray leaves the scene;
+/// - normal: that surface's shading normal (normal maps applied), world
+///   space, unit, turned towards the camera; 0 on a miss;
+/// - depth: camera-space z, (point − camera position) · view direction;
+///   +infinity on a miss;
+/// - motion: where the point was in the previous frame, in pixels, minus
+///   the pixel's centre (x + 0.5, y + 0.5), +x right, +y down: the point
+///   carried back by its mesh's motion since `cmlt_scene_begin_frame`
+///   (`cmlt_scene_update_mesh`'s previous positions through the hit's
+///   barycentric coordinates) and projected through `previous` (the last
+///   frame's camera; NULL = the camera did not move); on a miss, the
+///   direction's point at infinity; 0 where the previous camera cannot see
+///   the point.
+///
+/// Reads the scene and the camera only: host threads may compute bands of
+/// rows at the same time, also while workers render; any split gives the
+/// same bytes. Allocates nothing. `CMLT_ERROR_INVALID_ARGUMENT` for rows
+/// outside the image, an unknown format, a misaligned or too small layer,
+/// or a bad `previous` camera (nothing is written); `CMLT_ERROR_BUSY`
+/// while the renderer's camera changes or the scene is updated.
+///
+/// # Safety
+/// `renderer`, `previous` and `out` are NULL or valid; each layer's
+/// `data` is NULL or valid for writing its `buffer_size` bytes, and the
+/// layers do not overlap.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_aov_rows(
+    renderer: *const cmlt_renderer,
+    previous: *const cmlt_camera,
+    first_row: u32,
+    end_row: u32,
+    out: *const cmlt_aov_buffers,
+) -> cmlt_status {
+    guard("cmlt_renderer_aov_rows", || {
+        // SAFETY: the caller's contract.
+        let (r, out) = unsafe { (read(renderer, "renderer")?, read(out, "out")?) };
+        let inner = r
+            .renderer
+            .try_read()
+            .map_err(|e| Error::lock(e, "the renderer is being prepared or its camera changed"))?;
+        let camera = *inner.camera();
+        drop(inner);
+        // SAFETY: the caller's contract.
+        let previous = match unsafe { previous.as_ref() } {
+            None => camera,
+            Some(p) => p.camera(camera.width(), camera.height())?,
+        };
+        // SAFETY (all four): the caller's contract on each layer.
+        let mut buffers = AovBuffers {
+            albedo: unsafe { aov_layer(&out.albedo) }?,
+            normal: unsafe { aov_layer(&out.normal) }?,
+            depth: unsafe { aov_layer(&out.depth) }?,
+            motion: unsafe { aov_layer(&out.motion) }?,
+        };
+        let live = r.scene.live()?;
+        aov::render_rows(
+            &live.scene,
+            &live.accel,
+            &camera,
+            &previous,
+            first_row..end_row,
+            &mut buffers,
+        )
+        .map_err(render_error)
+    })
+}
+
+/// The core's layer over a host's `cmlt_aov_layer` (`None` for NULL data).
+///
+/// # Safety
+/// `layer.data` is NULL or valid for writing `layer.buffer_size` bytes,
+/// which nothing else touches during the call.
+unsafe fn aov_layer<'a>(layer: &cmlt_aov_layer) -> Result<Option<AovLayer<'a>>> {
+    if layer.data.is_null() {
+        return Ok(None);
+    }
+    let format = match layer.format {
+        CMLT_AOV_F32 => AovFormat::F32,
+        CMLT_AOV_F16 => AovFormat::F16,
+        _ => return Err(Error::invalid("unknown auxiliary output format")),
+    };
+    let align = format.bytes();
+    if !(layer.data as usize).is_multiple_of(align) || !layer.row_stride.is_multiple_of(align) {
+        return Err(Error::invalid(
+            "an auxiliary output's data and row_stride must be aligned to its element size",
+        ));
+    }
+    // SAFETY: the caller's contract.
+    let data =
+        unsafe { std::slice::from_raw_parts_mut(layer.data.cast::<u8>(), layer.buffer_size) };
+    Ok(Some(AovLayer {
+        data,
+        row_stride: layer.row_stride,
+        format,
+    }))
 }
 
 /// `*out` = the counters of the current accumulation over all workers.
@@ -1142,7 +1351,7 @@ pub unsafe extern "C" fn cmlt_renderer_get_stats(
         let mut s = RenderStats::default();
         for slot in r.workers.iter() {
             let w = slot
-                .try_lock()
+                .try_read()
                 .map_err(|e| Error::lock(e, "a worker is being rendered"))?;
             s.merge(&inner.worker_stats(&w));
         }

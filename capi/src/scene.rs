@@ -1446,6 +1446,32 @@ pub unsafe extern "C" fn cmlt_scene_update_mesh(
     })
 }
 
+/// Starts a new animation frame of a committed scene: every mesh's current
+/// positions become the ones the motion vectors of
+/// `cmlt_renderer_aov_rows` measure from. Call it once per frame, before
+/// that frame's `cmlt_scene_update_mesh` calls: a mesh then moves from
+/// where it was when the frame began (however often it is updated), and a
+/// mesh not updated does not move. Changes no geometry (renderers do not
+/// restart) and allocates nothing. `CMLT_ERROR_BUSY` while a renderer of
+/// the scene prepares, renders or computes auxiliary outputs.
+///
+/// # Safety
+/// `scene` is NULL or a valid handle.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_begin_frame(scene: *mut cmlt_scene) -> cmlt_status {
+    guard("cmlt_scene_begin_frame", || {
+        // SAFETY: the caller's contract.
+        let scene = unsafe { read(scene, "scene") }?;
+        let c = scene.committed()?;
+        let mut live = c
+            .live
+            .try_write()
+            .map_err(|e| Error::lock(e, "renderers of this scene are preparing or rendering"))?;
+        live.scene.begin_frame();
+        Ok(())
+    })
+}
+
 /// `count` host vectors of 3 floats at `stride` bytes (0 = packed): read in
 /// place when packed, else copied into `scratch` (which has room for
 /// `count`, so nothing is allocated). Literal error messages: a frame

@@ -318,6 +318,51 @@ fn cpp_frame_trial_runs_every_estimator_without_allocating() {
 /// next-event estimation is exact there; BDPT adds light tracing), and
 /// the corners, further from the light, are darker by the inverse-square
 /// and cosine falloff.
+/// `outputs.c`: the banded read-outs equal one call; at a floor pixel
+/// the white floor's albedo (0.7) and normal (+y), at a sphere pixel the
+/// mirror's reflectance (0.9); in the second frame (camera 0.1 along its
+/// x axis, image-left; sphere 0.2 along the same axis) the analytic
+/// motion of each: W/2 · Δ / (z · tan 25°) pixels, with Δ = −0.1 for the
+/// floor (static) and +0.1 for the sphere (0.2 − 0.1), z the printed
+/// depth, and no vertical motion.
+#[test]
+fn outputs_example_reads_bands_and_gives_the_analytic_motion() {
+    let exe = build_example("outputs");
+    let out = run(&exe, &[]);
+    for frame in ["frame 1", "frame 2"] {
+        assert_eq!(
+            numbers(&out, &format!("{frame} bands identical")),
+            vec![1.0],
+            "{out}"
+        );
+    }
+    // depth, normal (3), albedo (3), motion (2)
+    let px = |key: &str| numbers(&out, key);
+    let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+    let floor = px("frame 1 floor");
+    assert!(floor[0].is_finite() && floor[0] > 1.0, "{out}");
+    assert!(
+        near(floor[2], 1.0, 1e-4) && near(floor[1], 0.0, 1e-4),
+        "{out}"
+    );
+    assert!(floor[4..7].iter().all(|a| near(*a, 0.7, 2e-4)), "{out}");
+    assert!(floor[7..9].iter().all(|m| near(*m, 0.0, 2e-3)), "{out}");
+    let sphere = px("frame 1 sphere");
+    let n = (sphere[1].powi(2) + sphere[2].powi(2) + sphere[3].powi(2)).sqrt();
+    assert!(
+        sphere[0] > 1.0 && near(n, 1.0, 1e-3) && sphere[3] < 0.0,
+        "{out}"
+    );
+    assert!(sphere[4..7].iter().all(|a| near(*a, 0.9, 2e-4)), "{out}");
+    let tan = (25.0f64).to_radians().tan();
+    for (key, delta) in [("frame 2 floor", -0.1), ("frame 2 sphere", 0.1)] {
+        let p = px(key);
+        let want = 32.0 * delta / (p[0] * tan);
+        assert!(near(p[7], want, 2e-3), "{key}: {} for {want}\n{out}", p[7]);
+        assert!(near(p[8], 0.0, 2e-3), "{key}: {}\n{out}", p[8]);
+    }
+}
+
 #[test]
 fn point_light_example_matches_the_analytic_radiance() {
     let exe = build_example("point_light");

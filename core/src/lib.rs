@@ -61,6 +61,8 @@ pub mod sampler;
 pub mod scene;
 
 #[cfg(feature = "alloc")]
+pub mod aov;
+#[cfg(feature = "alloc")]
 pub mod film;
 #[cfg(feature = "alloc")]
 pub mod integrator;

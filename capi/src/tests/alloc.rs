@@ -92,12 +92,28 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
         );
         assert!(align >= 8 && align.is_power_of_two());
         let mut px = vec![0.0f32; 16 * 12 * 3];
+        let mut half = vec![0u16; 16 * 12 * 4];
+        let (mut depth, mut normal) = (vec![0.0f32; 16 * 12], vec![0u16; 16 * 12 * 3]);
+        let layer = |data: *mut c_void, buffer_size, format| cmlt_aov_layer {
+            data,
+            row_stride: 0,
+            buffer_size,
+            format,
+        };
+        let aov = cmlt_aov_buffers {
+            albedo: layer(null_mut(), 0, CMLT_AOV_F32),
+            normal: layer(normal.as_mut_ptr().cast(), normal.len() * 2, CMLT_AOV_F16),
+            depth: layer(depth.as_mut_ptr().cast(), depth.len() * 4, CMLT_AOV_F32),
+            motion: layer(null_mut(), 0, CMLT_AOV_F32),
+        };
         let mut moved = CAMERA;
         let ((), n, _) = counted(|| {
             for frame in 0..3 {
+                let previous = moved;
                 moved.position[0] = 0.1 * frame as f32;
                 // SAFETY: valid pointers.
                 unsafe {
+                    expect(cmlt_scene_begin_frame(s), CMLT_OK, "begin_frame");
                     expect(cmlt_renderer_set_camera(r, &moved), CMLT_OK, "set_camera");
                     expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
                     for w in 0..2 {
@@ -118,11 +134,33 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
                         CMLT_OK,
                         "resolve",
                     );
+                    for (y0, y1) in [(0, 5), (5, 12)] {
+                        let at = y0 as usize * 16 * 4;
+                        expect(
+                            cmlt_renderer_resolve_rows(
+                                r,
+                                CMLT_FORMAT_RGBA16F,
+                                y0,
+                                y1,
+                                half[at..].as_mut_ptr().cast(),
+                                0,
+                                (half.len() - at) * 2,
+                            ),
+                            CMLT_OK,
+                            "resolve_rows",
+                        );
+                    }
+                    expect(
+                        cmlt_renderer_aov_rows(r, &previous, 0, 12, &aov),
+                        CMLT_OK,
+                        "aov_rows",
+                    );
                     let mut st = cmlt_stats::default();
                     expect(cmlt_renderer_get_stats(r, &mut st), CMLT_OK, "stats");
                 }
             }
         });
+        assert!(depth.iter().any(|d| d.is_finite() && *d > 0.0));
         assert_eq!(n, 0, "estimator {estimator}: {n} allocations during frames");
         assert!(px.iter().any(|&v| v > 0.0));
         // Mesh updates are part of the frame loop, and so are refused

@@ -10,6 +10,7 @@ mod host;
 mod lights;
 mod materials;
 mod memory;
+mod outputs;
 mod renderer;
 mod scene;
 mod textures;

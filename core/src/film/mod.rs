@@ -8,6 +8,16 @@
 //!
 //! Pixel filter: box (one sample belongs to the pixel it falls in), which is
 //! what the references use.
+//!
+//! What a resolve writes: [`PixelFormat`] (`format.rs`), with the 8-bit
+//! sRGB encoding by table (`srgb.rs`) and the binary16 encoding
+//! (`half.rs`).
+
+mod format;
+pub mod half;
+pub mod srgb;
+
+pub use format::PixelFormat;
 
 use alloc::vec;
 use alloc::vec::Vec;
@@ -135,6 +145,12 @@ impl Film {
     /// end (as [`Film::merge`] then [`Film::resolve`] do) rounds the same.
     pub fn pixel_parts(&self, index: usize) -> ([f64; 3], [f64; 3]) {
         (self.sum[index], self.splat[index])
+    }
+
+    /// The camera-sample sums and the splat sums of every pixel, row-major:
+    /// what a resolve merges, a run of pixels at a time.
+    pub fn layers(&self) -> (&[[f64; 3]], &[[f64; 3]]) {
+        (&self.sum, &self.splat)
     }
 
     /// The unscaled total (samples + splats) of pixel `index` (row-major),

@@ -13,6 +13,8 @@
 //!     }
 //!     renderer.render(&mut worker_i, …, budget)      (any thread, one call per worker)
 //!     renderer.resolve(&[&worker_0, …], out)         (merge in worker order)
+//!       or resolve_rows(workers, y0..y1, format, …)  (a band of rows, any thread)
+//!     aov::render_rows(scene, accel, camera, previous, y0..y1, …)  (optional)
 //! ```
 //!
 //! Preparing is that one three-step form: `begin_prepare` finds what the
@@ -97,6 +99,7 @@
 
 mod accumulation;
 mod estimator;
+mod resolve;
 
 use alloc::vec::Vec;
 use core::ops::Deref;
@@ -117,6 +120,7 @@ use crate::scene::{Analysis, Camera, Effect, Scene};
 pub use accumulation::Accumulation;
 use accumulation::Weights;
 pub use estimator::{Estimator, EstimatorKind};
+pub(crate) use resolve::check_buffer;
 
 /// The smallest piece of work between two questions of a time budget's
 /// callback ([`Renderer::render_while`] for PT and BDPT,
@@ -266,6 +270,9 @@ pub enum RenderError {
     /// The renderer and its workers would need more memory than the
     /// address space holds ([`Renderer::memory_bound`] overflows).
     TooLarge,
+    /// An output buffer or row range does not fit the image (the message
+    /// says which): [`Renderer::resolve_rows`], [`crate::aov`].
+    Output(&'static str),
 }
 
 impl core::fmt::Display for RenderError {
@@ -292,6 +299,7 @@ impl core::fmt::Display for RenderError {
                 "the renderer would need more memory than the address space holds \
                  (fewer workers, chains, bootstrap samples or pixels)",
             ),
+            RenderError::Output(m) => write!(f, "invalid output: {m}"),
         }
     }
 }

@@ -267,14 +267,38 @@ impl Camera {
     /// Raster position of a camera-space direction, if it is in the image.
     #[inline]
     fn raster_of_local(&self, d: Vec3) -> Option<Vec2> {
+        let r = self.raster_unbounded(d)?;
+        (r.x >= 0.0 && r.y >= 0.0 && r.x < self.width as f32 && r.y < self.height as f32)
+            .then_some(r)
+    }
+
+    /// Raster position of a camera-space direction on the image plane,
+    /// inside the image or not; `None` for a direction not in front of
+    /// the camera.
+    #[inline]
+    fn raster_unbounded(&self, d: Vec3) -> Option<Vec2> {
         if d.z <= 0.0 {
             return None;
         }
         let sx = 0.5 * (1.0 - d.x / (d.z * self.tan_half.x));
         let sy = 0.5 * (1.0 - d.y / (d.z * self.tan_half.y));
-        let r = Vec2::new(sx * self.width as f32, sy * self.height as f32);
-        (r.x >= 0.0 && r.y >= 0.0 && r.x < self.width as f32 && r.y < self.height as f32)
-            .then_some(r)
+        Some(Vec2::new(sx * self.width as f32, sy * self.height as f32))
+    }
+
+    /// The continuous raster position world point `p` projects to through
+    /// the lens centre (the pinhole projection; pixel (x, y) spans
+    /// [x, x + 1) × [y, y + 1)), inside the image or not: what a motion
+    /// vector measures. `None` when `p` is not in front of the camera.
+    pub fn project(&self, p: Vec3) -> Option<Vec2> {
+        self.raster_unbounded(self.rot.transpose() * (p - self.pos))
+    }
+
+    /// The raster position of the point at infinity in world direction
+    /// `d` (where the environment seen along `d` projects), inside the
+    /// image or not; `None` when `d` does not point in front of the
+    /// camera.
+    pub fn project_direction(&self, d: Vec3) -> Option<Vec2> {
+        self.raster_unbounded(self.rot.transpose() * d)
     }
 
     /// A primary ray through `raster` (continuous pixel coordinates), using

@@ -465,6 +465,15 @@ impl SceneBuilder {
             tri_mesh.extend(core::iter::repeat_n(mi as u32, m.indices.len()));
         }
         let lights = LightSet::with_bitmaps(&self.meshes, &self.lights, &self.bitmaps);
+        // The motion frame's starting positions: sized here, so that moving
+        // meshes later allocates nothing.
+        let mut first_vertex = Vec::with_capacity(self.meshes.len());
+        let mut previous = Vec::new();
+        for m in &self.meshes {
+            first_vertex.push(previous.len());
+            previous.extend_from_slice(&m.positions);
+        }
+        let moved_in = alloc::vec![0; self.meshes.len()];
         let scene = Scene {
             light_list: self.lights,
             meshes: self.meshes,
@@ -477,6 +486,10 @@ impl SceneBuilder {
             first_shape,
             lights,
             revision: 0,
+            previous,
+            first_vertex,
+            moved_in,
+            motion_frame: 1,
         };
         // A build without some effect's code must refuse a scene that needs
         // it (meshes and host shapes alike), never render it wrong.
@@ -513,6 +526,17 @@ pub struct Scene {
     /// Bumped by every [`Scene::update_mesh`]: renderers compare it to
     /// notice that the scene changed under them.
     revision: u64,
+    /// Every mesh's vertex positions when the current motion frame
+    /// ([`Scene::begin_frame`]) started, meshes one after the other from
+    /// `first_vertex[mesh]`; a mesh's entries are current only when
+    /// `moved_in[mesh] == motion_frame` (copied by its first update of the
+    /// frame), otherwise it has not moved and its positions are its own.
+    previous: Vec<Vec3>,
+    first_vertex: Vec<usize>,
+    /// The motion frame of each mesh's last update (0: never moved).
+    moved_in: Vec<u64>,
+    /// Counts [`Scene::begin_frame`] calls, from 1.
+    motion_frame: u64,
 }
 
 /// A light chosen by [`Scene::sample_emitter`].
@@ -798,6 +822,13 @@ impl Scene {
                 .try_reserve_exact(ns.len().saturating_sub(m.normals.len()))
                 .map_err(|_| SceneError::OutOfMemory)?;
         }
+        if self.moved_in[mesh] != self.motion_frame {
+            // The mesh's first move of this motion frame: where it was
+            // when the frame began is where motion vectors measure from.
+            let first = self.first_vertex[mesh];
+            self.previous[first..first + n].copy_from_slice(&m.positions);
+            self.moved_in[mesh] = self.motion_frame;
+        }
         m.positions.copy_from_slice(positions);
         if let Some(ns) = normals {
             m.normals.clear();
@@ -818,6 +849,44 @@ impl Scene {
     /// How many times the scene was updated ([`Scene::update_mesh`]).
     pub fn revision(&self) -> u64 {
         self.revision
+    }
+
+    /// Starts a new motion frame: every mesh's current positions become
+    /// the ones motion is measured from ([`Scene::previous_point`], the
+    /// motion vectors of [`crate::aov`]). Call it once per displayed
+    /// frame, before that frame's [`Scene::update_mesh`] calls; a mesh
+    /// updated several times in one frame moves from where it was at the
+    /// frame's start, one not updated does not move. Without it the
+    /// motion of a mesh is measured from where it was before its first
+    /// update. Changes no geometry (the [`Scene::revision`] stays) and
+    /// allocates nothing.
+    pub fn begin_frame(&mut self) {
+        self.motion_frame += 1;
+    }
+
+    /// Where the point `p` at barycentric coordinates `(b1, b2)` of global
+    /// primitive `prim` (a [`Hit`]'s) was when the current motion frame
+    /// began ([`Scene::begin_frame`]): `p` moved back by its triangle's
+    /// vertex displacements, weighted by the barycentric coordinates, when
+    /// the triangle's mesh was updated in this frame; `p` itself otherwise
+    /// (static meshes, host shapes).
+    pub fn previous_point(&self, prim: u32, b1: f32, b2: f32, p: Vec3) -> Vec3 {
+        if prim & SHAPE_PRIM_BIT != 0 {
+            return p;
+        }
+        let (mi, ti) = self.locate(prim);
+        if self.moved_in[mi] != self.motion_frame {
+            return p;
+        }
+        let m = &self.meshes[mi];
+        let idx = m.indices[ti].map(|i| i as usize);
+        let [p0, p1, p2] = idx.map(|i| m.positions[i]);
+        let base = self.first_vertex[mi];
+        let [q0, q1, q2] = idx.map(|i| self.previous[base + i]);
+        // As displacements: a translation moves p back exactly (the
+        // weights sum to 1), whatever the rounding of each weight.
+        let b0 = 1.0 - b1 - b2;
+        p + (q0 - p0) * b0 + (q1 - p1) * b1 + (q2 - p2) * b2
     }
 
     /// Number of host shapes (all groups).

@@ -17,6 +17,8 @@
 //! - [`miri`]: the subset Miri runs (scalar BVH kernel, packets, tiny
 //!   render passes), natively;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
+//! - [`outputs`]: the resolve by rows in every pixel format and the
+//!   auxiliary outputs (depth, normal, albedo, motion) on analytic scenes;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
 //! - [`rough_diffuse`]: an Oren–Nayar plane under a sun, analytic;
@@ -40,6 +42,7 @@ mod furnace;
 mod lights;
 mod miri;
 mod mlt;
+mod outputs;
 mod renderer;
 mod rough_diffuse;
 mod shapes;

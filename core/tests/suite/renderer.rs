@@ -61,7 +61,7 @@ fn note_allocation() {
 static ALLOC: CountingAlloc = CountingAlloc;
 
 /// Allocations `f` makes on this thread.
-fn allocations<R>(f: impl FnOnce() -> R) -> (R, u64) {
+pub(crate) fn allocations<R>(f: impl FnOnce() -> R) -> (R, u64) {
     COUNT.with(|c| c.set(0));
     COUNTING.with(|c| c.set(true));
     let r = f();

@@ -1,0 +1,268 @@
+//! Auxiliary outputs (AOVs) for a denoiser and a temporal upscaler:
+//! albedo, shading normal, depth and screen-space motion vectors, from one
+//! primary ray per pixel through its centre, traced as packets.
+//!
+//! [`render_rows`] writes rows `[y0, y1)` of the outputs a host asks for
+//! ([`AovBuffers`]) into its buffers, as `f32` or half floats
+//! ([`AovFormat`]); it reads the scene and allocates nothing, so host
+//! threads can each compute a band of rows at the same time. Every pixel
+//! depends only on its own ray, so any split of the rows gives the same
+//! bytes.
+//!
+//! What each output holds, at the first surface the pixel's centre ray
+//! hits (the pinhole ray through the lens centre: the outputs are sharp
+//! whatever the aperture). The first hit, not the first non-specular one:
+//! one deterministic ray gives outputs without noise and keeps depth,
+//! normal and motion of the same point, which is what a temporal upscaler
+//! reprojects. OIDN reads a normal in world or view space with 0 where
+//! nothing is hit, and an albedo in [0, 1], for which its documentation
+//! allows a mirror's or glass's own reflectance (or 1) instead of the
+//! surface seen through them.
+//! - **albedo**: the BSDF's directional-hemispherical reflectance
+//!   towards the camera, textures and normal maps applied (`albedo.rs`
+//!   says how it is estimated); 0 where the ray leaves the scene.
+//! - **normal**: the shading normal (normal or bump map applied) in world
+//!   space, unit length, turned to face the camera; 0 on a miss.
+//! - **depth**: camera-space z, the distance from the camera's position
+//!   along its viewing direction ((p − position) · forward, not the
+//!   distance along the ray); +∞ on a miss.
+//! - **motion**: where the visible point was in the previous frame, in
+//!   pixels, minus the pixel's centre (x + ½, y + ½): +x to the right, +y
+//!   down, as raster coordinates (DLSS and FSR read "previous minus
+//!   current"; scale it by −1 or to UV units as the upscaler asks). The
+//!   point is projected through `previous` (the previous frame's camera);
+//!   on a mesh moved since [`Scene::begin_frame`] it is first carried back
+//!   by its triangle's vertex displacements through the hit's barycentric
+//!   coordinates ([`Scene::previous_point`]). Where the ray leaves the
+//!   scene, the point at infinity in its direction (the environment
+//!   moves only with the camera's rotation). 0 where the previous camera
+//!   cannot see the point (behind it).
+
+mod albedo;
+mod layer;
+
+use core::ops::Range;
+
+use glam::{Vec2, Vec3};
+
+pub use layer::{AovBuffers, AovFormat, AovLayer};
+
+use crate::accel::Intersector;
+use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
+use crate::integrator::Tracer;
+use crate::integrator::tracer::Shading;
+use crate::renderer::RenderError;
+use crate::scene::{Camera, SHAPE_PRIM_BIT, Scene, SurfacePoint};
+
+/// Pixels of a row traced as one packet.
+const LANES: usize = 8;
+
+/// Writes rows `rows` of the outputs `out` asks for, seen through
+/// `camera`, with motion vectors to where each point was through
+/// `previous` (the last frame's camera; `camera` itself for none): row
+/// `rows.start` is each layer's first row. [`RenderError::Resolution`]
+/// when the two cameras' resolutions differ, [`RenderError::Output`] when
+/// the rows leave the image or a layer is too small for them (nothing is
+/// written then). Allocates nothing.
+pub fn render_rows<I: Intersector>(
+    scene: &Scene,
+    accel: &I,
+    camera: &Camera,
+    previous: &Camera,
+    rows: Range<u32>,
+    out: &mut AovBuffers<'_>,
+) -> Result<(), RenderError> {
+    if (previous.width(), previous.height()) != (camera.width(), camera.height()) {
+        return Err(RenderError::Resolution);
+    }
+    if rows.start > rows.end || rows.end > camera.height() {
+        return Err(RenderError::Output("the rows leave the image"));
+    }
+    let (width, n) = (camera.width() as usize, rows.len());
+    for (layer, channels) in [
+        (&mut out.albedo, 3),
+        (&mut out.normal, 3),
+        (&mut out.depth, 1),
+        (&mut out.motion, 2),
+    ] {
+        if let Some(l) = layer {
+            l.check(n, width, channels)?;
+        }
+    }
+    let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
+    let shade = out.albedo.is_some() || out.normal.is_some();
+    // With alpha masks the tracer walks through masked surfaces ray by ray
+    // (and hands back shaded points); otherwise one packet per LANES
+    // pixels, and the BSDF and shading frame are resolved only for albedo
+    // and normal: depth and motion read the hit's distance and
+    // barycentric coordinates (hit points and shading were most of the
+    // cost of depth and motion).
+    let masks = tracer.has_alpha_masks();
+    let mut rays = [None; LANES];
+    let mut shaded: [Option<Shading>; LANES] = [None; LANES];
+    let mut points: [Option<PixelPoint>; LANES] = [None; LANES];
+    for (row, y) in rows.enumerate() {
+        for x0 in (0..width).step_by(LANES) {
+            let lanes = LANES.min(width - x0);
+            for (i, r) in rays[..lanes].iter_mut().enumerate() {
+                *r = Some(camera.pinhole_ray(centre(x0 + i, y)));
+            }
+            if masks {
+                tracer.trace_bundle(&rays[..lanes], &mut shaded[..lanes]);
+                for (p, h) in points.iter_mut().zip(&shaded[..lanes]) {
+                    *p = h.map(|h| PixelPoint::of_surface(scene, &h.sp));
+                }
+            } else {
+                let hits = intersect(accel, &rays[..lanes]);
+                for i in 0..lanes {
+                    let ray = rays[i].expect("set above");
+                    let hit = hits.get(i);
+                    points[i] = hit.map(|h| PixelPoint::of_hit(&ray, &h));
+                    shaded[i] = hit
+                        .filter(|_| shade)
+                        .and_then(|h| scene.hit_point(&h))
+                        .map(|sp| tracer.shade(sp));
+                }
+            }
+            for i in 0..lanes {
+                let ray = rays[i].expect("set above");
+                let x = x0 + i;
+                let hit = (points[i], shaded[i].as_ref().filter(|_| shade));
+                write_pixel(&mut tracer, previous, &ray, hit, centre(x, y), out, row, x);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Where a pixel's ray stopped: the point, its primitive and its
+/// barycentric coordinates (b1, b2) there (what motion carries back).
+#[derive(Clone, Copy)]
+struct PixelPoint {
+    p: Vec3,
+    prim: u32,
+    b1: f32,
+    b2: f32,
+}
+
+impl PixelPoint {
+    /// The point of an intersector's hit: o + t·d, with the hit's own
+    /// barycentric coordinates.
+    fn of_hit(ray: &Ray, h: &Hit) -> Self {
+        PixelPoint {
+            p: ray.o + ray.d * h.t,
+            prim: h.prim,
+            b1: h.b1,
+            b2: h.b2,
+        }
+    }
+
+    /// The point of a shaded surface point (alpha-masked scenes), its
+    /// barycentric coordinates those of its projection onto the
+    /// triangle's plane (Cramer's rule on the edges' Gram matrix; 0 for
+    /// host shapes and degenerate triangles, which do not move).
+    fn of_surface(scene: &Scene, sp: &SurfacePoint) -> Self {
+        let (mut b1, mut b2) = (0.0, 0.0);
+        if sp.prim & SHAPE_PRIM_BIT == 0 {
+            let [p0, p1, p2] = scene.triangle(sp.prim);
+            let (e1, e2, d) = (p1 - p0, p2 - p0, sp.p - p0);
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let (dp1, dp2) = (d.dot(e1), d.dot(e2));
+            let det = d11 * d22 - d12 * d12;
+            if det > 0.0 && det.is_finite() {
+                b1 = (d22 * dp1 - d12 * dp2) / det;
+                b2 = (d11 * dp2 - d12 * dp1) / det;
+            }
+        }
+        PixelPoint {
+            p: sp.p,
+            prim: sp.prim,
+            b1,
+            b2,
+        }
+    }
+}
+
+/// Closest hits of `rays` (up to [`LANES`]) as one packet.
+fn intersect<I: Intersector>(accel: &I, rays: &[Option<Ray>]) -> HitPacket<LANES> {
+    let mut packet = RayPacket::<LANES>::default();
+    let mut active = LaneMask::NONE;
+    for (i, r) in rays.iter().enumerate() {
+        if let Some(r) = r {
+            packet.set(i, r);
+            active.set(i);
+        }
+    }
+    let mut hits = HitPacket::<LANES>::default();
+    accel.intersect_packet(&packet, active, &mut hits);
+    hits
+}
+
+/// The centre of pixel (x, y) in raster coordinates.
+fn centre(x: usize, y: u32) -> Vec2 {
+    Vec2::new(x as f32 + 0.5, y as f32 + 0.5)
+}
+
+/// Computes and writes the wanted outputs of one pixel: `hit` is where its
+/// ray stopped and, when albedo or normal are wanted, the shaded surface.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn write_pixel<I: Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    previous: &Camera,
+    ray: &Ray,
+    hit: (Option<PixelPoint>, Option<&Shading>),
+    centre: Vec2,
+    out: &mut AovBuffers<'_>,
+    row: usize,
+    x: usize,
+) {
+    let camera = tracer.camera;
+    let (Some(point), shading) = hit else {
+        if let Some(l) = &mut out.albedo {
+            l.put(row, x, &[0.0; 3]);
+        }
+        if let Some(l) = &mut out.normal {
+            l.put(row, x, &[0.0; 3]);
+        }
+        if let Some(l) = &mut out.depth {
+            l.put(row, x, &[f32::INFINITY]);
+        }
+        if let Some(l) = &mut out.motion {
+            let m = previous
+                .project_direction(ray.d)
+                .map_or(Vec2::ZERO, |p| p - centre);
+            l.put(row, x, &[m.x, m.y]);
+        }
+        return;
+    };
+    // A hit whose surface point is degenerate has no BSDF or normal.
+    let zero = [0.0; 3];
+    if let Some(l) = &mut out.albedo {
+        let a = shading.map_or(zero, |sh| {
+            let a = albedo::albedo(tracer, sh, -ray.d);
+            [a.r, a.g, a.b]
+        });
+        l.put(row, x, &a);
+    }
+    if let Some(l) = &mut out.normal {
+        let n = shading.map_or(zero, |sh| facing(sh.sp.ns, ray.d).to_array());
+        l.put(row, x, &n);
+    }
+    let p = point.p;
+    if let Some(l) = &mut out.depth {
+        l.put(row, x, &[(p - camera.position()).dot(camera.forward())]);
+    }
+    if let Some(l) = &mut out.motion {
+        let before = tracer
+            .scene
+            .previous_point(point.prim, point.b1, point.b2, p);
+        let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
+        l.put(row, x, &[m.x, m.y]);
+    }
+}
+
+/// `n` turned to the side the ray (direction `d`) came from.
+fn facing(n: Vec3, d: Vec3) -> Vec3 {
+    if n.dot(d) > 0.0 { -n } else { n }
+}
