@@ -386,7 +386,9 @@ fn bad_aov_calls_are_refused_and_write_nothing() {
     }
 }
 
-/// A wall scene rendered by two BDPT workers, a few passes each.
+/// A wall scene rendered by two BDPT workers, a few passes each, the
+/// first ending inside a pass (three pieces of `render_while`), so that
+/// pixels carry different sample weights.
 fn rendered() -> (Scene, Renderer, Vec<RenderWorker>) {
     let scene = wall_scene(1.5);
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
@@ -405,6 +407,17 @@ fn rendered() -> (Scene, Renderer, Vec<RenderWorker>) {
     for (w, passes) in ws.iter_mut().zip([3, 2]) {
         r.render_steps(w, &scene, &bvh, passes).unwrap();
     }
+    let mut pieces = 0;
+    let done = r
+        .render_while(&mut ws[0], &scene, &bvh, 1 << 40, |_| {
+            pieces += 1;
+            pieces < 3
+        })
+        .unwrap();
+    assert!(
+        done > 0 && done < u64::from(W * H),
+        "a partial pass: {done}"
+    );
     (scene, r, ws)
 }
 
