@@ -152,7 +152,7 @@ pub fn write_csv(path: &Path, rows: &[Measurement]) -> Result<(), String> {
     s.push('\n');
     for m in rows {
         s.push_str(&format!(
-            "{},{},{},{},{:.4}\n",
+            "{},{},{},{},{}\n",
             m.scene, m.ray_set, m.kernel, m.threads, m.mrays_per_s
         ));
     }

@@ -22,6 +22,11 @@ use cmlt_core::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use cmlt_core::math::{Vec2, Vec3};
 use cmlt_core::scene::{SHAPE_PRIM_BIT, ShapePoint, ShapeSurface};
 
+/// How far a host's barycentric weight may leave [0, 1] and still count
+/// as a hit on the triangle: host tracers round (Embree reports weights of
+/// about −10⁻⁷ on an edge); a weight off by more is a wrong answer.
+const BARYCENTRIC_SLACK: f32 = 1e-4;
+
 /// `prim_id` of a miss.
 pub const CMLT_INVALID_ID: u32 = u32::MAX;
 
@@ -302,10 +307,13 @@ impl HostIntersector {
         let surface_ok = if prim & CMLT_SHAPE_BIT != 0 {
             prim & !CMLT_SHAPE_BIT < self.shapes && u.is_finite() && v.is_finite()
         } else {
+            // Each of the three barycentric weights (u, v, 1 − u − v)
+            // may miss [0, 1] by a rounding: Embree reports u = −9·10⁻⁸
+            // on a triangle's edge, as it reports u + v just above 1.
             prim < self.triangles
-                && (0.0..=1.0).contains(&u)
-                && (0.0..=1.0).contains(&v)
-                && u + v <= 1.0 + 1e-4
+                && u >= -BARYCENTRIC_SLACK
+                && v >= -BARYCENTRIC_SLACK
+                && u + v <= 1.0 + BARYCENTRIC_SLACK
         };
         let valid = surface_ok && t > 0.0 && t < t_max;
         if !valid {
