@@ -215,14 +215,15 @@ impl Chain {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::sampler::{CAMERA_STREAM, Sampler};
 
     /// A toy target on the unit square with a known density (∝ 1 + 3x +
     /// 8·[y > 0.75]) and colour that changes across it; the chain's
-    /// splatted histogram, normalised by the exact b, must match it.
-    fn toy(s: &mut PrimarySampler) -> PathSample {
+    /// splatted histogram, normalised by the exact b, must match it. Also
+    /// the large-step tally's test target (`large_steps.rs`).
+    pub(in crate::mlt) fn toy(s: &mut PrimarySampler) -> PathSample {
         s.start_stream(CAMERA_STREAM);
         let u = s.next_2d();
         let y = 1.0 + 3.0 * u.x + if u.y > 0.75 { 8.0 } else { 0.0 };

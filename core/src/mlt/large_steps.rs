@@ -121,25 +121,14 @@ impl LargeStepTally {
 
 #[cfg(test)]
 mod tests {
-    use super::super::chain::{Chain, PathSample};
+    use super::super::chain::Chain;
     use super::super::primary::PrimarySampler;
     use super::*;
-    use crate::math::Rgb;
-    use crate::sampler::{CAMERA_STREAM, Sampler};
-    use glam::Vec2;
 
-    /// Y(u) = 1 + 3x + 8·[y > ¾] on the unit square: ∫Y = 4.5, and a
-    /// chain's states, distributed ∝ Y, have mean ∫Y²/∫Y = 33/4.5 ≈ 7.3.
-    fn toy(s: &mut PrimarySampler) -> PathSample {
-        s.start_stream(CAMERA_STREAM);
-        let u = s.next_2d();
-        let y = 1.0 + 3.0 * u.x + if u.y > 0.75 { 8.0 } else { 0.0 };
-        let l = Rgb::new(2.0, 1.0, 0.5);
-        PathSample {
-            l: l * (y / l.luminance()),
-            raster: Vec2::ZERO,
-        }
-    }
+    // The chain tests' toy target: Y(u) = 1 + 3x + 8·[y > ¾] on the unit
+    // square, ∫Y = 4.5, and a chain's states, distributed ∝ Y, have mean
+    // ∫Y²/∫Y = 33/4.5 ≈ 7.3.
+    use super::super::chain::tests::toy;
 
     /// Runs 16 chains of 20 000 mutations on the toy, tallying at depth
     /// 1 the large steps' proposals and, at depth 2, every proposal.
