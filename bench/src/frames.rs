@@ -5,7 +5,7 @@
 //! threads, each frame bounded by `cmlt_renderer_render_while` and the
 //! host's clock. This module builds it (`make -C examples-c frame_trial`,
 //! the release staticlib), runs it once per estimator × size × budget and
-//! prints its figures against the targets of issue 50:
+//! prints its figures against the targets a game's frame loop needs:
 //!
 //! - p95 frame time ≤ budget + 10 %;
 //! - set-up after the first frame ≤ 10 % of the budget;

@@ -276,7 +276,7 @@ enum BenchCommand {
     /// `examples-c/frame_trial.cpp`, built with the examples' Makefile):
     /// moving camera and mesh, two workers, a time budget per frame; p50/p95
     /// frame time, set-up after the first frame, black pixels, flicker and
-    /// allocations per frame against issue 50's targets.
+    /// allocations per frame against a game's frame targets.
     Frames {
         /// Estimators.
         #[arg(long, value_delimiter = ',', default_value = "pt,bdpt,mlt,cmlt")]

@@ -93,7 +93,8 @@
 //! `prepare_worker_while` calls allow, across as many frames as it takes,
 //! and joined by the `finish_prepare` after it completes (b is then an
 //! estimate over the views of those frames). A b estimated from the
-//! chains' own large steps (issue 53) would plug in at that join.
+//! chains' own large steps (`mlt::LargeStepTally`, collected by every
+//! worker) would plug in at that join.
 //! PT and BDPT carry their films by [`Accumulation`]: reset (default),
 //! keep or decay, set per frame by [`Renderer::set_accumulation`].
 
