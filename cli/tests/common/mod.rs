@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use cmlt::accel::bvh::Bvh;
+use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
@@ -61,4 +62,17 @@ pub fn render_scene(
     let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(spp), &|_| {}).expect("render");
     let img = out.image.clone();
     (img, out)
+}
+
+/// Level 1 as the MLT, CMLT, parts and frames tests run it: 1 000
+/// bootstrap samples per depth, 16 normalisation passes and `chains`
+/// chains per thread.
+pub fn level1(chains: u32) -> MltSettings {
+    MltSettings {
+        n_bootstrap: 1_000,
+        b_passes: 16,
+        b_min_samples: 0,
+        n_chains: chains,
+        ..MltSettings::default()
+    }
 }

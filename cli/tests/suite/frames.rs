@@ -8,22 +8,12 @@
 use crate::common;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::mlt::{CmltSettings, Level2Settings};
 use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
 use cmlt_cli::frames::{look_at_point, orbit_camera};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
-use common::load_reduced;
-
-fn level1() -> MltSettings {
-    MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    }
-}
+use common::{level1, load_reduced};
 
 /// Renders the scene's view after `away` frames of a camera turned up to
 /// `degrees` (each frame a few rounds of every chain), at `mpp` mutations
@@ -105,13 +95,13 @@ fn check(estimator: Estimator) {
 
 #[test]
 fn kept_mlt_chains_after_a_camera_that_moves_and_returns_converge_to_the_reference() {
-    check(Estimator::Mlt(level1()));
+    check(Estimator::Mlt(level1(64)));
 }
 
 #[test]
 fn kept_cmlt_chains_after_a_camera_that_moves_and_returns_converge_to_the_reference() {
     check(Estimator::Cmlt(CmltSettings {
-        mlt: level1(),
+        mlt: level1(64),
         level2: Level2Settings {
             lens_sigma: 2.0,
             side_chain_min_depth: 0,

@@ -18,7 +18,7 @@ use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, RenderOutput, render as drive};
-use common::load_reduced;
+use common::{level1, load_reduced};
 
 /// CMLT over level 1 `mlt`: `k` candidates, side chains of `m` steps with
 /// a 2-pixel lens σ on every path (no minimum depth), the rest of level 2
@@ -34,18 +34,6 @@ fn cmlt_on(mlt: MltSettings, k: u32, m: u32) -> Estimator {
             ..Level2Settings::default()
         },
     })
-}
-
-/// Level 1 with 1 000 bootstrap samples per depth, 16 normalisation passes
-/// and `chains` chains per thread.
-fn level1(chains: u32) -> MltSettings {
-    MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: chains,
-        ..MltSettings::default()
-    }
 }
 
 fn render(

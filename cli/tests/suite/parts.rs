@@ -10,14 +10,14 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
+use cmlt::mlt::{CmltSettings, Level2Settings};
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, render_with_sums};
 use cmlt_cli::state::{self, Identity, PartState, merge, part_seed};
-use common::load_reduced;
+use common::{level1, load_reduced};
 
 /// Renders part `part` of 2 (seed [`part_seed`]`(seed, part)`) at `budget`
 /// per pixel and returns its state.
@@ -178,17 +178,6 @@ fn check_merge_cornell_box(estimator: Estimator, budget: u64) {
     );
 }
 
-/// Level 1 of the MLT and CMLT parts.
-fn parts_mlt() -> MltSettings {
-    MltSettings {
-        n_bootstrap: 1_000,
-        b_passes: 16,
-        b_min_samples: 0,
-        n_chains: 64,
-        ..MltSettings::default()
-    }
-}
-
 // One test per estimator, so that the two test threads share them out.
 
 #[test]
@@ -203,13 +192,13 @@ fn two_parts_merge_like_twice_the_budget_bdpt() {
 
 #[test]
 fn two_parts_merge_like_twice_the_budget_mlt() {
-    check_merge_cornell_box(Estimator::Mlt(parts_mlt()), 8);
+    check_merge_cornell_box(Estimator::Mlt(level1(64)), 8);
 }
 
 #[test]
 fn two_parts_merge_like_twice_the_budget_cmlt() {
     let cmlt = Estimator::Cmlt(CmltSettings {
-        mlt: parts_mlt(),
+        mlt: level1(64),
         level2: Level2Settings {
             k: 4,
             m: 2,
