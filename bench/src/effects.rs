@@ -10,10 +10,10 @@
 
 use std::io::Write;
 
-use cmlt::accel::Intersector;
 use cmlt::math::Rgb;
 use cmlt::renderer::{EstimatorKind, RendererConfig};
 use cmlt::scene::Scene;
+use cmlt_cli::accel::Accel;
 
 use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{Budget, render};
@@ -54,9 +54,9 @@ impl Row {
 
 /// One timed render, the scene analysis on or off (`all_effects`):
 /// (throughput, image mean).
-fn measure<I: Intersector + Sync>(
+fn measure(
     loaded: &LoadedScene,
-    accel: &I,
+    accel: &Accel,
     all_effects: bool,
     method: EstimatorKind,
     seconds: f64,
@@ -86,8 +86,8 @@ fn measure<I: Intersector + Sync>(
 /// Measures every scene × method (see the module docs), printing a line
 /// per row to `out` as it goes.
 #[allow(clippy::too_many_arguments)]
-pub fn run<I: Intersector + Sync>(
-    scenes: &[(String, LoadedScene, I)],
+pub fn run(
+    scenes: &[(String, LoadedScene, Accel)],
     methods: &[EstimatorKind],
     seconds: f64,
     repeats: usize,

@@ -19,9 +19,9 @@
 
 use std::io::Write;
 
-use cmlt::accel::Intersector;
 use cmlt::renderer::{Estimator, RendererConfig, Temporal};
 use cmlt::scene::{Camera, Scene};
+use cmlt_cli::accel::Accel;
 
 use cmlt_cli::frames::{self, FrameResult};
 
@@ -81,9 +81,9 @@ fn luminance(f: &FrameResult) -> Vec<f64> {
 }
 
 /// Runs `frames` static frames of `cfg` and measures its flicker.
-pub fn measure<I: Intersector + Sync>(
+pub fn measure(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     cfg: RendererConfig,
     frames: usize,
     per_pixel: u64,
@@ -132,9 +132,9 @@ pub fn measure<I: Intersector + Sync>(
 }
 
 /// Runs every configuration and prints the table with ratios to "none".
-pub fn run_static<I: Intersector + Sync>(
+pub fn run_static(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     base: RendererConfig,
     frames: usize,
     per_pixel: u64,
@@ -191,9 +191,9 @@ pub fn run_static<I: Intersector + Sync>(
 /// `reference_spp` samples per pixel. Prints one line per frame; returns
 /// the differences.
 #[allow(clippy::too_many_arguments)]
-pub fn run_moving<I: Intersector + Sync>(
+pub fn run_moving(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     cfg: RendererConfig,
     frames: usize,
     per_pixel: u64,
@@ -226,9 +226,9 @@ pub fn run_moving<I: Intersector + Sync>(
 
 /// Mean luminance of a BDPT render of `camera` with `per_pixel` samples
 /// per pixel.
-fn reference_mean<I: Intersector + Sync>(
+fn reference_mean(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     cfg: &RendererConfig,
     camera: Camera,
     per_pixel: u64,

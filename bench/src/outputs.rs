@@ -12,13 +12,13 @@
 
 use std::time::Instant;
 
-use cmlt::accel::Intersector;
 use cmlt::aov::{AovBuffers, AovFormat, AovLayer};
 use cmlt::film::PixelFormat;
 use cmlt::math::Rgb;
 use cmlt::math::spectrum::linear_to_srgb;
 use cmlt::renderer::{Accumulator, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::Scene;
+use cmlt_cli::accel::Accel;
 
 use crate::prepare::median;
 
@@ -96,9 +96,9 @@ fn resolve_split(
 
 /// A renderer of `config` over `scene` with its workers, each having
 /// rendered `passes` passes (an image to resolve).
-pub fn rendered<I: Intersector + Sync>(
+pub fn rendered(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     config: RendererConfig,
     passes: u64,
 ) -> Result<(Renderer, Vec<RenderWorker>), String> {
@@ -109,8 +109,7 @@ pub fn rendered<I: Intersector + Sync>(
         .map_err(|e| e.to_string())?;
     cmlt_cli::render::prepare(&mut r, &mut workers, scene, accel)?;
     for w in &mut workers {
-        r.render_steps(w, scene, accel, passes)
-            .map_err(|e| e.to_string())?;
+        cmlt_cli::render::render_steps(&r, w, scene, accel, passes).map_err(|e| e.to_string())?;
     }
     Ok((r, workers))
 }
@@ -118,9 +117,9 @@ pub fn rendered<I: Intersector + Sync>(
 /// Times every resolve variant and the auxiliary outputs `repeats` times
 /// in turns over a rendered image; errors if a new resolve's bytes differ
 /// from the baseline's for a format both write.
-pub fn run<I: Intersector + Sync>(
+pub fn run(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     r: &Renderer,
     workers: &[RenderWorker],
     repeats: usize,
@@ -224,10 +223,10 @@ impl AovStorage {
     /// reads) in `format`, split into `bands` bands of rows on scoped
     /// threads.
     #[allow(clippy::too_many_arguments)]
-    fn run<I: Intersector + Sync>(
+    fn run(
         &mut self,
         scene: &Scene,
-        accel: &I,
+        accel: &Accel,
         camera: &cmlt::scene::Camera,
         previous: &cmlt::scene::Camera,
         format: AovFormat,

@@ -14,9 +14,9 @@
 
 use std::time::Instant;
 
-use cmlt::accel::Intersector;
 use cmlt::renderer::{RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::Scene;
+use cmlt_cli::accel::Accel;
 
 /// The measured times, in seconds, one entry per turn.
 #[derive(Clone, Debug, Default)]
@@ -63,9 +63,9 @@ fn fresh(config: RendererConfig, scene: &Scene) -> Result<(Renderer, Vec<RenderW
 /// `repeats` turns of both ways of preparing a first frame of `config`
 /// (an MLT or CMLT configuration with `config.workers` workers). Refuses a
 /// turn whose two bootstraps disagree on b.
-pub fn run<I: Intersector + Sync>(
+pub fn run(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     config: RendererConfig,
     repeats: usize,
 ) -> Result<PrepareTimes, String> {
@@ -78,8 +78,7 @@ pub fn run<I: Intersector + Sync>(
         let t = Instant::now();
         if serial.begin_prepare(scene) {
             for w in &mut workers {
-                serial
-                    .prepare_worker(w, scene, accel)
+                cmlt_cli::render::prepare_worker_while(&serial, w, scene, accel, &mut |_| true)
                     .map_err(|e| e.to_string())?;
             }
             serial

@@ -2,7 +2,7 @@
 //! reference, and one measured render of it (error against the reference,
 //! and what the render cost).
 //!
-//! Renders go through the CLI's driver ([`cmlt_cli::render::render_accel`], over the
+//! Renders go through the CLI's driver ([`cmlt_cli::render::render`], over the
 //! core's renderer) and are scored with [`cmlt_cli::metrics`], exactly as
 //! `cmlt render --reference` does.
 
@@ -16,7 +16,7 @@ use cmlt_cli::image_io::Image;
 use cmlt_cli::load_scene_or_builtin;
 use cmlt_cli::metrics;
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{Budget, render_accel};
+use cmlt_cli::render::{Budget, render};
 
 /// One measured render.
 #[derive(Clone, Debug, PartialEq)]
@@ -104,7 +104,7 @@ impl Study {
         };
         let cpu0 = process_cpu_s();
         let start = Instant::now();
-        let out = render_accel(&self.loaded.scene, &self.accel, config, budget, &|_| {})?;
+        let out = render(&self.loaded.scene, &self.accel, config, budget, &|_| {})?;
         let wall_s = start.elapsed().as_secs_f64();
         let mut m = score(
             &out.image,

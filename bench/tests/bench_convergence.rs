@@ -14,7 +14,7 @@ use std::process::Command;
 
 use cmlt_bench::convergence::{CSV_HEADER, curves, read_csv};
 use cmlt_cli::accel::{Accel, AccelKind};
-use cmlt_cli::render::render_accel;
+use cmlt_cli::render::render;
 
 fn bench() -> Command {
     Command::new(env!("CARGO_BIN_EXE_cmlt-bench"))
@@ -133,7 +133,7 @@ fn pt_error_falls_with_budget_and_csv_is_well_formed() {
     let budget = cmlt::renderer::Budget::PerPixel(8);
     // The non-generic driver: this binary links it instead of compiling
     // the renderer again.
-    let out = render_accel(&loaded.scene, &accel, config, budget, &|_| {}).unwrap();
+    let out = render(&loaded.scene, &accel, config, budget, &|_| {}).unwrap();
     cmlt_cli::image_io::write_image(&img, &out.image).unwrap();
     ok(bench()
         .args(["score"])

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use cmlt::accel::Intersector;
+use cmlt::accel::backend::Accel;
 use cmlt::math::{Rgb, Vec2, Vec3};
 use cmlt::renderer::{Budget, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
@@ -60,9 +61,9 @@ pub struct FrameResult {
 /// mutations per pixel over all workers ([`Renderer::steps_for`]), the
 /// camera of frame `f` given by `camera_at(f)`, handing each finished
 /// frame to `on_frame`.
-pub fn render_frames<I: Intersector + Sync>(
+pub fn render_frames(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     cfg: RendererConfig,
     frames: usize,
     per_pixel: u64,

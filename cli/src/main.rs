@@ -16,7 +16,7 @@ use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs, check_method_options};
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{render_accel, render_frame_with_sums};
+use cmlt_cli::render::{render, render_frame_with_sums};
 use cmlt_cli::state::{self, PartState};
 use cmlt_cli::{frames, image_io, load_scene_or_builtin, output};
 
@@ -219,10 +219,7 @@ fn run_single(
             render_frame_with_sums(scene, accel, config, budget, &|n| bar.inc(n), frame)?;
         (out, Some(sums))
     } else {
-        (
-            render_accel(scene, accel, config, budget, &|n| bar.inc(n))?,
-            None,
-        )
+        (render(scene, accel, config, budget, &|n| bar.inc(n))?, None)
     };
     bar.finish_and_clear();
     let image = o.image_path(sums.is_some());

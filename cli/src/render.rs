@@ -10,11 +10,17 @@
 //! per-pixel budget and thread count the image is bit-identical from run
 //! to run; `--frames` ([`crate::frames`]) runs the same two functions per
 //! frame, and the C API drives the same calls.
+//!
+//! The drivers take [`Accel`], the intersector the CLI picks at run time,
+//! and are not generic, so the renderer is compiled for it once, here:
+//! every crate that called a generic driver with its own intersector
+//! compiled the whole renderer again (the benchmarks' convergence test took
+//! 47.5 s of CPU to build that way, 1.4 s linking this one). Tests build
+//! an `Accel::Ours` from a `Bvh`.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use cmlt::accel::Intersector;
 use cmlt::accel::backend::Accel;
 use cmlt::film::Film;
 use cmlt::integrator::Stats;
@@ -124,11 +130,11 @@ pub fn check_film_memory(w: u32, h: u32, count: usize) -> Result<(), String> {
 /// over one thread per worker: [`Renderer::begin_prepare`] here, each
 /// worker's [`Renderer::prepare_worker`] on its thread,
 /// [`Renderer::finish_prepare`] here.
-pub fn prepare<I: Intersector + Sync>(
+pub fn prepare(
     renderer: &mut Renderer,
     workers: &mut [RenderWorker],
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
 ) -> Result<(), String> {
     if !renderer.begin_prepare(scene) {
         return Ok(());
@@ -149,6 +155,32 @@ pub fn prepare<I: Intersector + Sync>(
         .map_err(|e| e.to_string())
 }
 
+/// [`Renderer::prepare_worker_while`] over [`Accel`]: one worker's share
+/// of the bootstrap in pieces, for hosts (benchmarks, tests) that drive
+/// the workers themselves. Not generic, like the rest of this module.
+pub fn prepare_worker_while(
+    renderer: &Renderer,
+    worker: &mut RenderWorker,
+    scene: &Scene,
+    accel: &Accel,
+    keep_going: &mut dyn FnMut(u64) -> bool,
+) -> Result<bool, RenderError> {
+    renderer.prepare_worker_while(worker, scene, accel, keep_going)
+}
+
+/// [`Renderer::render_steps`] over [`Accel`]: `steps` passes (PT, BDPT)
+/// or rounds (MLT, CMLT) of one worker. Not generic, like the rest of
+/// this module.
+pub fn render_steps(
+    renderer: &Renderer,
+    worker: &mut RenderWorker,
+    scene: &Scene,
+    accel: &Accel,
+    steps: u64,
+) -> Result<u64, RenderError> {
+    renderer.render_steps(worker, scene, accel, steps)
+}
+
 /// Renders every worker's share of `budget` on its own scoped thread: the
 /// CLI's one render loop (single images and `--frames`). A per-pixel budget
 /// is each worker's [`Renderer::steps_for`]; a time budget runs until
@@ -156,11 +188,11 @@ pub fn prepare<I: Intersector + Sync>(
 /// pass, or up to 4096 mutations' worth of rounds) between which
 /// `progress(n)` reports `n` more passes (PT, BDPT) or mutations (MLT,
 /// CMLT) and the clock is read; batches change nothing in the image.
-pub fn render_workers<I: Intersector + Sync>(
+pub fn render_workers(
     renderer: &Renderer,
     workers: &mut [RenderWorker],
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     budget: Budget,
     deadline: Option<Instant>,
     progress: &(dyn Fn(u64) + Sync),
@@ -228,9 +260,9 @@ pub struct FilmSums {
 /// Renders `scene` with `config` (one thread per `config.workers`) under
 /// `budget`. `progress(n)` reports `n` more passes (PT, BDPT) or mutations
 /// (MLT, CMLT) done.
-pub fn render<I: Intersector + Sync>(
+pub fn render(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     config: RendererConfig,
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
@@ -238,26 +270,10 @@ pub fn render<I: Intersector + Sync>(
     render_inner(scene, accel, config, budget, progress, false, None).map(|(out, _)| out)
 }
 
-/// [`render`] over [`Accel`], the intersector the CLI picks at run time.
-/// Not generic, so it is compiled once, here: every crate that calls the
-/// generic [`render`] with its own intersector compiles the whole renderer
-/// again (the benchmarks' convergence test took 47.5 s of CPU to build
-/// with it, 1.4 s with this one), while callers of this one only link it.
-#[inline(never)]
-pub fn render_accel(
+/// [`render`], also handing back the workers' film sums.
+pub fn render_with_sums(
     scene: &Scene,
     accel: &Accel,
-    config: RendererConfig,
-    budget: Budget,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<RenderOutput, String> {
-    render(scene, accel, config, budget, progress)
-}
-
-/// [`render`], also handing back the workers' film sums.
-pub fn render_with_sums<I: Intersector + Sync>(
-    scene: &Scene,
-    accel: &I,
     config: RendererConfig,
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
@@ -270,9 +286,9 @@ pub fn render_with_sums<I: Intersector + Sync>(
 /// renders as its frame `k` when the frames are independent (no kept chains
 /// or b window), since frame `k`'s random streams depend only on the seed
 /// and `k`.
-pub fn render_frame_with_sums<I: Intersector + Sync>(
+pub fn render_frame_with_sums(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     config: RendererConfig,
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),
@@ -282,9 +298,9 @@ pub fn render_frame_with_sums<I: Intersector + Sync>(
     Ok((out, sums.expect("sums were asked for")))
 }
 
-fn render_inner<I: Intersector + Sync>(
+fn render_inner(
     scene: &Scene,
-    accel: &I,
+    accel: &Accel,
     config: RendererConfig,
     budget: Budget,
     progress: &(dyn Fn(u64) + Sync),

@@ -11,14 +11,15 @@ mod common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::accel::embree::EmbreeScene;
 use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::render::{Budget, render};
 
 #[test]
 fn embree_render_matches_bvh_render() {
     let (loaded, _) = common::load_reduced("cornell-box", 8);
     let tris: Vec<_> = loaded.scene.triangles().collect();
-    let bvh = Bvh::build(&tris);
-    let embree = EmbreeScene::new(&tris).expect("Embree device");
+    let accel = Accel::Ours(Bvh::build(&tris));
+    let embree = Accel::Embree(EmbreeScene::new(&tris).expect("Embree device"));
     for method in [Estimator::Path, Estimator::Bdpt] {
         let config = RendererConfig {
             estimator: method,
@@ -28,7 +29,7 @@ fn embree_render_matches_bvh_render() {
             ..RendererConfig::default()
         };
         let ours =
-            render(&loaded.scene, &bvh, config, Budget::PerPixel(16), &|_| {}).expect("render");
+            render(&loaded.scene, &accel, config, Budget::PerPixel(16), &|_| {}).expect("render");
         let theirs = render(
             &loaded.scene,
             &embree,

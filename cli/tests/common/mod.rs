@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::MltSettings;
 use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, RenderOutput, render};
@@ -51,7 +52,7 @@ pub fn render_scene(
     seed: u64,
 ) -> (Image, RenderOutput) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
-    let bvh = Bvh::build(&tris);
+    let accel = Accel::Ours(Bvh::build(&tris));
     let config = RendererConfig {
         estimator: method,
         settings: loaded.settings,
@@ -59,7 +60,14 @@ pub fn render_scene(
         workers: 2,
         ..RendererConfig::default()
     };
-    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(spp), &|_| {}).expect("render");
+    let out = render(
+        &loaded.scene,
+        &accel,
+        config,
+        Budget::PerPixel(spp),
+        &|_| {},
+    )
+    .expect("render");
     let img = out.image.clone();
     (img, out)
 }

@@ -15,6 +15,7 @@ use cmlt::math::Rgb;
 use cmlt::mlt::{CmltSettings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::{Effect, EffectSet};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
 use cmlt_cli::render::{Budget, render};
 
@@ -145,7 +146,7 @@ fn render_mean(
     spp: u64,
     seed: u64,
 ) -> (Rgb, Stats) {
-    let bvh = Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
+    let accel = Accel::Ours(Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>()));
     let config = RendererConfig {
         estimator: method,
         settings: loaded.settings,
@@ -154,13 +155,20 @@ fn render_mean(
         all_effects,
         ..RendererConfig::default()
     };
-    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(spp), &|_| {}).expect("render");
+    let out = render(
+        &loaded.scene,
+        &accel,
+        config,
+        Budget::PerPixel(spp),
+        &|_| {},
+    )
+    .expect("render");
     (mean(&out.image.pixels), out.stats.tracer)
 }
 
 /// Mean colour and counters of a CMLT render, the scene analysis on or off.
 fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64) -> (Rgb, Stats) {
-    let bvh = Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>());
+    let accel = Accel::Ours(Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>()));
     let mlt = MltSettings {
         n_bootstrap: 500,
         n_chains: 64,
@@ -177,7 +185,14 @@ fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64
         all_effects,
         ..RendererConfig::default()
     };
-    let out = render(&loaded.scene, &bvh, config, Budget::PerPixel(mpp), &|_| {}).expect("render");
+    let out = render(
+        &loaded.scene,
+        &accel,
+        config,
+        Budget::PerPixel(mpp),
+        &|_| {},
+    )
+    .expect("render");
     (mean(&out.image.pixels), out.stats.tracer)
 }
 

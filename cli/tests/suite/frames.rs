@@ -10,9 +10,11 @@ use crate::common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level2Settings};
 use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::frames::{look_at_point, orbit_camera};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
+use cmlt_cli::render::{prepare_worker_while, render_steps};
 use common::{level1, load_reduced};
 
 /// Renders the scene's view after `away` frames of a camera turned up to
@@ -21,7 +23,7 @@ use common::{level1, load_reduced};
 fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, seed: u64) -> Image {
     let (loaded, _) = load_reduced("cornell-box", 8);
     let scene = &loaded.scene;
-    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
     let cfg = RendererConfig {
         estimator,
         settings: loaded.settings,
@@ -34,7 +36,7 @@ fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, see
         ..RendererConfig::default()
     };
     let home = scene.camera;
-    let pivot = look_at_point(&home, &bvh);
+    let pivot = look_at_point(&home, &accel);
     let mut r = Renderer::new(cfg, home).unwrap();
     let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
     let path = (0..=away).chain((0..away).rev());
@@ -47,14 +49,14 @@ fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, see
             // The first bootstrap runs to the end; the later ones get no
             // time, so the first frame's b carries over.
             for w in ws.iter_mut() {
-                r.prepare_worker_while(w, scene, &bvh, |_| f == 0).unwrap();
+                prepare_worker_while(&r, w, scene, &accel, &mut |_| f == 0).unwrap();
             }
             r.finish_prepare(ws.iter()).unwrap();
         }
         let back = f == 2 * away;
         for w in ws.iter_mut() {
             let steps = if back { r.steps_for(w.index(), mpp) } else { 4 };
-            r.render_steps(w, scene, &bvh, steps).unwrap();
+            render_steps(&r, w, scene, &accel, steps).unwrap();
         }
     }
     let (w, h) = (home.width() as usize, home.height() as usize);

@@ -14,6 +14,7 @@ use std::process::Command;
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
@@ -44,7 +45,7 @@ fn render(
     seed: u64,
 ) -> (Image, RenderOutput) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
-    let bvh = Bvh::build(&tris);
+    let accel = Accel::Ours(Bvh::build(&tris));
     let config = RendererConfig {
         estimator: *estimator,
         settings: loaded.settings,
@@ -52,7 +53,14 @@ fn render(
         workers: threads as u32,
         ..RendererConfig::default()
     };
-    let out = drive(&loaded.scene, &bvh, config, Budget::PerPixel(mpp), &|_| {}).expect("render");
+    let out = drive(
+        &loaded.scene,
+        &accel,
+        config,
+        Budget::PerPixel(mpp),
+        &|_| {},
+    )
+    .expect("render");
     let img = out.image.clone();
     (img, out)
 }

@@ -12,6 +12,7 @@ use std::process::Command;
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level2Settings};
 use cmlt::renderer::{Estimator, RendererConfig};
+use cmlt_cli::accel::Accel;
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
@@ -23,7 +24,7 @@ use common::{level1, load_reduced};
 /// per pixel and returns its state.
 fn render_part(
     loaded: &LoadedScene,
-    bvh: &Bvh,
+    accel: &Accel,
     config: RendererConfig,
     budget: u64,
     seed: u64,
@@ -35,7 +36,7 @@ fn render_part(
     };
     let (out, sums) = render_with_sums(
         &loaded.scene,
-        bvh,
+        accel,
         config,
         Budget::PerPixel(budget),
         &|_| {},
@@ -74,13 +75,13 @@ fn check_merge(
     seeds: u64,
 ) {
     let tris: Vec<_> = loaded.scene.triangles().collect();
-    let bvh = Bvh::build(&tris);
+    let accel = Accel::Ours(Bvh::build(&tris));
     let (mut e_part, mut e_merged, mut e_single, mut e_dup) = (0.0, 0.0, 0.0, 0.0);
     let (mut m_merged, mut m_single) = (Vec::new(), Vec::new());
     for s in 0..seeds {
         let seed = 1000 + 17 * s;
-        let a = render_part(loaded, &bvh, config, budget, seed, 0);
-        let b = render_part(loaded, &bvh, config, budget, seed, 1);
+        let a = render_part(loaded, &accel, config, budget, seed, 0);
+        let b = render_part(loaded, &accel, config, budget, seed, 1);
         let merged = merge(&[a.clone(), b]).expect("parts merge");
         assert!(merged.missing.is_empty());
         // The negative control: part 0 again under index 1, bypassing the
@@ -91,7 +92,7 @@ fn check_merge(
         };
         let dup = merge(&[a.clone(), copy]).unwrap();
         // The single render at twice the budget, its own seed.
-        let single = render_part(loaded, &bvh, config, 2 * budget, seed + 7, 0).resolve();
+        let single = render_part(loaded, &accel, config, 2 * budget, seed + 7, 0).resolve();
         let part_img = a.resolve();
         e_part += rel_mse(&part_img, reference);
         e_merged += rel_mse(&merged.image, reference);
