@@ -22,9 +22,10 @@
 //!   and unused by `perspective`, as in Mitsuba);
 //!   `hdrfilm` `width`/`height`; `sampler` `sample_count`; `rfilter box`
 //!   (other filters render as box, with a warning);
-//! - shapes `obj`, `ply`, `rectangle`, `cube`, `sphere`, `disk` (spheres and
-//!   disks tessellated with exact area), `to_world`, `flip_normals`,
-//!   `face_normals`, `flip_tex_coords`; one `area` emitter per shape;
+//! - shapes `obj`, `ply`, `serialized` (`shape_index`), `rectangle`, `cube`,
+//!   `sphere`, `disk` (spheres and disks tessellated with exact area),
+//!   `to_world`, `flip_normals`, `face_normals`, `flip_tex_coords`; one
+//!   `area` emitter per shape;
 //! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic),
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
@@ -46,6 +47,7 @@ mod image_io;
 pub mod input;
 mod loader;
 mod mesh_io;
+mod serialized;
 mod shapes;
 mod transform;
 mod xml;

@@ -15,6 +15,7 @@ use super::LoadedScene;
 use super::bsdf::PendingBitmap;
 use super::error::LoadError;
 use super::mesh_io::{self, RawMesh};
+use super::serialized;
 use super::shapes;
 use super::transform;
 use super::xml::{Item, Props, Xml};
@@ -738,17 +739,27 @@ impl<'a> Loader<'a> {
         let at_transform = |e: String| x.err(tnode, e);
         let mut ignored: &[&str] = &[];
         let mesh = match props.plugin.as_str() {
-            kind @ ("obj" | "ply") => {
+            kind @ ("obj" | "ply" | "serialized") => {
                 let (filename, fnode) = props.string(x, "filename")?.ok_or_else(|| {
                     x.err(node, format!("{kind} shape lacks the 'filename' property"))
                 })?;
                 let path = self.base_dir.join(&filename);
                 let file_err = |e: String| x.err(fnode, format!("mesh file '{filename}': {e}"));
-                let raw = if kind == "obj" {
-                    let flip_tex = props.boolean(x, "flip_tex_coords")?.unwrap_or(true);
-                    mesh_io::read_obj(&path, flip_tex).map_err(file_err)?
-                } else {
-                    mesh_io::read_ply(&path).map_err(file_err)?
+                let raw = match kind {
+                    "obj" => {
+                        let flip_tex = props.boolean(x, "flip_tex_coords")?.unwrap_or(true);
+                        mesh_io::read_obj(&path, flip_tex).map_err(file_err)?
+                    }
+                    "ply" => mesh_io::read_ply(&path).map_err(file_err)?,
+                    _ => {
+                        let index = match props.integer(x, "shape_index")? {
+                            None => 0,
+                            Some((i, n)) => u32::try_from(i).map_err(|_| {
+                                x.err(n, format!("shape_index must be non-negative, got {i}"))
+                            })?,
+                        };
+                        serialized::read_serialized(&path, index).map_err(file_err)?
+                    }
                 };
                 // Mitsuba never re-winds file meshes (see `shapes`).
                 let mut m = shapes::place(&raw, &to_world, false).map_err(at_transform)?;

@@ -61,7 +61,7 @@ use Expect::{Blocked, PluginsOk, Renders, Unavailable};
 /// the order of his resources page. Update it when a feature lands.
 const EXPECTED: &[(&str, Expect)] = &[
     ("bathroom", PluginsOk),
-    ("bathroom2", Blocked("shape plugin 'serialized'")),
+    ("bathroom2", Blocked("unsupported BSDF plugin 'phong'")),
     ("bedroom", Blocked("scale factors in the camera to_world")),
     // Its envmap is a Portable Float Map, which the image crate cannot
     // decode.
@@ -145,6 +145,36 @@ fn referenced_files(xml: &str) -> Vec<String> {
 const TRIANGLE_OBJ: &str =
     "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
 
+/// A one-triangle Mitsuba `.serialized` file (version 4, one shape): its
+/// zlib stream is a single stored deflate block, which needs no
+/// compressor.
+fn serialized_triangle() -> Vec<u8> {
+    let mut body = 0x1000u32.to_le_bytes().to_vec(); // single precision
+    body.push(0); // empty name
+    body.extend(3u64.to_le_bytes());
+    body.extend(1u64.to_le_bytes());
+    for x in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        body.extend(x.to_le_bytes());
+    }
+    for i in [0u32, 1, 2] {
+        body.extend(i.to_le_bytes());
+    }
+    let len = body.len() as u16;
+    let (mut a, mut b) = (1u32, 0u32);
+    for &byte in &body {
+        a = (a + byte as u32) % 65521;
+        b = (b + a) % 65521;
+    }
+    let mut file = vec![0x1C, 0x04, 4, 0, 0x78, 0x01, 0x01];
+    file.extend(len.to_le_bytes());
+    file.extend((!len).to_le_bytes());
+    file.extend(&body);
+    file.extend(((b << 16) | a).to_be_bytes());
+    file.extend(0u64.to_le_bytes());
+    file.extend(1u32.to_le_bytes());
+    file
+}
+
 /// Writes a stand-in for `file` (relative to `dir`) if its kind has one;
 /// returns whether it did.
 fn write_stand_in(dir: &Path, file: &str) -> bool {
@@ -153,6 +183,7 @@ fn write_stand_in(dir: &Path, file: &str) -> bool {
     let ext = file.rsplit('.').next().unwrap_or("").to_ascii_lowercase();
     match ext.as_str() {
         "obj" => std::fs::write(&path, TRIANGLE_OBJ).unwrap(),
+        "serialized" => std::fs::write(&path, serialized_triangle()).unwrap(),
         // The loader sniffs the format from the bytes, so a PNG named
         // `.jpg` decodes.
         "jpg" | "jpeg" | "png" => image::RgbImage::from_pixel(1, 1, image::Rgb([128, 128, 128]))
@@ -306,7 +337,8 @@ fn stand_ins_only_replace_missing_files() {
     );
     assert!(write_stand_in(&tmp, "textures/sky.hdr"));
     assert!(write_stand_in(&tmp, "textures/sky.pfm"));
-    assert!(!write_stand_in(&tmp, "meshes/m.serialized"));
+    assert!(write_stand_in(&tmp, "meshes/m.serialized"));
+    assert!(!write_stand_in(&tmp, "meshes/m.stl"));
     let scene = r#"<scene version="3.0.0">
         <default name="resx" value="4"/><default name="resy" value="4"/>
         <sensor type="perspective"><film type="hdrfilm"><integer name="width" value="$resx"/>
@@ -314,9 +346,10 @@ fn stand_ins_only_replace_missing_files() {
         <shape type="obj"><string name="filename" value="models/m.obj"/>
           <bsdf type="diffuse"><texture type="bitmap" name="reflectance">
             <string name="filename" value="textures/a b.jpg"/></texture></bsdf></shape>
+        <shape type="serialized"><string name="filename" value="meshes/m.serialized"/></shape>
     </scene>"#;
     std::fs::write(tmp.join("scene.xml"), scene).unwrap();
     let loaded = load_scene(&tmp.join("scene.xml"), &[]).unwrap();
-    assert_eq!(loaded.scene.triangles().count(), 1);
+    assert_eq!(loaded.scene.triangles().count(), 2);
     std::fs::remove_dir_all(&tmp).unwrap();
 }

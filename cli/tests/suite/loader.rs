@@ -646,6 +646,42 @@ fn ply_ascii_and_binary() {
     assert!((area(a) - area(b)).abs() < 1e-9 && (area(a) - 2.5).abs() < 1e-6);
 }
 
+/// Mitsuba's `.serialized` meshes: each shape of a version-4 file by
+/// `shape_index` (f32 with normals, uv and skipped colours; f64 without
+/// normals, which are then computed), and a version-3 file, whose
+/// dictionary holds u32 offsets (files written by make_serialized.py).
+#[test]
+fn serialized_shapes_by_index_and_version() {
+    let s = ok(
+        r#"<shape type="serialized"><string name="filename" value="two_shapes.serialized"/></shape>
+      <shape type="serialized"><string name="filename" value="two_shapes.serialized"/>
+        <integer name="shape_index" value="1"/>
+        <transform name="to_world"><translate x="1"/></transform></shape>
+      <shape type="serialized"><string name="filename" value="triangle_v3.serialized"/>
+        <integer name="shape_index" value="1"/></shape>"#,
+    )
+    .scene;
+    let (quad, tri, v3) = (&s.meshes[0], &s.meshes[1], &s.meshes[2]);
+    assert_eq!(quad.indices.len(), 2);
+    assert_eq!(quad.positions[2], Vec3::new(1.0, 1.0, 0.0));
+    assert_eq!(quad.uvs[1], Vec2::new(1.0, 0.0));
+    assert!(quad.normals.iter().all(|n| *n == Vec3::Z));
+    assert!((area(quad) - 1.0).abs() < 1e-6);
+    assert_eq!(tri.indices.len(), 1);
+    assert_eq!(tri.positions[1], Vec3::new(3.0, 0.0, 2.0));
+    assert!(tri.uvs.is_empty());
+    assert!(tri.normals.iter().all(|n| close(*n, Vec3::Z, 1e-6)));
+    assert!((area(tri) - 3.0).abs() < 1e-6);
+    assert_eq!(
+        v3.positions,
+        s.meshes[1]
+            .positions
+            .iter()
+            .map(|p| *p - Vec3::X)
+            .collect::<Vec<_>>()
+    );
+}
+
 #[test]
 fn spheres_and_disks_are_tessellated_with_exact_area() {
     let s = ok(r#"<shape type="sphere"><float name="radius" value="2"/><point name="center" x="1" y="2" z="3"/></shape>
@@ -985,6 +1021,24 @@ const MALFORMED: &[(&str, &str)] = &[
         "header line longer than 4096 bytes",
     ),
     ("rgb_two_values.xml", "expected 1 or 3 values"),
+    (
+        "serialized_bad_index.xml",
+        "shape 0: triangle 0 refers to vertex 7",
+    ),
+    ("serialized_huge_count.xml", "declares 2147483648 vertices"),
+    (
+        "serialized_index_out_of_range.xml",
+        "shape_index 1 is out of range: the file holds 1 shape(s)",
+    ),
+    (
+        "serialized_negative_index.xml",
+        "shape_index must be non-negative, got -1",
+    ),
+    ("serialized_not_serialized.xml", "not a .serialized file"),
+    (
+        "serialized_truncated.xml",
+        "shape 0: the stream ends inside",
+    ),
     ("singular_transform.xml", "singular"),
     (
         "top_level_area_emitter.xml",
