@@ -2,7 +2,7 @@
 //! emitters) into linear RGB, within bounds.
 //!
 //! Formats: JPEG and PNG (8 or 16 bits per channel) and the float formats
-//! OpenEXR and Radiance HDR (RGBE). Mitsuba's colour rules: integer data is
+//! OpenEXR, Radiance HDR (RGBE) and PFM (`pfm.rs`). Mitsuba's colour rules: integer data is
 //! sRGB-encoded and decoded to linear unless the texture is `raw`; float
 //! data is linear already and taken as it is. Alpha is dropped.
 //!
@@ -23,6 +23,7 @@ use cmlt::math::spectrum::srgb_to_linear;
 use cmlt::scene::Bitmap;
 
 use super::input::{self, MAX_IMAGE_ALLOC, MAX_IMAGE_BYTES, MAX_IMAGE_SIDE};
+use super::pfm;
 
 /// The `image` crate's limits for our decodes.
 fn limits() -> image::Limits {
@@ -62,17 +63,13 @@ fn check_exr_headers(bytes: &[u8]) -> Result<(), String> {
 /// (OpenEXR, Radiance HDR) are linear. The error says what is wrong,
 /// without the file name (the caller adds it).
 pub(crate) fn decode_bitmap(path: &Path, raw: bool) -> Result<Bitmap, String> {
-    // Mitsuba reads PFM too; the image crate has no decoder for it.
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("pfm"))
-    {
-        return Err(
-            "Portable Float Map (PFM) images are not supported: convert it to OpenEXR or Radiance HDR"
-                .to_string(),
-        );
-    }
     let bytes = input::read_bounded(path, MAX_IMAGE_BYTES, "image file")?;
+    if pfm::is_pfm(&bytes) {
+        let (w, _, texels) = pfm::decode_pfm(&bytes)?;
+        check_texels(w, &texels)?;
+        return Bitmap::new(w, texels.len() as u32 / w, texels)
+            .ok_or_else(|| "the image is empty".to_string());
+    }
     let mut reader = image::ImageReader::new(Cursor::new(bytes.as_slice()))
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {e}"))?;
@@ -203,6 +200,57 @@ mod tests {
         let b = decode_bitmap(&p, false).unwrap();
         assert_eq!(b.eval(glam::Vec2::new(0.25, 0.5)), Rgb::new(0.5, 1.0, 4.0));
         assert_eq!(b.eval(glam::Vec2::new(0.75, 0.5)), Rgb::new(3.0, 0.25, 0.0));
+    }
+
+    /// A PFM file: `PF` little-endian (scale −1) comes back row 0 at the
+    /// top (the file stores the bottom row first); `Pf` big-endian with
+    /// scale 2 is grey, replicated and doubled, as Mitsuba reads them.
+    #[test]
+    fn pfm_rows_byte_order_and_scale() {
+        // 2×2 RGB; file rows: bottom (y = 1) then top (y = 0).
+        let mut f = b"PF\n2 2\n-1.0\n".to_vec();
+        for v in [
+            [0.0f32, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 0.25, 2.0],
+        ] {
+            for c in v {
+                f.extend(c.to_le_bytes());
+            }
+        }
+        let b = decode_bitmap(&write("a.pfm", &f), false).unwrap();
+        assert_eq!((b.width(), b.height()), (2, 2));
+        let at = |x: f32, y: f32| b.eval(glam::Vec2::new((x + 0.5) / 2.0, (y + 0.5) / 2.0));
+        assert_eq!(at(0.0, 0.0), Rgb::new(1.0, 0.0, 0.0));
+        assert_eq!(at(1.0, 0.0), Rgb::new(0.5, 0.25, 2.0));
+        assert_eq!(at(0.0, 1.0), Rgb::new(0.0, 0.0, 1.0));
+        let mut g = b"Pf 3 1 2\n".to_vec();
+        for v in [0.25f32, 1.0, 3.0] {
+            g.extend(v.to_be_bytes());
+        }
+        let b = decode_bitmap(&write("grey.pfm", &g), true).unwrap();
+        assert_eq!((b.width(), b.height()), (3, 1));
+        assert_eq!(b.eval(glam::Vec2::new(0.5, 0.5)), Rgb::splat(2.0));
+        assert_eq!(b.eval(glam::Vec2::new(5.0 / 6.0, 0.5)), Rgb::splat(6.0));
+    }
+
+    /// Malformed PFM files are refused with what is wrong: cut-short data,
+    /// a bad or oversized header, a zero scale, a NaN texel.
+    #[test]
+    fn malformed_pfm_is_refused() {
+        let cases: [(&[u8], &str); 6] = [
+            (b"PF\n2 2\n-1\n\0\0\0\0", "cut short"),
+            (b"PF\n2\n", "no height"),
+            (b"PF\nwide 2\n-1\n", "bad width 'wide'"),
+            (b"PF\n99999 1\n-1\n", "outside 1..=32768"),
+            (b"Pf\n1 1\n0\n\0\0\0\0", "bad scale '0'"),
+            (b"Pf\n1 1\n-1\n\0\0\xc0\x7f", "texel (0, 0) is not finite"),
+        ];
+        for (i, (bytes, want)) in cases.into_iter().enumerate() {
+            let e = decode_bitmap(&write(&format!("bad{i}.pfm"), bytes), false).unwrap_err();
+            assert!(e.contains(want), "case {i}: {e}");
+        }
     }
 
     /// Negative and non-finite texels are refused, naming the texel.

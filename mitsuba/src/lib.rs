@@ -32,10 +32,10 @@
 //!   `principled` (Mitsuba 3's parameters; scalars may be textures),
 //!   Mitsuba 0.6's `roughdiffuse` (Oren–Nayar; 0.6's and the upgraded
 //!   parameter names), `twosided`, and the wrappers `normalmap`,
-//!   `bumpmap`, `mask`; textures `bitmap` (JPEG/PNG, OpenEXR and Radiance
-//!   HDR) and `checkerboard`;
+//!   `bumpmap`, `mask`; textures `bitmap` (JPEG/PNG, OpenEXR, Radiance
+//!   HDR and PFM) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
-//!   `envmap` (JPEG/PNG, OpenEXR or Radiance HDR lat-long images).
+//!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
@@ -47,6 +47,7 @@ mod image_io;
 pub mod input;
 mod loader;
 mod mesh_io;
+mod pfm;
 mod serialized;
 mod shapes;
 mod transform;

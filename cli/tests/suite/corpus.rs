@@ -63,9 +63,7 @@ const EXPECTED: &[(&str, Expect)] = &[
     ("bathroom", PluginsOk),
     ("bathroom2", Blocked("unsupported BSDF plugin 'phong'")),
     ("bedroom", Blocked("scale factors in the camera to_world")),
-    // Its envmap is a Portable Float Map, which the image crate cannot
-    // decode.
-    ("car", Blocked("PFM) images are not supported")),
+    ("car", PluginsOk),
     ("car2", PluginsOk),
     ("classroom", Blocked("emitter plugin 'sunsky'")),
     ("coffee", PluginsOk),
