@@ -335,8 +335,25 @@ impl<'a> Loader<'a> {
                 if !transform::is_affine(&m) {
                     return Err(x.err(n, "camera to_world must be affine (last row 0 0 0 1)"));
                 }
+                if transform::linear(&m).determinant().abs() < 1e-12 {
+                    return Err(x.err(n, "camera to_world is singular"));
+                }
                 if transform::has_scale(&m) {
-                    return Err(x.err(n, "scale factors in the camera to_world transform are not allowed (Mitsuba rejects them too)"));
+                    // Mitsuba 3 refuses these; scenes written by older
+                    // exporters carry them (Bitterli's bedroom: a mirror
+                    // with a 1.5° shear). The camera keeps the transform's
+                    // rigid part, orthonormalised around its viewing
+                    // direction with any mirror kept (`Camera::perspective`);
+                    // the fov stays what the scene gives.
+                    let w = x.warning(
+                        n,
+                        format!(
+                            "camera to_world has scale or shear (|M·Mᵀ − I| up to {:.3}): \
+                             only its rotation and mirroring are used (Mitsuba 3 refuses it)",
+                            transform::scale_deviation(&m)
+                        ),
+                    );
+                    self.warnings.push(w);
                 }
                 m
             }

@@ -145,10 +145,17 @@ pub(crate) fn normal_matrix(m: &DMat4) -> Option<DMat3> {
 /// Mitsuba's test for a scale in a camera transform: M·Mᵀ must be the
 /// identity within 1e-3 (a mirror is allowed, a scale is not).
 pub(crate) fn has_scale(m: &DMat4) -> bool {
+    scale_deviation(m) > 1e-3
+}
+
+/// The largest entry of |M·Mᵀ − I| for the linear part M of `m`: zero for
+/// a rotation or a mirror.
+pub(crate) fn scale_deviation(m: &DMat4) -> f64 {
     let l = linear(m);
-    let p = l * l.transpose();
-    let id = DMat3::IDENTITY;
-    (0..3).any(|c| (0..3).any(|r| (p.col(c)[r] - id.col(c)[r]).abs() > 1e-3))
+    let p = l * l.transpose() - DMat3::IDENTITY;
+    (0..3)
+        .flat_map(|c| (0..3).map(move |r| p.col(c)[r].abs()))
+        .fold(0.0, f64::max)
 }
 
 /// The 2D affine map a texture applies to uv: Mitsuba extracts the

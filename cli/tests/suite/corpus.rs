@@ -62,7 +62,7 @@ use Expect::{Blocked, PluginsOk, Renders, Unavailable};
 const EXPECTED: &[(&str, Expect)] = &[
     ("bathroom", PluginsOk),
     ("bathroom2", Blocked("unsupported BSDF plugin 'phong'")),
-    ("bedroom", Blocked("scale factors in the camera to_world")),
+    ("bedroom", Blocked("emitter plugin 'sunsky'")),
     ("car", PluginsOk),
     ("car2", PluginsOk),
     ("classroom", Blocked("emitter plugin 'sunsky'")),
