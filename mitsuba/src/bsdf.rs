@@ -17,6 +17,7 @@ use cmlt::scene::{
 use glam::Affine2;
 use roxmltree::Node;
 
+use super::conductor_presets::CONDUCTOR_PRESETS;
 use super::error::LoadError;
 use super::loader::Loader;
 use super::transform;
@@ -726,25 +727,34 @@ impl<'a> Loader<'a> {
     }
 
     /// Mitsuba's conductor Fresnel parameters: `eta`/`k` (defaults 0 and 1),
-    /// or `material`; `material="none"` (the default) with no `eta` is an
-    /// ideal mirror (η = 0 + 1i reflects everything).
+    /// or `material`, one of Mitsuba's named presets as the RGB η and k its
+    /// RGB variants give it (`conductor_presets.rs`); `material="none"`
+    /// (the default) with no `eta` is an ideal mirror (η = 0 + 1i reflects
+    /// everything).
     fn conductor_fresnel(&self, props: &Props<'a>) -> Result<ConductorFresnel, LoadError> {
         let x = &self.xml;
         let material = props.string(x, "material")?;
-        let has_eta = props.has("eta");
+        let has_eta = props.has("eta") || props.has("k");
         if let Some((name, n)) = &material
             && name != "none"
         {
             if has_eta {
                 return Err(x.err(*n, "specify either eta/k or material, not both"));
             }
-            return Err(x.err(
+            let Some((_, eta, k)) = CONDUCTOR_PRESETS.iter().find(|(p, _, _)| p == name) else {
+                let names: Vec<&str> = CONDUCTOR_PRESETS.iter().map(|(p, _, _)| *p).collect();
+                return Err(x.err(
                     *n,
                     format!(
-                        "conductor material preset '{name}' is not supported (Mitsuba derives it from spectral data); \
-                         give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+                        "unknown conductor material preset '{name}' (Mitsuba's presets: none, {})",
+                        names.join(", ")
                     ),
                 ));
+            };
+            return Ok(ConductorFresnel::Complex {
+                eta: rgb(eta.map(f64::from)),
+                k: rgb(k.map(f64::from)),
+            });
         }
         let eta = props.color(x, "eta")?;
         let k = props.color(x, "k")?;

@@ -26,7 +26,7 @@
 //!   `sphere`, `disk` (spheres and disks tessellated with exact area),
 //!   `to_world`, `flip_normals`, `face_normals`, `flip_tex_coords`; one
 //!   `area` emitter per shape;
-//! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic),
+//! - BSDFs `diffuse`, `conductor`, `roughconductor` (isotropic; named `material` presets),
 //!   `dielectric` (with `specular_reflectance`/`specular_transmittance`),
 //!   `thindielectric`, `roughdielectric`, `plastic`, `roughplastic`,
 //!   `principled` (Mitsuba 3's parameters; scalars may be textures),
@@ -42,6 +42,7 @@
 //! added in document order, one per `<shape>`.
 
 mod bsdf;
+mod conductor_presets;
 mod error;
 mod image_io;
 pub mod input;
