@@ -9,8 +9,8 @@
 // allocation goes through a counting allocator (cmlt_set_allocator).
 //
 // Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES]]]]
-//   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120; PT and
-//   BDPT take a suffix +keep or +decay (factor 0.8) for their accumulation
+//   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120; each
+//   takes a suffix +keep or +decay (factor 0.8) for its accumulation
 //   across frames (reset otherwise).
 // MLT and CMLT keep their chains across frames (one normalisation pass
 // per bootstrap, b averaged over 8 bootstraps); after the first frame
@@ -232,7 +232,12 @@ int main(int argc, char **argv) {
         auto setup_going = [&](std::uint64_t) { return f == 0 || Clock::now() < setup_end; };
         bool pending = false;
         check(renderer.prepare_begin(pending), "prepare_begin");
+        // Where the set-up's time goes: begin, the workers' pieces (thread
+        // start to join), the join of a complete bootstrap.
+        const auto b1 = Clock::now();
+        double workers_ms = 0.0, finish_ms = 0.0;
         while (pending) {
+            const auto w0 = Clock::now();
             std::array<cmlt::Status, workers> st{};
             std::array<bool, workers> finished{};
             std::array<std::thread, workers> threads;
@@ -240,7 +245,10 @@ int main(int argc, char **argv) {
                 threads[w] = std::thread([&, w] { st[w] = renderer.prepare_worker_while(w, setup_going, finished[w]); });
             for (auto &t : threads) t.join();
             for (auto s : st) check(s, "prepare_worker_while");
+            const auto w1 = Clock::now();
             cmlt::Status s = renderer.prepare_finish();
+            workers_ms += std::chrono::duration<double, std::milli>(w1 - w0).count();
+            finish_ms += std::chrono::duration<double, std::milli>(Clock::now() - w1).count();
             if (s == cmlt::Status::Ok) break;
             if (s != cmlt::Status::InvalidOperation) check(s, "prepare_finish");
         }
@@ -272,9 +280,11 @@ int main(int argc, char **argv) {
         if (f > 0) setup_ms.push_back(setup);
         black.push_back(double(dark) / double(width * height));
         means.push_back(mean);
-        std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f update_ms %.2f render_ms %.2f resolve_ms %.2f\n",
-                    f, ms, setup, mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(),
-                    render, reserve_ms - 1.0);
+        std::printf("frame %d ms %.2f setup_ms %.2f (begin %.2f workers %.2f finish %.2f) mean %.5f black %.4f "
+                    "update_ms %.2f render_ms %.2f resolve_ms %.2f\n",
+                    f, ms, setup, std::chrono::duration<double, std::milli>(b1 - s0).count(), workers_ms, finish_ms,
+                    mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(), render,
+                    reserve_ms - 1.0);
     }
     const unsigned long allocations = g_allocations.load() - before;
 

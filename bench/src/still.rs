@@ -1,0 +1,96 @@
+//! `cmlt-bench still`: a still camera's frames kept by the accumulation
+//! ([`Accumulation::Keep`], every frame normalised by its own b) against
+//! one offline render — of the same total mutations (the kept frames'
+//! estimate is unbiased, so only the frames' restarts and set-ups may
+//! cost error) and of the same total wall time (their set-up per frame
+//! included). A game wants the kept frames within 1.2× the offline
+//! render's relMSE at the same time.
+
+use std::time::Instant;
+
+use cmlt::renderer::{Accumulation, Budget, Estimator, RendererConfig, Temporal};
+use cmlt_cli::frames::render_frames;
+use cmlt_cli::metrics::rel_mse;
+
+use crate::study::Study;
+
+/// One seed's figures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Still {
+    /// relMSE of the last kept frame.
+    pub kept: f64,
+    /// Wall seconds of all the kept frames (set-up, render, resolve).
+    pub kept_s: f64,
+    /// relMSE of one render of the frames' total mutations per pixel.
+    pub same_mutations: f64,
+    /// relMSE of one render of the frames' total wall time.
+    pub same_time: f64,
+}
+
+impl Still {
+    /// The kept frames' relMSE over the offline render's of the same
+    /// mutations.
+    pub fn ratio_mutations(&self) -> f64 {
+        self.kept / self.same_mutations
+    }
+
+    /// The kept frames' relMSE over the offline render's of the same time.
+    pub fn ratio_time(&self) -> f64 {
+        self.kept / self.same_time
+    }
+}
+
+/// Renders `frames` frames of `study`'s camera with `estimator`, `mpp`
+/// mutations (or samples) per pixel each, kept by the accumulation
+/// (`keep_chains`: the chains too), on `threads` workers from `seed`, and
+/// the two offline renders.
+pub fn run(
+    study: &Study,
+    estimator: Estimator,
+    (frames, mpp): (usize, u64),
+    threads: u32,
+    keep_chains: bool,
+    seed: u64,
+) -> Result<Still, String> {
+    let scene = &study.loaded.scene;
+    let cfg = RendererConfig {
+        estimator,
+        settings: study.loaded.settings,
+        seed,
+        workers: threads,
+        temporal: Temporal {
+            keep_chains: keep_chains && estimator.is_metropolis(),
+            ..Temporal::default()
+        },
+        ..RendererConfig::default()
+    };
+    let camera = scene.camera;
+    let mut last = None;
+    let t0 = Instant::now();
+    render_frames(
+        scene,
+        study.accel(),
+        cfg,
+        frames,
+        mpp,
+        Accumulation::Keep,
+        |_| camera,
+        |f, r| {
+            if f + 1 == frames {
+                last = Some(r.image);
+            }
+            Ok(())
+        },
+    )?;
+    let kept_s = t0.elapsed().as_secs_f64();
+    let kept = rel_mse(&last.ok_or("no frame")?, &study.reference);
+    let total = Budget::PerPixel(frames as u64 * mpp);
+    let same_mutations = study.measure(estimator, total, threads as usize, seed)?;
+    let same_time = study.measure(estimator, Budget::Seconds(kept_s), threads as usize, seed)?;
+    Ok(Still {
+        kept,
+        kept_s,
+        same_mutations: same_mutations.rel_mse,
+        same_time: same_time.rel_mse,
+    })
+}
