@@ -226,8 +226,9 @@ enum Uniform {
     /// A degenerate triangle: no BSDF, no normal (0 in both outputs, as
     /// for a surface point that cannot be computed).
     Degenerate,
-    /// A flat-shaded triangle (its face normal `n`) under a Lambertian
-    /// material of constant reflectance: the albedo is that reflectance
+    /// A flat-shaded triangle (`Scene::flat_shaded`: its shading normal
+    /// `n` at every point) under a Lambertian material of constant
+    /// reflectance: the albedo is that reflectance
     /// whatever the direction (ρ = R exactly, which the cosine-weighted
     /// sample of `albedo.rs` gives up to rounding), on the front side or
     /// on both.
@@ -240,8 +241,8 @@ enum Uniform {
 
 impl Uniform {
     /// The uniform outputs of mesh triangle `prim`, or `None` when they
-    /// vary over it (vertex normals, a normal or bump map, a texture, a
-    /// model whose albedo depends on the direction).
+    /// vary over it (unequal vertex normals, a normal or bump map, a
+    /// texture, a model whose albedo depends on the direction).
     fn of(scene: &Scene, prim: u32) -> Option<Uniform> {
         if !scene.flat_shaded(prim) {
             return None;

@@ -673,10 +673,22 @@ impl Scene {
         })
     }
 
-    /// Whether global triangle `prim`'s shading normal is its face normal
-    /// everywhere: its mesh has no vertex normals (a host shape: no).
+    /// Whether global triangle `prim`'s shading normal is the same at
+    /// every point of it: its mesh has no vertex normals, or its three are
+    /// equal (a face of Mitsuba's `rectangle` or `cube`; interpolated, they
+    /// differ from the vertices' by the rounding of the weights' sum). A
+    /// host shape: no.
     pub fn flat_shaded(&self, prim: u32) -> bool {
-        prim & SHAPE_PRIM_BIT == 0 && self.meshes[self.locate(prim).0].normals.is_empty()
+        if prim & SHAPE_PRIM_BIT != 0 {
+            return false;
+        }
+        let (mi, ti) = self.locate(prim);
+        let m = &self.meshes[mi];
+        if m.normals.is_empty() {
+            return true;
+        }
+        let [a, b, c] = m.indices[ti].map(|i| m.normals[i as usize]);
+        a == b && b == c
     }
 
     /// The surface point on global triangle `prim` at the position and
