@@ -163,7 +163,16 @@ pub fn render_rows<I: Intersector>(
                     (true, None, Some(sh)) => Look::Shaded(sh),
                     (true, None, None) => Look::Nothing,
                 };
-                write_pixel(&mut tracer, previous, &ray, (points[i], look), centre(x, y), out, row, x);
+                write_pixel(
+                    &mut tracer,
+                    previous,
+                    &ray,
+                    (points[i], look),
+                    centre(x, y),
+                    out,
+                    row,
+                    x,
+                );
             }
         }
     }
