@@ -313,11 +313,11 @@ int main(int argc, char **argv) {
         if (f > 0) setup_ms.push_back(setup);
         black.push_back(double(dark) / double(width * height));
         means.push_back(mean);
-        std::printf("frame %d ms %.2f setup_ms %.2f (begin %.2f workers %.2f finish %.2f) mean %.5f black %.4f "
-                    "update_ms %.2f render_ms %.2f resolve_ms %.2f\n",
-                    f, ms, setup, std::chrono::duration<double, std::milli>(b1 - s0).count(), workers_ms, finish_ms,
-                    mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(), render,
-                    reserve_ms - 1.0);
+        std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f update_ms %.2f render_ms %.2f resolve_ms %.2f "
+                    "setup_begin_ms %.2f setup_workers_ms %.2f setup_finish_ms %.2f\n",
+                    f, ms, setup, mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(),
+                    render, reserve_ms - 1.0, std::chrono::duration<double, std::milli>(b1 - s0).count(), workers_ms,
+                    finish_ms);
     }
     const unsigned long allocations = g_allocations.load() - before;
 
