@@ -33,8 +33,9 @@
 //! ```
 //!
 //! the records-weighted mean of the frames' images. Each frame's image is
-//! its own unbiased estimate (its b, its chains' splats; the records of a
-//! frame depend on the clock, not on the image), so the mean is too, and
+//! its own estimate of the image (its b, its chains' splats; the records
+//! of a frame depend on the clock, not on the image), so the mean
+//! estimates the same image with the error of all the frames together, and
 //! with a still camera and one b it is the image of one long render of
 //! all the frames' mutations. Decay multiplies the kept sums and records
 //! by the factor at every frame start, as for PT and BDPT.
