@@ -55,15 +55,15 @@
 // the current state with 1 − a (unbiased).
 #define CMLT_SPLATTING_EXPECTED_VALUE 1
 
-// PT, BDPT: every frame starts a new accumulation (the default).
+// Every frame starts a new accumulation (the default).
 #define CMLT_ACCUMULATION_RESET 0
 
-// PT, BDPT: frames add to the earlier ones (converges while the camera
-// and scene stay; smears when they move).
+// Frames add to the earlier ones (converges while the camera and scene
+// stay; smears when they move).
 #define CMLT_ACCUMULATION_KEEP 1
 
-// PT, BDPT: earlier frames' samples weigh `decay` per frame of age (an
-// exponential moving average).
+// Earlier frames weigh `decay` per frame of age (an exponential moving
+// average).
 #define CMLT_ACCUMULATION_DECAY 2
 
 // Linear RGB, 3 × `float` per pixel.
@@ -911,14 +911,17 @@ void cmlt_renderer_release(struct cmlt_renderer *renderer);
 enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
                                           const struct cmlt_camera *camera);
 
-// How PT and BDPT carry their accumulation into the frames after this
-// one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
+// How every estimator carries its accumulation into the frames after
+// this one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
 // image), `CMLT_ACCUMULATION_KEEP` (frames add up) or
-// `CMLT_ACCUMULATION_DECAY` (earlier samples weigh `decay` per frame of
+// `CMLT_ACCUMULATION_DECAY` (earlier frames weigh `decay` per frame of
 // age, 0 < `decay` < 1; ignored by the other modes). May change every
-// frame. MLT and CMLT refuse anything but reset
-// (`CMLT_ERROR_INVALID_ARGUMENT`; they keep chains instead), as do an
-// unknown mode and a decay out of range; nothing changes then.
+// frame. PT and BDPT keep their samples; MLT and CMLT their frames'
+// images, each normalised by its own b and weighted by its records (with
+// a still camera, kept frames converge as one long render; with few
+// mutations per frame, decay fills the image). An unknown mode or a
+// decay out of range is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
+// then.
 // `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety

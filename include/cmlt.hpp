@@ -43,7 +43,7 @@ enum class Format : std::uint32_t {
     Rgba8Srgb = CMLT_FORMAT_RGBA8_SRGB,
 };
 
-/// How PT and BDPT carry their accumulation into the next frame
+/// How every estimator carries its accumulation into the next frame
 /// (`CMLT_ACCUMULATION_*`, `Renderer::set_accumulation`).
 enum class Accumulation : std::uint32_t {
     Reset = CMLT_ACCUMULATION_RESET,
@@ -143,8 +143,8 @@ class Renderer {
     [[nodiscard]] Status set_camera(const cmlt_camera &camera) {
         return detail::status(cmlt_renderer_set_camera(p_, &camera));
     }
-    /// PT, BDPT: keep, decay (by `decay` per frame) or reset the
-    /// accumulation at the next frames.
+    /// Keep, decay (by `decay` per frame) or reset the accumulation at
+    /// the next frames (every estimator).
     [[nodiscard]] Status set_accumulation(Accumulation mode, float decay = 0.0f) {
         return detail::status(cmlt_renderer_set_accumulation(p_, static_cast<std::uint32_t>(mode), decay));
     }

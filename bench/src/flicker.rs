@@ -19,7 +19,7 @@
 
 use std::io::Write;
 
-use cmlt::renderer::{Estimator, RendererConfig, Temporal};
+use cmlt::renderer::{Accumulation, Estimator, RendererConfig, Temporal};
 use cmlt::scene::{Camera, Scene};
 use cmlt_cli::accel::Accel;
 
@@ -98,6 +98,7 @@ pub fn measure(
         cfg,
         frames,
         per_pixel,
+        Accumulation::Reset,
         |_| camera,
         |_, r| {
             seconds += r.seconds;
@@ -205,10 +206,19 @@ pub fn run_moving(
     let pivot = frames::look_at_point(&start, accel);
     let camera_at = |f: usize| frames::orbit_camera(&start, pivot, orbit_degrees, f, frames);
     let mut means = Vec::new();
-    frames::render_frames(scene, accel, cfg, frames, per_pixel, camera_at, |_, r| {
-        means.push(r.image.mean().luminance() as f64);
-        Ok(())
-    })?;
+    frames::render_frames(
+        scene,
+        accel,
+        cfg,
+        frames,
+        per_pixel,
+        Accumulation::Reset,
+        camera_at,
+        |_, r| {
+            means.push(r.image.mean().luminance() as f64);
+            Ok(())
+        },
+    )?;
     let mut diffs = Vec::new();
     for (f, m) in means.iter().enumerate() {
         let reference = reference_mean(scene, accel, &cfg, camera_at(f), reference_spp)?;
@@ -245,6 +255,7 @@ fn reference_mean(
         cfg,
         1,
         per_pixel,
+        Accumulation::Reset,
         |_| camera,
         |_, r| {
             mean = r.image.mean().luminance() as f64;

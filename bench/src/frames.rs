@@ -9,7 +9,8 @@
 //!
 //! - p95 frame time ≤ budget + 10 %;
 //! - set-up after the first frame ≤ 10 % of the budget;
-//! - black-pixel fraction of MLT/CMLT ≤ BDPT's at the same size and budget;
+//! - black-pixel fraction of MLT/CMLT ≤ BDPT's at the same size, budget
+//!   and accumulation (`+keep`, `+decay` suffixes);
 //! - mean-luminance flicker (rms of the relative frame-to-frame change of
 //!   the mean) ≤ 2 %, with the moving camera;
 //! - allocations per frame: 0.
@@ -20,7 +21,8 @@ use std::process::Command;
 /// One run of the host.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Trial {
-    /// `pt`, `bdpt`, `mlt` or `cmlt`.
+    /// `pt`, `bdpt`, `mlt` or `cmlt`, with `+keep` or `+decay` for the
+    /// accumulation (reset without).
     pub estimator: String,
     /// Image size.
     pub width: u32,
@@ -34,8 +36,12 @@ pub struct Trial {
     pub p50_ms: f64,
     /// 95th percentile of the frame time, milliseconds.
     pub p95_ms: f64,
-    /// Mean preparation time of the frames after the first, milliseconds.
+    /// Mean set-up time of the frames after the first, milliseconds.
     pub setup_ms: f64,
+    /// Median set-up time of the frames after the first, milliseconds
+    /// (the mean is the target's; a frame whose thread the scheduler held
+    /// back weighs on it).
+    pub setup_p50_ms: f64,
     /// Mean fraction of exactly black pixels.
     pub black: f64,
     /// Rms relative frame-to-frame change of the mean luminance.
@@ -65,6 +71,7 @@ impl Trial {
             p50_ms: value("p50_ms")?,
             p95_ms: value("p95_ms")?,
             setup_ms: value("setup_ms")?,
+            setup_p50_ms: value("setup_p50_ms")?,
             black: value("black")?,
             flicker: value("flicker")?,
             allocs_per_frame: value("allocs_per_frame")?,
@@ -135,22 +142,29 @@ pub fn run(
         .ok_or_else(|| format!("no trial line in:\n{out}"))
 }
 
+/// `estimator`'s method and accumulation suffix: `mlt+decay` → (`mlt`,
+/// `+decay`).
+fn split_accumulation(estimator: &str) -> (&str, &str) {
+    estimator.split_at(estimator.find('+').unwrap_or(estimator.len()))
+}
+
 /// The table of `trials`, each row against the targets ("ok"/"MISS"); the
-/// black fraction of MLT/CMLT is compared with BDPT's of the same size and
-/// budget when there is one.
+/// black fraction of MLT/CMLT is compared with BDPT's of the same size,
+/// budget and accumulation when there is one.
 pub fn table(trials: &[Trial]) -> String {
     let mut s = String::from(
-        "estimator  size     budget  p50 ms  p95 ms  p95/budget  setup ms  setup/budget  black    black/bdpt  flicker  allocs/frame\n",
+        "estimator    size     budget  p50 ms  p95 ms  p95/budget  setup ms  setup/budget  setup p50  black    black/bdpt  flicker  allocs/frame\n",
     );
     let mark = |ok: bool| if ok { "ok " } else { "MISS" };
     for t in trials {
+        let (method, accumulation) = split_accumulation(&t.estimator);
         let bdpt = trials.iter().find(|b| {
-            b.estimator == "bdpt"
+            split_accumulation(&b.estimator) == ("bdpt", accumulation)
                 && (b.width, b.height) == (t.width, t.height)
                 && b.budget_ms == t.budget_ms
         });
         let vs_bdpt = match bdpt {
-            Some(b) if t.estimator == "mlt" || t.estimator == "cmlt" => format!(
+            Some(b) if method == "mlt" || method == "cmlt" => format!(
                 "{:>6.2} {}",
                 t.black / b.black.max(1e-6),
                 mark(t.black <= b.black)
@@ -158,7 +172,7 @@ pub fn table(trials: &[Trial]) -> String {
             _ => format!("{:>11}", "-"),
         };
         s += &format!(
-            "{:<10} {:>4}x{:<4} {:>5.0}  {:>6.1}  {:>6.1}  {:>6.2} {}  {:>8.2}  {:>8.3} {}  {:>7.4}  {}  {:>6.4} {}  {:>6.2} {}\n",
+            "{:<12} {:>4}x{:<4} {:>5.0}  {:>6.1}  {:>6.1}  {:>6.2} {}  {:>8.2}  {:>8.3} {}  {:>9.2}  {:>7.4}  {}  {:>6.4} {}  {:>6.2} {}\n",
             t.estimator,
             t.width,
             t.height,
@@ -170,6 +184,7 @@ pub fn table(trials: &[Trial]) -> String {
             t.setup_ms,
             t.setup_ms / t.budget_ms,
             mark(t.setup_held()),
+            t.setup_p50_ms,
             t.black,
             vs_bdpt,
             t.flicker,
@@ -189,7 +204,7 @@ mod tests {
     fn the_trial_line_parses() {
         let t = Trial::parse(
             "trial bdpt 320x180 triangles 5250 budget_ms 30.0 frames 8 p50_ms 31.5 p95_ms 32.0 \
-             setup_ms 0.10 black 0.0001 flicker 0.0075 allocs_per_frame 0.00",
+             setup_ms 0.10 setup_p50_ms 0.08 black 0.0001 flicker 0.0075 allocs_per_frame 0.00",
         )
         .unwrap();
         assert_eq!((t.width, t.height, t.frames), (320, 180, 8));
@@ -199,5 +214,26 @@ mod tests {
         assert!(Trial::parse("frame 0 ms 3").is_none());
         let late = Trial { p95_ms: 33.1, ..t };
         assert!(!late.budget_held());
+    }
+
+    #[test]
+    fn metropolis_black_pixels_are_compared_with_bdpt_of_the_same_accumulation() {
+        let t = |estimator: &str, black: f64| Trial {
+            estimator: estimator.into(),
+            width: 8,
+            height: 8,
+            budget_ms: 30.0,
+            frames: 2,
+            p50_ms: 30.0,
+            p95_ms: 30.0,
+            setup_ms: 0.0,
+            setup_p50_ms: 0.0,
+            black,
+            flicker: 0.0,
+            allocs_per_frame: 0.0,
+        };
+        let s = table(&[t("bdpt", 0.9), t("bdpt+decay", 0.1), t("mlt+decay", 0.2)]);
+        let row = s.lines().find(|l| l.starts_with("mlt+decay")).unwrap();
+        assert!(row.contains("  2.00 MISS"), "{row}");
     }
 }

@@ -19,6 +19,8 @@
 //!   over the workers' threads;
 //! - [`outputs`]: the per-frame resolve in every pixel format against the
 //!   resolve before `resolve_rows`, and the auxiliary outputs;
+//! - [`still`]: a still camera's frames kept by the accumulation against
+//!   one offline render of the same mutations and of the same time;
 //! - [`study`]: what the accuracy benchmarks share (one scored render);
 //! - [`plot`]: their PNG/SVG plots.
 
@@ -32,4 +34,5 @@ pub mod plot;
 pub mod prepare;
 pub mod ray_targets;
 pub mod rays;
+pub mod still;
 pub mod study;

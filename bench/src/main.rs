@@ -297,6 +297,39 @@ enum BenchCommand {
         #[arg(long)]
         verbose: bool,
     },
+    /// A still camera's frames kept by the accumulation (each its own b)
+    /// against one offline render of the same mutations and of the same
+    /// wall time: relMSE against the reference and the ratios, per seed.
+    Still {
+        /// Mitsuba 3 XML scene file, or a built-in name.
+        #[arg(default_value = "tests/scenes/cornell-box/scene.xml")]
+        scene: String,
+        /// Reference OpenEXR (full size, or any integer multiple of the
+        /// render's size: box-filtered down).
+        #[arg(long, default_value = "tests/scenes/cornell-box/reference.exr")]
+        reference: PathBuf,
+        /// Method (its defaults).
+        #[arg(long, value_parser = parse_estimator, default_value = "mlt")]
+        method: EstimatorKind,
+        /// Frames kept.
+        #[arg(long, default_value_t = 16)]
+        frames: usize,
+        /// Mutations (or samples) per pixel per frame.
+        #[arg(long, default_value_t = 4)]
+        per_frame: u64,
+        /// Workers (threads).
+        #[arg(long, default_value_t = 2)]
+        threads: u32,
+        /// MLT/CMLT: keep the chains across the frames too.
+        #[arg(long)]
+        keep_chains: bool,
+        /// Seeds 0..S.
+        #[arg(long, default_value_t = 4)]
+        seeds: u64,
+        /// Override a scene `<default>` (e.g. `-D resx=128`).
+        #[arg(short = 'D', value_parser = parse_define)]
+        define: Vec<(String, String)>,
+    },
     /// Wall time of a first frame's MLT/CMLT bootstrap on the calling
     /// thread (`cmlt_renderer_prepare`) against spread over one thread per
     /// worker (`cmlt_renderer_prepare_begin` / `_worker` / `_finish`), in
@@ -747,6 +780,55 @@ fn run(cli: Cli) -> Result<(), String> {
                 m,
             };
             convergence::append_csv(&csv, &row)
+        }
+        BenchCommand::Still {
+            scene,
+            reference,
+            method,
+            frames,
+            per_frame,
+            threads,
+            keep_chains,
+            seeds,
+            define,
+        } => {
+            let study = cmlt_bench::study::Study::load(&scene, &define, &reference)?;
+            let (w, h) = study.resolution();
+            println!(
+                "{scene} {w}x{h}, {method:?}, {frames} kept frames of {per_frame}/px, {threads} workers, keep_chains {keep_chains}"
+            );
+            println!(
+                "seed  kept relMSE  kept s   offline same mutations  ratio   offline same time  ratio"
+            );
+            let (mut rm, mut rt) = (Vec::new(), Vec::new());
+            for seed in 0..seeds.max(1) {
+                let s = cmlt_bench::still::run(
+                    &study,
+                    Estimator::default_for(method),
+                    (frames, per_frame),
+                    threads.max(1),
+                    keep_chains,
+                    seed,
+                )?;
+                println!(
+                    "{seed:>4}  {:>11.5}  {:>6.2}  {:>22.5}  {:>5.2}  {:>17.5}  {:>5.2}",
+                    s.kept,
+                    s.kept_s,
+                    s.same_mutations,
+                    s.ratio_mutations(),
+                    s.same_time,
+                    s.ratio_time()
+                );
+                rm.push(s.ratio_mutations());
+                rt.push(s.ratio_time());
+            }
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+            println!(
+                "mean ratio: same mutations {:.2}, same time {:.2} (target: same time ≤ 1.2)",
+                mean(&rm),
+                mean(&rt)
+            );
+            Ok(())
         }
         BenchCommand::Outputs {
             scene,

@@ -79,6 +79,11 @@ impl Study {
         })
     }
 
+    /// The intersector over the scene (our BVH).
+    pub fn accel(&self) -> &Accel {
+        &self.accel
+    }
+
     /// Width × height of the renders.
     pub fn resolution(&self) -> (usize, usize) {
         let cam = &self.loaded.scene.camera;

@@ -56,13 +56,13 @@ pub const CMLT_SPLATTING_RECYCLED: u32 = 0;
 /// the current state with 1 − a (unbiased).
 pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
 
-/// PT, BDPT: every frame starts a new accumulation (the default).
+/// Every frame starts a new accumulation (the default).
 pub const CMLT_ACCUMULATION_RESET: u32 = 0;
-/// PT, BDPT: frames add to the earlier ones (converges while the camera
-/// and scene stay; smears when they move).
+/// Frames add to the earlier ones (converges while the camera and scene
+/// stay; smears when they move).
 pub const CMLT_ACCUMULATION_KEEP: u32 = 1;
-/// PT, BDPT: earlier frames' samples weigh `decay` per frame of age (an
-/// exponential moving average).
+/// Earlier frames weigh `decay` per frame of age (an exponential moving
+/// average).
 pub const CMLT_ACCUMULATION_DECAY: u32 = 2;
 
 /// Linear RGB, 3 × `float` per pixel.
@@ -664,14 +664,17 @@ pub unsafe extern "C" fn cmlt_renderer_set_camera(
     })
 }
 
-/// How PT and BDPT carry their accumulation into the frames after this
-/// one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
+/// How every estimator carries its accumulation into the frames after
+/// this one: `CMLT_ACCUMULATION_RESET` (the default: each frame its own
 /// image), `CMLT_ACCUMULATION_KEEP` (frames add up) or
-/// `CMLT_ACCUMULATION_DECAY` (earlier samples weigh `decay` per frame of
+/// `CMLT_ACCUMULATION_DECAY` (earlier frames weigh `decay` per frame of
 /// age, 0 < `decay` < 1; ignored by the other modes). May change every
-/// frame. MLT and CMLT refuse anything but reset
-/// (`CMLT_ERROR_INVALID_ARGUMENT`; they keep chains instead), as do an
-/// unknown mode and a decay out of range; nothing changes then.
+/// frame. PT and BDPT keep their samples; MLT and CMLT their frames'
+/// images, each normalised by its own b and weighted by its records (with
+/// a still camera, kept frames converge as one long render; with few
+/// mutations per frame, decay fills the image). An unknown mode or a
+/// decay out of range is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
+/// then.
 /// `CMLT_ERROR_BUSY` while a worker renders.
 ///
 /// # Safety

@@ -289,20 +289,29 @@ fn frame_loop_allocates_nothing_per_frame() {
 
 /// frame_trial.cpp (the host of `cmlt-bench frames`): the C++17 wrapper
 /// compiles with -Wall -Wextra -pedantic -Werror, and a moving camera and
-/// mesh, frames bounded by the host's clock, every estimator (PT and BDPT
-/// with each accumulation mode), the Metropolis set-up in pieces: nothing
-/// allocates per frame and every frame shows light.
+/// mesh, frames bounded by the host's clock, every estimator (and every
+/// accumulation mode), the Metropolis set-up in pieces: nothing allocates
+/// per frame and every frame shows light.
 #[test]
 fn cpp_frame_trial_runs_every_estimator_without_allocating() {
     let exe = build_source("frame_trial", true);
-    for method in ["pt", "bdpt+keep", "bdpt+decay", "mlt", "cmlt"] {
+    for method in [
+        "pt",
+        "bdpt+keep",
+        "bdpt+decay",
+        "mlt",
+        "mlt+decay",
+        "cmlt",
+        "cmlt+keep",
+    ] {
         let out = run(&exe, &[method, "64", "36", "20", "4"]);
         let trial = numbers(&out, &format!("trial {method} 64x36 triangles"));
-        // triangles, budget, frames, p50, p95, setup, black, flicker, allocations
-        assert_eq!(trial.len(), 9, "{out}");
+        // triangles, budget, frames, p50, p95, setup, setup p50, black,
+        // flicker, allocations
+        assert_eq!(trial.len(), 10, "{out}");
         assert!(trial[0] > 5000.0, "{out}");
         assert_eq!(trial[2], 4.0, "{out}");
-        assert_eq!(trial[8], 0.0, "{method}: allocations per frame\n{out}");
+        assert_eq!(trial[9], 0.0, "{method}: allocations per frame\n{out}");
         let means: Vec<f64> = out
             .lines()
             .filter(|l| l.starts_with("frame "))

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::{Args, Command};
 use cmlt::integrator::Settings;
 use cmlt::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
-use cmlt::renderer::{Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
+use cmlt::renderer::{Accumulation, Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
 /// always fits the clock (`inf` or 1e30 s used to panic).
@@ -345,8 +345,9 @@ pub struct FrameArgs {
     /// Frames: render only frame K (0-based) of the --frames sequence, as
     /// one part (--part, --state): frames are then rendered, and split, on
     /// any machines. The frame is the one the whole sequence renders when
-    /// the frames are independent (no --keep-chains or --b-window, which
-    /// carry state from frame to frame and are refused).
+    /// the frames are independent (no --keep-chains, --b-window or
+    /// --accumulation, which carry state from frame to frame and are
+    /// refused).
     #[arg(long, requires = "frames", requires = "part")]
     pub frame: Option<usize>,
     /// Frames: orbit the camera about the vertical through the point it
@@ -367,6 +368,11 @@ pub struct FrameArgs {
     /// Frames: reuse the same random sequences in every frame.
     #[arg(long, requires = "frames")]
     pub fixed_sequence: bool,
+    /// Frames: what each frame carries of the earlier ones: reset (each
+    /// frame its own image), keep (frames add up) or decay:F (earlier
+    /// frames weigh F per frame of age, 0 < F < 1). Every method.
+    #[arg(long, default_value = "reset", value_parser = parse_accumulation, requires = "frames")]
+    pub accumulation: Accumulation,
 }
 
 impl OutputArgs {
@@ -471,6 +477,25 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
     }
 }
 
+/// `--accumulation`: `reset`, `keep` or `decay:F` with F in (0, 1).
+pub fn parse_accumulation(s: &str) -> Result<Accumulation, String> {
+    let mode = match s.split_once(':') {
+        None if s == "reset" => Accumulation::Reset,
+        None if s == "keep" => Accumulation::Keep,
+        Some(("decay", f)) => Accumulation::Decay(
+            f.parse()
+                .map_err(|_| format!("the decay factor '{f}' is not a number"))?,
+        ),
+        _ => {
+            return Err(format!(
+                "unknown accumulation '{s}' (expected reset, keep or decay:F)"
+            ));
+        }
+    };
+    mode.validate().map_err(|e| format!("{e}, got {s}"))?;
+    Ok(mode)
+}
+
 /// A frame count in 1..=[`MAX_FRAMES`].
 pub fn parse_frames(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
@@ -550,6 +575,7 @@ mod tests {
             ],
             &["--method", "cmlt", "--chains", "8", "--k", "4", "--m", "2"],
             &["--method", "cmlt", "--frames", "2", "--keep-chains"],
+            &["--method", "mlt", "--frames", "2", "--accumulation", "keep"],
             &["--method", "mlt", "--chains", "256"],
         ] {
             assert_eq!(check(line), Ok(()), "{line:?}");
@@ -561,6 +587,23 @@ mod tests {
         assert!(err.contains("--m is read by --method cmlt only"), "{err}");
         let err = check(&["--method", "bdpt", "--b-passes", "4"]).unwrap_err();
         assert!(err.contains("--method mlt and cmlt only"), "{err}");
+    }
+
+    #[test]
+    fn accumulation_modes_parse_and_bad_factors_are_refused() {
+        assert_eq!(parse_accumulation("reset"), Ok(Accumulation::Reset));
+        assert_eq!(parse_accumulation("keep"), Ok(Accumulation::Keep));
+        assert_eq!(
+            parse_accumulation("decay:0.75"),
+            Ok(Accumulation::Decay(0.75))
+        );
+        for bad in ["decay", "decay:1", "decay:0", "decay:x", "keep:0.5", "avg"] {
+            assert!(parse_accumulation(bad).is_err(), "{bad}");
+        }
+        let cli = Render::parse_from(["render", "--frames", "3", "--accumulation", "decay:0.5"]);
+        assert_eq!(cli.args.frames.accumulation, Accumulation::Decay(0.5));
+        // Only the frame loop carries anything from frame to frame.
+        assert!(check(&["--accumulation", "keep"]).is_err());
     }
 
     #[test]

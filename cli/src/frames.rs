@@ -10,7 +10,7 @@ use std::time::Instant;
 use cmlt::accel::Intersector;
 use cmlt::accel::backend::Accel;
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::renderer::{Budget, RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::{Accumulation, Budget, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
@@ -58,15 +58,17 @@ pub struct FrameResult {
 
 /// Renders `frames` frames with `cfg` (one worker per `cfg.workers`
 /// thread, the bootstrap spread over them), each of `per_pixel` samples or
-/// mutations per pixel over all workers ([`Renderer::steps_for`]), the
-/// camera of frame `f` given by `camera_at(f)`, handing each finished
-/// frame to `on_frame`.
+/// mutations per pixel over all workers ([`Renderer::steps_for`]), carried
+/// from frame to frame by `accumulation`, the camera of frame `f` given by
+/// `camera_at(f)`, handing each finished frame to `on_frame`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_frames(
     scene: &Scene,
     accel: &Accel,
     cfg: RendererConfig,
     frames: usize,
     per_pixel: u64,
+    accumulation: Accumulation,
     camera_at: impl Fn(usize) -> Camera,
     mut on_frame: impl FnMut(usize, FrameResult) -> Result<(), String>,
 ) -> Result<(), String> {
@@ -74,6 +76,9 @@ pub fn render_frames(
     // One film per worker, the resolved frame and the renderer's own.
     render::check_film_memory(first.width(), first.height(), cfg.workers as usize + 2)?;
     let mut renderer = Renderer::new(cfg, first).map_err(|e| e.to_string())?;
+    renderer
+        .set_accumulation(accumulation)
+        .map_err(|e| e.to_string())?;
     let mut workers: Vec<RenderWorker> = (0..cfg.workers)
         .map(|i| RenderWorker::new(&renderer, i))
         .collect::<Result<_, _>>()

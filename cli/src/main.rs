@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use clap::parser::ValueSource;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
-use cmlt::renderer::{Budget, RendererConfig};
+use cmlt::renderer::{Accumulation, Budget, RendererConfig};
 use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs, check_method_options};
@@ -128,9 +128,9 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             if k >= n {
                 return Err(format!("--frame {k} is beyond the {n} frames (0..{n})"));
             }
-            if fr.keep_chains || fr.b_window > 1 {
+            if fr.keep_chains || fr.b_window > 1 || fr.accumulation != Accumulation::Reset {
                 return Err(
-                    "--frame renders one frame on its own: --keep-chains and --b-window carry state from frame to frame".to_string(),
+                    "--frame renders one frame on its own: --keep-chains, --b-window and --accumulation carry state from frame to frame".to_string(),
                 );
             }
             let start = loaded.scene.camera;
@@ -285,9 +285,10 @@ fn run_frames(
     let pivot = frames::look_at_point(&start, accel);
     let orbit = args.frames.orbit.then_some(args.frames.orbit_degrees);
     eprintln!(
-        "{count} frames, {per_pixel} per pixel per frame, {} workers, {:?}{}",
+        "{count} frames, {per_pixel} per pixel per frame, {} workers, {:?}, {:?}{}",
         config.workers,
         config.temporal,
+        args.frames.accumulation,
         orbit.map_or(String::new(), |d| format!(", orbit {d}° about {pivot}"))
     );
     let o = &args.output;
@@ -297,6 +298,7 @@ fn run_frames(
         config,
         count,
         per_pixel,
+        args.frames.accumulation,
         |f| match orbit {
             Some(d) => frames::orbit_camera(&start, pivot, d, f, count),
             None => start,

@@ -596,8 +596,8 @@ fn config_default_is_the_cores_default() {
 /// stops when the host's clock says so and a first frame is not ready until
 /// every share is complete; with `keep_chains` a later frame renders at
 /// once while its bootstrap waits. `cmlt_renderer_set_accumulation` takes
-/// PT's modes and refuses an unknown mode, a decay out of (0, 1) and any
-/// mode but reset for MLT.
+/// every mode for PT and MLT and refuses an unknown mode and a decay out
+/// of (0, 1).
 #[test]
 fn set_up_in_pieces_and_accumulation_modes() {
     unsafe extern "C" fn never(_user: *mut c_void, _done: u64) -> u32 {
@@ -687,16 +687,35 @@ fn set_up_in_pieces_and_accumulation_modes() {
             }
             assert!(image(r).iter().any(|&v| v > 0.0));
         }
+        // MLT keeps and decays its frames' images as PT does.
         expect(
-            cmlt_renderer_set_accumulation(r, CMLT_ACCUMULATION_KEEP, 0.0),
+            cmlt_renderer_set_accumulation(r, CMLT_ACCUMULATION_DECAY, 1.5),
             CMLT_ERROR_INVALID_ARGUMENT,
             "cmlt_renderer_set_accumulation",
         );
-        expect(
-            cmlt_renderer_set_accumulation(r, CMLT_ACCUMULATION_RESET, 0.0),
-            CMLT_OK,
-            "set_accumulation",
-        );
+        for (mode, decay) in [
+            (CMLT_ACCUMULATION_KEEP, 0.0),
+            (CMLT_ACCUMULATION_DECAY, 0.5),
+        ] {
+            expect(
+                cmlt_renderer_set_accumulation(r, mode, decay),
+                CMLT_OK,
+                "set_accumulation",
+            );
+            expect(cmlt_renderer_set_camera(r, &cam), CMLT_OK, "set_camera");
+            expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+            // Before this frame renders, its workers hold only the kept
+            // frames; once it has, the image is theirs and its own.
+            for w in 0..2 {
+                expect(
+                    cmlt_renderer_render(r, w, 64, null_mut()),
+                    CMLT_OK,
+                    "render",
+                );
+            }
+            assert!(image(r).iter().all(|&v| v.is_finite()));
+            assert!(image(r).iter().any(|&v| v > 0.0));
+        }
         cmlt_renderer_release(r);
 
         let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));

@@ -3,13 +3,15 @@
 //! back; the kept chains, re-evaluated at every move and run on, with the
 //! b of the first frame carried (the later bootstraps get no time), then
 //! accumulate at the original view — and converge to Mitsuba 3's
-//! reference like a fresh render of the same budget.
+//! reference like a fresh render of the same budget. And frames kept by
+//! the accumulation (each its own chains and b) converge as one offline
+//! render of all their mutations.
 
 use crate::common;
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level2Settings};
-use cmlt::renderer::{Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt::renderer::{Accumulation, Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
 use cmlt_cli::accel::Accel;
 use cmlt_cli::frames::{look_at_point, orbit_camera};
 use cmlt_cli::image_io::Image;
@@ -110,4 +112,77 @@ fn kept_cmlt_chains_after_a_camera_that_moves_and_returns_converge_to_the_refere
             ..Level2Settings::default()
         },
     }));
+}
+
+/// `frames` frames of a still camera at `mpp` mutations per pixel each,
+/// kept by the accumulation (each frame its own bootstrap, chains and b),
+/// on two workers: the image of the last.
+fn kept_frames(estimator: Estimator, frames: usize, mpp: u64, seed: u64) -> Image {
+    let (loaded, _) = load_reduced("cornell-box", 8);
+    let scene = &loaded.scene;
+    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
+    let cfg = RendererConfig {
+        estimator,
+        settings: loaded.settings,
+        seed,
+        workers: 2,
+        ..RendererConfig::default()
+    };
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    r.set_accumulation(Accumulation::Keep).unwrap();
+    let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+    for f in 0..frames {
+        if f > 0 {
+            r.set_camera(scene.camera).unwrap();
+        }
+        if r.begin_prepare(scene) {
+            for w in ws.iter_mut() {
+                prepare_worker_while(&r, w, scene, &accel, &mut |_| true).unwrap();
+            }
+            r.finish_prepare(ws.iter()).unwrap();
+        }
+        for w in ws.iter_mut() {
+            let steps = r.steps_for(w.index(), mpp);
+            render_steps(&r, w, scene, &accel, steps).unwrap();
+        }
+    }
+    let (w, h) = (
+        scene.camera.width() as usize,
+        scene.camera.height() as usize,
+    );
+    let mut pixels = vec![cmlt::math::Rgb::ZERO; w * h];
+    let refs: Vec<&RenderWorker> = ws.iter().collect();
+    r.resolve(&refs, |i, c| pixels[i] = c).unwrap();
+    Image {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// Eight kept MLT frames of 8 mutations per pixel against one frame of 64
+/// (the same total): both converge to the reference, the kept frames'
+/// error within noise of the offline render's (`cmlt-bench frames
+/// --still` measures the ratio over seeds).
+#[test]
+fn kept_mlt_frames_of_a_still_camera_converge_as_one_offline_render() {
+    let (_, reference) = load_reduced("cornell-box", 8);
+    let estimator = Estimator::Mlt(level1(64));
+    let offline = kept_frames(estimator, 1, 64, 3);
+    let kept = kept_frames(estimator, 8, 8, 3);
+    let (e_offline, e_kept) = (rel_mse(&offline, &reference), rel_mse(&kept, &reference));
+    let (m, want) = (kept.mean(), reference.mean());
+    eprintln!("relMSE offline {e_offline:.4}, kept {e_kept:.4}; mean {m:?} vs {want:?}");
+    for c in 0..3 {
+        assert!(
+            (m[c] / want[c] - 1.0).abs() < 0.03,
+            "channel {c}: {} vs reference {}",
+            m[c],
+            want[c]
+        );
+    }
+    assert!(
+        e_kept < 1.5 * e_offline,
+        "kept frames relMSE {e_kept} vs offline {e_offline}"
+    );
 }

@@ -59,5 +59,10 @@ pub(super) fn albedo<I: Intersector>(tracer: &mut Tracer<'_, I>, sh: &Shading, w
             sum += s.f * (s.wi.z.abs() / s.pdf);
         }
     }
-    (sum / n as f32).map(|v| if v > 0.0 { v.min(1.0) } else { 0.0 })
+    clamped(sum / n as f32)
+}
+
+/// An albedo clamped to [0, 1] (NaN to 0), as the outputs hold it.
+pub(super) fn clamped(a: Rgb) -> Rgb {
+    a.map(|v| if v > 0.0 { v.min(1.0) } else { 0.0 })
 }

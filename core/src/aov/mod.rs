@@ -20,7 +20,9 @@
 //! surface seen through them.
 //! - **albedo**: the BSDF's directional-hemispherical reflectance
 //!   towards the camera, textures and normal maps applied (`albedo.rs`
-//!   says how it is estimated); 0 where the ray leaves the scene.
+//!   says how it is estimated; a flat Lambertian triangle of constant
+//!   reflectance gives that reflectance, once per run of pixels on it);
+//!   0 where the ray leaves the scene.
 //! - **normal**: the shading normal (normal or bump map applied) in world
 //!   space, unit length, turned to face the camera; 0 on a miss.
 //! - **depth**: camera-space z, the distance from the camera's position
@@ -51,7 +53,10 @@ use crate::accel::Intersector;
 use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use crate::integrator::Tracer;
 use crate::integrator::tracer::Shading;
+use crate::math::Rgb;
 use crate::renderer::RenderError;
+use crate::scene::material::MaterialKind;
+use crate::scene::texture::Texture;
 use crate::scene::{Camera, SHAPE_PRIM_BIT, Scene, SurfacePoint};
 
 /// Pixels of a row traced as one packet.
@@ -96,11 +101,17 @@ pub fn render_rows<I: Intersector>(
     // pixels, and the BSDF and shading frame are resolved only for albedo
     // and normal: depth and motion read the hit's distance and
     // barycentric coordinates (hit points and shading were most of the
-    // cost of depth and motion).
+    // cost of depth and motion). A triangle whose albedo and normal are
+    // the same all over ([`Uniform`]) is shaded once per run of pixels
+    // that see it; others at each pixel's own point (`shading_point`: no
+    // ray leaves it, so it needs neither a margin off the edges nor an
+    // error bound, which were most of the cost of albedo and normal).
     let masks = tracer.has_alpha_masks();
     let mut rays = [None; LANES];
     let mut shaded: [Option<Shading>; LANES] = [None; LANES];
     let mut points: [Option<PixelPoint>; LANES] = [None; LANES];
+    let mut uniform: [Option<Uniform>; LANES] = [None; LANES];
+    let mut last: Option<(u32, Option<Uniform>)> = None;
     for (row, y) in rows.enumerate() {
         for x0 in (0..width).step_by(LANES) {
             let lanes = LANES.min(width - x0);
@@ -118,17 +129,50 @@ pub fn render_rows<I: Intersector>(
                     let ray = rays[i].expect("set above");
                     let hit = hits.get(i);
                     points[i] = hit.map(|h| PixelPoint::of_hit(&ray, &h));
-                    shaded[i] = hit
-                        .filter(|_| shade)
-                        .and_then(|h| scene.hit_point(&h))
-                        .map(|sp| tracer.shade(sp));
+                    uniform[i] = None;
+                    shaded[i] = None;
+                    let Some(h) = hit.filter(|_| shade) else {
+                        continue;
+                    };
+                    if h.prim & SHAPE_PRIM_BIT != 0 {
+                        shaded[i] = scene.hit_point(&h).map(|sp| tracer.shade(sp));
+                        continue;
+                    }
+                    let u = match last {
+                        Some((prim, u)) if prim == h.prim => u,
+                        _ => {
+                            let u = Uniform::of(scene, h.prim);
+                            last = Some((h.prim, u));
+                            u
+                        }
+                    };
+                    uniform[i] = u;
+                    if u.is_none() {
+                        shaded[i] = scene
+                            .shading_point(h.prim, h.b1, h.b2)
+                            .map(|sp| tracer.shade(sp));
+                    }
                 }
             }
             for i in 0..lanes {
                 let ray = rays[i].expect("set above");
                 let x = x0 + i;
-                let hit = (points[i], shaded[i].as_ref().filter(|_| shade));
-                write_pixel(&mut tracer, previous, &ray, hit, centre(x, y), out, row, x);
+                let look = match (shade, uniform[i], &shaded[i]) {
+                    (false, _, _) => Look::Nothing,
+                    (true, Some(u), _) => Look::Uniform(u),
+                    (true, None, Some(sh)) => Look::Shaded(sh),
+                    (true, None, None) => Look::Nothing,
+                };
+                write_pixel(
+                    &mut tracer,
+                    previous,
+                    &ray,
+                    (points[i], look),
+                    centre(x, y),
+                    out,
+                    row,
+                    x,
+                );
             }
         }
     }
@@ -183,6 +227,87 @@ impl PixelPoint {
     }
 }
 
+/// A triangle's albedo and shading normal when they are the same at
+/// every point of it, found once for a run of pixels on it (see
+/// [`Uniform::of`]).
+#[derive(Clone, Copy)]
+enum Uniform {
+    /// A degenerate triangle: no BSDF, no normal (0 in both outputs, as
+    /// for a surface point that cannot be computed).
+    Degenerate,
+    /// A flat-shaded triangle (`Scene::flat_shaded`: its shading normal
+    /// `n` at every point) under a Lambertian material of constant
+    /// reflectance: the albedo is that reflectance
+    /// whatever the direction (ρ = R exactly, which the cosine-weighted
+    /// sample of `albedo.rs` gives up to rounding), on the front side or
+    /// on both.
+    Lambertian {
+        reflectance: Rgb,
+        two_sided: bool,
+        n: Vec3,
+    },
+}
+
+impl Uniform {
+    /// The uniform outputs of mesh triangle `prim`, or `None` when they
+    /// vary over it (unequal vertex normals, a normal or bump map, a
+    /// texture, a model whose albedo depends on the direction).
+    fn of(scene: &Scene, prim: u32) -> Option<Uniform> {
+        if !scene.flat_shaded(prim) {
+            return None;
+        }
+        // Any point of the triangle: its normal and material are those of
+        // every other point.
+        let Some(sp) = scene.shading_point(prim, 1.0 / 3.0, 1.0 / 3.0) else {
+            return Some(Uniform::Degenerate);
+        };
+        let m = scene.material(&sp);
+        if m.detail.perturbs_frame() {
+            return None;
+        }
+        match m.kind {
+            MaterialKind::Diffuse {
+                reflectance: Texture::Constant(reflectance),
+            } => Some(Uniform::Lambertian {
+                reflectance,
+                two_sided: m.two_sided,
+                n: sp.ns,
+            }),
+            _ => None,
+        }
+    }
+
+    /// (albedo, normal facing the camera) seen along direction `d`: a
+    /// one-sided Lambertian seen from behind reflects nothing.
+    fn look(&self, d: Vec3) -> ([f32; 3], [f32; 3]) {
+        match *self {
+            Uniform::Degenerate => ([0.0; 3], [0.0; 3]),
+            Uniform::Lambertian {
+                reflectance,
+                two_sided,
+                n,
+            } => {
+                let albedo = if two_sided || n.dot(d) < 0.0 {
+                    albedo::clamped(reflectance)
+                } else {
+                    Rgb::ZERO
+                };
+                ([albedo.r, albedo.g, albedo.b], facing(n, d).to_array())
+            }
+        }
+    }
+}
+
+/// What the albedo and normal outputs read at a pixel's hit.
+enum Look<'a> {
+    /// Not wanted, or no surface point.
+    Nothing,
+    /// The surface shaded at the pixel's own point.
+    Shaded(&'a Shading),
+    /// A triangle that looks the same all over.
+    Uniform(Uniform),
+}
+
 /// Closest hits of `rays` (up to [`LANES`]) as one packet.
 fn intersect<I: Intersector>(accel: &I, rays: &[Option<Ray>]) -> HitPacket<LANES> {
     let mut packet = RayPacket::<LANES>::default();
@@ -204,21 +329,22 @@ fn centre(x: usize, y: u32) -> Vec2 {
 }
 
 /// Computes and writes the wanted outputs of one pixel: `hit` is where its
-/// ray stopped and, when albedo or normal are wanted, the shaded surface.
+/// ray stopped and, when albedo or normal are wanted, how its surface
+/// looks.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn write_pixel<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     previous: &Camera,
     ray: &Ray,
-    hit: (Option<PixelPoint>, Option<&Shading>),
+    hit: (Option<PixelPoint>, Look<'_>),
     centre: Vec2,
     out: &mut AovBuffers<'_>,
     row: usize,
     x: usize,
 ) {
     let camera = tracer.camera;
-    let (Some(point), shading) = hit else {
+    let (Some(point), look) = hit else {
         if let Some(l) = &mut out.albedo {
             l.put(row, x, &[0.0; 3]);
         }
@@ -238,16 +364,33 @@ fn write_pixel<I: Intersector>(
     };
     // A hit whose surface point is degenerate has no BSDF or normal.
     let zero = [0.0; 3];
-    if let Some(l) = &mut out.albedo {
-        let a = shading.map_or(zero, |sh| {
-            let a = albedo::albedo(tracer, sh, -ray.d);
-            [a.r, a.g, a.b]
-        });
-        l.put(row, x, &a);
-    }
-    if let Some(l) = &mut out.normal {
-        let n = shading.map_or(zero, |sh| facing(sh.sp.ns, ray.d).to_array());
-        l.put(row, x, &n);
+    match look {
+        Look::Nothing => {
+            if let Some(l) = &mut out.albedo {
+                l.put(row, x, &zero);
+            }
+            if let Some(l) = &mut out.normal {
+                l.put(row, x, &zero);
+            }
+        }
+        Look::Shaded(sh) => {
+            if let Some(l) = &mut out.albedo {
+                let a = albedo::albedo(tracer, sh, -ray.d);
+                l.put(row, x, &[a.r, a.g, a.b]);
+            }
+            if let Some(l) = &mut out.normal {
+                l.put(row, x, &facing(sh.sp.ns, ray.d).to_array());
+            }
+        }
+        Look::Uniform(u) => {
+            let (a, n) = u.look(ray.d);
+            if let Some(l) = &mut out.albedo {
+                l.put(row, x, &a);
+            }
+            if let Some(l) = &mut out.normal {
+                l.put(row, x, &n);
+            }
+        }
     }
     let p = point.p;
     if let Some(l) = &mut out.depth {

@@ -1,6 +1,7 @@
-//! What PT and BDPT carry from one frame into the next: their films,
-//! kept, decayed or cleared ([`Accumulation`]), and the per-pixel sample
-//! weights that normalise them ([`Weights`]).
+//! What a worker carries from one frame into the next, kept, decayed or
+//! cleared ([`Accumulation`]): for PT and BDPT its film and the per-pixel
+//! sample weights that normalise it ([`Weights`]); for MLT and CMLT the
+//! earlier frames' images, each normalised by its own b ([`Kept`]).
 //!
 //! A worker renders its passes in pieces (a few pixels each, so that a
 //! time budget can stop it within about a millisecond), so a frame may end
@@ -19,14 +20,34 @@
 //! before, bit for bit. Decay multiplies sums and weights by the same
 //! factor at every frame start: an exponentially weighted mean of the
 //! samples, each frame's weighted `factor^age`.
+//!
+//! A Metropolis frame's film is normalised by that frame's b and records
+//! (b · P / records, `mlt::image_scale`), and b may change from frame to
+//! frame, so its film cannot simply be kept: at a frame's start each
+//! worker folds the ended frame into [`Kept`] as `b_f · P · film_f` (its
+//! image times its records) and adds its records to the kept weight.
+//! The merged image is then, per pixel,
+//!
+//! ```text
+//!   (Σ_w kept_w(i) + b · P · Σ_w film_w(i)) / (Σ_w kept records_w + Σ_w records_w)
+//! ```
+//!
+//! the records-weighted mean of the frames' images. Each frame's image is
+//! its own estimate of the image (its b, its chains' splats; the records
+//! of a frame depend on the clock, not on the image), so the mean
+//! estimates the same image with the error of all the frames together, and
+//! with a still camera and one b it is the image of one long render of
+//! all the frames' mutations. Decay multiplies the kept sums and records
+//! by the factor at every frame start, as for PT and BDPT.
 
 use alloc::vec::Vec;
 
 use crate::film::Film;
 
-/// How a PT or BDPT worker's accumulation carries into the next frame
-/// ([`super::Renderer::set_accumulation`]); Metropolis estimators always
-/// reset (their chains carry over instead: [`super::Temporal`]).
+/// How a worker's accumulation carries into the next frame
+/// ([`super::Renderer::set_accumulation`]): PT and BDPT keep or decay their
+/// samples, MLT and CMLT their frames' images, each normalised by its own
+/// b (their chains carry over apart from this: [`super::Temporal`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Accumulation {
     /// Every frame starts black: an unbiased image of its own camera and
@@ -108,5 +129,77 @@ impl Weights {
                 self.total *= f as f64;
             }
         }
+    }
+}
+
+/// A Metropolis worker's earlier frames (see the module docs): per pixel
+/// Σ_f factor^age · b_f · P · film_f(i), and Σ_f factor^age · records_f,
+/// sized when the worker is made (empty for PT and BDPT workers, which
+/// keep their films instead).
+pub(crate) struct Kept {
+    sums: Vec<[f64; 3]>,
+    records: f64,
+}
+
+impl Kept {
+    /// Nothing kept, room for `pixels` pixels.
+    pub(crate) fn new(pixels: usize) -> Self {
+        Kept {
+            sums: alloc::vec![[0.0; 3]; pixels],
+            records: 0.0,
+        }
+    }
+
+    /// Pixel `i`'s kept sum (0 for a worker without kept frames).
+    #[inline]
+    pub(crate) fn at(&self, i: usize) -> [f64; 3] {
+        self.sums.get(i).copied().unwrap_or([0.0; 3])
+    }
+
+    /// The kept frames' records (their weight).
+    pub(crate) fn records(&self) -> f64 {
+        self.records
+    }
+
+    /// Starts a frame: the ended frame (`film`, whose `records` records are
+    /// normalised by `b_pixels` = b · P) folded in, then everything kept
+    /// cleared, kept or decayed by `mode`. The film itself is left alone
+    /// (the caller clears it for the new frame).
+    pub(crate) fn next_frame(
+        &mut self,
+        film: &Film,
+        b_pixels: f64,
+        records: u64,
+        mode: Accumulation,
+    ) {
+        let factor = match mode {
+            Accumulation::Reset => {
+                if self.records != 0.0 {
+                    self.sums.fill([0.0; 3]);
+                    self.records = 0.0;
+                }
+                return;
+            }
+            Accumulation::Keep => 1.0,
+            Accumulation::Decay(f) => f as f64,
+        };
+        // A frame that recorded nothing (or had no b) adds nothing.
+        let add = records > 0 && b_pixels > 0.0;
+        if add {
+            for (i, k) in self.sums.iter_mut().enumerate() {
+                let t = film.pixel_total(i);
+                for c in 0..3 {
+                    k[c] = (k[c] + t[c] * b_pixels) * factor;
+                }
+            }
+            self.records += records as f64;
+        } else if factor != 1.0 {
+            for k in &mut self.sums {
+                for v in k {
+                    *v *= factor;
+                }
+            }
+        }
+        self.records *= factor;
     }
 }

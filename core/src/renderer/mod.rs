@@ -95,8 +95,13 @@
 //! estimate over the views of those frames). A b estimated from the
 //! chains' own large steps (`mlt::LargeStepTally`, collected by every
 //! worker) would plug in at that join.
-//! PT and BDPT carry their films by [`Accumulation`]: reset (default),
-//! keep or decay, set per frame by [`Renderer::set_accumulation`].
+//! Every estimator carries its image by [`Accumulation`]: reset
+//! (default), keep or decay, set per frame by
+//! [`Renderer::set_accumulation`] — PT and BDPT their films, MLT and CMLT
+//! their earlier frames' images, each normalised by its own b and
+//! weighted by its records (`renderer/accumulation.rs`), so that with a
+//! still camera kept frames converge as one long render does, and a
+//! frame with few mutations per pixel still shows a full image.
 
 mod accumulation;
 mod estimator;
@@ -119,7 +124,7 @@ use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
 
 pub use accumulation::Accumulation;
-use accumulation::Weights;
+use accumulation::{Kept, Weights};
 pub use estimator::{Estimator, EstimatorKind};
 pub(crate) use resolve::check_buffer;
 
@@ -351,7 +356,7 @@ pub struct Renderer {
     /// Whether a bootstrap has been joined: kept chains can then go on
     /// with it while the next one is evaluated.
     has_bootstrap: bool,
-    /// How PT and BDPT workers carry their films into the next frame.
+    /// How workers carry their images into the next frame.
     accumulation: Accumulation,
     /// Where `finish_prepare` joins the workers' shares.
     shares: Shares,
@@ -393,6 +398,12 @@ pub struct RenderWorker {
     film: Film,
     /// PT, BDPT: samples per pixel in `film` (empty for MLT, CMLT).
     weights: Weights,
+    /// MLT, CMLT: the earlier frames' images kept by [`Accumulation`]
+    /// (empty for PT, BDPT).
+    kept: Kept,
+    /// MLT, CMLT: the b of this worker's last `render` call, which its
+    /// film is folded into `kept` with when its next frame starts.
+    frame_b: f64,
     /// PT, BDPT: the position of the next sample in the open pass's
     /// order (0 between passes).
     cursor: u64,
@@ -576,8 +587,9 @@ impl Renderer {
         // sampler, its values and pass sums), their chains' path storage,
         // a state, a sampler and a path per chain, and the multiple-try
         // candidates (k ≤ 64 of them).
-        // PT and BDPT also count samples per pixel (an f32 each).
-        let film = pixels * (Film::BYTES_PER_PIXEL + 4);
+        // PT and BDPT also count samples per pixel (an f32 each), MLT and
+        // CMLT keep the earlier frames' sums (three f64 each).
+        let film = pixels * (Film::BYTES_PER_PIXEL + 24);
         let mut worker =
             c(film.checked_add(size_of::<RenderWorker>() as u64 + workspace + 16 * BLOCK))?;
         // Only a Metropolis renderer keeps bootstrap tables and the passes'
@@ -685,18 +697,16 @@ impl Renderer {
         self.prepared = None;
     }
 
-    /// How PT and BDPT workers carry their films into the frames after this
-    /// one (each worker applies it when it starts its next frame):
-    /// [`Accumulation::Reset`] by default. Metropolis renderers refuse
-    /// anything else ([`RenderError::Config`]): their chains carry over
-    /// instead ([`Temporal::keep_chains`]). Nothing changes on error.
+    /// How workers carry their images into the frames after this one (each
+    /// worker applies it when it starts its next frame):
+    /// [`Accumulation::Reset`] by default. PT and BDPT keep or decay their
+    /// samples; MLT and CMLT their frames' images, each normalised by the
+    /// b it was rendered with and weighted by its records (independent of
+    /// [`Temporal::keep_chains`], which carries the chains themselves).
+    /// [`RenderError::Config`] for a decay factor outside (0, 1); nothing
+    /// changes on error.
     pub fn set_accumulation(&mut self, mode: Accumulation) -> Result<(), RenderError> {
         mode.validate().map_err(RenderError::Config)?;
-        if self.config.estimator.is_metropolis() && mode != Accumulation::Reset {
-            return Err(RenderError::Config(
-                "keeping or decaying the accumulation is for PT and BDPT (MLT and CMLT keep chains)",
-            ));
-        }
         self.accumulation = mode;
         Ok(())
     }
@@ -1098,6 +1108,14 @@ impl Renderer {
             };
             let seed = self.frame_seed();
             if let (Some(m), Some(mlt)) = (&mut worker.mlt, c.estimator.mlt()) {
+                // The ended frame's image, at the b it was rendered with,
+                // into what the accumulation keeps of earlier frames.
+                worker.kept.next_frame(
+                    &worker.film,
+                    worker.frame_b * self.pixels() as f64,
+                    m.stats().records,
+                    self.accumulation,
+                );
                 worker.film.clear();
                 worker.passes = 0;
                 let kept =
@@ -1135,6 +1153,7 @@ impl Renderer {
             worker.camera = Some(self.camera);
             worker.scene_revision = self.scene_revision;
         }
+        worker.frame_b = self.b_used;
         Ok(tracer)
     }
 
@@ -1401,7 +1420,22 @@ impl Renderer {
     /// + splats) / passes.
     fn pixel(&self, l: &Layers, t: &Totals, scale: f64) -> Rgb {
         if self.config.estimator.is_metropolis() {
-            return scaled(l.total(), scale);
+            if t.kept_records == 0.0 {
+                return scaled(l.total(), scale);
+            }
+            // The records-weighted mean of the kept frames' images and
+            // this frame's (`renderer/accumulation.rs`).
+            let b_pixels = self.b_used * self.pixels() as f64;
+            let s = l.total();
+            let inv = 1.0 / (t.kept_records + t.records as f64);
+            return scaled(
+                [
+                    l.kept[0] + s[0] * b_pixels,
+                    l.kept[1] + s[1] * b_pixels,
+                    l.kept[2] + s[2] * b_pixels,
+                ],
+                inv,
+            );
         }
         let inv = |w: f64| if w > 0.0 { 1.0 / w } else { 0.0 };
         let splat_weight = t.samples / self.pixels() as f64;
@@ -1472,11 +1506,12 @@ fn check_lens(camera: &Camera) -> Result<(), RenderError> {
 }
 
 /// The sample weight (PT, BDPT) and Metropolis records of the current
-/// accumulation.
+/// accumulation: the current frame's and the kept frames'.
 #[derive(Clone, Copy, Debug, Default)]
 struct Totals {
     samples: f64,
     records: u64,
+    kept_records: f64,
 }
 
 impl Totals {
@@ -1484,6 +1519,7 @@ impl Totals {
         if w.renderer == r.id && r.is_current(w) {
             self.samples += w.weights.total();
             self.records += w.mlt.as_ref().map_or(0, |m| m.stats().records);
+            self.kept_records += w.kept.records();
         }
     }
 }
@@ -1506,14 +1542,18 @@ struct Layers {
     splats: [f64; 3],
     /// PT, BDPT: the pixel's sample weight.
     weight: f64,
+    /// MLT, CMLT: the kept frames' sums (`accumulation::Kept`).
+    kept: [f64; 3],
 }
 
 impl Layers {
     fn add(&mut self, worker: &RenderWorker, pixel: usize) {
         let (s, p) = worker.film.pixel_parts(pixel);
+        let k = worker.kept.at(pixel);
         for c in 0..3 {
             self.samples[c] += s[c];
             self.splats[c] += p[c];
+            self.kept[c] += k[c];
         }
         self.weight += worker.weights.at(pixel);
     }
@@ -1566,6 +1606,12 @@ impl RenderWorker {
             } else {
                 camera.pixel_count() as usize
             }),
+            kept: Kept::new(if mlt.is_some() {
+                camera.pixel_count() as usize
+            } else {
+                0
+            }),
+            frame_b: 0.0,
             cursor: 0,
             strided: false,
             bdpt: bdpt::PathStorage::with_capacity(depth),

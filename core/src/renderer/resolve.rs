@@ -8,7 +8,7 @@ use core::ops::Range;
 use super::{Layers, RenderError, RenderWorker, Renderer, Totals};
 use crate::film::PixelFormat;
 
-/// Pixels merged at a time: their sums sit on the stack (64 · 56 bytes)
+/// Pixels merged at a time: their sums sit on the stack (64 · 80 bytes)
 /// while each worker's film adds its run of them, so every film is read in
 /// runs of 3 KB, and nothing is allocated.
 const RUN: usize = 64;

@@ -650,18 +650,65 @@ impl Scene {
     /// degenerate (zero-area) triangle, which has no normal and scatters
     /// nothing.
     pub fn surface_point(&self, prim: u32, b1: f32, b2: f32) -> Option<SurfacePoint> {
+        // Kept off the triangle's edges, so that a walk from a hit next to
+        // an edge of a closed mesh stays inside it; the normal and uv are
+        // interpolated at the weights of that point.
+        self.mesh_point(prim, |tri| triangle_point(tri, b1, b2))
+    }
+
+    /// The surface point of barycentrics `(b1, b2)` on global triangle
+    /// `prim` for shading alone — its normals, uv and material, for the
+    /// auxiliary outputs ([`crate::aov`]) — not moved off the edges and
+    /// with no error bound (`p_error` zero): no ray may leave from it
+    /// (that is [`Scene::surface_point`]'s). `None` for a degenerate
+    /// triangle.
+    pub fn shading_point(&self, prim: u32, b1: f32, b2: f32) -> Option<SurfacePoint> {
+        self.mesh_point(prim, |[p0, p1, p2]| {
+            let b = [1.0 - b1 - b2, b1, b2];
+            TrianglePoint {
+                p: p0 * b[0] + p1 * b[1] + p2 * b[2],
+                p_error: Vec3::ZERO,
+                b,
+            }
+        })
+    }
+
+    /// Whether global triangle `prim`'s shading normal is the same at
+    /// every point of it: its mesh has no vertex normals, or its three are
+    /// equal (a face of Mitsuba's `rectangle` or `cube`; interpolated, they
+    /// differ from the vertices' by the rounding of the weights' sum). A
+    /// host shape: no.
+    pub fn flat_shaded(&self, prim: u32) -> bool {
+        if prim & SHAPE_PRIM_BIT != 0 {
+            return false;
+        }
+        let (mi, ti) = self.locate(prim);
+        let m = &self.meshes[mi];
+        if m.normals.is_empty() {
+            return true;
+        }
+        let [a, b, c] = m.indices[ti].map(|i| m.normals[i as usize]);
+        a == b && b == c
+    }
+
+    /// The surface point on global triangle `prim` at the position and
+    /// weights `at` gives for its vertices; normal and uv interpolated at
+    /// those weights.
+    #[inline(always)]
+    fn mesh_point(
+        &self,
+        prim: u32,
+        at: impl FnOnce([Vec3; 3]) -> TrianglePoint,
+    ) -> Option<SurfacePoint> {
         let (mi, ti) = self.locate(prim);
         let m = &self.meshes[mi];
         let idx = m.indices[ti].map(|i| i as usize);
         let [p0, p1, p2] = idx.map(|i| m.positions[i]);
-        // Kept off the triangle's edges, so that a walk from a hit next to
-        // an edge of a closed mesh stays inside it; the normal and uv are
-        // interpolated at the weights of that point.
         let TrianglePoint {
             p,
             p_error,
             b: [b0, b1, b2],
-        } = triangle_point([p0, p1, p2], b1, b2);
+        } = at([p0, p1, p2]);
         let ng = (p1 - p0).cross(p2 - p0);
         let len = ng.length();
         if !(len > 0.0 && len.is_finite()) {

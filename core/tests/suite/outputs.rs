@@ -135,6 +135,50 @@ fn a_wall_gives_its_depth_normal_and_albedo() {
     }
 }
 
+/// A one-sided Lambertian wall has its albedo on its front only, as its
+/// BSDF scatters (a triangle shaded once for all its pixels keeps that):
+/// of the wall and the same wall wound the other way, exactly one is
+/// black in albedo everywhere, and both give the normal facing the camera.
+#[test]
+fn a_one_sided_wall_has_its_albedo_on_its_front_only() {
+    let mut lit = Vec::new();
+    for flip in [false, true] {
+        let mut b = SceneBuilder::new();
+        let m = b.add_material(Material {
+            two_sided: false,
+            ..Material::diffuse(ALBEDO)
+        });
+        let mut w = wall(20.0, m);
+        if flip {
+            for t in &mut w.indices {
+                t.swap(1, 2);
+            }
+        }
+        b.add_mesh(w);
+        let mut light = wall(0.2, b.add_material(Material::diffuse(ALBEDO)));
+        for p in &mut light.positions {
+            p.z = -1.0;
+        }
+        light.emission = Some(Rgb::splat(5.0));
+        b.add_mesh(light);
+        b.set_camera(camera(Vec3::ZERO));
+        let scene = b.build().unwrap();
+        let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+        let cam = camera(Vec3::ZERO);
+        let (albedo, normal, _, _) = aovs(&scene, &bvh, &cam, &cam);
+        for n in normal.chunks_exact(3) {
+            assert_eq!(n, &[0.0, 0.0, -1.0]);
+        }
+        let front = albedo.chunks_exact(3).filter(|a| a[0] > 0.0).count();
+        for a in albedo.chunks_exact(3).filter(|a| a[0] > 0.0) {
+            assert!(close(a[1], 0.5, 1e-6), "albedo {a:?}");
+        }
+        lit.push(front);
+    }
+    lit.sort();
+    assert_eq!(lit, vec![0, (W * H) as usize], "pixels with albedo");
+}
+
 #[test]
 fn rays_that_leave_the_scene_get_no_surface() {
     // A wall 1 wide at depth 4 covers the middle 2 × 2 pixels' centres

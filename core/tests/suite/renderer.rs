@@ -373,15 +373,14 @@ fn frames_allocate_nothing_after_setup() {
         let mut img = vec![Rgb::ZERO; 16 * 12];
         let (_, n) = allocations(|| {
             for frame in 0..3 {
-                if !cfg.estimator.is_metropolis() {
-                    // Every accumulation mode, frames ending inside passes.
-                    let mode = [
-                        Accumulation::Reset,
-                        Accumulation::Keep,
-                        Accumulation::Decay(0.5),
-                    ][frame];
-                    r.set_accumulation(mode).unwrap();
-                }
+                // Every accumulation mode, frames ending inside passes
+                // or rounds.
+                let mode = [
+                    Accumulation::Reset,
+                    Accumulation::Keep,
+                    Accumulation::Decay(0.5),
+                ][frame];
+                r.set_accumulation(mode).unwrap();
                 r.set_camera(camera(0.1 * frame as f32)).unwrap();
                 if r.begin_prepare(&scene) {
                     let mut asked = 0;
@@ -755,10 +754,76 @@ fn accumulation_is_kept_decayed_or_reset_per_frame() {
     }
     assert_eq!(r.accumulation(), Accumulation::Reset);
     let mut r = Renderer::new(config(mlt(), 1), scene.camera).unwrap();
+    r.set_accumulation(Accumulation::Keep).unwrap();
     assert!(matches!(
-        r.set_accumulation(Accumulation::Keep),
+        r.set_accumulation(Accumulation::Decay(1.0)),
         Err(RenderError::Config(_))
     ));
+    assert_eq!(r.accumulation(), Accumulation::Keep);
+}
+
+/// MLT and CMLT keep or decay their frames' images, each normalised by
+/// its own b: every frame restarts its chains from its own bootstrap (so
+/// b differs from frame to frame), and the kept image is the
+/// records-weighted mean of the frames' own images — those of the same
+/// frames rendered with reset — with weights decayed by the factor per
+/// frame of age. Two workers, merged.
+#[test]
+fn metropolis_frames_are_kept_or_decayed_each_with_its_own_b() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    for estimator in [mlt(), cmlt(8, 4)] {
+        let cfg = config(estimator, 2);
+        // Each frame's image, its records and b.
+        let frames = |mode: Accumulation| {
+            let mut r = Renderer::new(cfg, scene.camera).unwrap();
+            r.set_accumulation(mode).unwrap();
+            let mut ws: Vec<RenderWorker> =
+                (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+            let mut out = Vec::new();
+            for f in 0..3 {
+                if f > 0 {
+                    r.set_camera(scene.camera).unwrap();
+                }
+                prepare(&mut r, &mut ws, &scene, &bvh);
+                for w in ws.iter_mut() {
+                    r.render(w, &scene, &bvh, 16 * 12 * 2).unwrap();
+                }
+                let refs: Vec<&RenderWorker> = ws.iter().collect();
+                let records = r.stats(&refs).mlt.records as f64;
+                out.push((resolve(&r, &refs), records, r.b()));
+            }
+            out
+        };
+        let own = frames(Accumulation::Reset);
+        assert!(own[0].2 != own[1].2, "{estimator:?}: every frame its own b");
+        for (mode, f) in [(Accumulation::Keep, 1.0), (Accumulation::Decay(0.5), 0.5)] {
+            let got = frames(mode);
+            for n in 0..3 {
+                assert_eq!(got[n].2, own[n].2, "{estimator:?} {mode:?}: b of frame {n}");
+                // Frame g's weight: its records times f^(n − g).
+                let weight = |g: usize| own[g].1 * f64::powi(f, (n - g) as i32);
+                let total: f64 = (0..=n).map(weight).sum();
+                for i in 0..16 * 12 {
+                    let want = (0..=n)
+                        .map(|g| weight(g) * own[g].0[i].luminance() as f64)
+                        .sum::<f64>()
+                        / total;
+                    let have = got[n].0[i].luminance() as f64;
+                    assert!(
+                        (have - want).abs() <= 1e-4 * want.abs().max(1e-3),
+                        "{estimator:?} {mode:?} frame {n} pixel {i}: {have} vs {want}"
+                    );
+                }
+            }
+            // Kept frames fill pixels a frame of few mutations leaves black.
+            let black = |img: &[Rgb]| img.iter().filter(|c| c.luminance() == 0.0).count();
+            assert!(
+                black(&got[2].0) <= black(&own[2].0),
+                "{estimator:?} {mode:?}"
+            );
+        }
+    }
 }
 
 /// The Metropolis set-up in pieces: `prepare_worker_while` stops when the
