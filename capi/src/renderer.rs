@@ -167,6 +167,11 @@ pub struct cmlt_renderer_config {
     /// (0, 1]: they get chains for the area that sees an emitter, at least
     /// this share; 1 = chains in proportion to luminance at every depth.
     pub direct_allocation: f32,
+    /// MLT: nonzero = record the large steps' proposals also as
+    /// independent samples, combined with the chains' records by multiple
+    /// importance sampling (Kelemen et al. 2002): same expectation, and
+    /// pixels the chains seldom visit get the large steps' samples.
+    pub large_step_mis: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -328,6 +333,7 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         share: l2.share,
         normalisation_min_samples: mlt.b_min_samples,
         direct_allocation: mlt.direct_allocation,
+        large_step_mis: mlt.large_step_mis as u32,
     }
 }
 
@@ -375,6 +381,7 @@ fn unread_field(
             MLT,
             f(c.direct_allocation, d.direct_allocation),
         ),
+        ("large_step_mis", MLT, c.large_step_mis == d.large_step_mis),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
         ("k", CMLT, c.k == d.k),
@@ -442,6 +449,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
         direct_allocation: c.direct_allocation,
+        large_step_mis: c.large_step_mis != 0,
         ..MltSettings::default()
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {

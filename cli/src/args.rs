@@ -183,6 +183,12 @@ pub struct MltArgs {
     /// share; 1 = chains in proportion to luminance at every path depth.
     #[arg(long, default_value_t = MltSettings::default().direct_allocation)]
     pub direct_allocation: f32,
+    /// Record the large steps' proposals also as independent samples,
+    /// combined with the chains' records by multiple importance sampling
+    /// (Kelemen et al. 2002): same expectation, and pixels the chains
+    /// seldom visit get the large steps' samples.
+    #[arg(long, default_value_t = MltSettings::default().large_step_mis, action = clap::ArgAction::Set)]
+    pub large_step_mis: bool,
 }
 
 impl MltArgs {
@@ -199,6 +205,7 @@ impl MltArgs {
             large_step_prob: self.large_step,
             sigma: self.sigma,
             direct_allocation: self.direct_allocation,
+            large_step_mis: self.large_step_mis,
             ..MltSettings::default()
         };
         mlt.validate().map_err(|e| {

@@ -92,6 +92,12 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
         mean.b,
         output.display()
     );
+    if let Some(ls) = out.large_step_b() {
+        println!(
+            "b: passes {:.5}, large steps {:.5} ± {:.5} ({} large steps), pooled by sample counts {:.5}",
+            out.stats.b, ls.b, ls.error, ls.count, ls.pooled
+        );
+    }
     if level2 {
         println!(
             "level 2: {} lens steps ({:.1}% accepted), {} caustic steps ({:.1}% accepted), {} multi-chain steps ({:.1}% accepted), {} identity steps; zero candidates {:.1}%; {} packets, {:.2} lanes/packet, {:.1}% of rays in packets",

@@ -19,7 +19,7 @@ use cmlt::accel::backend::Accel;
 use cmlt::film::Film;
 use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
-use cmlt::mlt::{Bootstrap, MltStats};
+use cmlt::mlt::{Bootstrap, LargeStepTally, MltStats};
 pub use cmlt::renderer::Budget;
 use cmlt::renderer::{RenderError, RenderStats, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
@@ -34,10 +34,30 @@ pub struct RenderOutput {
     pub stats: RenderStats,
     /// The bootstrap (MLT, CMLT).
     pub bootstrap: Option<Bootstrap>,
+    /// The large steps of all workers by depth (MLT, CMLT): b as the
+    /// render's own large steps estimate it.
+    pub large_steps: Option<LargeStepTally>,
+    /// BDPT samples per depth behind the bootstrap's b (normalisation
+    /// passes × pixels; 0 without passes).
+    pub normalisation_samples: u64,
     /// Wall-clock time of the bootstrap (zero for PT and BDPT).
     pub bootstrap_wall: Duration,
     /// Wall-clock time of everything (bootstrap included).
     pub wall: Duration,
+}
+
+/// b from a render's large steps ([`RenderOutput::large_step_b`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LargeStepB {
+    /// Σ_d of the large steps' mean target value at depth d.
+    pub b: f64,
+    /// Its standard error.
+    pub error: f64,
+    /// Large steps over all depths.
+    pub count: u64,
+    /// b pooled from the large steps and the normalisation passes by
+    /// sample counts.
+    pub pooled: f64,
 }
 
 impl RenderOutput {
@@ -49,6 +69,34 @@ impl RenderOutput {
         } else {
             self.stats.passes as f64
         }
+    }
+
+    /// b as the render's large steps estimate it, with its standard
+    /// error and the number of large steps, and b pooled from them and the
+    /// normalisation passes by sample counts
+    /// ([`LargeStepTally::pooled_b`]); `None` for PT and BDPT or without
+    /// large steps at some lit depth.
+    pub fn large_step_b(&self) -> Option<LargeStepB> {
+        let (t, boot) = (self.large_steps.as_ref()?, self.bootstrap.as_ref()?);
+        let (mut b, mut var, mut n) = (0.0, 0.0, 0);
+        for d in 1..=t.depths() {
+            n += t.count(d);
+            let lit = boot.depth_b().get(d as usize - 1).is_some_and(|&b| b > 0.0);
+            match (t.depth_b(d), t.depth_b_error(d)) {
+                (Some(bd), Some(e)) => {
+                    b += bd;
+                    var += e * e;
+                }
+                _ if lit => return None,
+                _ => {}
+            }
+        }
+        Some(LargeStepB {
+            b,
+            error: var.sqrt(),
+            count: n,
+            pooled: t.pooled_b(boot.depth_b(), self.normalisation_samples),
+        })
     }
 
     /// The tracer's counters (rays, samples, packets, BSDF work).
@@ -341,10 +389,25 @@ fn render_inner<I: Intersector + Sync>(
         },
         stats: renderer.stats(&refs),
         bootstrap: metropolis.then(|| renderer.bootstrap().clone()),
+        large_steps: metropolis.then(|| merged_large_steps(&refs)).flatten(),
+        normalisation_samples: config.estimator.mlt().map_or(0, |m| {
+            let pixels = u64::from(w) * u64::from(h);
+            u64::from(m.normalisation_passes(pixels)) * pixels
+        }),
         bootstrap_wall,
         wall,
     };
     Ok((out, sums))
+}
+
+/// The workers' large-step tallies merged (`None` without chains).
+fn merged_large_steps(workers: &[&RenderWorker]) -> Option<LargeStepTally> {
+    let mut tallies = workers.iter().filter_map(|w| w.large_steps());
+    let mut all = tallies.next()?.clone();
+    for t in tallies {
+        all.merge(t);
+    }
+    Some(all)
 }
 
 /// The workers' films summed layer by layer in worker order, as

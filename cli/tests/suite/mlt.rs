@@ -142,6 +142,41 @@ fn cornell_box_mlt_matches_reference() {
     assert!(err < 0.05, "relMSE {err}");
 }
 
+/// Large steps combined with the chains' records by MIS (Kelemen et al.
+/// 2002) converge to the same reference: the means check the weights'
+/// normalisation (a large step counted without its density p·b_d would
+/// make the image 1.3× too bright; `mlt/chain.rs`'s toy test has the
+/// negative controls).
+#[test]
+fn cornell_box_mlt_with_large_steps_by_mis_matches_reference() {
+    let mlt = Estimator::Mlt(MltSettings {
+        large_step_mis: true,
+        ..level1(128)
+    });
+    let err = check_reference("cornell-box", 4, &mlt, 32, 3.0);
+    assert!(err < 0.05, "relMSE {err}");
+}
+
+/// CMLT with large steps by MIS: level-1 records of paths without a side
+/// chain carry the level-2 share (the default minimum depth leaves most of
+/// the box's paths without one), and the large steps' records carry it
+/// too.
+#[test]
+fn cornell_box_cmlt_with_large_steps_by_mis_matches_reference() {
+    let cmlt = Estimator::Cmlt(CmltSettings {
+        mlt: MltSettings {
+            large_step_mis: true,
+            ..level1(128)
+        },
+        level2: Level2Settings {
+            m: 2,
+            ..Level2Settings::default()
+        },
+    });
+    let err = check_reference("cornell-box", 4, &cmlt, 32, 3.0);
+    assert!(err < 0.05, "relMSE {err}");
+}
+
 // Each scene and estimator is its own test (not a loop over them), so
 // that the two test threads share the long renders out evenly.
 

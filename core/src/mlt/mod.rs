@@ -34,7 +34,9 @@
 //! image's mean luminance.
 //!
 //! Each mutation adds records of total luminance 1 (colour f/Y weighted
-//! a and 1 − a) to the film's splat layer. Chains are spread over depths in
+//! a and 1 − a) to the film's splat layer; with
+//! [`MltSettings::large_step_mis`], records whose luminance is 1 in
+//! expectation instead (`chain`'s module docs). Chains are spread over depths in
 //! proportion to b_d / b and each chain of a worker makes the same number
 //! of mutations, so after N mutations over all workers, splat·(b·P/N)
 //! estimates the image: [`image_scale`] is that factor, for
@@ -120,6 +122,13 @@ pub struct MltSettings {
     /// every depth (pbrt, Tungsten). The image's expectation is the same
     /// either way (each depth's chains are weighted to give its b_d).
     pub direct_allocation: f32,
+    /// Whether the large steps' proposals are also recorded as independent
+    /// samples, combined with the chain's records by MIS (Kelemen et al.
+    /// 2002, §4.1: weights (a + [large])/(Y/b_d + p) and (1 − a)/(Y/b_d +
+    /// p), b_d the chain's depth's normalisation; `mlt/chain.rs`). Same
+    /// expectation; pixels the chains seldom visit get the large steps'
+    /// BDPT samples. false = the records a and 1 − a only.
+    pub large_step_mis: bool,
 }
 
 /// The space the level-1 chains mutate in: one variant today, the field
@@ -150,6 +159,7 @@ impl Default for MltSettings {
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
+            large_step_mis: false,
         }
     }
 }
@@ -564,6 +574,12 @@ pub(crate) struct WorkerChains {
     /// Splat weight of each chain: its depth's share of b over its share
     /// of the chains ([`depth_weights`]).
     weights: Vec<f32>,
+    /// With large steps combined by MIS, p·b_d of each chain's depth (the
+    /// large steps' density in the records' units, `mlt/chain.rs`); empty
+    /// without.
+    large_step_offsets: Vec<f32>,
+    /// The large-step probability p when large steps are combined by MIS.
+    large_step_mis: Option<f32>,
     /// Size of the systematic sample the chains were drawn as.
     n_chains: u32,
     /// Samples a chain searches for a start (see [`start_sample`]).
@@ -622,6 +638,8 @@ impl WorkerChains {
         WorkerChains {
             chains: Vec::with_capacity(n),
             weights: Vec::with_capacity(n),
+            large_step_offsets: Vec::with_capacity(if mlt.large_step_mis { n } else { 0 }),
+            large_step_mis: mlt.large_step_mis.then_some(mlt.large_step_prob),
             n_chains: mlt.n_chains,
             start_tries: (START_SEARCH * mlt.n_bootstrap as u64).max(START_SEARCH_MIN),
             spare: (0..n)
@@ -717,6 +735,7 @@ impl WorkerChains {
             stats.chains += 1;
         }
         depth_weights(chains, bootstrap, mlt.n_chains, &mut self.weights);
+        self.set_large_step_offsets(bootstrap);
     }
 
     /// Keeps every chain and evaluates its current state again through
@@ -789,6 +808,24 @@ impl WorkerChains {
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
+        self.set_large_step_offsets(bootstrap);
+    }
+
+    /// With large steps combined by MIS, sets each chain's p·b_d from
+    /// `bootstrap` (the b_d its depth's weight gives it).
+    fn set_large_step_offsets(&mut self, bootstrap: &Bootstrap) {
+        self.large_step_offsets.clear();
+        let Some(p) = self.large_step_mis else {
+            return;
+        };
+        for &(_, depth) in &self.chains {
+            let b_d = bootstrap
+                .depth_b()
+                .get(depth as usize - 1)
+                .copied()
+                .unwrap_or(0.0);
+            self.large_step_offsets.push((f64::from(p) * b_d) as f32);
+        }
     }
 
     /// Zeroes the counters, keeping the chains as they are (a new frame
@@ -860,6 +897,7 @@ impl WorkerChains {
         let WorkerChains {
             chains,
             weights,
+            large_step_offsets,
             seeds,
             ws,
             stats,
@@ -875,7 +913,8 @@ impl WorkerChains {
             let (chain, depth) = &mut chains[ci];
             let depth = *depth;
             let w = weights[ci];
-            let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
+            let offset = large_step_offsets.get(ci).copied();
+            let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s), offset);
             stats.record(&st);
             if st.large {
                 large_steps.add(depth, st.proposal_target);
