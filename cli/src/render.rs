@@ -72,24 +72,18 @@ impl RenderOutput {
     }
 
     /// b as the render's large steps estimate it, with its standard
-    /// error and the number of large steps, and b pooled from them and the
-    /// normalisation passes by sample counts
-    /// ([`LargeStepTally::pooled_b`]); `None` for PT and BDPT or without
-    /// large steps at some lit depth.
+    /// error and the number of large steps (a depth without large steps,
+    /// one with no chain, adds the passes' b_d without error), and b
+    /// pooled from them and the normalisation passes by sample counts
+    /// ([`LargeStepTally::pooled_b`]); `None` for PT and BDPT.
     pub fn large_step_b(&self) -> Option<LargeStepB> {
         let (t, boot) = (self.large_steps.as_ref()?, self.bootstrap.as_ref()?);
         let (mut b, mut var, mut n) = (0.0, 0.0, 0);
-        for d in 1..=t.depths() {
+        for (i, &b_pass) in boot.depth_b().iter().enumerate() {
+            let d = i as u32 + 1;
             n += t.count(d);
-            let lit = boot.depth_b().get(d as usize - 1).is_some_and(|&b| b > 0.0);
-            match (t.depth_b(d), t.depth_b_error(d)) {
-                (Some(bd), Some(e)) => {
-                    b += bd;
-                    var += e * e;
-                }
-                _ if lit => return None,
-                _ => {}
-            }
+            b += t.depth_b(d).unwrap_or(b_pass);
+            var += t.depth_b_error(d).map_or(0.0, |e| e * e);
         }
         Some(LargeStepB {
             b,

@@ -57,6 +57,7 @@ mod lanes;
 mod large_steps;
 mod level2;
 mod multiple_try;
+mod path_space;
 mod perturbation;
 mod primary;
 mod target;
