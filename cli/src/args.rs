@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Command};
 use cmlt::integrator::Settings;
-use cmlt::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
+use cmlt::mlt::{Candidates, CmltSettings, Level1, Level2Settings, MltSettings, Splatting};
 use cmlt::renderer::{Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
@@ -154,6 +154,11 @@ impl EstimatorArgs {
 #[derive(Args, Debug)]
 #[command(next_help_heading = "MLT and CMLT")]
 pub struct MltArgs {
+    /// The space level 1's chains mutate in: primary (Kelemen et al.'s
+    /// primary sample space) or path (Veach's path space with the
+    /// bidirectional mutation; MLT only, scenes lit by area emitters).
+    #[arg(long, default_value = "primary", value_parser = parse_level1)]
+    pub level1: Level1,
     /// Markov chains per thread.
     #[arg(long, default_value_t = MltSettings::default().n_chains)]
     pub chains: u32,
@@ -198,6 +203,7 @@ impl MltArgs {
             return Err("--bootstrap must be at least 1".to_string());
         }
         let mlt = MltSettings {
+            level1: self.level1,
             n_bootstrap: self.bootstrap,
             b_passes: self.b_passes,
             b_min_samples: self.b_min_samples,
@@ -444,6 +450,15 @@ pub fn parse_candidates(s: &str) -> Result<Candidates, String> {
         _ => Err(format!(
             "unknown candidates '{s}' (expected independent or stratified)"
         )),
+    }
+}
+
+/// `--level1`: `primary` or `path`.
+pub fn parse_level1(s: &str) -> Result<Level1, String> {
+    match s {
+        "primary" => Ok(Level1::PrimarySample),
+        "path" => Ok(Level1::PathSpace),
+        _ => Err(format!("unknown level 1 '{s}' (expected primary or path)")),
     }
 }
 

@@ -20,6 +20,8 @@
 //! - `level2`: the side chain run from a level-1 state, by its class;
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
+//! - `path_space`: the path-space level 1 ([`Level1::PathSpace`]: Veach's
+//!   path states, start-up and bidirectional mutation, its chains);
 //! - `perturbation`: which perturbation applies to a path and the
 //!   specular-chain retracing they share; `perturbation::{lens, caustic,
 //!   multi_chain}`: the three perturbations;
@@ -72,6 +74,7 @@ pub(crate) use primary::PrimarySampler;
 
 use chain::{Chain, Step};
 use level2::Level2;
+use path_space::worker::PathChains;
 use perturbation::Applicable;
 
 use alloc::vec::Vec;
@@ -135,9 +138,7 @@ pub struct MltSettings {
     pub large_step_mis: bool,
 }
 
-/// The space the level-1 chains mutate in: one variant today, the field
-/// that a second level-1 strategy (mutations of the path's vertices in
-/// path space) will select.
+/// The space the level-1 chains mutate in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum Level1 {
@@ -146,6 +147,13 @@ pub enum Level1 {
     /// path (`mlt/primary.rs`).
     #[default]
     PrimarySample,
+    /// Veach's path space: a chain's state is a path's vertices, mutated
+    /// by the bidirectional mutation (`mlt/path_space/`). So far MLT only:
+    /// CMLT's level 2 over it, the lens-subpath mutation and the
+    /// perturbations as level-1 mutations are not built, and only scenes
+    /// lit by area emitters alone are rendered right
+    /// ([`path_space_supports`]; the renderer does not check).
+    PathSpace,
 }
 
 impl Default for MltSettings {
@@ -337,8 +345,20 @@ impl CmltSettings {
     /// Checks both levels; the message names the first bad parameter.
     pub fn validate(&self) -> Result<(), &'static str> {
         self.mlt.validate()?;
+        if self.mlt.level1 == Level1::PathSpace {
+            return Err("CMLT's level 2 over the path-space level 1 is not built yet");
+        }
         self.level2.validate()
     }
+}
+
+/// Whether the path-space level 1 ([`Level1::PathSpace`]) can render
+/// `scene`: only area emitters light it (its mutations make paths that end
+/// on an emitter's surface; a point, spot, directional or environment
+/// light's paths would be missing from the image, not its share of b). The
+/// CLI and the C API refuse the path-space level 1 for other scenes.
+pub fn path_space_supports(scene: &crate::scene::Scene) -> bool {
+    scene.lights.others().next().is_none()
 }
 
 /// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, four passes
@@ -394,8 +414,13 @@ pub struct MltStats {
     pub large_proposed: u64,
     /// Large-step proposals accepted.
     pub large_accepted: u64,
-    /// Proposals with zero (or non-finite) contribution.
+    /// Proposals with zero (or non-finite) contribution (path space: also
+    /// moves that made no path).
     pub zero_proposals: u64,
+    /// Path-space level 1: bidirectional mutations proposed.
+    pub bidirectional_proposed: u64,
+    /// Path-space level 1: bidirectional mutations accepted.
+    pub bidirectional_accepted: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
     /// divides by).
@@ -435,6 +460,8 @@ impl MltStats {
         self.large_proposed += o.large_proposed;
         self.large_accepted += o.large_accepted;
         self.zero_proposals += o.zero_proposals;
+        self.bidirectional_proposed += o.bidirectional_proposed;
+        self.bidirectional_accepted += o.bidirectional_accepted;
         self.records += o.records;
         self.lens_steps += o.lens_steps;
         self.lens_accepted += o.lens_accepted;
@@ -475,6 +502,11 @@ impl MltStats {
     /// Fraction of small steps accepted (0 when none).
     pub fn small_acceptance(&self) -> f64 {
         ratio(self.small_accepted, self.small_proposed)
+    }
+
+    /// Fraction of bidirectional mutations accepted (0 when none).
+    pub fn bidirectional_acceptance(&self) -> f64 {
+        ratio(self.bidirectional_accepted, self.bidirectional_proposed)
     }
 
     /// Fraction of large steps accepted (0 when none).
@@ -613,6 +645,9 @@ pub(crate) struct WorkerChains {
     /// order ([`WorkerChains::advance`]).
     next: usize,
     strided: bool,
+    /// The path-space level 1's chains, in place of `chains`
+    /// ([`Level1::PathSpace`]), with the worker they were started for.
+    path_space: Option<(PathChains, u64, u64)>,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -629,7 +664,9 @@ impl WorkerChains {
         level2: Option<&Level2Settings>,
         camera: &Camera,
     ) -> Self {
-        let n = mlt.n_chains as usize;
+        let path_space = mlt.level1 == Level1::PathSpace;
+        // The primary-sample chains' storage, unused by path-space ones.
+        let n = if path_space { 0 } else { mlt.n_chains as usize };
         let depth = depths(settings);
         let max_vertices = depth as usize + 1;
         let level2 = level2
@@ -660,6 +697,8 @@ impl WorkerChains {
             proposal_path: Vec::with_capacity(if l2 { max_vertices } else { 0 }),
             next: 0,
             strided: false,
+            path_space: (mlt.level1 == Level1::PathSpace)
+                .then(|| (PathChains::with_capacity(settings, mlt), 0, 1)),
         }
     }
 
@@ -684,6 +723,9 @@ impl WorkerChains {
         worker: u64,
         workers: u64,
     ) {
+        if self.restart_path_space(tracer, settings, bootstrap, seed, worker, workers) {
+            return;
+        }
         let WorkerChains {
             chains,
             spare,
@@ -743,6 +785,38 @@ impl WorkerChains {
         self.set_large_step_offsets(bootstrap);
     }
 
+    /// [`WorkerChains::restart`] for the path-space level 1: false (and
+    /// nothing done) for the primary-sample one.
+    fn restart_path_space<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        bootstrap: &Bootstrap,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+    ) -> bool {
+        let Some((ps, w, w_count)) = &mut self.path_space else {
+            return false;
+        };
+        (*w, *w_count) = (worker, workers);
+        self.next = 0;
+        self.stats = MltStats::default();
+        self.large_steps.clear();
+        ps.restart(
+            tracer,
+            settings,
+            &mut self.ws,
+            bootstrap,
+            self.start_tries,
+            seed,
+            worker,
+            workers,
+            &mut self.stats,
+        );
+        true
+    }
+
     /// Keeps every chain and evaluates its current state again through
     /// `tracer` (a new camera or scene): the temporal alternative to
     /// [`WorkerChains::restart`] (the chains keep their depths and random
@@ -761,6 +835,12 @@ impl WorkerChains {
         bootstrap: &Bootstrap,
         seed: u64,
     ) {
+        if let Some((_, worker, workers)) = self.path_space {
+            // A path's lens point is the old camera's: the chains start
+            // afresh from the bootstrap under the new view.
+            self.restart_path_space(tracer, settings, bootstrap, seed, worker, workers);
+            return;
+        }
         let WorkerChains {
             chains,
             seeds,
@@ -837,7 +917,7 @@ impl WorkerChains {
     /// through the same camera).
     pub(crate) fn reset_stats(&mut self) {
         self.stats = MltStats {
-            chains: self.chains.len() as u64,
+            chains: self.chain_count() as u64,
             ..MltStats::default()
         };
         self.large_steps.clear();
@@ -845,7 +925,10 @@ impl WorkerChains {
 
     /// Number of chains (mutations per round).
     pub(crate) fn chain_count(&self) -> usize {
-        self.chains.len()
+        match &self.path_space {
+            Some((ps, ..)) => ps.len(),
+            None => self.chains.len(),
+        }
     }
 
     /// Runs `rounds` rounds — one mutation of every chain, in chain order,
@@ -863,7 +946,7 @@ impl WorkerChains {
     ) -> u64 {
         let mut done = 0;
         for _ in 0..rounds {
-            let left = self.chains.len() - self.next;
+            let left = self.chain_count() - self.next;
             done += self.advance(tracer, settings, film, left, false);
         }
         done
@@ -890,7 +973,7 @@ impl WorkerChains {
         count: usize,
         strided: bool,
     ) -> u64 {
-        let n = self.chains.len();
+        let n = self.chain_count();
         if n == 0 {
             return 0;
         }
@@ -899,6 +982,17 @@ impl WorkerChains {
         }
         let stride = if self.strided { coprime_stride(n) } else { 1 };
         let end = (self.next + count).min(n);
+        if let Some((ps, ..)) = &mut self.path_space {
+            for k in self.next..end {
+                let st = ps.step(k * stride % n, tracer, &mut self.stats);
+                for sp in st.proposal.into_iter().chain(st.current) {
+                    film.add_splat(sp.raster, sp.value);
+                }
+            }
+            let done = end - self.next;
+            self.next = if end == n { 0 } else { end };
+            return done as u64;
+        }
         let WorkerChains {
             chains,
             weights,

@@ -26,7 +26,8 @@ pub(crate) struct PathStep {
     pub acceptance: f32,
     /// Whether the proposal became the current path.
     pub accepted: bool,
-    /// The proposal's depth (0 when none was made).
+    /// The proposal's depth (0 when none was made: ȳ = x̄, or the move
+    /// failed).
     pub proposal_depth: usize,
 }
 
@@ -48,21 +49,36 @@ pub(crate) struct PathChain {
 const MUTATION_STREAM: u64 = 0x5041;
 
 impl PathChain {
-    /// A chain at `start` (a contributing path), with room for paths of
-    /// `max_depth` segments, its random numbers from `seed`.
-    pub fn new(start: PathState, max_depth: u32, seed: u64) -> Self {
+    /// A chain with room for paths of `max_depth` segments, to be started
+    /// by filling [`PathChain::current_mut`] and calling
+    /// [`PathChain::start`].
+    pub fn with_capacity(max_depth: u32) -> Self {
         PathChain {
-            current: start,
+            current: PathState::with_capacity(max_depth),
             proposal: PathState::with_capacity(max_depth),
-            seed,
+            seed: 0,
             iteration: 0,
-            rng: Pcg32::new(mix64(seed ^ 0x9A7B_0000), mix64(seed)),
+            rng: Pcg32::new(0, 0),
         }
     }
 
+    /// Starts the chain at its current path (which must contribute), its
+    /// random numbers from `seed`.
+    pub fn start(&mut self, seed: u64) {
+        self.seed = seed;
+        self.iteration = 0;
+        self.rng = Pcg32::new(mix64(seed ^ 0x9A7B_0000), mix64(seed));
+    }
+
     /// The current path.
+    #[cfg(test)]
     pub fn current(&self) -> &PathState {
         &self.current
+    }
+
+    /// The current path, for a start.
+    pub fn current_mut(&mut self) -> &mut PathState {
+        &mut self.current
     }
 
     /// One bidirectional mutation with its expected-value records.

@@ -6,22 +6,22 @@
 //! density T(x̄→ȳ) in that measure and is accepted with probability
 //! min(1, f(ȳ)T(ȳ→x̄) / (f(x̄)T(x̄→ȳ))).
 //!
-//! What exists: the measure every mutation's ratio is made of,
-//! f(x̄) and the area densities with which BDPT's strategies generate each
-//! vertex ([`crate::integrator::bdpt::path_contribution`],
-//! [`crate::integrator::bdpt::path_densities`]), checked here against
-//! BDPT's own unweighted strategy estimates (`tests`). Not yet: the
-//! state and start-up, the bidirectional and lens-subpath mutations, the
-//! perturbations as level-1 mutations, the chain and its selection by
-//! `Level1`.
-
-// Not yet driven by the renderer: its tests use it (the chain's wiring
-// behind `Level1` is the next step).
-#![cfg_attr(not(test), allow(dead_code))]
+//! What exists: the measure every mutation's ratio is made of, f(x̄) and
+//! the area densities with which BDPT's strategies generate each vertex
+//! ([`crate::integrator::bdpt::path_contribution`],
+//! [`crate::integrator::bdpt::path_densities`]); the state and Veach's
+//! start-up (`state`); the bidirectional mutation (`bidirectional`); the
+//! chain with expected-value records (`chain`); a worker's chains as the
+//! renderer drives them (`worker`), selected by [`super::Level1::PathSpace`]
+//! for MLT. Not yet: the lens-subpath mutation, the lens, caustic and
+//! multi-chain perturbations as level-1 mutations with selection by path
+//! type, CMLT's level 2 over path-space states (refused by
+//! [`super::CmltSettings::validate`]), lights other than area emitters.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
 pub(crate) mod state;
+pub(crate) mod worker;
 
 #[cfg(all(test, feature = "std"))]
 mod tests;

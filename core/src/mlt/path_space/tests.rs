@@ -200,7 +200,9 @@ fn furnace_chains(broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
     let (mut depths, mut blocks) = ([0.0f64; 4], [0.0f64; 12]);
     for c in 0..64u64 {
         let start = start_path(&mut tracer, 1 + (c % 4) as usize, 1000 * c);
-        let mut chain = PathChain::new(start, 4, 0xC0 + c);
+        let mut chain = PathChain::with_capacity(4);
+        *chain.current_mut() = start;
+        chain.start(0xC0 + c);
         for i in 0..20_500 {
             let from = chain.current().depth();
             let st = chain.step(&mut tracer, &mut mutation);

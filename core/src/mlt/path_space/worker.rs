@@ -1,0 +1,127 @@
+//! A worker's path-space chains ([`crate::mlt::Level1::PathSpace`]), driven
+//! by `WorkerChains` as it drives the primary-sample ones.
+//!
+//! A path-space chain moves between depths (the bidirectional mutation
+//! changes the path's length), so its stationary distribution is Y(f(x̄))
+//! over all depths 1 … D together, normalised by b = Σ_d b_d: every chain
+//! weighs the same, and a record of unit luminance scales by b·P/N like
+//! the primary-sample ones ([`crate::mlt::image_scale`]). The chains'
+//! starting depths are the same systematic sample of the depths as the
+//! primary-sample chains' (`chain_depth_at`), each start a bootstrap
+//! sample of its depth picked ∝ Y (`state.rs`: Veach's start-up).
+
+use alloc::vec::Vec;
+
+use rand_pcg::Pcg32;
+
+use super::super::{
+    Bootstrap, MltSettings, MltStats, PrimarySampler, chain_seed, depths, mix64, start_sample,
+    target, uniform_f64,
+};
+use super::bidirectional::Bidirectional;
+use super::chain::{PathChain, PathStep};
+use crate::accel::Intersector;
+use crate::integrator::{Settings, Tracer, bdpt};
+
+/// A worker's path-space chains and the storage they mutate with.
+pub(crate) struct PathChains {
+    /// Room for `n_chains` chains; the first `live` run.
+    chains: Vec<PathChain>,
+    live: usize,
+    mutation: Bidirectional,
+    /// Replays bootstrap samples for the starts.
+    sampler: PrimarySampler,
+}
+
+impl PathChains {
+    /// Storage for `mlt.n_chains` chains at `settings`' depths: after this
+    /// nothing is allocated.
+    pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
+        let depth = depths(settings);
+        PathChains {
+            chains: (0..mlt.n_chains)
+                .map(|_| PathChain::with_capacity(depth))
+                .collect(),
+            live: 0,
+            mutation: Bidirectional::new(depth),
+            sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
+        }
+    }
+
+    /// Chains running.
+    pub fn len(&self) -> usize {
+        self.live
+    }
+
+    /// Starts the chains of worker `worker` of `workers` afresh (the same
+    /// depths and bootstrap picks as the primary-sample chains of the same
+    /// seed would get), counting them in `stats`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restart<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        ws: &mut bdpt::PathStorage,
+        bootstrap: &Bootstrap,
+        start_tries: u64,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+        stats: &mut MltStats,
+    ) {
+        self.live = 0;
+        let workers = workers.max(1);
+        let n = self.chains.len() as u64;
+        let total = n * workers;
+        let offset = uniform_f64(&mut Pcg32::new(mix64(seed ^ 0x0FF5_E700), 7));
+        for c in 0..n {
+            let global = worker + workers * c;
+            let Some(depth) = bootstrap.chain_depth_at((global as f64 + offset) / total as f64)
+            else {
+                break;
+            };
+            let cs = chain_seed(seed, worker, c);
+            let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            let sampler = &mut self.sampler;
+            let u = uniform_f64(&mut rng);
+            let start = start_sample(bootstrap, depth, u, start_tries, &mut rng, |i| {
+                sampler.restart(bootstrap.seed_of(i));
+                target::evaluate(tracer, settings, ws, depth, sampler).target() > 0.0
+            });
+            let Some(index) = start else {
+                continue;
+            };
+            let chain = &mut self.chains[self.live];
+            let started = chain.current_mut().start(
+                tracer,
+                settings,
+                ws,
+                &mut self.sampler,
+                bootstrap,
+                depth,
+                index,
+            );
+            if started {
+                chain.start(cs);
+                self.live += 1;
+                stats.chains += 1;
+            }
+        }
+    }
+
+    /// One bidirectional mutation of chain `ci`, counted in `stats`.
+    pub fn step<I: Intersector>(
+        &mut self,
+        ci: usize,
+        tracer: &mut Tracer<'_, I>,
+        stats: &mut MltStats,
+    ) -> PathStep {
+        let st = self.chains[ci].step(tracer, &mut self.mutation);
+        stats.mutations += 1;
+        stats.records += 1;
+        stats.bidirectional_proposed += 1;
+        stats.bidirectional_accepted += st.accepted as u64;
+        stats.zero_proposals += (st.proposal_depth == 0) as u64;
+        st
+    }
+}
