@@ -92,7 +92,15 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
         mean.b,
         output.display()
     );
-    if let Some(ls) = out.large_step_b() {
+    if m.bidirectional_proposed > 0 {
+        println!(
+            "path space: {} bidirectional mutations, {:.1}% accepted, {:.1}% made no path",
+            m.bidirectional_proposed,
+            100.0 * m.bidirectional_acceptance(),
+            100.0 * m.zero_fraction()
+        );
+    }
+    if let Some(ls) = out.large_step_b().filter(|ls| ls.count > 0) {
         println!(
             "b: passes {:.5}, large steps {:.5} ± {:.5} ({} large steps), pooled by sample counts {:.5}",
             out.stats.b, ls.b, ls.error, ls.count, ls.pooled

@@ -6,9 +6,12 @@
 //! over all depths 1 … D together, normalised by b = Σ_d b_d: every chain
 //! weighs the same, and a record of unit luminance scales by b·P/N like
 //! the primary-sample ones ([`crate::mlt::image_scale`]). The chains'
-//! starting depths are the same systematic sample of the depths as the
-//! primary-sample chains' (`chain_depth_at`), each start a bootstrap
-//! sample of its depth picked ∝ Y (`state.rs`: Veach's start-up).
+//! starting depths are a systematic sample of the depths by b_d / b (not
+//! the primary-sample chains' allocation, which gives emitters seen
+//! directly fewer chains and weighs them back: a path-space chain leaves
+//! its depth, so only a start ∝ Y(f) over all depths is stationary), each
+//! start a bootstrap sample of its depth picked ∝ Y (`state.rs`: Veach's
+//! start-up).
 
 use alloc::vec::Vec;
 
@@ -22,6 +25,24 @@ use super::bidirectional::Bidirectional;
 use super::chain::{PathChain, PathStep};
 use crate::accel::Intersector;
 use crate::integrator::{Settings, Tracer, bdpt};
+
+/// The depth at position `u` ∈ [0, 1) of the split of b into the b_d
+/// (`None` when b = 0).
+fn depth_at(bootstrap: &Bootstrap, u: f64) -> Option<u32> {
+    let b = bootstrap.b();
+    if !(b > 0.0) {
+        return None;
+    }
+    let mut acc = 0.0;
+    let depth_b = bootstrap.depth_b();
+    for (i, &b_d) in depth_b.iter().enumerate() {
+        acc += b_d / b;
+        if u < acc && b_d > 0.0 {
+            return Some(i as u32 + 1);
+        }
+    }
+    depth_b.iter().rposition(|&b_d| b_d > 0.0).map(|i| i as u32 + 1)
+}
 
 /// A worker's path-space chains and the storage they mutate with.
 pub(crate) struct PathChains {
@@ -76,8 +97,7 @@ impl PathChains {
         let offset = uniform_f64(&mut Pcg32::new(mix64(seed ^ 0x0FF5_E700), 7));
         for c in 0..n {
             let global = worker + workers * c;
-            let Some(depth) = bootstrap.chain_depth_at((global as f64 + offset) / total as f64)
-            else {
+            let Some(depth) = depth_at(bootstrap, (global as f64 + offset) / total as f64) else {
                 break;
             };
             let cs = chain_seed(seed, worker, c);
