@@ -92,11 +92,13 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
         mean.b,
         output.display()
     );
-    if m.bidirectional_proposed > 0 {
+    if m.bidirectional_proposed + m.lens_subpath_proposed > 0 {
         println!(
-            "path space: {} bidirectional mutations, {:.1}% accepted, {:.1}% made no path",
+            "path space: {} bidirectional mutations ({:.1}% accepted), {} lens subpath mutations ({:.1}% accepted); {:.1}% made no path",
             m.bidirectional_proposed,
             100.0 * m.bidirectional_acceptance(),
+            m.lens_subpath_proposed,
+            100.0 * m.lens_subpath_acceptance(),
             100.0 * m.zero_fraction()
         );
     }

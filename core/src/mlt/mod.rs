@@ -421,6 +421,10 @@ pub struct MltStats {
     pub bidirectional_proposed: u64,
     /// Path-space level 1: bidirectional mutations accepted.
     pub bidirectional_accepted: u64,
+    /// Path-space level 1: lens subpath mutations proposed.
+    pub lens_subpath_proposed: u64,
+    /// Path-space level 1: lens subpath mutations accepted.
+    pub lens_subpath_accepted: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
     /// divides by).
@@ -462,6 +466,8 @@ impl MltStats {
         self.zero_proposals += o.zero_proposals;
         self.bidirectional_proposed += o.bidirectional_proposed;
         self.bidirectional_accepted += o.bidirectional_accepted;
+        self.lens_subpath_proposed += o.lens_subpath_proposed;
+        self.lens_subpath_accepted += o.lens_subpath_accepted;
         self.records += o.records;
         self.lens_steps += o.lens_steps;
         self.lens_accepted += o.lens_accepted;
@@ -507,6 +513,11 @@ impl MltStats {
     /// Fraction of bidirectional mutations accepted (0 when none).
     pub fn bidirectional_acceptance(&self) -> f64 {
         ratio(self.bidirectional_accepted, self.bidirectional_proposed)
+    }
+
+    /// Fraction of lens subpath mutations accepted (0 when none).
+    pub fn lens_subpath_acceptance(&self) -> f64 {
+        ratio(self.lens_subpath_accepted, self.lens_subpath_proposed)
     }
 
     /// Fraction of large steps accepted (0 when none).

@@ -112,6 +112,10 @@ pub(crate) enum Broken {
     /// Without the probabilities of the deleted and added lengths, which
     /// differ between a move and its reverse.
     NoLengths,
+    /// The chain's ratio without the mutations' selection probabilities,
+    /// which differ between a path the lens subpath mutation applies to
+    /// and one it does not.
+    NoSelection,
 }
 
 /// Veach's deletion weight p_d(k_d).
@@ -455,7 +459,7 @@ fn lens_vertex(p: glam::Vec3, forward: glam::Vec3) -> PathVertex {
 }
 
 /// A surface vertex a walk reached.
-fn surface_vertex(sh: crate::integrator::tracer::Shading) -> PathVertex {
+pub(super) fn surface_vertex(sh: crate::integrator::tracer::Shading) -> PathVertex {
     PathVertex {
         sp: sh.sp,
         shading: Some(sh),
@@ -473,7 +477,7 @@ fn emission_ray(sp: &SurfacePoint, u: Vec2) -> crate::geometry::Ray {
 /// The ray BSDF sampling sends from `v`, reached from `from`, in `mode`;
 /// `None` when the BSDF absorbs or a mixed BSDF's Dirac lobe is drawn
 /// (f(x̄) cannot evaluate it).
-fn scatter_ray<I: Intersector>(
+pub(super) fn scatter_ray<I: Intersector>(
     tr: &mut Tracer<'_, I>,
     v: &PathVertex,
     from: &PathVertex,

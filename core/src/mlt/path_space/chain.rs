@@ -1,14 +1,23 @@
-//! The path-space level-1 chain: Metropolis–Hastings over paths with the
-//! bidirectional mutation, a = min(1, Y(f(ȳ))T(ȳ→x̄) / (Y(f(x̄))T(x̄→ȳ))),
-//! and expected-value splatting (Veach 1997, §11.3.4): the proposal
+//! The path-space level-1 chain: Metropolis–Hastings over paths with
+//! Veach's mutations, a = min(1, Y(f(ȳ))T(ȳ→x̄) / (Y(f(x̄))T(x̄→ȳ))), and
+//! expected-value splatting (Veach 1997, §11.3.4): the proposal
 //! recorded with a, the current path with 1 − a, each as f/Y at its raster
 //! position, one unit of luminance per mutation — the records of the
 //! primary-sample chain (`mlt/chain.rs`), normalised the same way by b.
+//!
+//! Mutation selection: the lens subpath mutation with probability ½ when
+//! it applies to the current path (`lens_subpath.rs`), else the
+//! bidirectional one. The lens subpath mutation applies to all or none of
+//! a path and its proposals, so its ratio is its densities'; the
+//! bidirectional mutation may join a path it applies to with one it does
+//! not, so its ratio also has the selection probabilities p_b(ȳ)/p_b(x̄)
+//! (T(x̄→ȳ) includes choosing the mutation).
 
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 
 use super::bidirectional::{Bidirectional, Proposal};
+use super::lens_subpath::{self, LensSubpath};
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
@@ -29,6 +38,18 @@ pub(crate) struct PathStep {
     /// The proposal's depth (0 when none was made: ȳ = x̄, or the move
     /// failed).
     pub proposal_depth: usize,
+    /// Whether the lens subpath mutation (rather than the bidirectional
+    /// one) made the proposal.
+    pub lens_subpath: bool,
+}
+
+/// The probability of the lens subpath mutation at `path`.
+fn lens_probability(path: &[crate::integrator::bdpt::PathVertex]) -> f32 {
+    if lens_subpath::applies(path).is_some() {
+        0.5
+    } else {
+        0.0
+    }
 }
 
 /// One path-space chain: its current path, the proposal's storage and its
@@ -81,15 +102,41 @@ impl PathChain {
         &mut self.current
     }
 
-    /// One bidirectional mutation with its expected-value records.
+    /// One mutation (lens subpath or bidirectional, see the module docs)
+    /// with its expected-value records.
     pub fn step<I: Intersector>(
         &mut self,
         tr: &mut Tracer<'_, I>,
-        mutation: &mut Bidirectional,
+        bidirectional: &mut Bidirectional,
+        lens: &mut LensSubpath,
     ) -> PathStep {
         self.iteration += 1;
         let mut stream = SampleStream::new(self.seed, self.iteration, MUTATION_STREAM);
-        let (_, outcome) = mutation.propose(tr, &self.current, &mut self.proposal, &mut stream);
+        let p_lens = lens_probability(&self.current.path);
+        let use_lens = stream.next_f32() < p_lens;
+        let outcome = if use_lens {
+            let t = lens_subpath::applies(&self.current.path).unwrap_or(0);
+            lens.propose(tr, &self.current, t, &mut self.proposal, &mut stream)
+        } else {
+            let (_, o) = bidirectional.propose(tr, &self.current, &mut self.proposal, &mut stream);
+            match o {
+                Proposal::Made { ratio } => {
+                    let selection = (1.0 - lens_probability(&self.proposal.path)) / (1.0 - p_lens);
+                    #[cfg(test)]
+                    let selection = if bidirectional.broken
+                        == Some(super::bidirectional::Broken::NoSelection)
+                    {
+                        1.0
+                    } else {
+                        selection
+                    };
+                    Proposal::Made {
+                        ratio: ratio * selection,
+                    }
+                }
+                other => other,
+            }
+        };
         let y_x = self.current.target();
         let (a, y_y) = match outcome {
             Proposal::Made { ratio } => {
@@ -122,6 +169,7 @@ impl PathChain {
             acceptance: a,
             accepted,
             proposal_depth,
+            lens_subpath: use_lens,
         }
     }
 }

@@ -20,6 +20,7 @@
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
+pub(crate) mod lens_subpath;
 pub(crate) mod state;
 pub(crate) mod worker;
 

@@ -7,6 +7,7 @@ use super::super::PrimarySampler;
 use super::super::tests::scenes;
 use super::bidirectional::{Bidirectional, Broken, Proposal};
 use super::chain::PathChain;
+use super::lens_subpath::LensSubpath;
 use super::state::PathState;
 use crate::accel::bvh::Bvh;
 use crate::integrator::bdpt::{self, path_contribution, path_densities, strategy_density};
@@ -186,17 +187,17 @@ fn bidirectional_density_is_the_proposal_density() {
     );
 }
 
-/// 64 path-space chains of 20 000 bidirectional mutations (after 500 of
-/// burn-in) on the grey furnace with paths of up to 4 segments: the share
-/// of the records' luminance at each depth, and in each 4×4 block of the
-/// 16×12 image.
-fn furnace_chains(broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
-    let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+/// 64 path-space chains of 20 000 mutations (after 500 of
+/// burn-in) on `scene` (a furnace) with paths of up to 4 segments: the
+/// share of the records' luminance at each depth, and in each 4×4 block of
+/// the 16×12 image.
+fn furnace_chains(scene: &Scene, broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
+    let mut tracer = Tracer::new(scene, &accel);
     let mut mutation = Bidirectional::new(4);
     mutation.broken = broken;
+    let mut lens = LensSubpath::new(4);
     let (mut depths, mut blocks) = ([0.0f64; 4], [0.0f64; 12]);
     for c in 0..64u64 {
         let start = start_path(&mut tracer, 1 + (c % 4) as usize, 1000 * c);
@@ -205,7 +206,7 @@ fn furnace_chains(broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
         chain.start(0xC0 + c);
         for i in 0..20_500 {
             let from = chain.current().depth();
-            let st = chain.step(&mut tracer, &mut mutation);
+            let st = chain.step(&mut tracer, &mut mutation, &mut lens);
             if i < 500 {
                 continue;
             }
@@ -224,27 +225,32 @@ fn furnace_chains(broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
 
 #[test]
 fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
-    // Le = 1 and albedo ½ everywhere: depth d carries b_d = 2^{1−d} of
-    // b = 1.875, over every pixel alike.
-    let (depths, blocks) = furnace_chains(None);
-    eprintln!("depth shares {depths:?}, blocks {blocks:?}");
-    for (i, &share) in depths.iter().enumerate() {
-        let want = libm::pow(0.5, i as f64) / 1.875;
-        assert!(
-            (share - want).abs() < 0.04 * want,
-            "depth {}: {share} vs {want}",
-            i + 1
-        );
-    }
-    for (i, &b) in blocks.iter().enumerate() {
-        assert!((b - 1.0).abs() < 0.05, "block {i}: {b}");
+    // Le = 1 and albedo ½ everywhere (walls, and the mirror sphere's
+    // reflectance): depth d carries b_d = 2^{1−d} of b = 1.875, over every
+    // pixel alike.
+    let grey = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let mirror = scenes::mirror_sphere_furnace();
+    for (name, scene) in [("grey", &grey), ("mirror", &mirror)] {
+        let (depths, blocks) = furnace_chains(scene, None);
+        eprintln!("{name}: depth shares {depths:?}, blocks {blocks:?}");
+        for (i, &share) in depths.iter().enumerate() {
+            let want = libm::pow(0.5, i as f64) / 1.875;
+            assert!(
+                (share - want).abs() < 0.04 * want,
+                "{name}, depth {}: {share} vs {want}",
+                i + 1
+            );
+        }
+        for (i, &b) in blocks.iter().enumerate() {
+            assert!((b - 1.0).abs() < 0.05, "{name}, block {i}: {b}");
+        }
     }
     // Negative control: T without the length probabilities, which a move
     // and its reverse weigh differently, gives the depths other shares.
     // (T of one split in place of Veach's sum, the other test's control,
     // happens to keep these shares on the furnace, where the splits'
     // densities are alike.)
-    let (wrong, _) = furnace_chains(Some(Broken::NoLengths));
+    let (wrong, _) = furnace_chains(&grey, Some(Broken::NoLengths));
     let off = wrong
         .iter()
         .enumerate()
@@ -252,6 +258,20 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
         .fold(0.0, f64::max);
     assert!(
         off > 0.1,
-        "a single split's density went unnoticed: {wrong:?}"
+        "the length probabilities went unnoticed: {wrong:?}"
+    );
+    // Negative control: the bidirectional mutation's ratio without the
+    // selection probabilities, on the mirror furnace, where the lens
+    // subpath mutation applies to some paths and not to others.
+    let (wrong, blocks) = furnace_chains(&mirror, Some(Broken::NoSelection));
+    let off = wrong
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| (s / (libm::pow(0.5, i as f64) / 1.875) - 1.0).abs())
+        .chain(blocks.iter().map(|&b| (b - 1.0).abs()))
+        .fold(0.0, f64::max);
+    assert!(
+        off > 0.1,
+        "the selection probabilities went unnoticed: {wrong:?} {blocks:?}"
     );
 }

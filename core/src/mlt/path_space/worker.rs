@@ -23,6 +23,7 @@ use super::super::{
 };
 use super::bidirectional::Bidirectional;
 use super::chain::{PathChain, PathStep};
+use super::lens_subpath::LensSubpath;
 use crate::accel::Intersector;
 use crate::integrator::{Settings, Tracer, bdpt};
 
@@ -41,7 +42,10 @@ fn depth_at(bootstrap: &Bootstrap, u: f64) -> Option<u32> {
             return Some(i as u32 + 1);
         }
     }
-    depth_b.iter().rposition(|&b_d| b_d > 0.0).map(|i| i as u32 + 1)
+    depth_b
+        .iter()
+        .rposition(|&b_d| b_d > 0.0)
+        .map(|i| i as u32 + 1)
 }
 
 /// A worker's path-space chains and the storage they mutate with.
@@ -50,6 +54,7 @@ pub(crate) struct PathChains {
     chains: Vec<PathChain>,
     live: usize,
     mutation: Bidirectional,
+    lens: LensSubpath,
     /// Replays bootstrap samples for the starts.
     sampler: PrimarySampler,
 }
@@ -65,6 +70,7 @@ impl PathChains {
                 .collect(),
             live: 0,
             mutation: Bidirectional::new(depth),
+            lens: LensSubpath::new(depth),
             sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
         }
     }
@@ -136,11 +142,16 @@ impl PathChains {
         tracer: &mut Tracer<'_, I>,
         stats: &mut MltStats,
     ) -> PathStep {
-        let st = self.chains[ci].step(tracer, &mut self.mutation);
+        let st = self.chains[ci].step(tracer, &mut self.mutation, &mut self.lens);
         stats.mutations += 1;
         stats.records += 1;
-        stats.bidirectional_proposed += 1;
-        stats.bidirectional_accepted += st.accepted as u64;
+        if st.lens_subpath {
+            stats.lens_subpath_proposed += 1;
+            stats.lens_subpath_accepted += st.accepted as u64;
+        } else {
+            stats.bidirectional_proposed += 1;
+            stats.bidirectional_accepted += st.accepted as u64;
+        }
         stats.zero_proposals += (st.proposal_depth == 0) as u64;
         st
     }
