@@ -478,7 +478,6 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         direct_allocation: c.direct_allocation,
         large_step_mis: c.large_step_mis != 0,
         level1,
-        ..MltSettings::default()
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(

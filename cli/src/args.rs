@@ -212,7 +212,6 @@ impl MltArgs {
             sigma: self.sigma,
             direct_allocation: self.direct_allocation,
             large_step_mis: self.large_step_mis,
-            ..MltSettings::default()
         };
         mlt.validate().map_err(|e| {
             format!(

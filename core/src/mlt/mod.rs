@@ -128,7 +128,7 @@ pub struct MltSettings {
     pub direct_allocation: f32,
     /// Whether the large steps' proposals are also recorded as independent
     /// samples, combined with the chain's records by MIS (Kelemen et al.
-    /// 2002, §4.1: weights (a + [large])/(Y/b_d + p) and (1 − a)/(Y/b_d +
+    /// 2002, §4.1: weights (a + 1{large})/(Y/b_d + p) and (1 − a)/(Y/b_d +
     /// p), b_d the chain's depth's normalisation; `mlt/chain.rs`). Same
     /// expectation; pixels the chains seldom visit get the large steps'
     /// BDPT samples. false = the records a and 1 − a only. On by default:

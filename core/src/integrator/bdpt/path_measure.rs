@@ -183,7 +183,7 @@ fn is_specular(v: &Vertex) -> bool {
     v.kind == Kind::Surface && v.local.is_some_and(|l| l.bsdf.is_delta())
 }
 
-/// The density p_{s,t}(x̄) = ∏_{i<t} fwd[i] · ∏_{i≥t} rev[i] of strategy
+/// The density p_{s,t}(x̄) = ∏_{i<t} `fwd[i]` · ∏_{i≥t} `rev[i]` of strategy
 /// (s, t), s + t = k + 1, from [`path_densities`]' values.
 pub fn strategy_density(fwd: &[f32], rev: &[f32], t: usize) -> f32 {
     let camera: f32 = fwd[..t].iter().product();
