@@ -157,11 +157,11 @@ fn cornell_box_mlt_without_large_steps_by_mis_matches_reference() {
     assert!(err < 0.05, "relMSE {err}");
 }
 
-/// The path-space level 1 (Veach's bidirectional mutation) converges to
-/// the Cornell box's reference: channel means within 2 % (or 3 standard
-/// errors of the renders' spread). Its error per mutation is far above the
-/// primary-sample level 1's (no lens-subpath mutation or perturbations
-/// yet), so only the means are checked.
+/// The path-space level 1 (Veach's bidirectional and lens subpath
+/// mutations) converges to the Cornell box's reference: channel means
+/// within 2 % (or 3 standard errors of the renders' spread). Its error per
+/// mutation is far above the primary-sample level 1's (no perturbations at
+/// level 1 yet), so only the means are checked.
 #[test]
 fn cornell_box_path_space_mlt_means_match_reference() {
     let mlt = Estimator::Mlt(MltSettings {

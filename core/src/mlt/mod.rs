@@ -21,7 +21,8 @@
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
 //! - `path_space`: the path-space level 1 ([`Level1::PathSpace`]: Veach's
-//!   path states, start-up and bidirectional mutation, its chains);
+//!   path states, start-up, bidirectional and lens subpath mutations, its
+//!   chains);
 //! - `perturbation`: which perturbation applies to a path and the
 //!   specular-chain retracing they share; `perturbation::{lens, caustic,
 //!   multi_chain}`: the three perturbations;
@@ -148,8 +149,8 @@ pub enum Level1 {
     #[default]
     PrimarySample,
     /// Veach's path space: a chain's state is a path's vertices, mutated
-    /// by the bidirectional mutation (`mlt/path_space/`). So far MLT only:
-    /// CMLT's level 2 over it, the lens-subpath mutation and the
+    /// by the bidirectional and lens subpath mutations
+    /// (`mlt/path_space/`). So far MLT only: CMLT's level 2 over it and the
     /// perturbations as level-1 mutations are not built, and only scenes
     /// lit by area emitters alone are rendered right
     /// ([`path_space_supports`]; the renderer does not check).

@@ -10,13 +10,16 @@
 //! the area densities with which BDPT's strategies generate each vertex
 //! ([`crate::integrator::bdpt::path_contribution`],
 //! [`crate::integrator::bdpt::path_densities`]); the state and Veach's
-//! start-up (`state`); the bidirectional mutation (`bidirectional`); the
-//! chain with expected-value records (`chain`); a worker's chains as the
-//! renderer drives them (`worker`), selected by [`super::Level1::PathSpace`]
-//! for MLT. Not yet: the lens-subpath mutation, the lens, caustic and
-//! multi-chain perturbations as level-1 mutations with selection by path
-//! type, CMLT's level 2 over path-space states (refused by
-//! [`super::CmltSettings::validate`]), lights other than area emitters.
+//! start-up (`state`); the bidirectional mutation (`bidirectional`) and the
+//! lens subpath mutation (`lens_subpath`); the chain with its mutation
+//! selection and expected-value records (`chain`); a worker's chains as
+//! the renderer drives them (`worker`), selected by
+//! [`super::Level1::PathSpace`] for MLT. Not yet: the lens, caustic and
+//! multi-chain perturbations as level-1 mutations (selection by path type
+//! beyond the lens subpath mutation's), CMLT's level 2 over path-space
+//! states (refused by [`super::CmltSettings::validate`]), lights other than
+//! area emitters, stratified raster positions for the lens subpath
+//! mutation.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
