@@ -55,6 +55,13 @@
 // the current state with 1 − a (unbiased).
 #define CMLT_SPLATTING_EXPECTED_VALUE 1
 
+// MLT: level 1 in Kelemen et al.'s primary sample space (the default).
+#define CMLT_LEVEL1_PRIMARY_SAMPLE 0
+
+// MLT: level 1 in Veach's path space, with the bidirectional mutation
+// (MLT only, not CMLT; scenes lit by area emitters only).
+#define CMLT_LEVEL1_PATH_SPACE 1
+
 // Every frame starts a new accumulation (the default).
 #define CMLT_ACCUMULATION_RESET 0
 
@@ -409,6 +416,13 @@ typedef struct cmlt_renderer_config {
   // (0, 1]: they get chains for the area that sees an emitter, at least
   // this share; 1 = chains in proportion to luminance at every depth.
   float direct_allocation;
+  // MLT: nonzero = record the large steps' proposals also as
+  // independent samples, combined with the chains' records by multiple
+  // importance sampling (Kelemen et al. 2002): same expectation, and
+  // pixels the chains seldom visit get the large steps' samples.
+  uint32_t large_step_mis;
+  // MLT: the space level 1 mutates in, a `CMLT_LEVEL1_*` value.
+  uint32_t level1;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -19,7 +19,9 @@ use std::sync::{Arc, RwLock};
 use cmlt_core::aov::{self, AovBuffers, AovFormat, AovLayer};
 use cmlt_core::film::PixelFormat;
 use cmlt_core::integrator::LobeCounts;
-use cmlt_core::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
+use cmlt_core::mlt::{
+    Candidates, CmltSettings, Level1, Level2Settings, MltSettings, Splatting, path_space_supports,
+};
 use cmlt_core::renderer::{
     Accumulation, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
     RendererConfig, Temporal,
@@ -55,6 +57,12 @@ pub const CMLT_SPLATTING_RECYCLED: u32 = 0;
 /// CMLT: each step records the chosen candidate with its acceptance a and
 /// the current state with 1 − a (unbiased).
 pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
+
+/// MLT: level 1 in Kelemen et al.'s primary sample space (the default).
+pub const CMLT_LEVEL1_PRIMARY_SAMPLE: u32 = 0;
+/// MLT: level 1 in Veach's path space, with the bidirectional mutation
+/// (MLT only, not CMLT; scenes lit by area emitters only).
+pub const CMLT_LEVEL1_PATH_SPACE: u32 = 1;
 
 /// Every frame starts a new accumulation (the default).
 pub const CMLT_ACCUMULATION_RESET: u32 = 0;
@@ -167,6 +175,13 @@ pub struct cmlt_renderer_config {
     /// (0, 1]: they get chains for the area that sees an emitter, at least
     /// this share; 1 = chains in proportion to luminance at every depth.
     pub direct_allocation: f32,
+    /// MLT: nonzero = record the large steps' proposals also as
+    /// independent samples, combined with the chains' records by multiple
+    /// importance sampling (Kelemen et al. 2002): same expectation, and
+    /// pixels the chains seldom visit get the large steps' samples.
+    pub large_step_mis: u32,
+    /// MLT: the space level 1 mutates in, a `CMLT_LEVEL1_*` value.
+    pub level1: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -328,6 +343,11 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         share: l2.share,
         normalisation_min_samples: mlt.b_min_samples,
         direct_allocation: mlt.direct_allocation,
+        large_step_mis: mlt.large_step_mis as u32,
+        level1: match mlt.level1 {
+            Level1::PathSpace => CMLT_LEVEL1_PATH_SPACE,
+            _ => CMLT_LEVEL1_PRIMARY_SAMPLE,
+        },
     }
 }
 
@@ -375,6 +395,8 @@ fn unread_field(
             MLT,
             f(c.direct_allocation, d.direct_allocation),
         ),
+        ("large_step_mis", MLT, c.large_step_mis == d.large_step_mis),
+        ("level1", MLT, c.level1 == d.level1),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
         ("k", CMLT, c.k == d.k),
@@ -430,6 +452,18 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         CMLT_SPLATTING_EXPECTED_VALUE => Splatting::ExpectedValue,
         other => return Err(Error::invalid(format!("unknown splatting {other}"))),
     };
+    let level1 = match c.level1 {
+        CMLT_LEVEL1_PRIMARY_SAMPLE => Level1::PrimarySample,
+        CMLT_LEVEL1_PATH_SPACE => {
+            if !path_space_supports(&scene.live()?.scene) {
+                return Err(Error::invalid(
+                    "the path-space level 1 renders scenes lit by area emitters only",
+                ));
+            }
+            Level1::PathSpace
+        }
+        other => return Err(Error::invalid(format!("unknown level 1 {other}"))),
+    };
     let mut settings = scene.settings;
     if c.max_depth > 0 {
         settings.max_depth = Some(c.max_depth);
@@ -442,7 +476,8 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         large_step_prob: c.large_step_probability,
         sigma: c.small_step_sigma,
         direct_allocation: c.direct_allocation,
-        ..MltSettings::default()
+        large_step_mis: c.large_step_mis != 0,
+        level1,
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(

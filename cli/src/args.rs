@@ -11,7 +11,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Command};
 use cmlt::integrator::Settings;
-use cmlt::mlt::{Candidates, CmltSettings, Level2Settings, MltSettings, Splatting};
+use cmlt::mlt::{Candidates, CmltSettings, Level1, Level2Settings, MltSettings, Splatting};
 use cmlt::renderer::{Accumulation, Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
@@ -154,6 +154,12 @@ impl EstimatorArgs {
 #[derive(Args, Debug)]
 #[command(next_help_heading = "MLT and CMLT")]
 pub struct MltArgs {
+    /// The space level 1's chains mutate in: primary (Kelemen et al.'s
+    /// primary sample space) or path (Veach's path space with the
+    /// bidirectional and lens subpath mutations; MLT only, scenes lit by
+    /// area emitters).
+    #[arg(long, default_value = "primary", value_parser = parse_level1)]
+    pub level1: Level1,
     /// Markov chains per thread.
     #[arg(long, default_value_t = MltSettings::default().n_chains)]
     pub chains: u32,
@@ -183,6 +189,12 @@ pub struct MltArgs {
     /// share; 1 = chains in proportion to luminance at every path depth.
     #[arg(long, default_value_t = MltSettings::default().direct_allocation)]
     pub direct_allocation: f32,
+    /// Record the large steps' proposals also as independent samples,
+    /// combined with the chains' records by multiple importance sampling
+    /// (Kelemen et al. 2002): same expectation, and pixels the chains
+    /// seldom visit get the large steps' samples.
+    #[arg(long, default_value_t = MltSettings::default().large_step_mis, action = clap::ArgAction::Set)]
+    pub large_step_mis: bool,
 }
 
 impl MltArgs {
@@ -192,6 +204,7 @@ impl MltArgs {
             return Err("--bootstrap must be at least 1".to_string());
         }
         let mlt = MltSettings {
+            level1: self.level1,
             n_bootstrap: self.bootstrap,
             b_passes: self.b_passes,
             b_min_samples: self.b_min_samples,
@@ -199,7 +212,7 @@ impl MltArgs {
             large_step_prob: self.large_step,
             sigma: self.sigma,
             direct_allocation: self.direct_allocation,
-            ..MltSettings::default()
+            large_step_mis: self.large_step_mis,
         };
         mlt.validate().map_err(|e| {
             format!(
@@ -443,6 +456,15 @@ pub fn parse_candidates(s: &str) -> Result<Candidates, String> {
         _ => Err(format!(
             "unknown candidates '{s}' (expected independent or stratified)"
         )),
+    }
+}
+
+/// `--level1`: `primary` or `path`.
+pub fn parse_level1(s: &str) -> Result<Level1, String> {
+    match s {
+        "primary" => Ok(Level1::PrimarySample),
+        "path" => Ok(Level1::PathSpace),
+        _ => Err(format!("unknown level 1 '{s}' (expected primary or path)")),
     }
 }
 

@@ -92,6 +92,22 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
         mean.b,
         output.display()
     );
+    if m.bidirectional_proposed + m.lens_subpath_proposed > 0 {
+        println!(
+            "path space: {} bidirectional mutations ({:.1}% accepted), {} lens subpath mutations ({:.1}% accepted); {:.1}% made no path",
+            m.bidirectional_proposed,
+            100.0 * m.bidirectional_acceptance(),
+            m.lens_subpath_proposed,
+            100.0 * m.lens_subpath_acceptance(),
+            100.0 * m.zero_fraction()
+        );
+    }
+    if let Some(ls) = out.large_step_b().filter(|ls| ls.count > 0) {
+        println!(
+            "b: passes {:.5}, large steps {:.5} ± {:.5} ({} large steps), pooled by sample counts {:.5}",
+            out.stats.b, ls.b, ls.error, ls.count, ls.pooled
+        );
+    }
     if level2 {
         println!(
             "level 2: {} lens steps ({:.1}% accepted), {} caustic steps ({:.1}% accepted), {} multi-chain steps ({:.1}% accepted), {} identity steps; zero candidates {:.1}%; {} packets, {:.2} lanes/packet, {:.1}% of rays in packets",

@@ -25,7 +25,7 @@ use cmlt::accel::backend::Accel;
 use cmlt::film::Film;
 use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
-use cmlt::mlt::{Bootstrap, MltStats};
+use cmlt::mlt::{Bootstrap, LargeStepTally, MltStats};
 pub use cmlt::renderer::Budget;
 use cmlt::renderer::{RenderError, RenderStats, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
@@ -40,10 +40,30 @@ pub struct RenderOutput {
     pub stats: RenderStats,
     /// The bootstrap (MLT, CMLT).
     pub bootstrap: Option<Bootstrap>,
+    /// The large steps of all workers by depth (MLT, CMLT): b as the
+    /// render's own large steps estimate it.
+    pub large_steps: Option<LargeStepTally>,
+    /// BDPT samples per depth behind the bootstrap's b (normalisation
+    /// passes × pixels; 0 without passes).
+    pub normalisation_samples: u64,
     /// Wall-clock time of the bootstrap (zero for PT and BDPT).
     pub bootstrap_wall: Duration,
     /// Wall-clock time of everything (bootstrap included).
     pub wall: Duration,
+}
+
+/// b from a render's large steps ([`RenderOutput::large_step_b`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LargeStepB {
+    /// Σ_d of the large steps' mean target value at depth d.
+    pub b: f64,
+    /// Its standard error.
+    pub error: f64,
+    /// Large steps over all depths.
+    pub count: u64,
+    /// b pooled from the large steps and the normalisation passes by
+    /// sample counts.
+    pub pooled: f64,
 }
 
 impl RenderOutput {
@@ -55,6 +75,28 @@ impl RenderOutput {
         } else {
             self.stats.passes as f64
         }
+    }
+
+    /// b as the render's large steps estimate it, with its standard
+    /// error and the number of large steps (a depth without large steps,
+    /// one with no chain, adds the passes' b_d without error), and b
+    /// pooled from them and the normalisation passes by sample counts
+    /// ([`LargeStepTally::pooled_b`]); `None` for PT and BDPT.
+    pub fn large_step_b(&self) -> Option<LargeStepB> {
+        let (t, boot) = (self.large_steps.as_ref()?, self.bootstrap.as_ref()?);
+        let (mut b, mut var, mut n) = (0.0, 0.0, 0);
+        for (i, &b_pass) in boot.depth_b().iter().enumerate() {
+            let d = i as u32 + 1;
+            n += t.count(d);
+            b += t.depth_b(d).unwrap_or(b_pass);
+            var += t.depth_b_error(d).map_or(0.0, |e| e * e);
+        }
+        Some(LargeStepB {
+            b,
+            error: var.sqrt(),
+            count: n,
+            pooled: t.pooled_b(boot.depth_b(), self.normalisation_samples),
+        })
     }
 
     /// The tracer's counters (rays, samples, packets, BSDF work).
@@ -357,10 +399,25 @@ fn render_inner(
         },
         stats: renderer.stats(&refs),
         bootstrap: metropolis.then(|| renderer.bootstrap().clone()),
+        large_steps: metropolis.then(|| merged_large_steps(&refs)).flatten(),
+        normalisation_samples: config.estimator.mlt().map_or(0, |m| {
+            let pixels = u64::from(w) * u64::from(h);
+            u64::from(m.normalisation_passes(pixels)) * pixels
+        }),
         bootstrap_wall,
         wall,
     };
     Ok((out, sums))
+}
+
+/// The workers' large-step tallies merged (`None` without chains).
+fn merged_large_steps(workers: &[&RenderWorker]) -> Option<LargeStepTally> {
+    let mut tallies = workers.iter().filter_map(|w| w.large_steps());
+    let mut all = tallies.next()?.clone();
+    for t in tallies {
+        all.merge(t);
+    }
+    Some(all)
 }
 
 /// The workers' films summed layer by layer in worker order, as

@@ -1,6 +1,7 @@
 #!/bin/sh
 # Equal-time comparison on Tungsten's Cornell box: Tungsten MMLT, our MLT (binaries given), our BDPT;
-# interleaved per seed (order rotated), wall time, CPU time and load recorded.
+# interleaved per seed (order rotated), wall time, CPU time and load recorded, and our b line (b from
+# the passes, the large steps and both pooled). A BINS path may be a wrapper script adding options.
 #   BUDGETS="10 30" SEEDS="1 2" BINS="before:PATH after:PATH" BDPT_BIN=PATH sh equal_time.sh TAG
 TAG=${1:-cmp}; SCENE=${SCENE:-cornell-box}
 S=scenes/$SCENE/scene.xml; O=out/$TAG; mkdir -p $O
@@ -12,7 +13,7 @@ for B in ${BUDGETS:-10 30}; do
     name=$1; shift; l=$(cut -d' ' -f1 /proc/loadavg)
     /usr/bin/time -f "%e %U %S" -o $O/t.txt "$@" > $O/log.txt 2>&1
     img=$(ls -t $O/${name}_${B}_s$seed.* | head -1)
-    echo "$TAG $name $B s$seed load $l wallcpu $(cat $O/t.txt | tail -1) $(grep -o '[0-9.]* mutations/pixel\|[0-9]* spp in\|bootstrap [0-9.]* s' $O/log.txt | tr '\n' ' ') passes $(grep -c ^Completed $O/log.txt) :: $(python3 score.py $SCENE $img | cut -c60-)"
+    echo "$TAG $name $B s$seed load $l wallcpu $(cat $O/t.txt | tail -1) $(grep -o '[0-9.]* mutations/pixel\|[0-9]* spp in\|bootstrap [0-9.]* s' $O/log.txt | tr '\n' ' ') passes $(grep -c ^Completed $O/log.txt) $(grep '^b:' $O/log.txt) :: $(python3 score.py $SCENE $img | cut -c60-)"
   }
   run tmmlt sh -c "cd $O && $T -t 2 -s $seed -e $PWD/$O/tmmlt_${B}_s$seed.pfm mmlt$B.json"
   for nb in ${BINS}; do n=${nb%%:*}; b=${nb#*:}

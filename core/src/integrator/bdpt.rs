@@ -32,6 +32,10 @@
 //! streams — camera subpath, light subpath, connection — which plain random
 //! streams ignore and the Metropolis sampler keeps apart.
 
+mod path_measure;
+
+pub use path_measure::{path_contribution, path_densities, strategy_density};
+
 use alloc::vec::Vec;
 
 use glam::{Vec2, Vec3};

@@ -15,6 +15,19 @@
 //! caller multiplies by b/N (times the pixel count, see
 //! [`super::image_scale`]).
 //!
+//! Large steps combined by multiple importance sampling (Kelemen et al.
+//! 2002, §4.1; Mitsuba 0.6's PSSMLT `kelemenStyleWeights`), optional: a
+//! large step's proposal is also an independent uniform sample of f, drawn
+//! with probability p per mutation, so the records form two estimators of
+//! the image: the chain's (density Y/b per mutation) and the large steps'
+//! (density p). Balance-heuristic weights over both give the proposal
+//! f·(a + [large])/(Y(y) + p·b) and the current state f·(1 − a)/(Y(x) +
+//! p·b), in the same units as f·a/Y (records times b/N). Per point z, the
+//! chain's expected records (Y/b)·f/(Y + p·b) and the large steps' p·f/(Y +
+//! p·b) add to f/b, what the plain records give: the expectation is the
+//! same, and pixels the chain rarely visits get the large steps' samples.
+//! A record's luminance is then no longer its weight.
+//!
 //! The chain is independent of what it samples: the target is any function
 //! of the sampler ([`Chain::step`] takes it as a closure), so tests can run
 //! it on toy densities and level 2 can build on it.
@@ -57,7 +70,8 @@ impl PathSample {
 pub(crate) struct Splat {
     /// Continuous raster position.
     pub raster: Vec2,
-    /// w · f / Y(f): luminance exactly w.
+    /// w · f / Y(f), luminance exactly w; with large steps combined by
+    /// MIS, w · f / (Y(f) + p·b).
     pub value: Rgb,
 }
 
@@ -169,8 +183,15 @@ impl Chain {
 
     /// One mutation: proposes (large or small step), evaluates the proposal
     /// with `eval`, accepts it with probability a = min(1, Y′/Y) and
-    /// returns both weighted records (expected-value splatting).
-    pub fn step(&mut self, eval: impl FnOnce(&mut PrimarySampler) -> PathSample) -> Step {
+    /// returns both weighted records (expected-value splatting). With
+    /// `large_step_offset` = Some(p·b) (p the large-step probability, b
+    /// the chain's normalisation), the records combine the large steps by
+    /// MIS (module docs); `None` gives the plain records a and 1 − a.
+    pub fn step(
+        &mut self,
+        eval: impl FnOnce(&mut PrimarySampler) -> PathSample,
+        large_step_offset: Option<f32>,
+    ) -> Step {
         self.sampler.start_iteration();
         let large = self.sampler.is_large_step();
         let proposal = eval(&mut self.sampler);
@@ -184,13 +205,22 @@ impl Chain {
         } else {
             (y_new / self.current_y).min(1.0)
         };
-        let proposal_splat = (a > 0.0).then(|| Splat {
-            raster: proposal.raster,
-            value: proposal.l * (a / y_new),
-        });
+        let (proposal_weight, current_weight) = match large_step_offset {
+            None => (a / y_new, (1.0 - a) / self.current_y),
+            Some(pb) => (
+                (a + if large { 1.0 } else { 0.0 }) / (y_new + pb),
+                (1.0 - a) / (self.current_y + pb),
+            ),
+        };
+        // A large step's proposal is recorded even if a = 0 by underflow.
+        let proposal_splat = (y_new > 0.0 && (a > 0.0 || large && large_step_offset.is_some()))
+            .then(|| Splat {
+                raster: proposal.raster,
+                value: proposal.l * proposal_weight,
+            });
         let current_splat = (a < 1.0 && self.current_y > 0.0).then(|| Splat {
             raster: self.current.raster,
-            value: self.current.l * ((1.0 - a) / self.current_y),
+            value: self.current.l * current_weight,
         });
         // a = 1 always accepts (u < 1), a = 0 never does.
         let u = (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0);
@@ -235,18 +265,24 @@ pub(super) mod tests {
         }
     }
 
-    fn run_toy(drop_current: bool) -> [f64; 16] {
-        // ∫ y = 1 + 1.5 + 2 = 4.5 (the normalisation b).
-        let b = 4.5f64;
+    /// The toy's normalisation b = ∫Y = 1 + 1.5 + 2.
+    const TOY_B: f64 = 4.5;
+    /// The toy chains' large-step probability.
+    const TOY_LARGE: f32 = 0.2;
+
+    /// The splatted histogram of 64 toy chains of 20 000 mutations, each
+    /// stepped with `large_step_offset`, normalised by the exact b;
+    /// `drop_current` leaves out the current states' records.
+    fn run_toy(drop_current: bool, large_step_offset: Option<f32>) -> [f64; 16] {
         let n_chains = 64;
         let steps = 20_000;
         let mut hist = [0.0f64; 16];
         for c in 0..n_chains {
-            let mut s = PrimarySampler::new(c, 0.05, 0.2);
+            let mut s = PrimarySampler::new(c, 0.05, TOY_LARGE);
             let init = toy(&mut s);
             let mut chain = Chain::new(s, init, 1000 + c);
             for _ in 0..steps {
-                let st = chain.step(toy);
+                let st = chain.step(toy, large_step_offset);
                 let rec: &[Option<Splat>] = if drop_current {
                     &[st.proposal]
                 } else {
@@ -259,28 +295,56 @@ pub(super) mod tests {
             }
         }
         let n = (n_chains * steps) as f64;
-        hist.map(|h| h * b / n * 16.0)
+        hist.map(|h| h * TOY_B / n * 16.0)
+    }
+
+    /// Cell (i, j) of the 4×4 grid: mean of 1 + 3x + 8[y > ¾] over it.
+    fn toy_cell(i: usize, j: usize) -> f64 {
+        1.0 + 3.0 * (i as f64 + 0.5) / 4.0 + if j == 3 { 8.0 } else { 0.0 }
+    }
+
+    fn assert_matches_toy(hist: &[f64; 16], what: &str) {
+        for j in 0..4 {
+            for i in 0..4 {
+                let (h, e) = (hist[j * 4 + i], toy_cell(i, j));
+                assert!(
+                    (h - e).abs() / e < 0.03,
+                    "{what}: cell ({i},{j}): {h} vs {e}"
+                );
+            }
+        }
     }
 
     #[test]
     fn toy_target_histogram_matches_density() {
-        // Cell (i, j) of the 4×4 grid: mean of 1 + 3x + 8[y > ¾] over it.
-        let exact = |i: usize, j: usize| {
-            1.0 + 3.0 * (i as f64 + 0.5) / 4.0 + if j == 3 { 8.0 } else { 0.0 }
-        };
-        let hist = run_toy(false);
-        for j in 0..4 {
-            for i in 0..4 {
-                let (h, e) = (hist[j * 4 + i], exact(i, j));
-                assert!((h - e).abs() / e < 0.03, "cell ({i},{j}): {h} vs {e}");
-            }
-        }
+        assert_matches_toy(&run_toy(false, None), "expected values");
         // Negative control: without the (1 − a) records the total is short.
-        let short = run_toy(true);
+        let short = run_toy(true, None);
         let total: f64 = short.iter().sum::<f64>() / 16.0;
         assert!(
-            total < 0.9 * 4.5,
+            total < 0.9 * TOY_B,
             "dropping current-state splats went unnoticed: {total}"
+        );
+    }
+
+    #[test]
+    fn large_steps_combined_by_mis_match_the_density() {
+        let offset = TOY_LARGE * TOY_B as f32;
+        assert_matches_toy(&run_toy(false, Some(offset)), "large steps by MIS");
+        // Negative controls: the large steps' records counted without
+        // their density p·b in the denominator add p·b to every cell's
+        // mean (1 + p in total); an offset from a b twice too large scales
+        // a cell by (Y + p·b)/(Y + 2p·b), −28 % in cell (0, 0), Y ≈ 1.4.
+        let bright = run_toy(false, Some(0.0));
+        let total: f64 = bright.iter().sum::<f64>() / 16.0;
+        assert!(
+            total > 1.1 * TOY_B,
+            "large steps without their density went unnoticed: {total}"
+        );
+        let dark = run_toy(false, Some(2.0 * offset))[0];
+        assert!(
+            dark < 0.85 * toy_cell(0, 0),
+            "an offset from the wrong b went unnoticed: {dark}"
         );
     }
 
@@ -288,17 +352,20 @@ pub(super) mod tests {
     fn zero_start_moves_on_and_never_divides_by_zero() {
         let s = PrimarySampler::new(1, 0.01, 0.3);
         let mut chain = Chain::new(s, PathSample::default(), 5);
-        let st = chain.step(|_| PathSample::default());
+        let st = chain.step(|_| PathSample::default(), None);
         assert_eq!((st.proposal, st.current, st.accepted), (None, None, false));
-        let st = chain.step(toy);
+        let st = chain.step(toy, None);
         assert!(st.accepted && st.acceptance == 1.0 && st.current.is_none());
         let v = st.proposal.unwrap().value;
         assert!(v.is_finite() && (v.luminance() - 1.0).abs() < 1e-5);
         // NaN proposals are never accepted nor recorded.
-        let st = chain.step(|_| PathSample {
-            l: Rgb::splat(f32::NAN),
-            raster: Vec2::ZERO,
-        });
+        let st = chain.step(
+            |_| PathSample {
+                l: Rgb::splat(f32::NAN),
+                raster: Vec2::ZERO,
+            },
+            None,
+        );
         assert!(!st.accepted && st.zero && st.proposal.is_none());
         assert!(st.current.unwrap().value.is_finite());
     }

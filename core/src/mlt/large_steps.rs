@@ -113,6 +113,31 @@ impl LargeStepTally {
         Some(libm::sqrt(var / nf))
     }
 
+    /// b pooled from the normalisation passes and these large steps: per
+    /// depth, the mean of both estimates weighted by their sample counts
+    /// (`pass_depth_b[d − 1]` from `pass_samples` BDPT samples, the
+    /// passes' b_d; the large steps' count from this tally), summed over
+    /// the depths. A depth without large steps keeps the passes' b_d, and
+    /// `pass_samples` = 0 gives the large steps' b alone.
+    pub fn pooled_b(&self, pass_depth_b: &[f64], pass_samples: u64) -> f64 {
+        let depths = self.counts.len().max(pass_depth_b.len());
+        (0..depths)
+            .map(|i| {
+                let (n_p, b_p) = match pass_depth_b.get(i) {
+                    Some(&b) => (pass_samples as f64, b),
+                    None => (0.0, 0.0),
+                };
+                let n_l = self.counts.get(i).map_or(0.0, |&c| c as f64);
+                let sum_l = self.sums.get(i).copied().unwrap_or(0.0);
+                if n_p + n_l > 0.0 {
+                    (n_p * b_p + sum_l) / (n_p + n_l)
+                } else {
+                    0.0
+                }
+            })
+            .sum()
+    }
+
     fn index(&self, depth: u32) -> Option<usize> {
         let i = (depth as usize).checked_sub(1)?;
         (i < self.counts.len()).then_some(i)
@@ -139,7 +164,7 @@ mod tests {
             let init = toy(&mut s);
             let mut chain = Chain::new(s, init, 500 + c);
             for _ in 0..20_000 {
-                let st = chain.step(toy);
+                let st = chain.step(toy, None);
                 if st.large {
                     tally.add(1, st.proposal_target);
                 }
@@ -182,6 +207,11 @@ mod tests {
         assert_eq!((b.count(2), b.depth_b(2)), (0, None));
         // Sample standard deviation 2 over √3.
         assert!((b.depth_b_error(1).unwrap() - 2.0 / 3f64.sqrt()).abs() < 1e-12);
+        // Pooled with 3 pass samples per depth of b_d = (1, 2, 5): depth 1
+        // (3·1 + 12)/6, depth 2 the passes' alone, depth 3 (3·5 + 0)/4.
+        let pooled = b.pooled_b(&[1.0, 2.0, 5.0], 3);
+        assert!((pooled - (2.5 + 2.0 + 3.75)).abs() < 1e-12, "{pooled}");
+        assert!((b.pooled_b(&[], 0) - 4.0).abs() < 1e-12);
         b.clear();
         assert_eq!((b.count(1), b.depths()), (0, 3));
     }

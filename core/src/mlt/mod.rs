@@ -20,6 +20,9 @@
 //! - `level2`: the side chain run from a level-1 state, by its class;
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
+//! - `path_space`: the path-space level 1 ([`Level1::PathSpace`]: Veach's
+//!   path states, start-up, bidirectional and lens subpath mutations, its
+//!   chains);
 //! - `perturbation`: which perturbation applies to a path and the
 //!   specular-chain retracing they share; `perturbation::{lens, caustic,
 //!   multi_chain}`: the three perturbations;
@@ -34,7 +37,9 @@
 //! image's mean luminance.
 //!
 //! Each mutation adds records of total luminance 1 (colour f/Y weighted
-//! a and 1 − a) to the film's splat layer. Chains are spread over depths in
+//! a and 1 − a) to the film's splat layer; with
+//! [`MltSettings::large_step_mis`], records whose luminance is 1 in
+//! expectation instead (`chain`'s module docs). Chains are spread over depths in
 //! proportion to b_d / b and each chain of a worker makes the same number
 //! of mutations, so after N mutations over all workers, splat·(b·P/N)
 //! estimates the image: [`image_scale`] is that factor, for
@@ -55,6 +60,7 @@ mod lanes;
 mod large_steps;
 mod level2;
 mod multiple_try;
+mod path_space;
 mod perturbation;
 mod primary;
 mod target;
@@ -69,6 +75,7 @@ pub(crate) use primary::PrimarySampler;
 
 use chain::{Chain, Step};
 use level2::Level2;
+use path_space::worker::PathChains;
 use perturbation::Applicable;
 
 use alloc::vec::Vec;
@@ -120,11 +127,19 @@ pub struct MltSettings {
     /// every depth (pbrt, Tungsten). The image's expectation is the same
     /// either way (each depth's chains are weighted to give its b_d).
     pub direct_allocation: f32,
+    /// Whether the large steps' proposals are also recorded as independent
+    /// samples, combined with the chain's records by MIS (Kelemen et al.
+    /// 2002, §4.1: weights (a + 1{large})/(Y/b_d + p) and (1 − a)/(Y/b_d +
+    /// p), b_d the chain's depth's normalisation; `mlt/chain.rs`). Same
+    /// expectation; pixels the chains seldom visit get the large steps'
+    /// BDPT samples. false = the records a and 1 − a only. On by default:
+    /// 1.00–1.15× less relMSE per mutation on all twelve test scenes at
+    /// the same cost per mutation (`docs/accuracy.md`, "Level 1 against
+    /// Tungsten's MMLT").
+    pub large_step_mis: bool,
 }
 
-/// The space the level-1 chains mutate in: one variant today, the field
-/// that a second level-1 strategy (mutations of the path's vertices in
-/// path space) will select.
+/// The space the level-1 chains mutate in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[non_exhaustive]
 pub enum Level1 {
@@ -133,13 +148,21 @@ pub enum Level1 {
     /// path (`mlt/primary.rs`).
     #[default]
     PrimarySample,
+    /// Veach's path space: a chain's state is a path's vertices, mutated
+    /// by the bidirectional and lens subpath mutations
+    /// (`mlt/path_space/`). So far MLT only: CMLT's level 2 over it and the
+    /// perturbations as level-1 mutations are not built, and only scenes
+    /// lit by area emitters alone are rendered right
+    /// ([`path_space_supports`]; the renderer does not check).
+    PathSpace,
 }
 
 impl Default for MltSettings {
     /// Primary-sample level 1, 2 000 bootstrap samples per depth, 2
     /// normalisation passes and at least 65 536 normalisation samples, 256
-    /// chains per worker, large steps 0.3, σ = 0.01, at least a tenth of
-    /// the b-proportional chains for emitters seen directly.
+    /// chains per worker, large steps 0.3 combined with the chains by MIS,
+    /// σ = 0.01, at least a tenth of the b-proportional chains for
+    /// emitters seen directly.
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
@@ -150,6 +173,7 @@ impl Default for MltSettings {
             large_step_prob: primary::DEFAULT_LARGE_STEP_PROB,
             sigma: primary::DEFAULT_SIGMA,
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
+            large_step_mis: true,
         }
     }
 }
@@ -322,8 +346,20 @@ impl CmltSettings {
     /// Checks both levels; the message names the first bad parameter.
     pub fn validate(&self) -> Result<(), &'static str> {
         self.mlt.validate()?;
+        if self.mlt.level1 == Level1::PathSpace {
+            return Err("CMLT's level 2 over the path-space level 1 is not built yet");
+        }
         self.level2.validate()
     }
+}
+
+/// Whether the path-space level 1 ([`Level1::PathSpace`]) can render
+/// `scene`: only area emitters light it (its mutations make paths that end
+/// on an emitter's surface; a point, spot, directional or environment
+/// light's paths would be missing from the image, not its share of b). The
+/// CLI and the C API refuse the path-space level 1 for other scenes.
+pub fn path_space_supports(scene: &crate::scene::Scene) -> bool {
+    scene.lights.others().next().is_none()
 }
 
 /// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, four passes
@@ -379,8 +415,17 @@ pub struct MltStats {
     pub large_proposed: u64,
     /// Large-step proposals accepted.
     pub large_accepted: u64,
-    /// Proposals with zero (or non-finite) contribution.
+    /// Proposals with zero (or non-finite) contribution (path space: also
+    /// moves that made no path).
     pub zero_proposals: u64,
+    /// Path-space level 1: bidirectional mutations proposed.
+    pub bidirectional_proposed: u64,
+    /// Path-space level 1: bidirectional mutations accepted.
+    pub bidirectional_accepted: u64,
+    /// Path-space level 1: lens subpath mutations proposed.
+    pub lens_subpath_proposed: u64,
+    /// Path-space level 1: lens subpath mutations accepted.
+    pub lens_subpath_accepted: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
     /// divides by).
@@ -420,6 +465,10 @@ impl MltStats {
         self.large_proposed += o.large_proposed;
         self.large_accepted += o.large_accepted;
         self.zero_proposals += o.zero_proposals;
+        self.bidirectional_proposed += o.bidirectional_proposed;
+        self.bidirectional_accepted += o.bidirectional_accepted;
+        self.lens_subpath_proposed += o.lens_subpath_proposed;
+        self.lens_subpath_accepted += o.lens_subpath_accepted;
         self.records += o.records;
         self.lens_steps += o.lens_steps;
         self.lens_accepted += o.lens_accepted;
@@ -460,6 +509,16 @@ impl MltStats {
     /// Fraction of small steps accepted (0 when none).
     pub fn small_acceptance(&self) -> f64 {
         ratio(self.small_accepted, self.small_proposed)
+    }
+
+    /// Fraction of bidirectional mutations accepted (0 when none).
+    pub fn bidirectional_acceptance(&self) -> f64 {
+        ratio(self.bidirectional_accepted, self.bidirectional_proposed)
+    }
+
+    /// Fraction of lens subpath mutations accepted (0 when none).
+    pub fn lens_subpath_acceptance(&self) -> f64 {
+        ratio(self.lens_subpath_accepted, self.lens_subpath_proposed)
     }
 
     /// Fraction of large steps accepted (0 when none).
@@ -564,6 +623,12 @@ pub(crate) struct WorkerChains {
     /// Splat weight of each chain: its depth's share of b over its share
     /// of the chains ([`depth_weights`]).
     weights: Vec<f32>,
+    /// With large steps combined by MIS, p·b_d of each chain's depth (the
+    /// large steps' density in the records' units, `mlt/chain.rs`); empty
+    /// without.
+    large_step_offsets: Vec<f32>,
+    /// The large-step probability p when large steps are combined by MIS.
+    large_step_mis: Option<f32>,
     /// Size of the systematic sample the chains were drawn as.
     n_chains: u32,
     /// Samples a chain searches for a start (see [`start_sample`]).
@@ -592,6 +657,9 @@ pub(crate) struct WorkerChains {
     /// order ([`WorkerChains::advance`]).
     next: usize,
     strided: bool,
+    /// The path-space level 1's chains, in place of `chains`
+    /// ([`Level1::PathSpace`]), with the worker they were started for.
+    path_space: Option<(PathChains, u64, u64)>,
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
@@ -608,7 +676,9 @@ impl WorkerChains {
         level2: Option<&Level2Settings>,
         camera: &Camera,
     ) -> Self {
-        let n = mlt.n_chains as usize;
+        let path_space = mlt.level1 == Level1::PathSpace;
+        // The primary-sample chains' storage, unused by path-space ones.
+        let n = if path_space { 0 } else { mlt.n_chains as usize };
         let depth = depths(settings);
         let max_vertices = depth as usize + 1;
         let level2 = level2
@@ -622,6 +692,8 @@ impl WorkerChains {
         WorkerChains {
             chains: Vec::with_capacity(n),
             weights: Vec::with_capacity(n),
+            large_step_offsets: Vec::with_capacity(if mlt.large_step_mis { n } else { 0 }),
+            large_step_mis: mlt.large_step_mis.then_some(mlt.large_step_prob),
             n_chains: mlt.n_chains,
             start_tries: (START_SEARCH * mlt.n_bootstrap as u64).max(START_SEARCH_MIN),
             spare: (0..n)
@@ -637,6 +709,8 @@ impl WorkerChains {
             proposal_path: Vec::with_capacity(if l2 { max_vertices } else { 0 }),
             next: 0,
             strided: false,
+            path_space: (mlt.level1 == Level1::PathSpace)
+                .then(|| (PathChains::with_capacity(settings, mlt), 0, 1)),
         }
     }
 
@@ -661,6 +735,9 @@ impl WorkerChains {
         worker: u64,
         workers: u64,
     ) {
+        if self.restart_path_space(tracer, settings, bootstrap, seed, worker, workers) {
+            return;
+        }
         let WorkerChains {
             chains,
             spare,
@@ -717,6 +794,39 @@ impl WorkerChains {
             stats.chains += 1;
         }
         depth_weights(chains, bootstrap, mlt.n_chains, &mut self.weights);
+        self.set_large_step_offsets(bootstrap);
+    }
+
+    /// [`WorkerChains::restart`] for the path-space level 1: false (and
+    /// nothing done) for the primary-sample one.
+    fn restart_path_space<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        bootstrap: &Bootstrap,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+    ) -> bool {
+        let Some((ps, w, w_count)) = &mut self.path_space else {
+            return false;
+        };
+        (*w, *w_count) = (worker, workers);
+        self.next = 0;
+        self.stats = MltStats::default();
+        self.large_steps.clear();
+        ps.restart(
+            tracer,
+            settings,
+            &mut self.ws,
+            bootstrap,
+            self.start_tries,
+            seed,
+            worker,
+            workers,
+            &mut self.stats,
+        );
+        true
     }
 
     /// Keeps every chain and evaluates its current state again through
@@ -737,6 +847,12 @@ impl WorkerChains {
         bootstrap: &Bootstrap,
         seed: u64,
     ) {
+        if let Some((_, worker, workers)) = self.path_space {
+            // A path's lens point is the old camera's: the chains start
+            // afresh from the bootstrap under the new view.
+            self.restart_path_space(tracer, settings, bootstrap, seed, worker, workers);
+            return;
+        }
         let WorkerChains {
             chains,
             seeds,
@@ -789,13 +905,31 @@ impl WorkerChains {
             }
         }
         depth_weights(chains, bootstrap, self.n_chains, &mut self.weights);
+        self.set_large_step_offsets(bootstrap);
+    }
+
+    /// With large steps combined by MIS, sets each chain's p·b_d from
+    /// `bootstrap` (the b_d its depth's weight gives it).
+    fn set_large_step_offsets(&mut self, bootstrap: &Bootstrap) {
+        self.large_step_offsets.clear();
+        let Some(p) = self.large_step_mis else {
+            return;
+        };
+        for &(_, depth) in &self.chains {
+            let b_d = bootstrap
+                .depth_b()
+                .get(depth as usize - 1)
+                .copied()
+                .unwrap_or(0.0);
+            self.large_step_offsets.push((f64::from(p) * b_d) as f32);
+        }
     }
 
     /// Zeroes the counters, keeping the chains as they are (a new frame
     /// through the same camera).
     pub(crate) fn reset_stats(&mut self) {
         self.stats = MltStats {
-            chains: self.chains.len() as u64,
+            chains: self.chain_count() as u64,
             ..MltStats::default()
         };
         self.large_steps.clear();
@@ -803,7 +937,10 @@ impl WorkerChains {
 
     /// Number of chains (mutations per round).
     pub(crate) fn chain_count(&self) -> usize {
-        self.chains.len()
+        match &self.path_space {
+            Some((ps, ..)) => ps.len(),
+            None => self.chains.len(),
+        }
     }
 
     /// Runs `rounds` rounds — one mutation of every chain, in chain order,
@@ -821,7 +958,7 @@ impl WorkerChains {
     ) -> u64 {
         let mut done = 0;
         for _ in 0..rounds {
-            let left = self.chains.len() - self.next;
+            let left = self.chain_count() - self.next;
             done += self.advance(tracer, settings, film, left, false);
         }
         done
@@ -848,7 +985,7 @@ impl WorkerChains {
         count: usize,
         strided: bool,
     ) -> u64 {
-        let n = self.chains.len();
+        let n = self.chain_count();
         if n == 0 {
             return 0;
         }
@@ -857,9 +994,21 @@ impl WorkerChains {
         }
         let stride = if self.strided { coprime_stride(n) } else { 1 };
         let end = (self.next + count).min(n);
+        if let Some((ps, ..)) = &mut self.path_space {
+            for k in self.next..end {
+                let st = ps.step(k * stride % n, tracer, &mut self.stats);
+                for sp in st.proposal.into_iter().chain(st.current) {
+                    film.add_splat(sp.raster, sp.value);
+                }
+            }
+            let done = end - self.next;
+            self.next = if end == n { 0 } else { end };
+            return done as u64;
+        }
         let WorkerChains {
             chains,
             weights,
+            large_step_offsets,
             seeds,
             ws,
             stats,
@@ -875,7 +1024,8 @@ impl WorkerChains {
             let (chain, depth) = &mut chains[ci];
             let depth = *depth;
             let w = weights[ci];
-            let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s));
+            let offset = large_step_offsets.get(ci).copied();
+            let st = chain.step(|s| target::evaluate(tracer, settings, ws, depth, s), offset);
             stats.record(&st);
             if st.large {
                 large_steps.add(depth, st.proposal_target);

@@ -78,7 +78,10 @@ fn furnace_mean_by_hand(with_current: bool) -> f32 {
         s.reseed(1000 + c);
         let mut chain = Chain::new(s, init, 2000 + c);
         for _ in 0..(64 * 16 * 12 / 64) {
-            let step = chain.step(|s| target::evaluate(&mut tracer, &st, &mut ws, depth, s));
+            let step = chain.step(
+                |s| target::evaluate(&mut tracer, &st, &mut ws, depth, s),
+                None,
+            );
             mutations += 1;
             let records = if with_current {
                 [step.proposal, step.current]

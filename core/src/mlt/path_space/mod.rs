@@ -1,0 +1,31 @@
+//! The path-space level 1 (Veach and Guibas 1997; Veach 1997, ch. 11),
+//! beside the primary-sample one: a chain's state is a path x̄ = x₀ (lens)
+//! … x_k (emitter), its vertices with their surface records, and its
+//! target is Y(f(x̄)), the luminance of the path's measurement contribution
+//! in the product area measure. A mutation proposes a path ȳ with a
+//! density T(x̄→ȳ) in that measure and is accepted with probability
+//! min(1, f(ȳ)T(ȳ→x̄) / (f(x̄)T(x̄→ȳ))).
+//!
+//! What exists: the measure every mutation's ratio is made of, f(x̄) and
+//! the area densities with which BDPT's strategies generate each vertex
+//! ([`crate::integrator::bdpt::path_contribution`],
+//! [`crate::integrator::bdpt::path_densities`]); the state and Veach's
+//! start-up (`state`); the bidirectional mutation (`bidirectional`) and the
+//! lens subpath mutation (`lens_subpath`); the chain with its mutation
+//! selection and expected-value records (`chain`); a worker's chains as
+//! the renderer drives them (`worker`), selected by
+//! [`super::Level1::PathSpace`] for MLT. Not yet: the lens, caustic and
+//! multi-chain perturbations as level-1 mutations (selection by path type
+//! beyond the lens subpath mutation's), CMLT's level 2 over path-space
+//! states (refused by [`super::CmltSettings::validate`]), lights other than
+//! area emitters, stratified raster positions for the lens subpath
+//! mutation.
+
+pub(crate) mod bidirectional;
+pub(crate) mod chain;
+pub(crate) mod lens_subpath;
+pub(crate) mod state;
+pub(crate) mod worker;
+
+#[cfg(all(test, feature = "std"))]
+mod tests;

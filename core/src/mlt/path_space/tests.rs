@@ -1,0 +1,277 @@
+//! The path measure against BDPT: for paths BDPT's strategies sample, each
+//! strategy's unweighted estimate is f(x̄)/p_{s,t}(x̄) (times the strategy
+//! count of `sample_strategy`), with f and p computed from the path's
+//! vertices alone.
+
+use super::super::PrimarySampler;
+use super::super::tests::scenes;
+use super::bidirectional::{Bidirectional, Broken, Proposal};
+use super::chain::PathChain;
+use super::lens_subpath::LensSubpath;
+use super::state::PathState;
+use crate::accel::bvh::Bvh;
+use crate::integrator::bdpt::{self, path_contribution, path_densities, strategy_density};
+use crate::integrator::{Settings, Tracer};
+use crate::math::Rgb;
+use crate::sampler::SampleStream;
+use crate::scene::{Material, Scene};
+
+/// Checks every strategy of depths 1–4 on paths sampled in `scene`;
+/// returns how many paths through a specular vertex were checked.
+fn check_strategies(scene: &Scene) -> u32 {
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(scene, &accel);
+    let settings = Settings::default();
+    let mut ws = bdpt::PathStorage::new();
+    // Every strategy unweighted (MIS weight 1).
+    ws.set_strategy_filter(Some(|_, _| true));
+    let mut path = Vec::new();
+    let (mut fwd, mut rev) = ([0.0f32; 8], [0.0f32; 8]);
+    // Checked paths per (depth, t), at depth · 6 + t.
+    let mut checked = [0u32; 30];
+    let mut specular = 0;
+    for depth in 1..=4usize {
+        for seed in 0..1000u64 {
+            let mut s = PrimarySampler::new(seed * 7 + depth as u64, 0.01, 0.3);
+            let r = bdpt::sample_strategy(&mut tracer, &settings, &mut ws, depth, &mut s);
+            if r.l.is_black() {
+                continue;
+            }
+            assert!(bdpt::strategy_path(&ws, &mut path));
+            assert_eq!(path.len(), depth + 1);
+            let camera = tracer.camera;
+            let (f, raster) = path_contribution(scene, &camera, &path).unwrap();
+            path_densities(scene, &camera, &path, &mut fwd, &mut rev);
+            specular += path.iter().any(|v| v.is_specular()) as u32;
+            let t = r.t as usize;
+            let p = strategy_density(&fwd, &rev, t);
+            let n = bdpt::strategy_count(depth) as f32;
+            let expect = f * (n / p);
+            for (got, want) in [(r.l.r, expect.r), (r.l.g, expect.g), (r.l.b, expect.b)] {
+                assert!(
+                    (got - want).abs() <= 2e-3 * want.abs(),
+                    "depth {depth}, (s, t) = ({}, {t}), seed {seed}: BDPT {:?}, f/p {:?}",
+                    r.s,
+                    r.l,
+                    expect
+                );
+            }
+            assert!(
+                (raster - r.raster).length() < 1e-2,
+                "raster {raster} vs {}",
+                r.raster
+            );
+            checked[depth * 6 + t] += 1;
+        }
+    }
+    // Every strategy of every depth was checked on several paths ((1, 1)
+    // is not a strategy).
+    for depth in 1..=4usize {
+        for t in 1..=depth + 1 {
+            if depth == 1 && t == 1 {
+                continue;
+            }
+            // Light tracing (t = 1) reaches the small image seldom.
+            let least = if t == 1 { 5 } else { 20 };
+            assert!(
+                checked[depth * 6 + t] >= least,
+                "depth {depth}, t {t}: {} paths",
+                checked[depth * 6 + t]
+            );
+        }
+    }
+    specular
+}
+
+#[test]
+fn strategy_estimates_are_contribution_over_density() {
+    let diffuse = scenes::furnace_scene(Material::diffuse(Rgb::new(0.5, 0.4, 0.3)), 1.0);
+    check_strategies(&diffuse);
+    // An emitting mirror sphere: specular vertices, symbolic in f and p.
+    let specular = check_strategies(&scenes::mirror_sphere_furnace());
+    assert!(specular >= 50, "{specular} paths through the mirror");
+}
+
+/// b_d = ∫ Y(f) over paths of `depth` segments, as the primary-sample
+/// level 1's target estimates it: the mean of Y over `n` uniform primary
+/// points.
+fn depth_b(scene: &Scene, depth: usize, n: u64) -> f64 {
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(scene, &accel);
+    let mut ws = bdpt::PathStorage::new();
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        let mut s = PrimarySampler::new(0xB000 + i, 0.01, 0.3);
+        let r = bdpt::sample_strategy(&mut tracer, &Settings::default(), &mut ws, depth, &mut s);
+        sum += r.l.luminance() as f64;
+    }
+    sum / n as f64
+}
+
+/// The mean of Y(f(ȳ))/T(x̄→ȳ) over `n` bidirectional mutations of one
+/// depth-2 path x̄, counting the proposals of depth `depth` that replace
+/// every vertex but the (pinhole's fixed) lens point: an unbiased estimate
+/// of ∫ Y(f) over depth-`depth` paths — b_d — exactly when T is the
+/// density with which the mutation proposes them, Veach's sum over the
+/// splits that could have made ȳ. (A partial move keeps vertices of x̄: its
+/// proposals lie on a subset of measure zero of the depth's paths, whose
+/// densities the chain test below checks.) With `single_split`, T counts
+/// only the split that was drawn.
+fn mutation_estimate(scene: &Scene, depth: usize, n: u64, single_split: bool) -> f64 {
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(scene, &accel);
+    let x = start_path(&mut tracer, 2, 0);
+    let mut mutation = Bidirectional::new(8);
+    let mut y = PathState::with_capacity(8);
+    let camera = tracer.camera;
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        let mut rng = SampleStream::new(77, i, 3);
+        let (mv, outcome) = mutation.propose(&mut tracer, &x, &mut y, &mut rng);
+        let whole = mv.l == 0 && mv.kd == x.depth() + 1;
+        if !whole || !matches!(outcome, Proposal::Made { .. }) || y.depth() != depth {
+            continue;
+        }
+        let only = single_split.then_some(mv.t);
+        let t = mutation.density(scene, &camera, &x.path, &y.path, mv, only);
+        assert!(t > 0.0, "{mv:?}: a proposal of density 0");
+        sum += y.target() as f64 / t as f64;
+    }
+    sum / n as f64
+}
+
+/// The path of the first contributing BDPT strategy sample of `depth`
+/// from seed `first` on.
+fn start_path<I: crate::accel::Intersector>(
+    tracer: &mut Tracer<'_, I>,
+    depth: usize,
+    first: u64,
+) -> PathState {
+    let mut ws = bdpt::PathStorage::new();
+    let mut x = PathState::with_capacity(8);
+    for seed in first.. {
+        let mut s = PrimarySampler::new(seed, 0.01, 0.3);
+        let r = bdpt::sample_strategy(tracer, &Settings::default(), &mut ws, depth, &mut s);
+        if r.l.luminance() > 0.0 && bdpt::strategy_path(&ws, &mut x.path) {
+            x.evaluate(tracer.scene, &tracer.camera);
+            if x.target() > 0.0 {
+                return x;
+            }
+        }
+    }
+    unreachable!()
+}
+
+#[test]
+fn bidirectional_density_is_the_proposal_density() {
+    let scene = scenes::furnace_scene(Material::diffuse(Rgb::new(0.5, 0.4, 0.3)), 1.0);
+    for depth in [1, 2, 3] {
+        let b = depth_b(&scene, depth, 400_000);
+        let est = mutation_estimate(&scene, depth, 400_000, false);
+        eprintln!("depth {depth}: b_d {b:.5}, from the mutation's density {est:.5}");
+        assert!(
+            (est - b).abs() < 0.03 * b,
+            "depth {depth}: {est} vs b_d {b}"
+        );
+    }
+    // Negative control: without Veach's sum over the splits that could
+    // have made ȳ, T is too small and the estimate too large.
+    let b = depth_b(&scene, 2, 100_000);
+    let wrong = mutation_estimate(&scene, 2, 100_000, true);
+    assert!(
+        wrong > 1.2 * b,
+        "a single split's density went unnoticed: {wrong} vs {b}"
+    );
+}
+
+/// 64 path-space chains of 20 000 mutations (after 500 of
+/// burn-in) on `scene` (a furnace) with paths of up to 4 segments: the
+/// share of the records' luminance at each depth, and in each 4×4 block of
+/// the 16×12 image.
+fn furnace_chains(scene: &Scene, broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(scene, &accel);
+    let mut mutation = Bidirectional::new(4);
+    mutation.broken = broken;
+    let mut lens = LensSubpath::new(4);
+    let (mut depths, mut blocks) = ([0.0f64; 4], [0.0f64; 12]);
+    for c in 0..64u64 {
+        let start = start_path(&mut tracer, 1 + (c % 4) as usize, 1000 * c);
+        let mut chain = PathChain::with_capacity(4);
+        *chain.current_mut() = start;
+        chain.start(0xC0 + c);
+        for i in 0..20_500 {
+            let from = chain.current().depth();
+            let st = chain.step(&mut tracer, &mut mutation, &mut lens);
+            if i < 500 {
+                continue;
+            }
+            for (sp, d) in [(st.proposal, st.proposal_depth), (st.current, from)] {
+                let Some(sp) = sp else { continue };
+                let w = sp.value.luminance() as f64;
+                depths[d - 1] += w;
+                let (bx, by) = ((sp.raster.x / 4.0) as usize, (sp.raster.y / 4.0) as usize);
+                blocks[by.min(2) * 4 + bx.min(3)] += w;
+            }
+        }
+    }
+    let total: f64 = depths.iter().sum();
+    (depths.map(|d| d / total), blocks.map(|b| b * 12.0 / total))
+}
+
+#[test]
+fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
+    // Le = 1 and albedo ½ everywhere (walls, and the mirror sphere's
+    // reflectance): depth d carries b_d = 2^{1−d} of b = 1.875, over every
+    // pixel alike.
+    let grey = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+    let mirror = scenes::mirror_sphere_furnace();
+    for (name, scene) in [("grey", &grey), ("mirror", &mirror)] {
+        let (depths, blocks) = furnace_chains(scene, None);
+        eprintln!("{name}: depth shares {depths:?}, blocks {blocks:?}");
+        for (i, &share) in depths.iter().enumerate() {
+            let want = libm::pow(0.5, i as f64) / 1.875;
+            assert!(
+                (share - want).abs() < 0.04 * want,
+                "{name}, depth {}: {share} vs {want}",
+                i + 1
+            );
+        }
+        for (i, &b) in blocks.iter().enumerate() {
+            assert!((b - 1.0).abs() < 0.05, "{name}, block {i}: {b}");
+        }
+    }
+    // Negative control: T without the length probabilities, which a move
+    // and its reverse weigh differently, gives the depths other shares.
+    // (T of one split in place of Veach's sum, the other test's control,
+    // happens to keep these shares on the furnace, where the splits'
+    // densities are alike.)
+    let (wrong, _) = furnace_chains(&grey, Some(Broken::NoLengths));
+    let off = wrong
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| (s / (libm::pow(0.5, i as f64) / 1.875) - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        off > 0.1,
+        "the length probabilities went unnoticed: {wrong:?}"
+    );
+    // Negative control: the bidirectional mutation's ratio without the
+    // selection probabilities, on the mirror furnace, where the lens
+    // subpath mutation applies to some paths and not to others.
+    let (wrong, blocks) = furnace_chains(&mirror, Some(Broken::NoSelection));
+    let off = wrong
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| (s / (libm::pow(0.5, i as f64) / 1.875) - 1.0).abs())
+        .chain(blocks.iter().map(|&b| (b - 1.0).abs()))
+        .fold(0.0, f64::max);
+    assert!(
+        off > 0.1,
+        "the selection probabilities went unnoticed: {wrong:?} {blocks:?}"
+    );
+}

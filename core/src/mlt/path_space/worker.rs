@@ -1,0 +1,158 @@
+//! A worker's path-space chains ([`crate::mlt::Level1::PathSpace`]), driven
+//! by `WorkerChains` as it drives the primary-sample ones.
+//!
+//! A path-space chain moves between depths (the bidirectional mutation
+//! changes the path's length), so its stationary distribution is Y(f(x̄))
+//! over all depths 1 … D together, normalised by b = Σ_d b_d: every chain
+//! weighs the same, and a record of unit luminance scales by b·P/N like
+//! the primary-sample ones ([`crate::mlt::image_scale`]). The chains'
+//! starting depths are a systematic sample of the depths by b_d / b (not
+//! the primary-sample chains' allocation, which gives emitters seen
+//! directly fewer chains and weighs them back: a path-space chain leaves
+//! its depth, so only a start ∝ Y(f) over all depths is stationary), each
+//! start a bootstrap sample of its depth picked ∝ Y (`state.rs`: Veach's
+//! start-up).
+
+use alloc::vec::Vec;
+
+use rand_pcg::Pcg32;
+
+use super::super::{
+    Bootstrap, MltSettings, MltStats, PrimarySampler, chain_seed, depths, mix64, start_sample,
+    target, uniform_f64,
+};
+use super::bidirectional::Bidirectional;
+use super::chain::{PathChain, PathStep};
+use super::lens_subpath::LensSubpath;
+use crate::accel::Intersector;
+use crate::integrator::{Settings, Tracer, bdpt};
+
+/// The depth at position `u` ∈ [0, 1) of the split of b into the b_d
+/// (`None` when b = 0).
+fn depth_at(bootstrap: &Bootstrap, u: f64) -> Option<u32> {
+    let b = bootstrap.b();
+    if !(b > 0.0) {
+        return None;
+    }
+    let mut acc = 0.0;
+    let depth_b = bootstrap.depth_b();
+    for (i, &b_d) in depth_b.iter().enumerate() {
+        acc += b_d / b;
+        if u < acc && b_d > 0.0 {
+            return Some(i as u32 + 1);
+        }
+    }
+    depth_b
+        .iter()
+        .rposition(|&b_d| b_d > 0.0)
+        .map(|i| i as u32 + 1)
+}
+
+/// A worker's path-space chains and the storage they mutate with.
+pub(crate) struct PathChains {
+    /// Room for `n_chains` chains; the first `live` run.
+    chains: Vec<PathChain>,
+    live: usize,
+    mutation: Bidirectional,
+    lens: LensSubpath,
+    /// Replays bootstrap samples for the starts.
+    sampler: PrimarySampler,
+}
+
+impl PathChains {
+    /// Storage for `mlt.n_chains` chains at `settings`' depths: after this
+    /// nothing is allocated.
+    pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
+        let depth = depths(settings);
+        PathChains {
+            chains: (0..mlt.n_chains)
+                .map(|_| PathChain::with_capacity(depth))
+                .collect(),
+            live: 0,
+            mutation: Bidirectional::new(depth),
+            lens: LensSubpath::new(depth),
+            sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
+        }
+    }
+
+    /// Chains running.
+    pub fn len(&self) -> usize {
+        self.live
+    }
+
+    /// Starts the chains of worker `worker` of `workers` afresh (the same
+    /// depths and bootstrap picks as the primary-sample chains of the same
+    /// seed would get), counting them in `stats`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restart<I: Intersector>(
+        &mut self,
+        tracer: &mut Tracer<'_, I>,
+        settings: &Settings,
+        ws: &mut bdpt::PathStorage,
+        bootstrap: &Bootstrap,
+        start_tries: u64,
+        seed: u64,
+        worker: u64,
+        workers: u64,
+        stats: &mut MltStats,
+    ) {
+        self.live = 0;
+        let workers = workers.max(1);
+        let n = self.chains.len() as u64;
+        let total = n * workers;
+        let offset = uniform_f64(&mut Pcg32::new(mix64(seed ^ 0x0FF5_E700), 7));
+        for c in 0..n {
+            let global = worker + workers * c;
+            let Some(depth) = depth_at(bootstrap, (global as f64 + offset) / total as f64) else {
+                break;
+            };
+            let cs = chain_seed(seed, worker, c);
+            let mut rng = Pcg32::new(cs, mix64(cs ^ 1));
+            let sampler = &mut self.sampler;
+            let u = uniform_f64(&mut rng);
+            let start = start_sample(bootstrap, depth, u, start_tries, &mut rng, |i| {
+                sampler.restart(bootstrap.seed_of(i));
+                target::evaluate(tracer, settings, ws, depth, sampler).target() > 0.0
+            });
+            let Some(index) = start else {
+                continue;
+            };
+            let chain = &mut self.chains[self.live];
+            let started = chain.current_mut().start(
+                tracer,
+                settings,
+                ws,
+                &mut self.sampler,
+                bootstrap,
+                depth,
+                index,
+            );
+            if started {
+                chain.start(cs);
+                self.live += 1;
+                stats.chains += 1;
+            }
+        }
+    }
+
+    /// One bidirectional mutation of chain `ci`, counted in `stats`.
+    pub fn step<I: Intersector>(
+        &mut self,
+        ci: usize,
+        tracer: &mut Tracer<'_, I>,
+        stats: &mut MltStats,
+    ) -> PathStep {
+        let st = self.chains[ci].step(tracer, &mut self.mutation, &mut self.lens);
+        stats.mutations += 1;
+        stats.records += 1;
+        if st.lens_subpath {
+            stats.lens_subpath_proposed += 1;
+            stats.lens_subpath_accepted += st.accepted as u64;
+        } else {
+            stats.bidirectional_proposed += 1;
+            stats.bidirectional_accepted += st.accepted as u64;
+        }
+        stats.zero_proposals += (st.proposal_depth == 0) as u64;
+        st
+    }
+}
