@@ -152,8 +152,8 @@ pub enum Level1 {
     /// by the bidirectional and lens subpath mutations
     /// (`mlt/path_space/`). So far MLT only: CMLT's level 2 over it and the
     /// perturbations as level-1 mutations are not built, and only scenes
-    /// lit by area emitters alone are rendered right
-    /// ([`path_space_supports`]; the renderer does not check).
+    /// lit by area emitters alone can be rendered ([`path_space_supports`]:
+    /// preparing the renderer for another scene is a `RenderError::Config`).
     PathSpace,
 }
 
@@ -357,7 +357,8 @@ impl CmltSettings {
 /// `scene`: only area emitters light it (its mutations make paths that end
 /// on an emitter's surface; a point, spot, directional or environment
 /// light's paths would be missing from the image, not its share of b). The
-/// CLI and the C API refuse the path-space level 1 for other scenes.
+/// renderer refuses to prepare the path-space level 1 for other scenes,
+/// and the CLI and the C API say so before they render.
 pub fn path_space_supports(scene: &crate::scene::Scene) -> bool {
     scene.lights.others().next().is_none()
 }

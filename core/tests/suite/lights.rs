@@ -16,8 +16,8 @@ use cmlt::accel::bvh::Bvh;
 use cmlt::geometry::Ray;
 use cmlt::integrator::Settings;
 use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
-use cmlt::mlt::{CmltSettings, Level2Settings, MltSettings};
-use cmlt::renderer::Estimator;
+use cmlt::mlt::{CmltSettings, Level1, Level2Settings, MltSettings};
+use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
 
 const PLANE_Z: f32 = 2.0;
@@ -243,6 +243,31 @@ fn point_light_over_a_plane_mlt_and_cmlt() {
     assert_eq!(st.lens_steps + st.caustic_steps, 0, "{st:?}");
     assert_eq!(st.identity_steps, st.mutations * 2, "{st:?}");
     assert_quadrants("CMLT", &img, &expected, 0.01, 0.08);
+}
+
+/// The path-space level 1 refuses a scene with a point light when it is
+/// prepared: its paths end on area emitters' surfaces, so the light's
+/// share of the image would be missing.
+#[test]
+fn path_space_level1_refuses_a_point_light() {
+    let (scene, _) = point_light_scene();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let config = RendererConfig {
+        estimator: Estimator::Mlt(MltSettings {
+            level1: Level1::PathSpace,
+            ..mlt_settings()
+        }),
+        workers: 1,
+        ..RendererConfig::default()
+    };
+    let mut r = Renderer::new(config, scene.camera).unwrap();
+    let mut w = RenderWorker::new(&r, 0).unwrap();
+    assert!(r.begin_prepare(&scene));
+    let e = r.prepare_worker(&mut w, &scene, &bvh).unwrap_err();
+    assert!(
+        matches!(e, RenderError::Config(m) if m.contains("area emitters")),
+        "{e}"
+    );
 }
 
 /// A convex diffuse sphere of albedo `rho` in front of the camera under a
