@@ -63,7 +63,12 @@ pub(crate) fn decode_pfm(bytes: &[u8]) -> Result<(u32, u32, Vec<Rgb>), String> {
         })?;
     // One whitespace byte ends the header.
     let data = &bytes[at + 1..];
-    let count = w as usize * h as usize * channels;
+    // At most 2^15 · 2^15 · 3 floats: 12 GiB, more than a 32-bit usize.
+    let count = (w as usize)
+        .checked_mul(h as usize)
+        .and_then(|p| p.checked_mul(channels))
+        .filter(|c| c.checked_mul(4).is_some())
+        .ok_or_else(|| format!("a {w}×{h} PFM image does not fit this machine's memory"))?;
     if data.len() < 4 * count {
         return Err(format!(
             "the PFM data is cut short: {} bytes for {w}×{h}×{channels} floats",

@@ -175,7 +175,11 @@ fn read_shape(z: &mut impl Read, version: u16, compressed: u64) -> Result<RawMes
             ));
         }
     }
-    let (n, double) = (vertices as usize, scalar == 8);
+    let n = usize::try_from(vertices)
+        .ok()
+        .filter(|n| n.checked_mul(8 * per_vertex as usize).is_some())
+        .ok_or_else(|| format!("{vertices} vertices do not fit this machine's memory"))?;
+    let double = scalar == 8;
     let mut out = RawMesh {
         positions: read_vec3s(z, n, double, "the positions")?,
         ..RawMesh::default()
@@ -190,7 +194,11 @@ fn read_shape(z: &mut impl Read, version: u16, compressed: u64) -> Result<RawMes
     if flags & HAS_COLORS != 0 {
         read_scalars(z, 3 * n, double, "the vertex colours")?;
     }
-    let mut bytes = vec![0u8; triangles as usize * 12];
+    // Within MAX_SHAPE_BYTES (checked above), but a 32-bit host's usize
+    // is narrower.
+    let index_bytes = usize::try_from(triangles * 12)
+        .map_err(|_| format!("{triangles} triangles do not fit this machine's memory"))?;
+    let mut bytes = vec![0u8; index_bytes];
     z.read_exact(&mut bytes)
         .map_err(|e| cut_short("the triangles", e))?;
     out.indices = bytes
