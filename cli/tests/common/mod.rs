@@ -44,6 +44,25 @@ pub fn load_reduced(name: &str, factor: u32) -> (LoadedScene, Image) {
     (loaded, reference.downsample(factor as usize))
 }
 
+/// Renders `loaded` over our BVH with `config` (the scene's settings
+/// replace the config's) at `per_pixel` samples or mutations per pixel.
+pub fn render_loaded(loaded: &LoadedScene, config: RendererConfig, per_pixel: u64) -> RenderOutput {
+    let tris: Vec<_> = loaded.scene.triangles().collect();
+    let accel = Accel::Ours(Bvh::build(&tris));
+    let config = RendererConfig {
+        settings: loaded.settings,
+        ..config
+    };
+    render(
+        &loaded.scene,
+        &accel,
+        config,
+        Budget::PerPixel(per_pixel),
+        &|_| {},
+    )
+    .expect("render")
+}
+
 /// Renders a loaded scene with the default BVH on two threads.
 pub fn render_scene(
     loaded: &LoadedScene,
@@ -51,23 +70,13 @@ pub fn render_scene(
     spp: u64,
     seed: u64,
 ) -> (Image, RenderOutput) {
-    let tris: Vec<_> = loaded.scene.triangles().collect();
-    let accel = Accel::Ours(Bvh::build(&tris));
     let config = RendererConfig {
         estimator: method,
-        settings: loaded.settings,
         seed,
         workers: 2,
         ..RendererConfig::default()
     };
-    let out = render(
-        &loaded.scene,
-        &accel,
-        config,
-        Budget::PerPixel(spp),
-        &|_| {},
-    )
-    .expect("render");
+    let out = render_loaded(loaded, config, spp);
     let img = out.image.clone();
     (img, out)
 }

@@ -8,16 +8,13 @@ use crate::common;
 
 use std::path::Path;
 
-use cmlt::accel::bvh::Bvh;
 use cmlt::bsdf::Lobe;
 use cmlt::integrator::Stats;
 use cmlt::math::Rgb;
 use cmlt::mlt::{CmltSettings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt::scene::{Effect, EffectSet};
-use cmlt_cli::accel::Accel;
 use cmlt_cli::mitsuba::{LoadedScene, load_scene};
-use cmlt_cli::render::{Budget, render};
 
 fn effects(scene: &str) -> (EffectSet, bool) {
     let path =
@@ -146,29 +143,19 @@ fn render_mean(
     spp: u64,
     seed: u64,
 ) -> (Rgb, Stats) {
-    let accel = Accel::Ours(Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>()));
     let config = RendererConfig {
         estimator: method,
-        settings: loaded.settings,
         seed,
         workers: 2,
         all_effects,
         ..RendererConfig::default()
     };
-    let out = render(
-        &loaded.scene,
-        &accel,
-        config,
-        Budget::PerPixel(spp),
-        &|_| {},
-    )
-    .expect("render");
+    let out = common::render_loaded(loaded, config, spp);
     (mean(&out.image.pixels), out.stats.tracer)
 }
 
 /// Mean colour and counters of a CMLT render, the scene analysis on or off.
 fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64) -> (Rgb, Stats) {
-    let accel = Accel::Ours(Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>()));
     let mlt = MltSettings {
         n_bootstrap: 500,
         n_chains: 64,
@@ -179,20 +166,12 @@ fn render_mean_cmlt(loaded: &LoadedScene, all_effects: bool, mpp: u64, seed: u64
             mlt,
             ..CmltSettings::default()
         }),
-        settings: loaded.settings,
         seed,
         workers: 2,
         all_effects,
         ..RendererConfig::default()
     };
-    let out = render(
-        &loaded.scene,
-        &accel,
-        config,
-        Budget::PerPixel(mpp),
-        &|_| {},
-    )
-    .expect("render");
+    let out = common::render_loaded(loaded, config, mpp);
     (mean(&out.image.pixels), out.stats.tracer)
 }
 

@@ -61,7 +61,12 @@ fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, see
             render_steps(&r, w, scene, &accel, steps).unwrap();
         }
     }
-    let (w, h) = (home.width() as usize, home.height() as usize);
+    resolved(&r, &ws)
+}
+
+/// The merged image of `ws`, asserting that no sample was non-finite.
+fn resolved(r: &Renderer, ws: &[RenderWorker]) -> Image {
+    let (w, h) = (r.camera().width() as usize, r.camera().height() as usize);
     let mut pixels = vec![cmlt::math::Rgb::ZERO; w * h];
     let refs: Vec<&RenderWorker> = ws.iter().collect();
     r.resolve(&refs, |i, c| pixels[i] = c).unwrap();
@@ -70,6 +75,19 @@ fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, see
         width: w,
         height: h,
         pixels,
+    }
+}
+
+/// Each channel mean of `image` within 3 % of `reference`'s.
+fn assert_means_within_3_percent(image: &Image, reference: &Image) {
+    let (m, want) = (image.mean(), reference.mean());
+    for c in 0..3 {
+        assert!(
+            (m[c] / want[c] - 1.0).abs() < 0.03,
+            "channel {c}: {} vs reference {}",
+            m[c],
+            want[c]
+        );
     }
 }
 
@@ -83,14 +101,7 @@ fn check(estimator: Estimator) {
     eprintln!(
         "{estimator:?}: relMSE fresh {e_fresh:.4}, moved and back {e_moved:.4}; mean {m:?} vs {want:?}"
     );
-    for c in 0..3 {
-        assert!(
-            (m[c] / want[c] - 1.0).abs() < 0.03,
-            "channel {c}: {} vs reference {}",
-            m[c],
-            want[c]
-        );
-    }
+    assert_means_within_3_percent(&moved, &reference);
     assert!(
         e_moved < 1.5 * e_fresh,
         "moved and back relMSE {e_moved} vs fresh {e_fresh}"
@@ -146,18 +157,7 @@ fn kept_frames(estimator: Estimator, frames: usize, mpp: u64, seed: u64) -> Imag
             render_steps(&r, w, scene, &accel, steps).unwrap();
         }
     }
-    let (w, h) = (
-        scene.camera.width() as usize,
-        scene.camera.height() as usize,
-    );
-    let mut pixels = vec![cmlt::math::Rgb::ZERO; w * h];
-    let refs: Vec<&RenderWorker> = ws.iter().collect();
-    r.resolve(&refs, |i, c| pixels[i] = c).unwrap();
-    Image {
-        width: w,
-        height: h,
-        pixels,
-    }
+    resolved(&r, &ws)
 }
 
 /// Eight kept MLT frames of 8 mutations per pixel against one frame of 64
@@ -173,14 +173,7 @@ fn kept_mlt_frames_of_a_still_camera_converge_as_one_offline_render() {
     let (e_offline, e_kept) = (rel_mse(&offline, &reference), rel_mse(&kept, &reference));
     let (m, want) = (kept.mean(), reference.mean());
     eprintln!("relMSE offline {e_offline:.4}, kept {e_kept:.4}; mean {m:?} vs {want:?}");
-    for c in 0..3 {
-        assert!(
-            (m[c] / want[c] - 1.0).abs() < 0.03,
-            "channel {c}: {} vs reference {}",
-            m[c],
-            want[c]
-        );
-    }
+    assert_means_within_3_percent(&kept, &reference);
     assert!(
         e_kept < 1.5 * e_offline,
         "kept frames relMSE {e_kept} vs offline {e_offline}"

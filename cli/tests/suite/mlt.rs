@@ -11,14 +11,12 @@ use crate::common;
 use std::path::PathBuf;
 use std::process::Command;
 
-use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level1, Level2Settings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
-use cmlt_cli::accel::Accel;
 use cmlt_cli::image_io::{Image, read_exr};
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{Budget, RenderOutput, render as drive};
+use cmlt_cli::render::RenderOutput;
 use common::{level1, load_reduced};
 
 /// CMLT over level 1 `mlt`: `k` candidates, side chains of `m` steps with
@@ -44,23 +42,13 @@ fn render(
     threads: usize,
     seed: u64,
 ) -> (Image, RenderOutput) {
-    let tris: Vec<_> = loaded.scene.triangles().collect();
-    let accel = Accel::Ours(Bvh::build(&tris));
     let config = RendererConfig {
         estimator: *estimator,
-        settings: loaded.settings,
         seed,
         workers: threads as u32,
         ..RendererConfig::default()
     };
-    let out = drive(
-        &loaded.scene,
-        &accel,
-        config,
-        Budget::PerPixel(mpp),
-        &|_| {},
-    )
-    .expect("render");
+    let out = common::render_loaded(loaded, config, mpp);
     let img = out.image.clone();
     (img, out)
 }
