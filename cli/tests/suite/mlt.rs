@@ -11,6 +11,7 @@ use crate::common;
 use std::path::PathBuf;
 use std::process::Command;
 
+use cmlt::math::Rgb;
 use cmlt::mlt::{CmltSettings, Level1, Level2Settings, MltSettings};
 use cmlt::renderer::{Estimator, RendererConfig};
 use cmlt_cli::image_io::{Image, read_exr};
@@ -477,22 +478,104 @@ fn caustic_pool_cmlt_matches_reference() {
     check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
 }
 
-/// Level 1 for the glossy room.
+/// Level 1 for the glossy room. Four times the chains of the pool's
+/// settings: with 128 the red channel (red wall, copper, gold) varied by
+/// ±2% between seeds, the share of chains that start on the red surfaces.
+/// 1 000 bootstrap samples per depth suffice here (20 000 were for the
+/// pool's floor). Few b passes: b is the BDPT image's mean, and here its
+/// per-sample noise is heavy-tailed (a small lamp seen through rough
+/// metals), so a 2 % mean check needed 1 024 passes per render (b from
+/// 256 came out 2.6 % low for all five seeds), which were 96 % of the two
+/// tests' time; [`check_shape`] takes b's scale out instead.
 fn glossy_room_settings() -> MltSettings {
-    // Four times the chains of the pool's settings: with 128 the red
-    // channel (red wall, copper, gold) varied by ±2% between seeds, the
-    // share of chains that start on the red surfaces. And 1 024 b passes:
-    // with 256, b (from BDPT at 24×24) came out 0.303–0.314 for the
-    // test's five seeds against 0.317 (skewed low, all five means 2.6%
-    // low); with 1 024, 0.311–0.318. 1 000 bootstrap samples per depth suffice
-    // here (20 000 were for the pool's floor).
     MltSettings {
         n_chains: 256,
-        b_passes: 1024,
+        b_passes: 64,
         b_min_samples: 0,
         n_bootstrap: 1_000,
         ..metropolis_scene_settings()
     }
+}
+
+/// The chains' image up to b's scale: renders `scene` at 1/`factor`
+/// resolution four times at `mpp` mutations/pixel and once at 4·`mpp`,
+/// scales each to the reference's mean luminance, and asserts that the
+/// colour balance (each channel's share of the luminance, averaged over
+/// the five) is the reference's within 2 %, that the relMSE falls at least
+/// `min_ratio`-fold for 4× the mutations, ending well below a flat
+/// image's, and that no sample is non-finite. b itself (the BDPT image's
+/// mean, from the shared normalisation code) is held to the reference by
+/// `references::glossy_room_bdpt` and by [`check_means`] on the other
+/// scenes; here only a scale within 10 % is asked of it (64 passes: 0.96–1.01).
+fn check_shape(scene: &str, factor: u32, mlt: &Estimator, mpp: u64, min_ratio: f64) {
+    let (loaded, reference) = load_reduced(scene, factor);
+    let lum = |m: Rgb| f64::from(m.luminance());
+    let reference_lum = lum(reference.mean());
+    let mut scales = Vec::new();
+    let mut scaled = |img: Image| {
+        let s = (reference_lum / lum(img.mean())) as f32;
+        scales.push(s);
+        assert!(
+            (s - 1.0).abs() < 0.10,
+            "{scene}: mean luminance off by a factor {s} (b)"
+        );
+        Image {
+            pixels: img.pixels.iter().map(|&p| p * s).collect(),
+            ..img
+        }
+    };
+    let mut renders = Vec::new();
+    for (seed, n) in [
+        (500, mpp),
+        (501, mpp),
+        (502, mpp),
+        (503, mpp),
+        (77, 4 * mpp),
+    ] {
+        let (img, out) = render(&loaded, mlt, n, 2, seed);
+        assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
+        renders.push(scaled(img));
+    }
+    let big = renders.pop().expect("five renders");
+    drop(scaled);
+    let share = |m: Rgb, c: usize| [m.r, m.g, m.b][c] as f64 / lum(m);
+    for c in 0..3 {
+        let mean_share = renders
+            .iter()
+            .chain([&big])
+            .map(|img| share(img.mean(), c))
+            .sum::<f64>()
+            / 5.0;
+        let want = share(reference.mean(), c);
+        assert!(
+            (mean_share / want - 1.0).abs() <= 0.02,
+            "{scene}, channel {c}: share {mean_share:.5} vs reference {want:.5}"
+        );
+    }
+    let err_small = renders
+        .iter()
+        .map(|img| rel_mse(img, &reference))
+        .sum::<f64>()
+        / 4.0;
+    let err_big = rel_mse(&big, &reference);
+    let ratio = err_small / err_big;
+    eprintln!(
+        "{scene} ({:?}): relMSE at b's scale {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2}); scales {scales:.3?}",
+        mlt.kind(),
+        4 * mpp
+    );
+    assert!(
+        ratio >= min_ratio,
+        "{scene}: 4x the mutations cut relMSE only {ratio:.2}x"
+    );
+    let flat = Image {
+        pixels: vec![reference.mean(); reference.pixels.len()],
+        ..reference.clone()
+    };
+    assert!(
+        rel_mse(&flat, &reference) > 2.0 * err_big,
+        "{scene}: no better than a flat image"
+    );
 }
 
 /// MLT converges to the reference of the glossy room lit by a small lamp
@@ -500,7 +583,7 @@ fn glossy_room_settings() -> MltSettings {
 #[test]
 fn glossy_room_mlt_matches_reference() {
     let mlt = Estimator::Mlt(glossy_room_settings());
-    check_reference("glossy-room", 2, &mlt, 128, 2.5);
+    check_shape("glossy-room", 2, &mlt, 128, 2.5);
 }
 
 /// CMLT converges on the glossy room: lens perturbations through its rough
@@ -508,7 +591,7 @@ fn glossy_room_mlt_matches_reference() {
 #[test]
 fn glossy_room_cmlt_matches_reference() {
     let cmlt = cmlt_on(glossy_room_settings(), 1, 4);
-    check_reference("glossy-room", 2, &cmlt, 32, 2.0);
+    check_shape("glossy-room", 2, &cmlt, 32, 2.0);
 }
 
 /// CMLT with parallel lanes and side chains only on paths of at least
