@@ -181,9 +181,10 @@ fn coating_samples_match_eval_and_pdf_and_are_reciprocal() {
 /// weight (the sampled coating reflection's f·cos/pdf times its probability
 /// pdf, i.e. f·cos).
 fn albedo(bsdf: &Bsdf, wo: Vec3) -> f64 {
-    let smooth = chi2::integrate_sphere(&|wi| {
-        (bsdf.eval(wo, wi, TransportMode::Radiance).g * wi.z.abs()) as f64
-    });
+    let smooth = chi2::integrate_sphere(
+        &|wi| (bsdf.eval(wo, wi, TransportMode::Radiance).g * wi.z.abs()) as f64,
+        chi2::COUNT_TOL,
+    );
     let dirac = bsdf
         .sample(wo, 0.0, Vec2::new(0.3, 0.3), TransportMode::Radiance)
         .filter(|s| s.delta)

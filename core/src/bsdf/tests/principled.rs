@@ -359,9 +359,10 @@ fn principled_reciprocity_and_adjoint() {
 /// the flux from `wo` that is scattered) of the green channel (the tests
 /// use white, where the channels agree).
 fn albedo(bsdf: &Bsdf, wo: Vec3) -> f32 {
-    chi2::integrate_sphere(&|wi| {
-        (bsdf.eval(wo, wi, TransportMode::Importance).g * wi.z.abs()) as f64
-    }) as f32
+    chi2::integrate_sphere(
+        &|wi| (bsdf.eval(wo, wi, TransportMode::Importance).g * wi.z.abs()) as f64,
+        chi2::COUNT_TOL,
+    ) as f32
 }
 
 /// White furnace. The specular lobes are energy-conserving: a white metal,
