@@ -16,7 +16,7 @@ use std::sync::{Mutex, TryLockError};
 
 use crate::call;
 
-#[cfg(test)]
+#[cfg(feature = "test-hooks")]
 thread_local! {
     /// Test hook: the next [`bug_hook`] on this thread panics.
     pub(crate) static PANIC_ONCE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
@@ -27,7 +27,7 @@ thread_local! {
 /// after the test armed [`PANIC_ONCE`]. Does nothing in the library.
 #[inline(always)]
 pub(crate) fn bug_hook() {
-    #[cfg(test)]
+    #[cfg(feature = "test-hooks")]
     if PANIC_ONCE.take() {
         panic!("test hook: a bug while holding a lock");
     }

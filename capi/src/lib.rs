@@ -29,8 +29,9 @@ mod loader;
 pub mod renderer;
 pub mod scene;
 
-#[cfg(test)]
-mod tests;
+#[cfg(feature = "test-hooks")]
+#[doc(hidden)]
+pub mod test_hooks;
 
 /// Major version of the C API.
 pub const CMLT_VERSION_MAJOR: u32 = 0;

@@ -19,11 +19,11 @@ use std::cell::Cell;
 use std::ffi::{CStr, c_void};
 use std::ptr::{null, null_mut};
 
-use crate::alloc::{cmlt_allocator, cmlt_set_allocator};
-use crate::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
-use crate::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
-use crate::renderer::*;
-use crate::scene::*;
+use cmlt_capi::alloc::{cmlt_allocator, cmlt_set_allocator};
+use cmlt_capi::error::{cmlt_last_error, cmlt_set_error_callback, cmlt_status, cmlt_status_name};
+use cmlt_capi::host::{cmlt_hit, cmlt_intersector, cmlt_ray};
+use cmlt_capi::renderer::*;
+use cmlt_capi::scene::*;
 
 use cmlt_status::*;
 

@@ -284,7 +284,7 @@ fn principled_materials_are_checked_and_rendered() {
         two_sided: 1,
         ..WHITE
     };
-    let m = material_from_c(&p, &[]).expect("valid principled");
+    let m = cmlt_capi::test_hooks::material_from_c(&p, &[]).expect("valid principled");
     let c = |v: f32| Texture::Constant(Rgb::splat(v));
     assert_eq!(
         m.kind,
@@ -309,15 +309,19 @@ fn principled_materials_are_checked_and_rendered() {
         spec_trans: 1.0,
         ..p
     };
-    let MaterialKind::Principled(g) = material_from_c(&glass, &[]).unwrap().kind else {
+    let MaterialKind::Principled(g) = cmlt_capi::test_hooks::material_from_c(&glass, &[])
+        .unwrap()
+        .kind
+    else {
         panic!("not principled");
     };
     assert_eq!((g.eta, g.spec_trans), (1.45, c(1.0)));
     let mut textured = p;
     textured.principled_textures[CMLT_PRINCIPLED_METALLIC as usize] = 1;
-    let MaterialKind::Principled(t) = material_from_c(&textured, &[cmlt_core::scene::BitmapId(0)])
-        .unwrap()
-        .kind
+    let MaterialKind::Principled(t) =
+        cmlt_capi::test_hooks::material_from_c(&textured, &[cmlt_core::scene::BitmapId(0)])
+            .unwrap()
+            .kind
     else {
         panic!("not principled");
     };

@@ -100,8 +100,6 @@ fn invalid_configurations_get_no_memory_bound() {
 #[test]
 fn the_memory_bound_covers_what_creation_allocates() {
     let s = scene(None);
-    // SAFETY: a committed scene.
-    let committed = unsafe { &*s }.committed().unwrap();
     for estimator in [
         CMLT_ESTIMATOR_PT,
         CMLT_ESTIMATOR_BDPT,
@@ -133,7 +131,8 @@ fn the_memory_bound_covers_what_creation_allocates() {
                     "memory_requirements",
                 )
             };
-            let cfg = crate::renderer::core_config(&c, &committed).unwrap();
+            // SAFETY: a committed scene from this test.
+            let cfg = unsafe { cmlt_capi::test_hooks::core_config(&c, s) }.unwrap();
             let bound = cmlt_core::renderer::Renderer::memory_bound(&cfg, w, h).unwrap();
             let case = format!(
                 "estimator {estimator}, {workers} workers, {chains} chains, depth {depth}, k {k}, {w}×{h}"

@@ -572,8 +572,8 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
 #[test]
 fn config_default_is_the_cores_default() {
     let s = scene(None);
-    // SAFETY: a committed scene.
-    let committed = unsafe { &*s }.committed().unwrap();
+    // SAFETY: a committed scene from this test.
+    let settings = unsafe { cmlt_capi::test_hooks::scene_settings(s) }.unwrap();
     let mut first = None;
     for kind in EstimatorKind::ALL {
         let estimator = kind as u32;
@@ -589,9 +589,10 @@ fn config_default_is_the_cores_default() {
         };
         assert_eq!(c.estimator, estimator);
         (c.width, c.height) = (16, 12);
-        let cfg = crate::renderer::core_config(&c, &committed).unwrap();
+        // SAFETY: as above.
+        let cfg = unsafe { cmlt_capi::test_hooks::core_config(&c, s) }.unwrap();
         let expected = RendererConfig {
-            settings: committed.settings,
+            settings,
             ..RendererConfig::for_estimator(kind)
         };
         assert_eq!(cfg, expected, "{kind:?}");

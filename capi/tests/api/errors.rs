@@ -59,7 +59,7 @@ fn a_panic_under_a_lock_leaves_the_object_dead_not_busy() {
     let mut id = 0;
     // SAFETY: valid pointers; handles from this test.
     unsafe {
-        crate::error::PANIC_ONCE.set(true);
+        cmlt_capi::test_hooks::panic_once();
         expect(
             cmlt_scene_add_material(s, &WHITE, &mut id),
             CMLT_ERROR_INTERNAL,
@@ -88,7 +88,7 @@ fn a_panic_under_a_lock_leaves_the_object_dead_not_busy() {
     // SAFETY: valid pointers; handles from this test.
     unsafe {
         expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
-        crate::error::PANIC_ONCE.set(true);
+        cmlt_capi::test_hooks::panic_once();
         expect(
             cmlt_renderer_render(r, 0, 16 * 12, null_mut()),
             CMLT_ERROR_INTERNAL,

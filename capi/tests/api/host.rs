@@ -102,7 +102,7 @@ unsafe extern "C" fn shape_host_intersect(
 ) {
     // SAFETY: valid for the call.
     let (ray, hit) = unsafe { (&*ray, &mut *hit) };
-    hit.prim_id = crate::host::CMLT_INVALID_ID;
+    hit.prim_id = cmlt_capi::host::CMLT_INVALID_ID;
     hit.t = ray.tfar;
     for (k, tri) in [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]
         .into_iter()
@@ -122,7 +122,7 @@ unsafe extern "C" fn shape_host_intersect(
             t,
             u,
             v,
-            prim_id: crate::host::CMLT_SHAPE_BIT,
+            prim_id: cmlt_capi::host::CMLT_SHAPE_BIT,
         };
     }
 }
@@ -136,7 +136,7 @@ unsafe extern "C" fn shape_host_occluded(user: *mut c_void, ray: *const cmlt_ray
     };
     // SAFETY: forwarded from our caller.
     unsafe { shape_host_intersect(user, ray, &mut hit) };
-    (hit.prim_id != crate::host::CMLT_INVALID_ID) as u32
+    (hit.prim_id != cmlt_capi::host::CMLT_INVALID_ID) as u32
 }
 
 unsafe extern "C" fn shape_host_surface(
@@ -144,7 +144,7 @@ unsafe extern "C" fn shape_host_surface(
     shape: u32,
     theta: f32,
     phi: f32,
-    out: *mut crate::host::cmlt_surface,
+    out: *mut cmlt_capi::host::cmlt_surface,
 ) -> u32 {
     // SAFETY: `user` is the test's ShapeHost; `out` is valid for the call.
     let (host, out) = unsafe { (&*(user as *const ShapeHost), &mut *out) };
@@ -170,7 +170,7 @@ unsafe extern "C" fn shape_host_surface(
 /// answer is rejected), and broken surface answers counted, never drawn.
 #[test]
 fn host_shapes_are_checked_and_rendered() {
-    use crate::host::cmlt_shapes;
+    use cmlt_capi::host::cmlt_shapes;
     let make = |host: &ShapeHost, with_sphere: bool| -> *mut cmlt_scene {
         let s = floor_and_light();
         let shapes = cmlt_shapes {
