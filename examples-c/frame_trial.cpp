@@ -18,10 +18,20 @@
 // renders. Prints one line per frame, then one `trial` line:
 //   trial <estimator> <w>x<h> budget_ms <b> frames <n> p50_ms <..> p95_ms <..>
 //   setup_ms <..> setup_p50_ms <..> black <..> flicker <..> allocs_per_frame <..>
+//   cpu_p50_ms <..> cpu_p95_ms <..> over <..> over_lost_ms <..> setup_cpu_ms <..>
 // setup_ms, setup_p50_ms: the mean and the median time of the set-up
 // after the first frame (from its start until both workers may render);
 // black: the mean fraction of exactly black pixels; flicker: the rms of
 // the relative frame-to-frame change of the mean luminance.
+// cpu_*_ms: a frame's work as thread CPU time (CLOCK_THREAD_CPUTIME_ID):
+// the busier worker's thread over its set-up and render, plus the
+// resolve's; over: the frames after the first longer than the budget +
+// 10 %, and over_lost_ms their mean wall time not spent on the CPU (frame
+// time minus that work) — a frame that is late because the scheduler held
+// a thread back loses its time there, one that did too much work does
+// not; setup_cpu_ms: the mean of the busier worker's thread CPU time over
+// its set-up and the join after the first frame (against setup_ms, its
+// wall time).
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -31,6 +41,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -154,6 +165,13 @@ class Meeting {
     bool open_ = false;
 };
 
+// The calling thread's CPU time, milliseconds (POSIX).
+double thread_cpu_ms() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
+}
+
 double percentile(std::vector<double> v, double p) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -237,7 +255,7 @@ int main(int argc, char **argv) {
     // the last resolve's time and a millisecond of margin.
     double reserve_ms = 1.0;
 
-    std::vector<double> frame_ms, setup_ms, black, means;
+    std::vector<double> frame_ms, setup_ms, setup_cpu_ms, black, means, cpu_ms;
     const unsigned long before = g_allocations.load();
     for (int f = 0; f < frames; ++f) {
         const auto t0 = Clock::now();
@@ -269,7 +287,9 @@ int main(int argc, char **argv) {
         Meeting meeting{int(workers)};
         cmlt::Status finish_status = cmlt::Status::Ok;
         std::array<cmlt::Status, workers> setup_st{}, render_st{};
+        std::array<double, workers> worker_cpu{}, worker_setup_cpu{};
         auto work = [&](std::uint32_t w) {
+            const double c0 = thread_cpu_ms();
             if (pending) {
                 bool finished = false;
                 setup_st[w] = renderer.prepare_worker_while(w, setup_going, finished);
@@ -283,7 +303,9 @@ int main(int argc, char **argv) {
                 s1 = Clock::now();
                 finish_ms = std::chrono::duration<double, std::milli>(s1 - w1).count();
             });
+            worker_setup_cpu[w] = thread_cpu_ms() - c0;
             if (finish_status == cmlt::Status::Ok) render_st[w] = renderer.render_while(w, UINT64_MAX, keep_going);
+            worker_cpu[w] = thread_cpu_ms() - c0;
         };
         {
             std::array<std::thread, workers - 1> threads;
@@ -297,7 +319,9 @@ int main(int argc, char **argv) {
         const double setup = std::chrono::duration<double, std::milli>(s1 - s0).count();
         const auto r0 = Clock::now();
         const double render = std::chrono::duration<double, std::milli>(r0 - s1).count();
+        const double resolve_cpu0 = thread_cpu_ms();
         check(renderer.resolve(cmlt::Format::Rgb32f, image.data(), 0, image.size() * sizeof(float)), "resolve");
+        const double cpu = *std::max_element(worker_cpu.begin(), worker_cpu.end()) + thread_cpu_ms() - resolve_cpu0;
         reserve_ms = 1.0 + std::chrono::duration<double, std::milli>(Clock::now() - r0).count();
         const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 
@@ -310,14 +334,19 @@ int main(int argc, char **argv) {
         }
         const double mean = sum / double(width * height);
         frame_ms.push_back(ms);
-        if (f > 0) setup_ms.push_back(setup);
+        cpu_ms.push_back(cpu);
+        if (f > 0) {
+            setup_ms.push_back(setup);
+            setup_cpu_ms.push_back(*std::max_element(worker_setup_cpu.begin(), worker_setup_cpu.end()));
+        }
         black.push_back(double(dark) / double(width * height));
         means.push_back(mean);
         std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f update_ms %.2f render_ms %.2f resolve_ms %.2f "
-                    "setup_begin_ms %.2f setup_workers_ms %.2f setup_finish_ms %.2f\n",
+                    "setup_begin_ms %.2f setup_workers_ms %.2f setup_finish_ms %.2f cpu_ms %.2f cpu0_ms %.2f "
+                    "cpu1_ms %.2f\n",
                     f, ms, setup, mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(),
                     render, reserve_ms - 1.0, std::chrono::duration<double, std::milli>(b1 - s0).count(), workers_ms,
-                    finish_ms);
+                    finish_ms, cpu, worker_cpu[0], worker_cpu[1]);
     }
     const unsigned long allocations = g_allocations.load() - before;
 
@@ -333,13 +362,26 @@ int main(int argc, char **argv) {
     double setup_mean = 0.0;
     for (double s : setup_ms) setup_mean += s;
     setup_mean = setup_ms.empty() ? 0.0 : setup_mean / double(setup_ms.size());
+    int over = 0;
+    double over_lost = 0.0;
+    for (std::size_t f = 1; f < frame_ms.size(); ++f)
+        if (frame_ms[f] > 1.1 * budget_ms) {
+            ++over;
+            over_lost += frame_ms[f] - cpu_ms[f];
+        }
+    over_lost = over > 0 ? over_lost / double(over) : 0.0;
+    double setup_cpu_mean = 0.0;
+    for (double s : setup_cpu_ms) setup_cpu_mean += s;
+    setup_cpu_mean = setup_cpu_ms.empty() ? 0.0 : setup_cpu_mean / double(setup_cpu_ms.size());
     double black_mean = 0.0;
     for (double b : black) black_mean += b;
     black_mean /= double(std::max<std::size_t>(black.size(), 1));
     std::printf("trial %s %ux%u triangles %u budget_ms %.1f frames %d p50_ms %.2f p95_ms %.2f setup_ms %.2f "
-                "setup_p50_ms %.2f black %.4f flicker %.4f allocs_per_frame %.2f\n",
+                "setup_p50_ms %.2f black %.4f flicker %.4f allocs_per_frame %.2f cpu_p50_ms %.2f cpu_p95_ms %.2f "
+                "over %d over_lost_ms %.2f setup_cpu_ms %.2f\n",
                 method.c_str(), width, height, triangles, budget_ms, frames, percentile(frame_ms, 0.5),
                 percentile(frame_ms, 0.95), setup_mean, percentile(setup_ms, 0.5), black_mean, flicker,
-                double(allocations) / double(std::max(frames, 1)));
+                double(allocations) / double(std::max(frames, 1)), percentile(cpu_ms, 0.5), percentile(cpu_ms, 0.95),
+                over, over_lost, setup_cpu_mean);
     return 0;
 }

@@ -976,7 +976,8 @@ enum cmlt_status cmlt_renderer_prepare_begin(struct cmlt_renderer *renderer, uin
 
 // Worker `worker`'s share of the bootstrap begun by
 // `cmlt_renderer_prepare_begin`: its contiguous share of the bootstrap samples
-// and every W-th normalisation pass. Same thread rules as
+// and of the normalisation passes' blocks (each pass is cut into 24 blocks
+// of interleaved pixels, so a pass is shared too). Same thread rules as
 // `cmlt_renderer_render` (different workers at the same time from
 // different threads). Returns at once when nothing is pending.
 //

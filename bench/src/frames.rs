@@ -14,6 +14,12 @@
 //! - mean-luminance flicker (rms of the relative frame-to-frame change of
 //!   the mean) ≤ 2 %, with the moving camera;
 //! - allocations per frame: 0.
+//!
+//! Beside the frame times it prints each frame's work as thread CPU time
+//! (the busier worker's, plus the resolve's), and for the frames over
+//! budget + 10 % their mean time off the CPU: on a loaded machine a late
+//! frame whose CPU time is on budget was held back by the scheduler, one
+//! whose CPU time is late did too much work.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -48,6 +54,21 @@ pub struct Trial {
     pub flicker: f64,
     /// cmlt's allocations per frame.
     pub allocs_per_frame: f64,
+    /// Median of a frame's work in thread CPU time, milliseconds (the
+    /// busier worker's set-up and render, plus the resolve).
+    pub cpu_p50_ms: f64,
+    /// 95th percentile of a frame's work in thread CPU time,
+    /// milliseconds.
+    pub cpu_p95_ms: f64,
+    /// Frames after the first longer than the budget + 10 %.
+    pub over: u32,
+    /// Their mean wall time not spent on the CPU (frame time minus its
+    /// work), milliseconds.
+    pub over_lost_ms: f64,
+    /// Mean thread CPU time of the set-up after the first frame (the
+    /// busier worker's slice and the join), milliseconds: the set-up's
+    /// work, against `setup_ms`, its wall time.
+    pub setup_cpu_ms: f64,
 }
 
 impl Trial {
@@ -75,6 +96,11 @@ impl Trial {
             black: value("black")?,
             flicker: value("flicker")?,
             allocs_per_frame: value("allocs_per_frame")?,
+            cpu_p50_ms: value("cpu_p50_ms")?,
+            cpu_p95_ms: value("cpu_p95_ms")?,
+            over: value("over")? as u32,
+            over_lost_ms: value("over_lost_ms")?,
+            setup_cpu_ms: value("setup_cpu_ms")?,
         })
     }
 
@@ -153,7 +179,7 @@ fn split_accumulation(estimator: &str) -> (&str, &str) {
 /// budget and accumulation when there is one.
 pub fn table(trials: &[Trial]) -> String {
     let mut s = String::from(
-        "estimator    size     budget  p50 ms  p95 ms  p95/budget  setup ms  setup/budget  setup p50  black    black/bdpt  flicker  allocs/frame\n",
+        "estimator    size     budget  p50 ms  p95 ms  p95/budget  cpu p50  cpu p95  over  lost ms  setup ms  setup/budget  setup p50  setup cpu  black    black/bdpt  flicker  allocs/frame\n",
     );
     let mark = |ok: bool| if ok { "ok " } else { "MISS" };
     for t in trials {
@@ -172,7 +198,7 @@ pub fn table(trials: &[Trial]) -> String {
             _ => format!("{:>11}", "-"),
         };
         s += &format!(
-            "{:<12} {:>4}x{:<4} {:>5.0}  {:>6.1}  {:>6.1}  {:>6.2} {}  {:>8.2}  {:>8.3} {}  {:>9.2}  {:>7.4}  {}  {:>6.4} {}  {:>6.2} {}\n",
+            "{:<12} {:>4}x{:<4} {:>5.0}  {:>6.1}  {:>6.1}  {:>6.2} {}  {:>7.1}  {:>7.1}  {:>4}  {:>7.1}  {:>8.2}  {:>8.3} {}  {:>9.2}  {:>9.2}  {:>7.4}  {}  {:>6.4} {}  {:>6.2} {}\n",
             t.estimator,
             t.width,
             t.height,
@@ -181,10 +207,15 @@ pub fn table(trials: &[Trial]) -> String {
             t.p95_ms,
             t.p95_ms / t.budget_ms,
             mark(t.budget_held()),
+            t.cpu_p50_ms,
+            t.cpu_p95_ms,
+            t.over,
+            t.over_lost_ms,
             t.setup_ms,
             t.setup_ms / t.budget_ms,
             mark(t.setup_held()),
             t.setup_p50_ms,
+            t.setup_cpu_ms,
             t.black,
             vs_bdpt,
             t.flicker,
@@ -204,13 +235,15 @@ mod tests {
     fn the_trial_line_parses() {
         let t = Trial::parse(
             "trial bdpt 320x180 triangles 5250 budget_ms 30.0 frames 8 p50_ms 31.5 p95_ms 32.0 \
-             setup_ms 0.10 setup_p50_ms 0.08 black 0.0001 flicker 0.0075 allocs_per_frame 0.00",
+             setup_ms 0.10 setup_p50_ms 0.08 black 0.0001 flicker 0.0075 allocs_per_frame 0.00 \
+             cpu_p50_ms 29.0 cpu_p95_ms 29.5 over 1 over_lost_ms 4.50 setup_cpu_ms 0.05",
         )
         .unwrap();
         assert_eq!((t.width, t.height, t.frames), (320, 180, 8));
         assert_eq!(t.estimator, "bdpt");
         assert!(t.budget_held() && t.setup_held());
         assert_eq!(t.p95_ms, 32.0);
+        assert_eq!((t.cpu_p95_ms, t.over, t.over_lost_ms), (29.5, 1, 4.5));
         assert!(Trial::parse("frame 0 ms 3").is_none());
         let late = Trial { p95_ms: 33.1, ..t };
         assert!(!late.budget_held());
@@ -231,6 +264,11 @@ mod tests {
             black,
             flicker: 0.0,
             allocs_per_frame: 0.0,
+            cpu_p50_ms: 30.0,
+            cpu_p95_ms: 30.0,
+            over: 0,
+            over_lost_ms: 0.0,
+            setup_cpu_ms: 0.0,
         };
         let s = table(&[t("bdpt", 0.9), t("bdpt+decay", 0.1), t("mlt+decay", 0.2)]);
         let row = s.lines().find(|l| l.starts_with("mlt+decay")).unwrap();

@@ -323,6 +323,12 @@ enum BenchCommand {
         /// MLT/CMLT: keep the chains across the frames too.
         #[arg(long)]
         keep_chains: bool,
+        /// Each worker renders a fixed share of every frame (its
+        /// `steps_for`, as `cmlt render --frames` does) instead of pieces
+        /// until the frame's total is reached: the baseline that waits at
+        /// every frame's end.
+        #[arg(long)]
+        fixed_shares: bool,
         /// Seeds 0..S.
         #[arg(long, default_value_t = 4)]
         seeds: u64,
@@ -789,44 +795,80 @@ fn run(cli: Cli) -> Result<(), String> {
             per_frame,
             threads,
             keep_chains,
+            fixed_shares,
             seeds,
             define,
         } => {
+            use cmlt_bench::still::Shares;
+            let shares = if fixed_shares {
+                Shares::Fixed
+            } else {
+                Shares::Shared
+            };
             let study = cmlt_bench::study::Study::load(&scene, &define, &reference)?;
             let (w, h) = study.resolution();
             println!(
-                "{scene} {w}x{h}, {method:?}, {frames} kept frames of {per_frame}/px, {threads} workers, keep_chains {keep_chains}"
+                "{scene} {w}x{h}, {method:?}, {frames} kept frames of {per_frame}/px, {threads} workers, keep_chains {keep_chains}, {shares:?} shares"
             );
             println!(
-                "seed  kept relMSE  kept s   offline same mutations  ratio   offline same time  ratio"
+                "seed  kept relMSE  kept s   offline same mutations  ratio   offline same time  ratio   same time after set-up  ratio"
             );
-            let (mut rm, mut rt) = (Vec::new(), Vec::new());
+            let (mut rm, mut rt, mut ra) = (Vec::new(), Vec::new(), Vec::new());
+            let mut breakdowns = Vec::new();
             for seed in 0..seeds.max(1) {
                 let s = cmlt_bench::still::run(
                     &study,
                     Estimator::default_for(method),
                     (frames, per_frame),
                     threads.max(1),
-                    keep_chains,
+                    (keep_chains, shares),
                     seed,
                 )?;
                 println!(
-                    "{seed:>4}  {:>11.5}  {:>6.2}  {:>22.5}  {:>5.2}  {:>17.5}  {:>5.2}",
+                    "{seed:>4}  {:>11.5}  {:>6.2}  {:>22.5}  {:>5.2}  {:>17.5}  {:>5.2}  {:>22.5}  {:>5.2}",
                     s.kept,
                     s.kept_s,
                     s.same_mutations,
                     s.ratio_mutations(),
                     s.same_time,
-                    s.ratio_time()
+                    s.ratio_time(),
+                    s.same_time_after_setup,
+                    s.ratio_time_after_setup()
                 );
                 rm.push(s.ratio_mutations());
                 rt.push(s.ratio_time());
+                ra.push(s.ratio_time_after_setup());
+                breakdowns.push(s.breakdown);
+            }
+            println!(
+                "where the time went (s). kept frames: first set-up, later set-ups, renders (of which idle at \
+                 the frames' ends, thread start, waiting to run), resolve, per px; offline same time: set-up, \
+                 render, per px; render rate kept/offline; CPU per mutation kept/offline"
+            );
+            for (seed, b) in breakdowns.iter().enumerate() {
+                println!(
+                    "{seed:>4}  {:>7.3} {:>7.3} {:>7.3} ({:>6.3} {:>6.4} {:>6.3}) {:>7.4} {:>7.1}   {:>7.3} {:>7.3} {:>7.1}   {:>5.2}  {:>5.2}",
+                    b.first_setup_s,
+                    b.setup_s,
+                    b.render_s,
+                    b.join_idle_s,
+                    b.start_s,
+                    b.run_queue_s,
+                    b.resolve_s,
+                    b.kept_per_pixel,
+                    b.offline_setup_s,
+                    b.offline_render_s,
+                    b.offline_per_pixel,
+                    b.render_rate_ratio(),
+                    b.cpu_ratio
+                );
             }
             let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
             println!(
-                "mean ratio: same mutations {:.2}, same time {:.2} (target: same time ≤ 1.2)",
+                "mean ratio: same mutations {:.2}, same time {:.2}, same time after the set-up {:.2} (target: same time ≤ 1.2)",
                 mean(&rm),
-                mean(&rt)
+                mean(&rt),
+                mean(&ra)
             );
             Ok(())
         }

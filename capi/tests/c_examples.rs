@@ -307,8 +307,10 @@ fn cpp_frame_trial_runs_every_estimator_without_allocating() {
         let out = run(&exe, &[method, "64", "36", "20", "4"]);
         let trial = numbers(&out, &format!("trial {method} 64x36 triangles"));
         // triangles, budget, frames, p50, p95, setup, setup p50, black,
-        // flicker, allocations
-        assert_eq!(trial.len(), 10, "{out}");
+        // flicker, allocations, cpu p50, cpu p95, over, over lost, setup
+        // cpu
+        assert_eq!(trial.len(), 15, "{out}");
+        assert!(trial[11] > 0.0, "{method}: a frame's CPU time\n{out}");
         assert!(trial[0] > 5000.0, "{out}");
         assert_eq!(trial[2], 4.0, "{out}");
         assert_eq!(trial[9], 0.0, "{method}: allocations per frame\n{out}");

@@ -61,21 +61,21 @@ impl<'a> AovLayer<'a> {
         Ok(())
     }
 
-    /// Writes the channels `values` of pixel `x` of the call's row `row`.
+    /// Writes a run of pixels from pixel `x0` of the call's row `row` on:
+    /// `values` holds their `channels` channels, pixel after pixel.
     #[inline(always)]
-    pub(super) fn put(&mut self, row: usize, x: usize, values: &[f32]) {
-        let n = values.len();
-        let at = row * self.row_stride;
+    pub(super) fn put_run(&mut self, row: usize, x0: usize, channels: usize, values: &[f32]) {
+        let bytes = self.format.bytes();
+        let at = row * self.row_stride + x0 * channels * bytes;
+        let run = &mut self.data[at..at + values.len() * bytes];
         match self.format {
             AovFormat::F32 => {
-                let px = &mut self.data[at + x * n * 4..at + (x + 1) * n * 4];
-                for (v, p) in values.iter().zip(px.chunks_exact_mut(4)) {
+                for (v, p) in values.iter().zip(run.chunks_exact_mut(4)) {
                     p.copy_from_slice(&v.to_ne_bytes());
                 }
             }
             AovFormat::F16 => {
-                let px = &mut self.data[at + x * n * 2..at + (x + 1) * n * 2];
-                for (v, p) in values.iter().zip(px.chunks_exact_mut(2)) {
+                for (v, p) in values.iter().zip(run.chunks_exact_mut(2)) {
                     p.copy_from_slice(&f16_bits(*v).to_ne_bytes());
                 }
             }

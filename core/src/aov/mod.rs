@@ -95,7 +95,13 @@ pub fn render_rows<I: Intersector>(
         }
     }
     let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
-    let shade = out.albedo.is_some() || out.normal.is_some();
+    let want = Wanted {
+        albedo: out.albedo.is_some(),
+        normal: out.normal.is_some(),
+        depth: out.depth.is_some(),
+        motion: out.motion.is_some(),
+    };
+    let shade = want.albedo || want.normal;
     // With alpha masks the tracer walks through masked surfaces ray by ray
     // (and hands back shaded points); otherwise one packet per LANES
     // pixels, and the BSDF and shading frame are resolved only for albedo
@@ -106,11 +112,15 @@ pub fn render_rows<I: Intersector>(
     // that see it; others at each pixel's own point (`shading_point`: no
     // ray leaves it, so it needs neither a margin off the edges nor an
     // error bound, which were most of the cost of albedo and normal).
+    // Each lane's outputs are computed into `px` as plain floats and
+    // written a packet's run of pixels at a time: per-lane arrays of
+    // `Option<Uniform>` and `Option<Shading>` between two loops cost a
+    // store-forwarding stall per pixel (their copies at odd offsets were
+    // the hottest instruction of depth and motion).
     let masks = tracer.has_alpha_masks();
     let mut rays = [None; LANES];
     let mut shaded: [Option<Shading>; LANES] = [None; LANES];
-    let mut points: [Option<PixelPoint>; LANES] = [None; LANES];
-    let mut uniform: [Option<Uniform>; LANES] = [None; LANES];
+    let mut run = Run::default();
     let mut last: Option<(u32, Option<Uniform>)> = None;
     for (row, y) in rows.enumerate() {
         for x0 in (0..width).step_by(LANES) {
@@ -120,63 +130,179 @@ pub fn render_rows<I: Intersector>(
             }
             if masks {
                 tracer.trace_bundle(&rays[..lanes], &mut shaded[..lanes]);
-                for (p, h) in points.iter_mut().zip(&shaded[..lanes]) {
-                    *p = h.map(|h| PixelPoint::of_surface(scene, &h.sp));
+                for i in 0..lanes {
+                    let ray = rays[i].expect("set above");
+                    let c = centre(x0 + i, y);
+                    let Some(sh) = &shaded[i] else {
+                        run.miss(i, previous, &ray, c, want);
+                        continue;
+                    };
+                    let point = PixelPoint::of_surface(scene, &sh.sp);
+                    run.hit(i, scene, camera, previous, point, c, want);
+                    run.shaded(i, &mut tracer, sh, ray.d, want);
                 }
             } else {
                 let hits = intersect(accel, &rays[..lanes]);
-                for i in 0..lanes {
-                    let ray = rays[i].expect("set above");
-                    let hit = hits.get(i);
-                    points[i] = hit.map(|h| PixelPoint::of_hit(&ray, &h));
-                    uniform[i] = None;
-                    shaded[i] = None;
-                    let Some(h) = hit.filter(|_| shade) else {
+                for (i, ray) in rays[..lanes].iter().enumerate() {
+                    let ray = ray.expect("set above");
+                    let c = centre(x0 + i, y);
+                    let Some(h) = hits.get(i) else {
+                        run.miss(i, previous, &ray, c, want);
                         continue;
                     };
-                    if h.prim & SHAPE_PRIM_BIT != 0 {
-                        shaded[i] = scene.hit_point(&h).map(|sp| tracer.shade(sp));
+                    run.hit(
+                        i,
+                        scene,
+                        camera,
+                        previous,
+                        PixelPoint::of_hit(&ray, &h),
+                        c,
+                        want,
+                    );
+                    if !shade {
                         continue;
                     }
-                    let u = match last {
-                        Some((prim, u)) if prim == h.prim => u,
-                        _ => {
-                            let u = Uniform::of(scene, h.prim);
-                            last = Some((h.prim, u));
-                            u
+                    if h.prim & SHAPE_PRIM_BIT != 0 {
+                        if let Some(sp) = scene.hit_point(&h) {
+                            let sh = tracer.shade(sp);
+                            run.shaded(i, &mut tracer, &sh, ray.d, want);
                         }
-                    };
-                    uniform[i] = u;
-                    if u.is_none() {
-                        shaded[i] = scene
-                            .shading_point(h.prim, h.b1, h.b2)
-                            .map(|sp| tracer.shade(sp));
+                        continue;
+                    }
+                    if !matches!(last, Some((prim, _)) if prim == h.prim) {
+                        last = Some((h.prim, Uniform::of(scene, h.prim)));
+                    }
+                    // Read in place: a copy of the cached `Uniform` per
+                    // pixel stalled on its own stores.
+                    match last.as_ref().and_then(|(_, u)| u.as_ref()) {
+                        Some(u) => {
+                            let (a, n) = u.look(ray.d);
+                            run.albedo[3 * i..3 * i + 3].copy_from_slice(&a);
+                            run.normal[3 * i..3 * i + 3].copy_from_slice(&n);
+                        }
+                        None => {
+                            if let Some(sp) = scene.shading_point(h.prim, h.b1, h.b2) {
+                                let sh = tracer.shade(sp);
+                                run.shaded(i, &mut tracer, &sh, ray.d, want);
+                            }
+                        }
                     }
                 }
             }
-            for i in 0..lanes {
-                let ray = rays[i].expect("set above");
-                let x = x0 + i;
-                let look = match (shade, uniform[i], &shaded[i]) {
-                    (false, _, _) => Look::Nothing,
-                    (true, Some(u), _) => Look::Uniform(u),
-                    (true, None, Some(sh)) => Look::Shaded(sh),
-                    (true, None, None) => Look::Nothing,
-                };
-                write_pixel(
-                    &mut tracer,
-                    previous,
-                    &ray,
-                    (points[i], look),
-                    centre(x, y),
-                    out,
-                    row,
-                    x,
-                );
-            }
+            run.write(out, row, x0, lanes);
         }
     }
     Ok(())
+}
+
+/// Which outputs a call writes (the others are not computed).
+#[derive(Clone, Copy)]
+struct Wanted {
+    albedo: bool,
+    normal: bool,
+    depth: bool,
+    motion: bool,
+}
+
+/// The outputs of a packet's run of pixels, channel after channel and
+/// pixel after pixel as the layers hold them, written into the layers
+/// together ([`Run::write`]). Each value is stored once, where its layer
+/// reads it (a per-pixel struct copied into place stalled on its own
+/// stores).
+struct Run {
+    albedo: [f32; 3 * LANES],
+    normal: [f32; 3 * LANES],
+    depth: [f32; LANES],
+    motion: [f32; 2 * LANES],
+}
+
+impl Default for Run {
+    fn default() -> Self {
+        Run {
+            albedo: [0.0; 3 * LANES],
+            normal: [0.0; 3 * LANES],
+            depth: [0.0; LANES],
+            motion: [0.0; 2 * LANES],
+        }
+    }
+}
+
+impl Run {
+    /// Pixel `i`'s ray (through raster `centre`) leaves the scene: no
+    /// surface, infinite depth, and the motion of the point at infinity
+    /// in its direction.
+    fn miss(&mut self, i: usize, previous: &Camera, ray: &Ray, centre: Vec2, want: Wanted) {
+        self.albedo[3 * i..3 * i + 3].fill(0.0);
+        self.normal[3 * i..3 * i + 3].fill(0.0);
+        self.depth[i] = f32::INFINITY;
+        if want.motion {
+            let m = previous
+                .project_direction(ray.d)
+                .map_or(Vec2::ZERO, |q| q - centre);
+            self.motion[2 * i..2 * i + 2].copy_from_slice(&[m.x, m.y]);
+        }
+    }
+
+    /// Pixel `i`'s ray stopped at `point`: its depth and motion, albedo
+    /// and normal zero until a surface point sets them
+    /// ([`Run::shaded`], a [`Uniform`]).
+    #[allow(clippy::too_many_arguments)]
+    fn hit(
+        &mut self,
+        i: usize,
+        scene: &Scene,
+        camera: &Camera,
+        previous: &Camera,
+        point: PixelPoint,
+        centre: Vec2,
+        want: Wanted,
+    ) {
+        self.albedo[3 * i..3 * i + 3].fill(0.0);
+        self.normal[3 * i..3 * i + 3].fill(0.0);
+        if want.depth {
+            self.depth[i] = (point.p - camera.position()).dot(camera.forward());
+        }
+        if want.motion {
+            let before = scene.previous_point(point.prim, point.b1, point.b2, point.p);
+            let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
+            self.motion[2 * i..2 * i + 2].copy_from_slice(&[m.x, m.y]);
+        }
+    }
+
+    /// Pixel `i`'s albedo and normal: the surface `sh` seen along `d`.
+    fn shaded<I: Intersector>(
+        &mut self,
+        i: usize,
+        tracer: &mut Tracer<'_, I>,
+        sh: &Shading,
+        d: Vec3,
+        want: Wanted,
+    ) {
+        if want.albedo {
+            let a = albedo::albedo(tracer, sh, -d);
+            self.albedo[3 * i..3 * i + 3].copy_from_slice(&[a.r, a.g, a.b]);
+        }
+        if want.normal {
+            self.normal[3 * i..3 * i + 3].copy_from_slice(&facing(sh.sp.ns, d).to_array());
+        }
+    }
+
+    /// Writes the first `lanes` pixels into every wanted layer, from
+    /// pixel `x0` of the call's row `row` on.
+    fn write(&self, out: &mut AovBuffers<'_>, row: usize, x0: usize, lanes: usize) {
+        if let Some(l) = &mut out.albedo {
+            l.put_run(row, x0, 3, &self.albedo[..3 * lanes]);
+        }
+        if let Some(l) = &mut out.normal {
+            l.put_run(row, x0, 3, &self.normal[..3 * lanes]);
+        }
+        if let Some(l) = &mut out.depth {
+            l.put_run(row, x0, 1, &self.depth[..lanes]);
+        }
+        if let Some(l) = &mut out.motion {
+            l.put_run(row, x0, 2, &self.motion[..2 * lanes]);
+        }
+    }
 }
 
 /// Where a pixel's ray stopped: the point, its primitive and its
@@ -298,16 +424,6 @@ impl Uniform {
     }
 }
 
-/// What the albedo and normal outputs read at a pixel's hit.
-enum Look<'a> {
-    /// Not wanted, or no surface point.
-    Nothing,
-    /// The surface shaded at the pixel's own point.
-    Shaded(&'a Shading),
-    /// A triangle that looks the same all over.
-    Uniform(Uniform),
-}
-
 /// Closest hits of `rays` (up to [`LANES`]) as one packet.
 fn intersect<I: Intersector>(accel: &I, rays: &[Option<Ray>]) -> HitPacket<LANES> {
     let mut packet = RayPacket::<LANES>::default();
@@ -326,83 +442,6 @@ fn intersect<I: Intersector>(accel: &I, rays: &[Option<Ray>]) -> HitPacket<LANES
 /// The centre of pixel (x, y) in raster coordinates.
 fn centre(x: usize, y: u32) -> Vec2 {
     Vec2::new(x as f32 + 0.5, y as f32 + 0.5)
-}
-
-/// Computes and writes the wanted outputs of one pixel: `hit` is where its
-/// ray stopped and, when albedo or normal are wanted, how its surface
-/// looks.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn write_pixel<I: Intersector>(
-    tracer: &mut Tracer<'_, I>,
-    previous: &Camera,
-    ray: &Ray,
-    hit: (Option<PixelPoint>, Look<'_>),
-    centre: Vec2,
-    out: &mut AovBuffers<'_>,
-    row: usize,
-    x: usize,
-) {
-    let camera = tracer.camera;
-    let (Some(point), look) = hit else {
-        if let Some(l) = &mut out.albedo {
-            l.put(row, x, &[0.0; 3]);
-        }
-        if let Some(l) = &mut out.normal {
-            l.put(row, x, &[0.0; 3]);
-        }
-        if let Some(l) = &mut out.depth {
-            l.put(row, x, &[f32::INFINITY]);
-        }
-        if let Some(l) = &mut out.motion {
-            let m = previous
-                .project_direction(ray.d)
-                .map_or(Vec2::ZERO, |p| p - centre);
-            l.put(row, x, &[m.x, m.y]);
-        }
-        return;
-    };
-    // A hit whose surface point is degenerate has no BSDF or normal.
-    let zero = [0.0; 3];
-    match look {
-        Look::Nothing => {
-            if let Some(l) = &mut out.albedo {
-                l.put(row, x, &zero);
-            }
-            if let Some(l) = &mut out.normal {
-                l.put(row, x, &zero);
-            }
-        }
-        Look::Shaded(sh) => {
-            if let Some(l) = &mut out.albedo {
-                let a = albedo::albedo(tracer, sh, -ray.d);
-                l.put(row, x, &[a.r, a.g, a.b]);
-            }
-            if let Some(l) = &mut out.normal {
-                l.put(row, x, &facing(sh.sp.ns, ray.d).to_array());
-            }
-        }
-        Look::Uniform(u) => {
-            let (a, n) = u.look(ray.d);
-            if let Some(l) = &mut out.albedo {
-                l.put(row, x, &a);
-            }
-            if let Some(l) = &mut out.normal {
-                l.put(row, x, &n);
-            }
-        }
-    }
-    let p = point.p;
-    if let Some(l) = &mut out.depth {
-        l.put(row, x, &[(p - camera.position()).dot(camera.forward())]);
-    }
-    if let Some(l) = &mut out.motion {
-        let before = tracer
-            .scene
-            .previous_point(point.prim, point.b1, point.b2, p);
-        let m = previous.project(before).map_or(Vec2::ZERO, |q| q - centre);
-        l.put(row, x, &[m.x, m.y]);
-    }
 }
 
 /// `n` turned to the side the ray (direction `d`) came from.

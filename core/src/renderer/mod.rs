@@ -21,8 +21,10 @@
 //! scene calls for and says whether there is bootstrap work (MLT, CMLT
 //! after creation, a camera change or a scene update); the workers then
 //! share the Metropolis bootstrap — worker `i` of `W` evaluates the `i`-th
-//! contiguous share of the bootstrap samples and the normalisation passes
-//! `i, i + W, …` — and `finish_prepare` joins their shares in index order,
+//! contiguous share of the bootstrap samples and of the normalisation
+//! passes' blocks ([`NORMALISATION_BLOCKS`]: a pass is shared too when
+//! there are fewer passes than workers) — and `finish_prepare` joins
+//! their shares in index order,
 //! so the bootstrap (and the image) is bit for bit the same whatever the
 //! number of workers and whichever thread ran each. A host without
 //! threads runs the three steps on its own thread.
@@ -134,6 +136,18 @@ pub(crate) use resolve::check_buffer;
 /// samples, bootstrap samples or normalisation-pass pixels. At tens of
 /// microseconds per BDPT sample, about a millisecond of work.
 pub const PIECE: u64 = 16;
+
+/// The blocks each normalisation pass of the Metropolis set-up is cut
+/// into: block k of a pass holds its pixels k, k + B, k + 2B, … (B = this
+/// number, so every block spreads over the whole image and costs about
+/// the same). The blocks of all passes, numbered pass by pass, are shared
+/// out to the workers in contiguous runs (worker `i` of `W` takes
+/// `⌊i·N/W⌋ .. ⌊(i+1)·N/W⌋` of the N blocks), so every worker evaluates
+/// an equal share of the passes even when there are fewer passes than
+/// workers; each block's sums are kept apart and added in block order, so
+/// b is the same bit for bit whatever the number of workers. 24 divides
+/// evenly over 1, 2, 3, 4, 6, 8 and 12 workers.
+pub const NORMALISATION_BLOCKS: u64 = 24;
 
 /// The deepest path (segments) a renderer accepts, through `max_depth` or
 /// the depth cap: every worker's storage is sized for it at creation.
@@ -420,10 +434,10 @@ pub struct RenderWorker {
 }
 
 /// One worker's share of a bootstrap spread over the workers
-/// ([`Renderer::prepare_worker`]): its bootstrap samples' values, its
-/// normalisation passes' per-depth sums (pass `i + W·j` at `j · D`), the
-/// rays it traced, and the storage it evaluates with — all sized when the
-/// worker is made.
+/// ([`Renderer::prepare_worker`]): its bootstrap samples' values, the
+/// per-depth sums of its normalisation blocks (its `j`-th block at `j ·
+/// D`; see [`NORMALISATION_BLOCKS`]), the rays it traced, and the storage
+/// it evaluates with — all sized when the worker is made.
 struct WorkerBootstrap {
     /// The bootstrap (`Renderer::pending`) these values are for.
     epoch: Option<u64>,
@@ -431,12 +445,13 @@ struct WorkerBootstrap {
     complete: bool,
     /// The next bootstrap sample to evaluate (global index).
     next_sample: u64,
-    /// The worker's next normalisation pass (its `j`-th: pass `i + W·j`)
-    /// and the next pixel of it.
-    pass_j: u64,
-    pixel: u64,
+    /// The next normalisation block to evaluate (global index: pass
+    /// `block / NORMALISATION_BLOCKS`) and the next of its pixels (the
+    /// `step`-th).
+    block: u64,
+    step: u64,
     values: Vec<f32>,
-    passes: Vec<f64>,
+    blocks: Vec<f64>,
     /// Rays of the set-up since the worker's last frame began (they count
     /// towards its next frame).
     stats: Stats,
@@ -449,9 +464,9 @@ struct WorkerBootstrap {
 struct Shares {
     /// Every bootstrap sample's value, by index.
     values: Vec<f32>,
-    /// Every normalisation pass's per-depth sums, pass `p` at `p · D`.
-    passes: Vec<f64>,
-    /// The passes' sums added in pass order, per depth.
+    /// Every normalisation block's per-depth sums, block `k` at `k · D`.
+    blocks: Vec<f64>,
+    /// The blocks' sums added in block order, per depth.
     sums: Vec<f64>,
     /// Per worker, whether its share is in.
     joined: Vec<bool>,
@@ -496,7 +511,7 @@ impl Renderer {
             accumulation: Accumulation::Reset,
             shares: Shares {
                 values: Vec::with_capacity(Bootstrap::sample_count(&config.settings, &mlt) as usize),
-                passes: Vec::with_capacity(passes * depths),
+                blocks: Vec::with_capacity(passes * NORMALISATION_BLOCKS as usize * depths),
                 sums: Vec::with_capacity(depths),
                 joined: alloc::vec![false; config.workers as usize],
             },
@@ -592,12 +607,15 @@ impl Renderer {
         let film = pixels * (Film::BYTES_PER_PIXEL + 24);
         let mut worker =
             c(film.checked_add(size_of::<RenderWorker>() as u64 + workspace + 16 * BLOCK))?;
-        // Only a Metropolis renderer keeps bootstrap tables and the passes'
-        // sums (a small image gets up to `MAX_FLOOR_PASSES` of them).
+        // Only a Metropolis renderer keeps bootstrap tables and the
+        // normalisation blocks' sums (a small image gets up to
+        // `MAX_FLOOR_PASSES` passes of `NORMALISATION_BLOCKS` blocks).
         let (mut boot_samples, mut passes) = (0, 0);
         if let Some(mlt) = config.estimator.mlt() {
             boot_samples = c(u64::from(mlt.n_bootstrap).checked_mul(depth))?;
-            passes = c(u64::from(mlt.normalisation_passes(pixels)).checked_mul(depth))?;
+            passes = c(u64::from(mlt.normalisation_passes(pixels))
+                .checked_mul(depth)
+                .and_then(|p| p.checked_mul(NORMALISATION_BLOCKS)))?;
             let chains = u64::from(mlt.n_chains);
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
             let k = config.estimator.level2().map_or(0, |l2| l2.k);
@@ -608,7 +626,9 @@ impl Renderer {
                 .and_then(|b| b.checked_add(3 * workspace + 2 * sampler))
                 .and_then(|b| b.checked_add(level2))
                 .and_then(|b| b.checked_add(boot_samples.div_ceil(workers.max(1)) * 8))
-                .and_then(|b| b.checked_add(passes.div_ceil(workers.max(1)) * 8)))?;
+                // A share of whole blocks: up to one block (D sums) more
+                // than an even split of the sums.
+                .and_then(|b| b.checked_add((passes.div_ceil(workers.max(1)) + depth) * 8)))?;
         }
         // The renderer: bootstrap tables and the joined shares (bootstrap samples,
         // passes), one slot per worker, the accumulator (two RGB f64
@@ -815,9 +835,9 @@ impl Renderer {
 
     /// Worker `worker`'s share of the bootstrap begun by
     /// [`Renderer::begin_prepare`]: the `i`-th of `W` contiguous ranges of
-    /// bootstrap samples and the normalisation passes `i, i + W, …`, into the
-    /// worker's own storage, in pieces of [`PIECE`] bootstrap samples or
-    /// pass pixels, asking `keep_going(units so far)` before every piece
+    /// bootstrap samples and of the normalisation passes' blocks
+    /// ([`NORMALISATION_BLOCKS`]), into the worker's own storage, in pieces
+    /// of [`PIECE`] bootstrap samples or pass pixels, asking `keep_going(units so far)` before every piece
     /// after the first. Returns whether the share is complete; when not,
     /// the next call goes on where this one stopped (in a later frame too,
     /// as long as the bootstrap is pending). The values are the same bit
@@ -861,22 +881,23 @@ impl Renderer {
         let n = Bootstrap::sample_count(settings, mlt);
         let chunk = n.div_ceil(w);
         let range = (i * chunk).min(n)..((i + 1) * chunk).min(n);
+        let depths = mlt::depths(settings) as usize;
+        let pixels = self.pixels();
+        let blocks = u64::from(mlt.normalisation_passes(pixels)) * NORMALISATION_BLOCKS;
+        let own_blocks = block_share(i, w, blocks);
         if boot.epoch != Some(epoch) {
             boot.epoch = Some(epoch);
             boot.complete = false;
             boot.next_sample = range.start;
-            boot.pass_j = 0;
-            boot.pixel = 0;
+            boot.block = own_blocks.start;
+            boot.step = 0;
             boot.values.clear();
-            boot.passes.clear();
+            boot.blocks.clear();
         }
         if boot.complete {
             return Ok(true);
         }
         let mut tracer = self.tracer(scene, accel);
-        let depths = mlt::depths(settings) as usize;
-        let passes = u64::from(mlt.normalisation_passes(self.pixels()));
-        let pixels = self.pixels();
         let mut done = 0;
         loop {
             if done > 0 && !keep_going(done) {
@@ -897,30 +918,40 @@ impl Renderer {
                 boot.next_sample = end;
                 continue;
             }
-            let pass = i + w * boot.pass_j;
-            if pass >= passes {
+            if boot.block >= own_blocks.end {
                 boot.complete = true;
                 break;
             }
-            if boot.pixel == 0 {
-                boot.passes.resize(boot.passes.len() + depths, 0.0);
-            }
-            let end = (boot.pixel + PIECE).min(pixels);
-            let at = boot.passes.len() - depths;
-            bootstrap::evaluate_pass(
-                &mut tracer,
-                settings,
-                &mut boot.ws,
-                seed,
-                pass,
-                boot.pixel..end,
-                &mut boot.passes[at..],
+            // Block k of pass p: the pixels k + B·j of the pass, B =
+            // NORMALISATION_BLOCKS (spread over the image, so that every
+            // block costs about the same).
+            let (pass, first) = (
+                boot.block / NORMALISATION_BLOCKS,
+                boot.block % NORMALISATION_BLOCKS,
             );
-            done += end - boot.pixel;
-            boot.pixel = end;
-            if end == pixels {
-                boot.pixel = 0;
-                boot.pass_j += 1;
+            let count = pixels.saturating_sub(first).div_ceil(NORMALISATION_BLOCKS);
+            if boot.step == 0 {
+                boot.blocks.resize(boot.blocks.len() + depths, 0.0);
+            }
+            let end = (boot.step + PIECE).min(count);
+            let at = boot.blocks.len() - depths;
+            for j in boot.step..end {
+                let pixel = first + NORMALISATION_BLOCKS * j;
+                bootstrap::evaluate_pass(
+                    &mut tracer,
+                    settings,
+                    &mut boot.ws,
+                    seed,
+                    pass,
+                    pixel..pixel + 1,
+                    &mut boot.blocks[at..],
+                );
+            }
+            done += end - boot.step;
+            boot.step = end;
+            if end == count {
+                boot.step = 0;
+                boot.block += 1;
             }
         }
         boot.stats.merge(&tracer.stats);
@@ -929,8 +960,8 @@ impl Renderer {
 
     /// The last of the three steps: joins the shares of the bootstrap that
     /// `workers` evaluated ([`Renderer::prepare_worker`] for this frame) in
-    /// index order — bootstrap samples by index, normalisation-pass sums
-    /// added in pass order — so the bootstrap is the same for every split.
+    /// index order — bootstrap samples by index, normalisation blocks' sums
+    /// added in block order — so the bootstrap is the same for every split.
     /// Then the renderer is ready for `render`.
     ///
     /// `workers` must be all of the renderer's, in any order, each once;
@@ -953,12 +984,12 @@ impl Renderer {
         let pixels = self.pixels();
         let depths = mlt::depths(&self.boot_settings) as usize;
         let n = Bootstrap::sample_count(&self.boot_settings, &self.boot_mlt) as usize;
-        let passes = self.boot_mlt.normalisation_passes(pixels) as usize;
+        let blocks = self.boot_mlt.normalisation_passes(pixels) as u64 * NORMALISATION_BLOCKS;
         let shares = &mut self.shares;
         shares.values.clear();
         shares.values.resize(n, 0.0);
-        shares.passes.clear();
-        shares.passes.resize(passes * depths, 0.0);
+        shares.blocks.clear();
+        shares.blocks.resize(blocks as usize * depths, 0.0);
         shares.joined.fill(false);
         let w = self.config.workers as usize;
         let mut incomplete = false;
@@ -981,10 +1012,8 @@ impl Renderer {
             };
             let start = (i * n.div_ceil(w)).min(n);
             shares.values[start..start + share.values.len()].copy_from_slice(&share.values);
-            for (j, sums) in share.passes.chunks_exact(depths.max(1)).enumerate() {
-                let p = i + w * j;
-                shares.passes[p * depths..(p + 1) * depths].copy_from_slice(sums);
-            }
+            let at = block_share(i as u64, w as u64, blocks).start as usize * depths;
+            shares.blocks[at..at + share.blocks.len()].copy_from_slice(&share.blocks);
         }
         if incomplete || shares.joined.contains(&false) {
             return if carried {
@@ -995,8 +1024,8 @@ impl Renderer {
         }
         shares.sums.clear();
         shares.sums.resize(depths, 0.0);
-        for pass in shares.passes.chunks_exact(depths.max(1)) {
-            bootstrap::add_pass(&mut shares.sums, pass);
+        for block in shares.blocks.chunks_exact(depths.max(1)) {
+            bootstrap::add_pass(&mut shares.sums, block);
         }
         self.bootstrap.fill(
             &self.boot_settings,
@@ -1509,6 +1538,14 @@ fn render_samples<I: Intersector>(
     }
 }
 
+/// The normalisation blocks worker `i` of `w` evaluates out of `blocks`
+/// (see [`NORMALISATION_BLOCKS`]): the `i`-th of `w` contiguous runs, of
+/// sizes differing by at most one.
+fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
+    let w = w.max(1);
+    (i * blocks / w)..((i + 1) * blocks / w)
+}
+
 /// Refuses a thin-lens camera when the lens code is not built (a scene's
 /// own camera is already checked by `SceneBuilder::build`).
 fn check_lens(camera: &Camera) -> Result<(), RenderError> {
@@ -1631,19 +1668,21 @@ impl RenderWorker {
             mlt: mlt.map(|m| WorkerChains::with_capacity(&c.settings, m, level2, camera)),
             boot: mlt.map(|m| {
                 // The largest share of a bootstrap: the bootstrap samples of a
-                // first frame, and every W-th pass.
+                // first frame, and a W-th of the normalisation blocks.
                 let w = c.workers as u64;
                 let boot_samples = Bootstrap::sample_count(&c.settings, m).div_ceil(w);
-                let passes = (m.normalisation_passes(camera.pixel_count()) as u64).div_ceil(w)
+                let blocks = (m.normalisation_passes(camera.pixel_count()) as u64
+                    * NORMALISATION_BLOCKS)
+                    .div_ceil(w)
                     * depth as u64;
                 WorkerBootstrap {
                     epoch: None,
                     complete: false,
                     next_sample: 0,
-                    pass_j: 0,
-                    pixel: 0,
+                    block: 0,
+                    step: 0,
                     values: Vec::with_capacity(boot_samples as usize),
-                    passes: Vec::with_capacity(passes as usize),
+                    blocks: Vec::with_capacity(blocks as usize),
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),
                     sampler: PrimarySampler::with_capacity(0, m.sigma, m.large_step_prob, depth),

@@ -289,6 +289,7 @@ impl Camera {
     /// the lens centre (the pinhole projection; pixel (x, y) spans
     /// [x, x + 1) × [y, y + 1)), inside the image or not: what a motion
     /// vector measures. `None` when `p` is not in front of the camera.
+    #[inline]
     pub fn project(&self, p: Vec3) -> Option<Vec2> {
         self.raster_unbounded(self.rot.transpose() * (p - self.pos))
     }
@@ -297,6 +298,7 @@ impl Camera {
     /// `d` (where the environment seen along `d` projects), inside the
     /// image or not; `None` when `d` does not point in front of the
     /// camera.
+    #[inline]
     pub fn project_direction(&self, d: Vec3) -> Option<Vec2> {
         self.raster_unbounded(self.rot.transpose() * d)
     }

@@ -917,6 +917,7 @@ impl Scene {
     /// vertex displacements, weighted by the barycentric coordinates, when
     /// the triangle's mesh was updated in this frame; `p` itself otherwise
     /// (static meshes, host shapes).
+    #[inline]
     pub fn previous_point(&self, prim: u32, b1: f32, b2: f32, p: Vec3) -> Vec3 {
         if prim & SHAPE_PRIM_BIT != 0 {
             return p;

@@ -1112,6 +1112,43 @@ fn bootstrap_is_the_same_for_every_split_over_workers() {
     );
 }
 
+/// Fewer normalisation passes than workers: the pass is still shared. With
+/// one pass and two workers each evaluates half of its blocks
+/// (`NORMALISATION_BLOCKS`), so the set-up's rays, which count towards
+/// each worker's frame, are about equal — where worker 0 used to evaluate
+/// the whole pass and worker 1 only its bootstrap samples (6 801 rays
+/// against 162 here).
+#[test]
+fn one_normalisation_pass_is_shared_by_the_workers() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let estimator = Estimator::Mlt(MltSettings {
+        n_bootstrap: 8,
+        b_passes: 1,
+        ..mlt_settings()
+    });
+    for workers in [2, 3] {
+        let mut r = Renderer::new(config(estimator, workers), scene.camera).unwrap();
+        let mut ws: Vec<RenderWorker> = (0..workers)
+            .map(|i| RenderWorker::new(&r, i).unwrap())
+            .collect();
+        prepare(&mut r, &mut ws, &scene, &bvh);
+        assert!(r.b() > 0.0);
+        let rays: Vec<u64> = ws
+            .iter_mut()
+            .map(|w| {
+                r.render(w, &scene, &bvh, 0).unwrap();
+                r.worker_stats(w).tracer.total_rays()
+            })
+            .collect();
+        let (lo, hi) = (rays.iter().min().unwrap(), rays.iter().max().unwrap());
+        assert!(
+            *hi as f64 <= 1.25 * *lo as f64,
+            "{workers} workers: set-up rays {rays:?}"
+        );
+    }
+}
+
 #[test]
 fn bootstrap_shares_allocate_nothing_and_all_are_needed() {
     let scene = room();
