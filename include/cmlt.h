@@ -423,6 +423,11 @@ typedef struct cmlt_renderer_config {
   uint32_t large_step_mis;
   // MLT: the space level 1 mutates in, a `CMLT_LEVEL1_*` value.
   uint32_t level1;
+  // MLT: the weight of each normalisation-pass sample in the image, in
+  // records (one mutation's worth): the passes' BDPT image is added to
+  // the chains' by these fixed weights; 0 = the passes only estimate
+  // the normalisation. In [0, 1024]; not used with `keep_chains`.
+  float pass_records;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

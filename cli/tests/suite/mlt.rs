@@ -153,6 +153,58 @@ fn cornell_box_mlt_without_large_steps_by_mis_matches_reference() {
     assert!(err < 0.05, "relMSE {err}");
 }
 
+/// The normalisation passes' image added to the chains' by fixed weights
+/// (`MltSettings::pass_records`, `mlt/pass_image.rs`) converges to the
+/// Cornell box's reference: channel means within 2 % (or 3 standard errors
+/// of the renders' spread) and a lower relMSE than the chains alone at the
+/// same mutations (the passes' samples are not wasted). Negative control:
+/// the same images normalised without the passes' records (the pass image
+/// weighted as if it were free) miss the reference's means.
+#[test]
+fn cornell_box_mlt_with_pass_image_matches_reference() {
+    let (loaded, reference) = load_reduced("cornell-box", 4);
+    let with = Estimator::Mlt(MltSettings {
+        pass_records: 1.0,
+        ..level1(128)
+    });
+    let without = Estimator::Mlt(level1(128));
+    let (mut means, mut wrong, mut err_with, mut err_without) = (vec![], vec![], 0.0, 0.0);
+    for seed in 0..4u64 {
+        let (img, out) = render(&loaded, &with, 32, 2, 500 + seed);
+        assert_eq!(out.stats.nonfinite, 0);
+        let s = out.stats.mlt;
+        // 16 passes over every pixel at one record each.
+        let pixels = (reference.width * reference.height) as u64;
+        assert_eq!(s.pass_records, 16 * pixels, "{s:?}");
+        let m = img.mean();
+        let k = s.records as f32 / (s.records - s.pass_records) as f32;
+        means.push(m);
+        wrong.push(m * k);
+        err_with += rel_mse(&img, &reference);
+        let (plain, out) = render(&loaded, &without, 32, 2, 500 + seed);
+        assert_eq!(out.stats.mlt.pass_records, 0);
+        err_without += rel_mse(&plain, &reference);
+    }
+    eprintln!("pass image: relMSE {err_with:.5} (sum of 4) against {err_without:.5} without");
+    let rm = reference.mean();
+    let within = |ms: &[cmlt::math::Rgb]| {
+        (0..3).all(|c| {
+            let xs: Vec<f64> = ms.iter().map(|m| m[c] as f64).collect();
+            let mu = xs.iter().sum::<f64>() / xs.len() as f64;
+            let var = xs.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (xs.len() - 1) as f64;
+            let r = rm[c] as f64;
+            eprintln!(
+                "channel {c}: mean {mu:.5} vs reference {r:.5}, se {:.5}",
+                (var / 4.0).sqrt()
+            );
+            (mu - r).abs() <= (0.02 * r).max(3.0 * (var / 4.0).sqrt())
+        })
+    };
+    assert!(within(&means), "means {means:?} vs reference {rm:?}");
+    assert!(!within(&wrong), "the negative control passed: {wrong:?}");
+    assert!(err_with < err_without, "{err_with} vs {err_without}");
+}
+
 /// The path-space level 1 (Veach's bidirectional and lens subpath
 /// mutations) converges to the Cornell box's reference: channel means
 /// within 2 % (or 3 standard errors of the renders' spread). Its error per

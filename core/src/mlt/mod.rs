@@ -17,6 +17,8 @@
 //! - `bootstrap`: the normalisation b and the chains' starting points;
 //! - `large_steps`: b by depth from the large steps of a render
 //!   ([`LargeStepTally`]);
+//! - `pass_image`: the normalisation passes' image added to the chains'
+//!   by fixed weights ([`MltSettings::pass_records`]);
 //! - `level2`: the side chain run from a level-1 state, by its class;
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
@@ -60,6 +62,7 @@ mod lanes;
 mod large_steps;
 mod level2;
 mod multiple_try;
+mod pass_image;
 mod path_space;
 mod perturbation;
 mod primary;
@@ -137,6 +140,14 @@ pub struct MltSettings {
     /// the same cost per mutation (`docs/accuracy.md`, "Level 1 against
     /// Tungsten's MMLT").
     pub large_step_mis: bool,
+    /// The weight, in records (one mutation's worth, [`MltStats::records`]),
+    /// of each normalisation-pass sample's contribution to the image: the
+    /// passes' BDPT image is combined with the chains' by these fixed
+    /// weights (`mlt/pass_image.rs`); 0 = the passes only estimate b.
+    /// Ignored with kept chains ([`crate::renderer::Temporal::keep_chains`]:
+    /// their bootstrap may span several views) and without passes. At most
+    /// [`MAX_PASS_RECORDS`].
+    pub pass_records: f32,
 }
 
 /// The space the level-1 chains mutate in.
@@ -174,6 +185,7 @@ impl Default for MltSettings {
             sigma: primary::DEFAULT_SIGMA,
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
             large_step_mis: true,
+            pass_records: 0.0,
         }
     }
 }
@@ -222,6 +234,9 @@ impl MltSettings {
         }
         if !(self.direct_allocation > 0.0 && self.direct_allocation <= 1.0) {
             return Err("the direct-view chain allocation must be in (0, 1]");
+        }
+        if !(self.pass_records >= 0.0 && self.pass_records <= MAX_PASS_RECORDS) {
+            return Err("the pass records must be in [0, 1024]");
         }
         Ok(())
     }
@@ -373,6 +388,9 @@ pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
 /// `docs/accuracy.md`, "Level 1 against Tungsten's MMLT".
 pub const DEFAULT_DIRECT_ALLOCATION: f32 = 0.1;
 
+/// Largest [`MltSettings::pass_records`].
+pub const MAX_PASS_RECORDS: f32 = 1024.0;
+
 /// Largest [`MltSettings::b_min_samples`].
 pub const MAX_B_MIN_SAMPLES: u32 = 1 << 24;
 
@@ -429,8 +447,11 @@ pub struct MltStats {
     pub lens_subpath_accepted: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
-    /// divides by).
+    /// divides by), the normalisation passes' records included.
     pub records: u64,
+    /// The part of `records` that weighs the normalisation passes' image
+    /// ([`MltSettings::pass_records`] per pass sample).
+    pub pass_records: u64,
     /// Level 2: lens-perturbation steps (lane steps, or multiple-try steps
     /// when k > 1).
     pub lens_steps: u64,
@@ -461,6 +482,7 @@ impl MltStats {
     pub fn merge(&mut self, o: &MltStats) {
         self.chains += o.chains;
         self.mutations += o.mutations;
+        self.pass_records += o.pass_records;
         self.small_proposed += o.small_proposed;
         self.small_accepted += o.small_accepted;
         self.large_proposed += o.large_proposed;

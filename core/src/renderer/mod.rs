@@ -437,6 +437,12 @@ struct WorkerBootstrap {
     pixel: u64,
     values: Vec<f32>,
     passes: Vec<f64>,
+    /// The image of its normalisation passes, when it is added to the
+    /// chains' ([`MltSettings::pass_records`] > 0 without kept chains),
+    /// and whether it has been added (once, to the frame of its
+    /// bootstrap).
+    image: Option<Film>,
+    image_added: bool,
     /// Rays of the set-up since the worker's last frame began (they count
     /// towards its next frame).
     stats: Stats,
@@ -602,6 +608,10 @@ impl Renderer {
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
             let k = config.estimator.level2().map_or(0, |l2| l2.k);
             let level2 = u64::from(k) * 8 * 1024 + 64 * 1024;
+            // The normalisation passes' image (`mlt/pass_image.rs`).
+            if mlt.pass_records > 0.0 && !config.temporal.keep_chains {
+                worker = c(worker.checked_add(pixels * Film::BYTES_PER_PIXEL))?;
+            }
             worker = c(chains
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
@@ -869,6 +879,10 @@ impl Renderer {
             boot.pixel = 0;
             boot.values.clear();
             boot.passes.clear();
+            if let Some(image) = &mut boot.image {
+                image.clear();
+            }
+            boot.image_added = false;
         }
         if boot.complete {
             return Ok(true);
@@ -915,6 +929,7 @@ impl Renderer {
                 pass,
                 boot.pixel..end,
                 &mut boot.passes[at..],
+                boot.image.as_mut(),
             );
             done += end - boot.pixel;
             boot.pixel = end;
@@ -1143,6 +1158,26 @@ impl Renderer {
                         worker.index as u64,
                         c.workers as u64,
                     );
+                    // The frame's own bootstrap (chains not kept): its
+                    // passes' image joins this frame's, weighed by
+                    // `pass_records` (`mlt/pass_image.rs`).
+                    if let Some(boot) = &mut worker.boot
+                        && let Some(image) = &mut boot.image
+                        && boot.epoch == Some(self.epochs)
+                        && boot.complete
+                        && !boot.image_added
+                    {
+                        let depths = mlt::depths(&self.boot_settings).max(1) as u64;
+                        let samples = boot.passes.len() as u64 / depths * self.pixels();
+                        m.add_pass_image(
+                            &mut worker.film,
+                            image,
+                            samples,
+                            self.boot_mlt.pass_records,
+                            self.b_used,
+                        );
+                        boot.image_added = true;
+                    }
                 } else if worker.camera != Some(self.camera)
                     || worker.scene_revision != self.scene_revision
                 {
@@ -1644,6 +1679,9 @@ impl RenderWorker {
                     pixel: 0,
                     values: Vec::with_capacity(boot_samples as usize),
                     passes: Vec::with_capacity(passes as usize),
+                    image: (m.pass_records > 0.0 && !c.temporal.keep_chains && passes > 0)
+                        .then(|| Film::new(camera.width(), camera.height())),
+                    image_added: false,
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),
                     sampler: PrimarySampler::with_capacity(0, m.sigma, m.large_step_prob, depth),
