@@ -501,6 +501,8 @@ fn metropolis_scene_settings() -> MltSettings {
         b_passes: 256,
         b_min_samples: 0,
         n_chains: 64,
+        // The chains alone: 256 passes' image would be most of the image.
+        pass_records: 0.0,
         ..MltSettings::default()
     }
 }

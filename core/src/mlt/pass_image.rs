@@ -10,13 +10,16 @@
 //! before either is drawn has the expectation of the two (Î_c's b̂ comes
 //! from the same passes whether or not Î_p is added).
 //!
-//! The weight is a fixed number of records per pass sample, ρ: worker by
-//! worker the pass image enters the film times ρ / b̂ and its n_p·P
-//! samples add ρ·n_p·P records, so the resolve (b̂ · P / R with R = R_c +
-//! ρ·n_p·P, `super::image_scale`) gives w = ρ·n_p·P / R. With ρ the cost
-//! of a pass sample in mutations, each estimator weighs its share of the
+//! The weight is a fixed number of level-1 mutations' records per pass
+//! sample, ρ (ρ·(1 + s) records with CMLT's level-2 share s, so that CMLT
+//! without side chains stays MLT): worker by worker the pass image enters
+//! the film times ρ(1 + s) / b̂ and its n_p·P samples add ρ(1 + s)·n_p·P
+//! records, so the resolve (b̂ · P / R with R = R_c + ρ(1 + s)·n_p·P,
+//! `super::image_scale`) gives w = ρ(1 + s)·n_p·P / R. With ρ the cost of
+//! a pass sample in mutations, each estimator weighs its share of the
 //! work: the inverse-variance weights when both are equally efficient per
-//! unit of work. Weights per pixel from the pixel's own samples (inverse
+//! unit of work (on Tungsten's Cornell box our BDPT is about twice as
+//! efficient as our MLT, so ρ = the cost errs on the chains' side). Weights per pixel from the pixel's own samples (inverse
 //! sample variances) would follow the noise: a pixel whose samples came
 //! out low also looks less noisy and gets more weight — a bias. Global
 //! fixed weights are what the references do with independent samples:
@@ -39,9 +42,10 @@ pub(crate) fn records_for(pass_records: f32, samples: u64) -> u64 {
 impl WorkerChains {
     /// Adds the pass image `image` (the contributions of this worker's
     /// `samples` normalisation-pass samples, unscaled) into `film`, whose
-    /// records are normalised by `b`, at `pass_records` records per sample:
-    /// scales `image` by records / (samples · b) in place and counts the
-    /// records in [`super::MltStats::records`] (and `pass_records`).
+    /// records are normalised by `b`, at `pass_records` mutations' records
+    /// per sample (times 1 + s with level 2): scales `image` by records /
+    /// (samples · b) in place and counts the records in
+    /// [`super::MltStats::records`] (and `pass_records`).
     /// Nothing when there is nothing to weigh (b = 0, no sample, ρ = 0).
     /// Allocates nothing.
     pub(crate) fn add_pass_image(
@@ -52,7 +56,8 @@ impl WorkerChains {
         pass_records: f32,
         b: f64,
     ) {
-        let records = records_for(pass_records, samples);
+        let per_mutation = 1 + self.level2.as_ref().map_or(0, |l2| l2.share());
+        let records = records_for(pass_records * per_mutation as f32, samples);
         if records == 0 || !(b > 0.0) || samples == 0 {
             return;
         }
