@@ -60,8 +60,8 @@ pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
 
 /// MLT: level 1 in Kelemen et al.'s primary sample space (the default).
 pub const CMLT_LEVEL1_PRIMARY_SAMPLE: u32 = 0;
-/// MLT: level 1 in Veach's path space, with the bidirectional mutation
-/// (MLT only, not CMLT; scenes lit by area emitters only).
+/// MLT and CMLT: level 1 in Veach's path space, with the bidirectional
+/// and lens subpath mutations (scenes lit by area emitters only).
 pub const CMLT_LEVEL1_PATH_SPACE: u32 = 1;
 
 /// Every frame starts a new accumulation (the default).

@@ -219,6 +219,22 @@ fn cornell_box_path_space_mlt_means_match_reference() {
     check_means("cornell-box", 4, &mlt, 64);
 }
 
+/// CMLT over the path-space level 1: level 2 (here one-proposal lanes of
+/// 4 steps on every lens, caustic and multi-chain path) runs from Veach's
+/// path states as from primary-sample ones; the Cornell box's channel
+/// means within 2 % (or 3 standard errors). `mlt/tests.rs` holds the
+/// furnace test with the negative control.
+#[test]
+fn cornell_box_path_space_cmlt_means_match_reference() {
+    let mlt = MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(128)
+    };
+    let (_, _, _, out) = check_means("cornell-box", 4, &cmlt_on(mlt, 1, 4), 32);
+    let s = out.stats.mlt;
+    assert!(s.lens_steps > 0 && s.lens_accepted > 0, "{s:?}");
+}
+
 /// CMLT with large steps by MIS: level-1 records of paths without a side
 /// chain carry the level-2 share (the default minimum depth leaves most of
 /// the box's paths without one), and the large steps' records carry it
@@ -521,6 +537,20 @@ fn metropolis_scene_settings() -> MltSettings {
 fn caustic_pool_mlt_matches_reference() {
     let mlt = metropolis_scene_settings();
     check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 128);
+}
+
+/// CMLT over the path-space level 1 on the caustic pool (light through
+/// water: refraction, caustic and multi-chain paths): the channel means
+/// against the reference.
+#[test]
+fn caustic_pool_path_space_cmlt_matches_reference() {
+    let mlt = MltSettings {
+        level1: Level1::PathSpace,
+        ..metropolis_scene_settings()
+    };
+    let (_, _, _, out) = check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
+    let s = out.stats.mlt;
+    assert!(s.caustic_steps + s.multi_chain_steps > 0, "{s:?}");
 }
 
 /// CMLT on the caustic pool: as [`caustic_pool_mlt_matches_reference`],

@@ -162,9 +162,9 @@ pub enum Level1 {
     PrimarySample,
     /// Veach's path space: a chain's state is a path's vertices, mutated
     /// by the bidirectional and lens subpath mutations
-    /// (`mlt/path_space/`). So far MLT only: CMLT's level 2 over it and the
-    /// perturbations as level-1 mutations are not built, and only scenes
-    /// lit by area emitters alone can be rendered ([`path_space_supports`]:
+    /// (`mlt/path_space/`); CMLT's level 2 runs from its states as from
+    /// primary-sample ones. The perturbations as level-1 mutations are not
+    /// built, and only scenes lit by area emitters alone can be rendered ([`path_space_supports`]:
     /// preparing the renderer for another scene is a `RenderError::Config`).
     PathSpace,
 }
@@ -363,9 +363,6 @@ impl CmltSettings {
     /// Checks both levels; the message names the first bad parameter.
     pub fn validate(&self) -> Result<(), &'static str> {
         self.mlt.validate()?;
-        if self.mlt.level1 == Level1::PathSpace {
-            return Err("CMLT's level 2 over the path-space level 1 is not built yet");
-        }
         self.level2.validate()
     }
 }
@@ -696,7 +693,7 @@ pub(crate) struct WorkerChains {
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
-const LEVEL2_STREAM: u64 = 0x4C32;
+pub(crate) const LEVEL2_STREAM: u64 = 0x4C32;
 
 impl WorkerChains {
     /// A worker without chains holding all the storage its chains will
@@ -743,7 +740,7 @@ impl WorkerChains {
             next: 0,
             strided: false,
             path_space: (mlt.level1 == Level1::PathSpace)
-                .then(|| (PathChains::with_capacity(settings, mlt), 0, 1)),
+                .then(|| (PathChains::with_capacity(settings, mlt, l2), 0, 1)),
         }
     }
 
@@ -858,6 +855,7 @@ impl WorkerChains {
             worker,
             workers,
             &mut self.stats,
+            self.level2.as_ref(),
         );
         true
     }
@@ -1029,10 +1027,9 @@ impl WorkerChains {
         let end = (self.next + count).min(n);
         if let Some((ps, ..)) = &mut self.path_space {
             for k in self.next..end {
-                let st = ps.step(k * stride % n, tracer, &mut self.stats);
-                for sp in st.proposal.into_iter().chain(st.current) {
-                    film.add_splat(sp.raster, sp.value);
-                }
+                let ci = k * stride % n;
+                let st = ps.step(ci, tracer, &mut self.stats);
+                ps.record(ci, &st, tracer, self.level2.as_mut(), &mut self.stats, film);
             }
             let done = end - self.next;
             self.next = if end == n { 0 } else { end };
