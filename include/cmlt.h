@@ -58,8 +58,8 @@
 // MLT: level 1 in Kelemen et al.'s primary sample space (the default).
 #define CMLT_LEVEL1_PRIMARY_SAMPLE 0
 
-// MLT: level 1 in Veach's path space, with the bidirectional mutation
-// (MLT only, not CMLT; scenes lit by area emitters only).
+// MLT and CMLT: level 1 in Veach's path space, with the bidirectional
+// and lens subpath mutations (scenes lit by area emitters only).
 #define CMLT_LEVEL1_PATH_SPACE 1
 
 // Every frame starts a new accumulation (the default).
