@@ -58,8 +58,8 @@
 // MLT: level 1 in Kelemen et al.'s primary sample space (the default).
 #define CMLT_LEVEL1_PRIMARY_SAMPLE 0
 
-// MLT: level 1 in Veach's path space, with the bidirectional mutation
-// (MLT only, not CMLT; scenes lit by area emitters only).
+// MLT and CMLT: level 1 in Veach's path space, with the bidirectional
+// and lens subpath mutations (scenes lit by area emitters only).
 #define CMLT_LEVEL1_PATH_SPACE 1
 
 // Every frame starts a new accumulation (the default).
@@ -423,6 +423,11 @@ typedef struct cmlt_renderer_config {
   uint32_t large_step_mis;
   // MLT: the space level 1 mutates in, a `CMLT_LEVEL1_*` value.
   uint32_t level1;
+  // MLT: the weight of each normalisation-pass sample in the image, in
+  // records (one mutation's worth): the passes' BDPT image is added to
+  // the chains' by these fixed weights; 0 = the passes only estimate
+  // the normalisation. In [0, 1024]; not used with `keep_chains`.
+  float pass_records;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -13,6 +13,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use super::study::{Measurement, Study};
+use cmlt::mlt::Level1;
 use cmlt::renderer::{Estimator, EstimatorKind};
 use cmlt_cli::render::Budget;
 
@@ -304,9 +305,10 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
 /// A method of the study: an estimator's name with its defaults (`pt`,
 /// `bdpt`, `mlt`, `cmlt`), or a Metropolis method with settings changed,
 /// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:passes=32:sigma=8` (any subset,
-/// in any order; `passes` the normalisation passes, for mlt and cmlt; the
-/// rest CMLT's level 2: `depth` the side-chain minimum depth, `sigma` the
-/// lens σ in pixels) — how the parameter study compares settings in one
+/// in any order; for mlt and cmlt `passes` the normalisation passes,
+/// `level1` `primary` or `path` and `pass_records` the weight of the
+/// passes' image; the rest CMLT's level 2: `depth` the side-chain minimum
+/// depth, `sigma` the lens σ in pixels) — how the parameter study compares settings in one
 /// run. A setting the method does not read is an error.
 pub fn method_settings(spec: &str) -> Result<Estimator, String> {
     let mut parts = spec.split(':');
@@ -322,11 +324,24 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
             v.parse::<u32>()
                 .map_err(|e| format!("'{spec}': {k} '{v}': {e}"))
         };
-        if k == "passes" {
-            let mlt = estimator
-                .mlt_mut()
-                .ok_or_else(|| format!("'{spec}': only mlt and cmlt take passes"))?;
-            mlt.b_passes = int()?;
+        if let Some(mlt) = estimator.mlt_mut()
+            && matches!(k, "passes" | "level1" | "pass_records")
+        {
+            match k {
+                "passes" => mlt.b_passes = int()?,
+                "level1" => {
+                    mlt.level1 = match v {
+                        "primary" => Level1::PrimarySample,
+                        "path" => Level1::PathSpace,
+                        _ => return Err(format!("'{spec}': level1 is primary or path, not '{v}'")),
+                    }
+                }
+                _ => {
+                    mlt.pass_records = v
+                        .parse::<f32>()
+                        .map_err(|e| format!("'{spec}': pass_records '{v}': {e}"))?
+                }
+            }
             continue;
         }
         let Estimator::Cmlt(c) = &mut estimator else {
@@ -346,7 +361,7 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
             }
             _ => {
                 return Err(format!(
-                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma)"
+                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma, level1, pass_records)"
                 ));
             }
         }

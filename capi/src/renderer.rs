@@ -60,8 +60,8 @@ pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
 
 /// MLT: level 1 in Kelemen et al.'s primary sample space (the default).
 pub const CMLT_LEVEL1_PRIMARY_SAMPLE: u32 = 0;
-/// MLT: level 1 in Veach's path space, with the bidirectional mutation
-/// (MLT only, not CMLT; scenes lit by area emitters only).
+/// MLT and CMLT: level 1 in Veach's path space, with the bidirectional
+/// and lens subpath mutations (scenes lit by area emitters only).
 pub const CMLT_LEVEL1_PATH_SPACE: u32 = 1;
 
 /// Every frame starts a new accumulation (the default).
@@ -182,6 +182,11 @@ pub struct cmlt_renderer_config {
     pub large_step_mis: u32,
     /// MLT: the space level 1 mutates in, a `CMLT_LEVEL1_*` value.
     pub level1: u32,
+    /// MLT: the weight of each normalisation-pass sample in the image, in
+    /// records (one mutation's worth): the passes' BDPT image is added to
+    /// the chains' by these fixed weights; 0 = the passes only estimate
+    /// the normalisation. In [0, 1024]; not used with `keep_chains`.
+    pub pass_records: f32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -348,6 +353,7 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
             Level1::PathSpace => CMLT_LEVEL1_PATH_SPACE,
             _ => CMLT_LEVEL1_PRIMARY_SAMPLE,
         },
+        pass_records: mlt.pass_records,
     }
 }
 
@@ -397,6 +403,7 @@ fn unread_field(
         ),
         ("large_step_mis", MLT, c.large_step_mis == d.large_step_mis),
         ("level1", MLT, c.level1 == d.level1),
+        ("pass_records", MLT, f(c.pass_records, d.pass_records)),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
         ("k", CMLT, c.k == d.k),
@@ -477,6 +484,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         sigma: c.small_step_sigma,
         direct_allocation: c.direct_allocation,
         large_step_mis: c.large_step_mis != 0,
+        pass_records: c.pass_records,
         level1,
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {

@@ -156,8 +156,8 @@ impl EstimatorArgs {
 pub struct MltArgs {
     /// The space level 1's chains mutate in: primary (Kelemen et al.'s
     /// primary sample space) or path (Veach's path space with the
-    /// bidirectional and lens subpath mutations; MLT only, scenes lit by
-    /// area emitters).
+    /// bidirectional and lens subpath mutations, CMLT's level 2 over them;
+    /// scenes lit by area emitters).
     #[arg(long, default_value = "primary", value_parser = parse_level1)]
     pub level1: Level1,
     /// Markov chains per thread.
@@ -195,6 +195,12 @@ pub struct MltArgs {
     /// seldom visit get the large steps' samples.
     #[arg(long, default_value_t = MltSettings::default().large_step_mis, action = clap::ArgAction::Set)]
     pub large_step_mis: bool,
+    /// Weight of each normalisation-pass sample in the image, in records
+    /// (one mutation's worth): the passes' BDPT image is added to the
+    /// chains' by these fixed weights; 0 = the passes only estimate b; in
+    /// [0, 1024]. Not used with --keep-chains.
+    #[arg(long, default_value_t = MltSettings::default().pass_records)]
+    pub pass_records: f32,
 }
 
 impl MltArgs {
@@ -213,11 +219,17 @@ impl MltArgs {
             sigma: self.sigma,
             direct_allocation: self.direct_allocation,
             large_step_mis: self.large_step_mis,
+            pass_records: self.pass_records,
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {})",
-                self.large_step, self.sigma, self.chains, self.b_min_samples, self.direct_allocation
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {})",
+                self.large_step,
+                self.sigma,
+                self.chains,
+                self.b_min_samples,
+                self.direct_allocation,
+                self.pass_records
             )
         })?;
         Ok(mlt)

@@ -136,13 +136,6 @@ fn renderer_inputs_and_call_order_are_checked() {
                 "unknown level 1",
                 cmlt_renderer_config { level1: 7, ..good },
             ),
-            (
-                "the path-space level 1 under CMLT",
-                cmlt_renderer_config {
-                    level1: CMLT_LEVEL1_PATH_SPACE,
-                    ..good
-                },
-            ),
             ("no lanes", cmlt_renderer_config { lanes: 0, ..good }),
             ("65 lanes", cmlt_renderer_config { lanes: 65, ..good }),
             (

@@ -64,6 +64,7 @@ use glam::Vec2;
 use super::primary::PrimarySampler;
 use super::{MltSettings, depths, target};
 use crate::accel::Intersector;
+use crate::film::Film;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::{SampleStream, mix64};
 
@@ -123,6 +124,12 @@ const DIRECT_GRID: u32 = 2;
 /// few per cent of a BDPT sample). Both estimate the same integral: a
 /// depth-1 path is the (s = 0, t = 2) strategy alone, BDPT having no
 /// (1, 1).
+///
+/// With `image`, every contribution tallied is also added to it (camera
+/// samples at their pixel, light-tracing ones splatted, the grid's at
+/// 1/4 each): the pass's BDPT image, which `pass_image` adds to the
+/// chains' image.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn evaluate_pass<I: Intersector>(
     tracer: &mut Tracer<'_, I>,
     settings: &Settings,
@@ -131,6 +138,7 @@ pub(crate) fn evaluate_pass<I: Intersector>(
     pass: u64,
     pixels: Range<u64>,
     sums: &mut [f64],
+    mut image: Option<&mut Film>,
 ) {
     let depths = depths(settings);
     if depths == 0 {
@@ -151,14 +159,20 @@ pub(crate) fn evaluate_pass<I: Intersector>(
     let cell = 1.0 / DIRECT_GRID as f32;
     let direct_weight = 1.0 / f64::from(DIRECT_GRID * DIRECT_GRID);
     for pixel in pixels.start..pixels.end.min(camera.pixel_count()) {
-        let (x, y) = ((pixel % w) as u32, (pixel / w) as u32);
-        let corner = Vec2::new(x as f32, y as f32);
+        let (x, y_pixel) = ((pixel % w) as u32, (pixel / w) as u32);
+        let corner = Vec2::new(x as f32, y_pixel as f32);
         let mut rng = SampleStream::new(pass_seed, pass, pixel);
         let raster = corner + rng.next_2d();
-        bdpt::sample_each(tracer, &capped, ws, raster, &mut rng, |s, t, l, _| {
+        bdpt::sample_each(tracer, &capped, ws, raster, &mut rng, |s, t, l, splat| {
             let y = l.luminance();
             if s + t > 2 && y.is_finite() && y > 0.0 {
                 sums[s + t - 2] += y as f64;
+                if let Some(film) = image.as_deref_mut() {
+                    match splat {
+                        Some(r) => film.add_splat(r, l),
+                        None => film.add_sample(x, y_pixel, l),
+                    }
+                }
             }
         });
         let mut rng = SampleStream::new(direct_seed, pass, pixel);
@@ -169,6 +183,9 @@ pub(crate) fn evaluate_pass<I: Intersector>(
                 let y = l.luminance();
                 if y.is_finite() && y > 0.0 {
                     sums[0] += y as f64 * direct_weight;
+                    if let Some(film) = image.as_deref_mut() {
+                        film.add_sample(x, y_pixel, l * direct_weight as f32);
+                    }
                 }
             });
         }

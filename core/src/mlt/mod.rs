@@ -17,6 +17,8 @@
 //! - `bootstrap`: the normalisation b and the chains' starting points;
 //! - `large_steps`: b by depth from the large steps of a render
 //!   ([`LargeStepTally`]);
+//! - `pass_image`: the normalisation passes' image added to the chains'
+//!   by fixed weights ([`MltSettings::pass_records`]);
 //! - `level2`: the side chain run from a level-1 state, by its class;
 //! - `multiple_try` and `lanes`: the two ways a side chain steps (k
 //!   candidates per step, or n parallel one-proposal lanes);
@@ -60,6 +62,7 @@ mod lanes;
 mod large_steps;
 mod level2;
 mod multiple_try;
+mod pass_image;
 mod path_space;
 mod perturbation;
 mod primary;
@@ -137,6 +140,15 @@ pub struct MltSettings {
     /// the same cost per mutation (`docs/accuracy.md`, "Level 1 against
     /// Tungsten's MMLT").
     pub large_step_mis: bool,
+    /// The weight of each normalisation-pass sample's contribution to the
+    /// image, in level-1 mutations (their records, [`MltStats::records`]:
+    /// 1 + s each with CMLT's level-2 share s): the passes' BDPT image is
+    /// combined with the chains' by these fixed weights
+    /// (`mlt/pass_image.rs`); 0 = the passes only estimate b. Ignored with
+    /// kept chains ([`crate::renderer::Temporal::keep_chains`]: their
+    /// bootstrap may span several views) and without passes. At most
+    /// [`MAX_PASS_RECORDS`]; default [`DEFAULT_PASS_RECORDS`].
+    pub pass_records: f32,
 }
 
 /// The space the level-1 chains mutate in.
@@ -150,9 +162,9 @@ pub enum Level1 {
     PrimarySample,
     /// Veach's path space: a chain's state is a path's vertices, mutated
     /// by the bidirectional and lens subpath mutations
-    /// (`mlt/path_space/`). So far MLT only: CMLT's level 2 over it and the
-    /// perturbations as level-1 mutations are not built, and only scenes
-    /// lit by area emitters alone can be rendered ([`path_space_supports`]:
+    /// (`mlt/path_space/`); CMLT's level 2 runs from its states as from
+    /// primary-sample ones. The perturbations as level-1 mutations are not
+    /// built, and only scenes lit by area emitters alone can be rendered ([`path_space_supports`]:
     /// preparing the renderer for another scene is a `RenderError::Config`).
     PathSpace,
 }
@@ -162,7 +174,8 @@ impl Default for MltSettings {
     /// normalisation passes and at least 65 536 normalisation samples, 256
     /// chains per worker, large steps 0.3 combined with the chains by MIS,
     /// σ = 0.01, at least a tenth of the b-proportional chains for
-    /// emitters seen directly.
+    /// emitters seen directly, the passes' image added at 5 mutations per
+    /// pass sample.
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
@@ -174,6 +187,7 @@ impl Default for MltSettings {
             sigma: primary::DEFAULT_SIGMA,
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
             large_step_mis: true,
+            pass_records: DEFAULT_PASS_RECORDS,
         }
     }
 }
@@ -222,6 +236,9 @@ impl MltSettings {
         }
         if !(self.direct_allocation > 0.0 && self.direct_allocation <= 1.0) {
             return Err("the direct-view chain allocation must be in (0, 1]");
+        }
+        if !(self.pass_records >= 0.0 && self.pass_records <= MAX_PASS_RECORDS) {
+            return Err("the pass records must be in [0, 1024]");
         }
         Ok(())
     }
@@ -346,9 +363,6 @@ impl CmltSettings {
     /// Checks both levels; the message names the first bad parameter.
     pub fn validate(&self) -> Result<(), &'static str> {
         self.mlt.validate()?;
-        if self.mlt.level1 == Level1::PathSpace {
-            return Err("CMLT's level 2 over the path-space level 1 is not built yet");
-        }
         self.level2.validate()
     }
 }
@@ -372,6 +386,17 @@ pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
 /// gave 1.6× less error per mutation than 1 (0.03 no better):
 /// `docs/accuracy.md`, "Level 1 against Tungsten's MMLT".
 pub const DEFAULT_DIRECT_ALLOCATION: f32 = 0.1;
+
+/// Default of [`MltSettings::pass_records`]: a pass sample's cost in
+/// level-1 mutations on Tungsten's Cornell box (about 21 µs of CPU against
+/// 4.3 µs), so that the passes and the chains weigh the work each did. At
+/// equal time it cut relMSE × CPU s by 1.10–1.16× there and relMSE by
+/// 1.03–1.7× on caustic-pool and veach-bidir (`docs/accuracy.md`, "Level 1
+/// against Tungsten's MMLT").
+pub const DEFAULT_PASS_RECORDS: f32 = 5.0;
+
+/// Largest [`MltSettings::pass_records`].
+pub const MAX_PASS_RECORDS: f32 = 1024.0;
 
 /// Largest [`MltSettings::b_min_samples`].
 pub const MAX_B_MIN_SAMPLES: u32 = 1 << 24;
@@ -429,8 +454,11 @@ pub struct MltStats {
     pub lens_subpath_accepted: u64,
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
-    /// divides by).
+    /// divides by), the normalisation passes' records included.
     pub records: u64,
+    /// The part of `records` that weighs the normalisation passes' image
+    /// ([`MltSettings::pass_records`] per pass sample).
+    pub pass_records: u64,
     /// Level 2: lens-perturbation steps (lane steps, or multiple-try steps
     /// when k > 1).
     pub lens_steps: u64,
@@ -461,6 +489,7 @@ impl MltStats {
     pub fn merge(&mut self, o: &MltStats) {
         self.chains += o.chains;
         self.mutations += o.mutations;
+        self.pass_records += o.pass_records;
         self.small_proposed += o.small_proposed;
         self.small_accepted += o.small_accepted;
         self.large_proposed += o.large_proposed;
@@ -664,7 +693,7 @@ pub(crate) struct WorkerChains {
 }
 
 /// Stream index of level 2's random numbers (per chain and iteration).
-const LEVEL2_STREAM: u64 = 0x4C32;
+pub(crate) const LEVEL2_STREAM: u64 = 0x4C32;
 
 impl WorkerChains {
     /// A worker without chains holding all the storage its chains will
@@ -711,7 +740,7 @@ impl WorkerChains {
             next: 0,
             strided: false,
             path_space: (mlt.level1 == Level1::PathSpace)
-                .then(|| (PathChains::with_capacity(settings, mlt), 0, 1)),
+                .then(|| (PathChains::with_capacity(settings, mlt, l2), 0, 1)),
         }
     }
 
@@ -826,6 +855,7 @@ impl WorkerChains {
             worker,
             workers,
             &mut self.stats,
+            self.level2.as_ref(),
         );
         true
     }
@@ -997,10 +1027,9 @@ impl WorkerChains {
         let end = (self.next + count).min(n);
         if let Some((ps, ..)) = &mut self.path_space {
             for k in self.next..end {
-                let st = ps.step(k * stride % n, tracer, &mut self.stats);
-                for sp in st.proposal.into_iter().chain(st.current) {
-                    film.add_splat(sp.raster, sp.value);
-                }
+                let ci = k * stride % n;
+                let st = ps.step(ci, tracer, &mut self.stats);
+                ps.record(ci, &st, tracer, self.level2.as_mut(), &mut self.stats, film);
             }
             let done = end - self.next;
             self.next = if end == n { 0 } else { end };

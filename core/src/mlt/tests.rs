@@ -259,3 +259,77 @@ fn direct_allocation_moves_chains_off_a_small_bright_emitter() {
         assert!((weighted - share_b).abs() < 1e-5, "{weighted} vs {share_b}");
     }
 }
+
+/// CMLT over the path-space level 1 on the mirror-sphere furnace (radiance
+/// 2 everywhere; lens, caustic, multi-chain and classless paths), side
+/// chains of 4 lane steps on every class from depth 1: the image's mean
+/// green, its left and right halves' means, and the counters. With
+/// `broken_carry`, classless states' records leave out the level-2 share.
+fn path_space_cmlt_furnace(broken_carry: bool) -> ([f32; 3], super::MltStats) {
+    let scene = scenes::mirror_sphere_furnace();
+    let tris: Vec<_> = scene.triangles().collect();
+    let accel = Bvh::build(&tris);
+    let mut tracer = Tracer::new(&scene, &accel);
+    let (st, m) = furnace_settings();
+    let m = MltSettings {
+        level1: super::Level1::PathSpace,
+        ..m
+    };
+    let l2 = super::Level2Settings {
+        m: 4,
+        lens_sigma: 1.5,
+        side_chain_min_depth: 0,
+        ..super::Level2Settings::default()
+    };
+    let boot = bootstrap(&scene, st, m, 5);
+    let mut chains = WorkerChains::with_capacity(&st, &m, Some(&l2), &scene.camera);
+    chains.restart(&mut tracer, &st, &m, &boot, 5, 0, 1);
+    if let Some((ps, ..)) = &mut chains.path_space {
+        ps.broken_carry = broken_carry;
+    }
+    let mut film = Film::new(16, 12);
+    chains.run(&mut tracer, &st, &mut film, 96 * 16 * 12 / 64);
+    let stats = *chains.stats();
+    let img = film.resolve_scaled(image_scale(boot.b(), 16 * 12, stats.records));
+    let (mut all, mut left, mut right) = (0.0, 0.0, 0.0);
+    for (i, p) in img.iter().enumerate() {
+        all += p.g;
+        if i % 16 < 8 {
+            left += p.g;
+        } else {
+            right += p.g;
+        }
+    }
+    ([all / 192.0, left / 96.0, right / 96.0], stats)
+}
+
+/// Level 2 runs from path-space level-1 states as from primary-sample
+/// ones: the furnace stays 2 (mean within 2 %, halves within 6 %), every
+/// perturbation ran, and each mutation counted 1 + s records. Negative
+/// control: records of classless states that do not carry the share s
+/// (the side chains' weight) darken the image beyond the same check.
+#[test]
+fn path_space_cmlt_furnace_is_two() {
+    let (right, st) = path_space_cmlt_furnace(false);
+    eprintln!("path-space CMLT: {right:?}, {st:?}");
+    assert!(
+        st.lens_steps > 0 && st.caustic_steps > 0 && st.multi_chain_steps > 0,
+        "{st:?}"
+    );
+    assert!(st.lens_accepted > 0 && st.caustic_accepted > 0, "{st:?}");
+    assert_eq!(st.records, st.mutations * 5, "1 + m records per mutation");
+    assert_eq!(
+        st.lens_steps + st.caustic_steps + st.multi_chain_steps + st.identity_steps,
+        st.mutations * 4
+    );
+    assert!((right[0] - 2.0).abs() / 2.0 < 0.02, "mean {right:?}");
+    for half in &right[1..] {
+        assert!((half - 2.0).abs() / 2.0 < 0.06, "halves {right:?}");
+    }
+    let (wrong, _) = path_space_cmlt_furnace(true);
+    eprintln!("without the carried share: {wrong:?}");
+    assert!(
+        (wrong[0] - 2.0).abs() / 2.0 > 0.05,
+        "the share carried by classless records went unnoticed: {wrong:?}"
+    );
+}

@@ -452,6 +452,14 @@ struct WorkerBootstrap {
     step: u64,
     values: Vec<f32>,
     blocks: Vec<f64>,
+    /// Normalisation-pass samples (pixels of its blocks) evaluated.
+    pass_samples: u64,
+    /// The image of its normalisation passes, when it is added to the
+    /// chains' ([`MltSettings::pass_records`] > 0 without kept chains),
+    /// and whether it has been added (once, to the frame of its
+    /// bootstrap).
+    image: Option<Film>,
+    image_added: bool,
     /// Rays of the set-up since the worker's last frame began (they count
     /// towards its next frame).
     stats: Stats,
@@ -620,6 +628,10 @@ impl Renderer {
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
             let k = config.estimator.level2().map_or(0, |l2| l2.k);
             let level2 = u64::from(k) * 8 * 1024 + 64 * 1024;
+            // The normalisation passes' image (`mlt/pass_image.rs`).
+            if mlt.pass_records > 0.0 && !config.temporal.keep_chains {
+                worker = c(worker.checked_add(pixels * Film::BYTES_PER_PIXEL))?;
+            }
             worker = c(chains
                 .checked_mul(chain)
                 .and_then(|b| b.checked_add(worker))
@@ -893,6 +905,11 @@ impl Renderer {
             boot.step = 0;
             boot.values.clear();
             boot.blocks.clear();
+            boot.pass_samples = 0;
+            if let Some(image) = &mut boot.image {
+                image.clear();
+            }
+            boot.image_added = false;
         }
         if boot.complete {
             return Ok(true);
@@ -945,8 +962,10 @@ impl Renderer {
                     pass,
                     pixel..pixel + 1,
                     &mut boot.blocks[at..],
+                    boot.image.as_mut(),
                 );
             }
+            boot.pass_samples += end - boot.step;
             done += end - boot.step;
             boot.step = end;
             if end == count {
@@ -1172,6 +1191,24 @@ impl Renderer {
                         worker.index as u64,
                         c.workers as u64,
                     );
+                    // The frame's own bootstrap (chains not kept): its
+                    // passes' image joins this frame's, weighed by
+                    // `pass_records` (`mlt/pass_image.rs`).
+                    if let Some(boot) = &mut worker.boot
+                        && let Some(image) = &mut boot.image
+                        && boot.epoch == Some(self.epochs)
+                        && boot.complete
+                        && !boot.image_added
+                    {
+                        m.add_pass_image(
+                            &mut worker.film,
+                            image,
+                            boot.pass_samples,
+                            self.boot_mlt.pass_records,
+                            self.b_used,
+                        );
+                        boot.image_added = true;
+                    }
                 } else if worker.camera != Some(self.camera)
                     || worker.scene_revision != self.scene_revision
                 {
@@ -1683,6 +1720,10 @@ impl RenderWorker {
                     step: 0,
                     values: Vec::with_capacity(boot_samples as usize),
                     blocks: Vec::with_capacity(blocks as usize),
+                    pass_samples: 0,
+                    image: (m.pass_records > 0.0 && !c.temporal.keep_chains && blocks > 0)
+                        .then(|| Film::new(camera.width(), camera.height())),
+                    image_added: false,
                     stats: Stats::default(),
                     ws: bdpt::PathStorage::with_capacity(depth),
                     sampler: PrimarySampler::with_capacity(0, m.sigma, m.large_step_prob, depth),

@@ -193,9 +193,18 @@ fn black_scene_is_exactly_black() {
     assert_eq!(r.stats.mlt.chains, 0);
     assert_eq!(r.stats.nonfinite, 0);
     assert!(img.iter().all(|p| p.to_array().map(f32::to_bits) == [0; 3]));
-    // A zero budget is black too (scale 0, not NaN).
-    let (img, _) = render(&diffuse_furnace(1.0), Estimator::Mlt(mlt_settings()), 1, 0);
+    // A zero budget is black too (scale 0, not NaN) when the passes only
+    // estimate b; with their image added it is that image (the furnace's
+    // 2, from 64 BDPT passes).
+    let alone = MltSettings {
+        pass_records: 0.0,
+        ..mlt_settings()
+    };
+    let (img, _) = render(&diffuse_furnace(1.0), Estimator::Mlt(alone), 1, 0);
     assert!(img.iter().all(|p| *p == Rgb::ZERO));
+    let (img, r) = render(&diffuse_furnace(1.0), Estimator::Mlt(mlt_settings()), 1, 0);
+    assert_eq!(r.stats.mlt.mutations, 0);
+    assert!((mean(&img).g - 2.0).abs() < 0.02, "{:?}", mean(&img));
 }
 
 #[test]
@@ -279,9 +288,9 @@ fn cmlt_mirror_sphere_furnace_is_two() {
             "{st:?}"
         );
         assert_eq!(
-            st.records,
+            st.records - st.pass_records,
             st.mutations * 5,
-            "1 + m records per level-1 mutation"
+            "1 + m records per level-1 mutation, besides the passes'"
         );
         assert_eq!(
             st.lens_steps + st.caustic_steps + st.multi_chain_steps + st.identity_steps,
@@ -349,8 +358,10 @@ fn cmlt_k1_m1_matches_plain_mlt() {
     let scene = common::mirror_sphere_furnace();
     let (plain, rp) = render(&scene, Estimator::Mlt(mlt_settings()), 8, 64);
     let (one, r1) = render(&scene, Estimator::Cmlt(cmlt_settings(1, 1)), 8, 64);
-    assert_eq!(rp.stats.mlt.records, rp.stats.mlt.mutations);
-    assert_eq!(r1.stats.mlt.records, 2 * r1.stats.mlt.mutations);
+    // Besides the normalisation passes' records (`MltSettings::pass_records`).
+    let chains = |s: &mlt::MltStats| s.records - s.pass_records;
+    assert_eq!(chains(&rp.stats.mlt), rp.stats.mlt.mutations);
+    assert_eq!(chains(&r1.stats.mlt), 2 * r1.stats.mlt.mutations);
     assert_furnace("plain MLT", &plain, 0.01, 0.05);
     assert_furnace("CMLT k = m = 1", &one, 0.01, 0.05);
     for (a, b) in [

@@ -92,9 +92,20 @@ impl PathChain {
     }
 
     /// The current path.
-    #[cfg(test)]
     pub fn current(&self) -> &PathState {
         &self.current
+    }
+
+    /// The latest proposal's path when it was not accepted; the path it
+    /// replaced when it was (the two swap on acceptance).
+    pub fn other(&self) -> &PathState {
+        &self.proposal
+    }
+
+    /// The chain's seed and its mutations so far: the key of its level-2
+    /// random stream for the latest mutation.
+    pub fn stream_key(&self) -> (u64, u64) {
+        (self.seed, self.iteration)
     }
 
     /// The current path, for a start.

@@ -14,11 +14,11 @@
 //! lens subpath mutation (`lens_subpath`); the chain with its mutation
 //! selection and expected-value records (`chain`); a worker's chains as
 //! the renderer drives them (`worker`), selected by
-//! [`super::Level1::PathSpace`] for MLT. Not yet: the lens, caustic and
+//! [`super::Level1::PathSpace`] for MLT, and with CMLT's level 2 run from
+//! each state (`worker`'s docs say why one level 2 serves both level 1s).
+//! Not yet: the lens, caustic and
 //! multi-chain perturbations as level-1 mutations (selection by path type
-//! beyond the lens subpath mutation's), CMLT's level 2 over path-space
-//! states (refused by [`super::CmltSettings::validate`]), lights other than
-//! area emitters, stratified raster positions for the lens subpath
+//! beyond the lens subpath mutation's), lights other than area emitters, stratified raster positions for the lens subpath
 //! mutation.
 
 pub(crate) mod bidirectional;

@@ -12,20 +12,34 @@
 //! its depth, so only a start ∝ Y(f) over all depths is stationary), each
 //! start a bootstrap sample of its depth picked ∝ Y (`state.rs`: Veach's
 //! start-up).
+//!
+//! CMLT over it: level 2 runs from each chain's state exactly as from a
+//! primary-sample one ([`Level2`], one implementation for both). Its proof
+//! (`mlt/level2.rs`) needs only that level 1's stationary distribution
+//! over paths is Y(f(x̄)) in the path measure, which both level 1s have
+//! (the primary-sample one after summing over the strategies, whose MIS
+//! weights sum to 1): every state keeps its class (perturbation, side-chain
+//! length), a classless state's records carry the share s, and each
+//! mutation counts 1 + s records.
 
 use alloc::vec::Vec;
 
 use rand_pcg::Pcg32;
 
+use super::super::chain::PathSample;
+use super::super::level2::Level2;
+use super::super::perturbation::Applicable;
 use super::super::{
-    Bootstrap, MltSettings, MltStats, PrimarySampler, chain_seed, depths, mix64, start_sample,
-    target, uniform_f64,
+    Bootstrap, LEVEL2_STREAM, MltSettings, MltStats, PrimarySampler, chain_seed, depths, mix64,
+    start_sample, target, uniform_f64,
 };
 use super::bidirectional::Bidirectional;
 use super::chain::{PathChain, PathStep};
 use super::lens_subpath::LensSubpath;
 use crate::accel::Intersector;
+use crate::film::Film;
 use crate::integrator::{Settings, Tracer, bdpt};
+use crate::sampler::SampleStream;
 
 /// The depth at position `u` ∈ [0, 1) of the split of b into the b_d
 /// (`None` when b = 0).
@@ -57,14 +71,24 @@ pub(crate) struct PathChains {
     lens: LensSubpath,
     /// Replays bootstrap samples for the starts.
     sampler: PrimarySampler,
+    /// CMLT: the class of each live chain's current path and its
+    /// side-chain length ([`Level2::classify`]); empty for MLT.
+    classes: Vec<(Applicable, u32)>,
+    /// Test only: classless states' records do not carry the level-2
+    /// share (a negative control).
+    #[cfg(test)]
+    pub broken_carry: bool,
 }
 
 impl PathChains {
-    /// Storage for `mlt.n_chains` chains at `settings`' depths: after this
-    /// nothing is allocated.
-    pub fn with_capacity(settings: &Settings, mlt: &MltSettings) -> Self {
+    /// Storage for `mlt.n_chains` chains at `settings`' depths, with their
+    /// classes when `level2` (CMLT): after this nothing is allocated.
+    pub fn with_capacity(settings: &Settings, mlt: &MltSettings, level2: bool) -> Self {
         let depth = depths(settings);
         PathChains {
+            classes: Vec::with_capacity(if level2 { mlt.n_chains as usize } else { 0 }),
+            #[cfg(test)]
+            broken_carry: false,
             chains: (0..mlt.n_chains)
                 .map(|_| PathChain::with_capacity(depth))
                 .collect(),
@@ -82,7 +106,8 @@ impl PathChains {
 
     /// Starts the chains of worker `worker` of `workers` afresh (the same
     /// depths and bootstrap picks as the primary-sample chains of the same
-    /// seed would get), counting them in `stats`.
+    /// seed would get), counting them in `stats`; with `level2` (CMLT),
+    /// classifies each start.
     #[allow(clippy::too_many_arguments)]
     pub fn restart<I: Intersector>(
         &mut self,
@@ -95,8 +120,10 @@ impl PathChains {
         worker: u64,
         workers: u64,
         stats: &mut MltStats,
+        level2: Option<&Level2>,
     ) {
         self.live = 0;
+        self.classes.clear();
         let workers = workers.max(1);
         let n = self.chains.len() as u64;
         let total = n * workers;
@@ -131,6 +158,10 @@ impl PathChains {
                 chain.start(cs);
                 self.live += 1;
                 stats.chains += 1;
+                if let Some(l2) = level2 {
+                    self.classes
+                        .push(l2.classify(tracer, &chain.current().path));
+                }
             }
         }
     }
@@ -154,5 +185,77 @@ impl PathChains {
         }
         stats.zero_proposals += (st.proposal_depth == 0) as u64;
         st
+    }
+
+    /// Records mutation `st` of chain `ci` into `film`. MLT (`level2`
+    /// `None`): its records as they are. CMLT: as the primary-sample
+    /// chains' (`WorkerChains::advance`, proof in `mlt/level2.rs`) — a
+    /// record of a state whose class has no side chain carries the share
+    /// (weight 1 + s), the proposal's class is found whenever it is
+    /// recorded and kept when it is accepted, and the chain's state then
+    /// runs its class's side chain, whose records weigh s in all; the
+    /// mutation counts s more records.
+    pub fn record<I: Intersector>(
+        &mut self,
+        ci: usize,
+        st: &PathStep,
+        tracer: &mut Tracer<'_, I>,
+        level2: Option<&mut Level2>,
+        stats: &mut MltStats,
+        film: &mut Film,
+    ) {
+        let Some(l2) = level2 else {
+            for sp in st.proposal.into_iter().chain(st.current) {
+                film.add_splat(sp.raster, sp.value);
+            }
+            return;
+        };
+        let share = l2.share() as f32;
+        #[cfg(test)]
+        let carried = if self.broken_carry { 0.0 } else { share };
+        #[cfg(not(test))]
+        let carried = share;
+        let carry = |length: u32| if length == 0 { 1.0 + carried } else { 1.0 };
+        let chain = &self.chains[ci];
+        let mut y_class = (Applicable::Neither, 0);
+        if let Some(sp) = st.proposal {
+            // Accepted: the proposal is the chain's current path now.
+            let y = if st.accepted {
+                chain.current()
+            } else {
+                chain.other()
+            };
+            y_class = l2.classify(tracer, &y.path);
+            film.add_splat(sp.raster, sp.value * carry(y_class.1));
+        }
+        if let Some(sp) = st.current {
+            film.add_splat(sp.raster, sp.value * carry(self.classes[ci].1));
+        }
+        if st.accepted {
+            self.classes[ci] = y_class;
+        }
+        let (class, length) = &self.classes[ci];
+        if *length > 0 {
+            let x = chain.current();
+            let current = PathSample {
+                l: x.f,
+                raster: x.raster,
+            };
+            let (seed, iteration) = chain.stream_key();
+            let mut rng = SampleStream::new(seed, iteration, LEVEL2_STREAM);
+            l2.side_chain(
+                tracer,
+                &x.path,
+                class,
+                *length,
+                &current,
+                &mut rng,
+                stats,
+                &mut |r, v| film.add_splat(r, v),
+            );
+        } else {
+            stats.identity_steps += l2.share() as u64;
+        }
+        stats.records += l2.share() as u64;
     }
 }

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# The seed's experiment (Segovia 2007, §2.5) over the path-space level 1:
+# path-space CMLT against path-space MLT, and path-space MLT against the
+# primary-sample MLT, at equal wall time on 2 threads, on veach-ajar,
+# veach-bidir and caustic-pool (reduced resolutions), relMSE on pixels and
+# on 4×4 and 16×16 blocks. The methods take turns at every seed (cmlt-bench
+# convergence interleaves them), so the machine's load falls on all alike.
+# The first method is the base of the printed ratios.
+#   docs/accuracy/path-space-study.sh [seconds] [seeds]   (default 8 s, 3 seeds)
+# Writes docs/accuracy/path-space-study-<scene>.csv and .log.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+T=${1:-8}
+SEEDS=${2:-3}
+cargo build --release -q -p cmlt-bench
+BIN=${BIN:-target/release/cmlt-bench}
+OUT=${OUT:-docs/accuracy}
+METHODS=${METHODS:-mlt:level1=path,cmlt:level1=path,cmlt:level1=path:depth=0,mlt}
+for spec in "veach-ajar 160 90" "veach-bidir 128 128" "caustic-pool 48 48"; do
+  set -- $spec
+  $BIN convergence tests/scenes/$1/scene.xml --reference tests/scenes/$1/reference.exr \
+    -D resx=$2 -D resy=$3 --methods "$METHODS" --budgets "$T" \
+    --threads 2 --seeds "$SEEDS" --seeds-up-to "$T" --csv $OUT/path-space-study-$1.csv | tee $OUT/path-space-study-$1.log
+done
