@@ -36,7 +36,7 @@ use crate::film::Film;
 /// rounded to a whole record (an image's samples are many: the rounding
 /// moves the weight by less than 1/samples).
 pub(crate) fn records_for(pass_records: f32, samples: u64) -> u64 {
-    (f64::from(pass_records) * samples as f64).round() as u64
+    libm::round(f64::from(pass_records) * samples as f64) as u64
 }
 
 impl WorkerChains {
