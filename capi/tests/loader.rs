@@ -5,32 +5,13 @@
 //! integration test, so that CI runs the loader's side alone (`--test
 //! loader`) next to the other packages' builds (see `.ci/run`).
 
-use std::ffi::CStr;
 use std::ptr::null_mut;
 
-use cmlt_capi::error::cmlt_last_error;
-use cmlt_capi::error::cmlt_status::{self, *};
+use cmlt_capi::error::cmlt_status::*;
 use cmlt_capi::scene::*;
 
-fn last_error() -> String {
-    // SAFETY: never NULL, NUL-terminated.
-    unsafe { CStr::from_ptr(cmlt_last_error()) }
-        .to_string_lossy()
-        .into_owned()
-}
-
-/// Asserts `status` is `want` and, on failure, that the message names
-/// `function`.
-fn expect(status: cmlt_status, want: cmlt_status, function: &str) {
-    assert_eq!(status, want, "{function}: {}", last_error());
-    if want != CMLT_OK {
-        let msg = last_error();
-        assert!(
-            msg.starts_with(function),
-            "message {msg:?} does not name {function}"
-        );
-    }
-}
+mod common;
+use common::*;
 
 /// The camera the out pointers start with: a refused call leaves it.
 const UNTOUCHED: cmlt_camera = cmlt_camera {

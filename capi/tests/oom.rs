@@ -27,6 +27,10 @@ use cmlt_capi::error::cmlt_status::{self, *};
 use cmlt_capi::renderer::*;
 use cmlt_capi::scene::*;
 
+#[path = "common/mod.rs"]
+mod common;
+use common::{CAMERA, FLOOR, LIGHT, POSITIONS, WHITE, mesh};
+
 /// Allocations made through the hooks so far.
 static MADE: AtomicU64 = AtomicU64::new(0);
 /// Blocks of the hooks not freed yet.
@@ -62,68 +66,7 @@ unsafe extern "C" fn failing_free(_: *mut c_void, ptr: *mut c_void, size: usize,
     unsafe { System.dealloc(ptr.cast(), Layout::from_size_align(size, align).unwrap()) }
 }
 
-const WHITE: cmlt_material = cmlt_material {
-    type_: CMLT_MATERIAL_DIFFUSE,
-    color: [0.7, 0.7, 0.7],
-    ior: 1.0,
-    roughness: 0.0,
-    two_sided: 0,
-    color_texture: CMLT_NO_TEXTURE,
-    normal_map: CMLT_NO_TEXTURE,
-    bump_map: CMLT_NO_TEXTURE,
-    bump_scale: 1.0,
-    opacity_texture: CMLT_NO_TEXTURE,
-    specular_color: [1.0; 3],
-    transmission_color: [1.0; 3],
-    distribution: CMLT_DISTRIBUTION_GGX,
-    nonlinear: 0,
-    metallic: 0.0,
-    anisotropic: 0.0,
-    specular: 0.5,
-    spec_tint: 0.0,
-    spec_trans: 0.0,
-    sheen: 0.0,
-    sheen_tint: 0.0,
-    clearcoat: 0.0,
-    clearcoat_gloss: 0.0,
-    flatness: 0.0,
-    principled_textures: [CMLT_NO_TEXTURE; 10],
-};
-
-/// A floor quad and an emitting quad facing it.
-const POSITIONS: [f32; 24] = [
-    -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, //
-    -0.3, 1.0, -0.3, 0.3, 1.0, -0.3, 0.3, 1.0, 0.3, -0.3, 1.0, 0.3,
-];
-const FLOOR: [u32; 6] = [0, 1, 2, 0, 2, 3];
-const LIGHT: [u32; 6] = [4, 5, 6, 4, 6, 7];
 const TEXELS: [u8; 12] = [200, 10, 10, 10, 200, 10, 10, 10, 200, 90, 90, 90];
-
-fn mesh(indices: &[u32], material: u32, emission: f32) -> cmlt_mesh {
-    cmlt_mesh {
-        positions: POSITIONS.as_ptr(),
-        vertex_count: 8,
-        position_stride: 0,
-        normals: null(),
-        normal_stride: 0,
-        uvs: null(),
-        uv_stride: 0,
-        indices: indices.as_ptr(),
-        triangle_count: indices.len() / 3,
-        index_stride: 0,
-        material,
-        emission: [emission; 3],
-    }
-}
-
-const CAMERA: cmlt_camera = cmlt_camera {
-    position: [0.0, 0.5, -2.0],
-    target: [0.0, 0.3, 0.0],
-    up: [0.0, 1.0, 0.0],
-    fov_degrees: 60.0,
-    aperture_radius: 0.0,
-    focus_distance: 1.0,
-};
 
 /// The first failing call of a session: its name, status, the allocation
 /// count before and after it, and the start of its message. Plain data: a
