@@ -426,7 +426,8 @@ typedef struct cmlt_renderer_config {
   // MLT: the weight of each normalisation-pass sample in the image, in
   // records (one mutation's worth): the passes' BDPT image is added to
   // the chains' by these fixed weights; 0 = the passes only estimate
-  // the normalisation. In [0, 1024]; not used with `keep_chains`.
+  // the normalisation. In [0, 1024]; with `keep_chains`, a bootstrap's
+  // passes join only a frame of the camera and scene it ran under.
   float pass_records;
 } cmlt_renderer_config;
 

@@ -179,3 +179,114 @@ fn kept_mlt_frames_of_a_still_camera_converge_as_one_offline_render() {
         "kept frames relMSE {e_kept} vs offline {e_offline}"
     );
 }
+
+/// A still camera's `frames` frames of `mpp` mutations per pixel each,
+/// with kept chains and the accumulation kept, on two workers; the later
+/// bootstraps (b refreshes) run to their end in every frame when
+/// `refresh`, else get no time (the first frame's b carries). Returns the
+/// last frame's image and the records and pass records of all frames.
+fn still_kept_chains(
+    estimator: Estimator,
+    frames: usize,
+    mpp: u64,
+    refresh: bool,
+    seed: u64,
+) -> (Image, u64, u64) {
+    let (loaded, _) = load_reduced("cornell-box", 8);
+    let scene = &loaded.scene;
+    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
+    let cfg = RendererConfig {
+        estimator,
+        settings: loaded.settings,
+        seed,
+        workers: 2,
+        temporal: Temporal {
+            keep_chains: true,
+            ..Temporal::default()
+        },
+        ..RendererConfig::default()
+    };
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    r.set_accumulation(Accumulation::Keep).unwrap();
+    let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+    let (mut records, mut pass_records) = (0, 0);
+    for f in 0..frames {
+        if f > 0 {
+            r.set_camera(scene.camera).unwrap();
+        }
+        if r.begin_prepare(scene) {
+            for w in ws.iter_mut() {
+                prepare_worker_while(&r, w, scene, &accel, &mut |_| f == 0 || refresh).unwrap();
+            }
+            r.finish_prepare(ws.iter()).unwrap();
+        }
+        for w in ws.iter_mut() {
+            let steps = r.steps_for(w.index(), mpp);
+            render_steps(&r, w, scene, &accel, steps).unwrap();
+        }
+        // Each frame's counters start from zero.
+        let refs: Vec<&RenderWorker> = ws.iter().collect();
+        let s = r.stats(&refs).mlt;
+        records += s.records;
+        pass_records += s.pass_records;
+    }
+    (resolved(&r, &ws), records, pass_records)
+}
+
+/// Whether each channel of `means` is within 2 % of `reference`'s mean.
+fn means_within_2_percent(means: [f32; 3], reference: &Image) -> bool {
+    let want = reference.mean();
+    (0..3).all(|c| (means[c] / want[c] - 1.0).abs() < 0.02)
+}
+
+/// With kept chains and a still camera, each bootstrap's normalisation
+/// passes' image joins the first frame that uses its b (it ran under that
+/// frame's view), weighed by `pass_records` as an offline render weighs
+/// it (`mlt/pass_image.rs`): kept frames of 8 mutations per pixel
+/// converge to the reference (means within 2 %) with the first frame's
+/// passes alone (the b refreshes get no time) and with every frame's b
+/// refresh adding its own passes. Negative control: the same images with
+/// the passes' records left out of the normalisation (the pass image
+/// weighted as if it were free) miss the reference's means.
+#[test]
+fn kept_chains_of_a_still_camera_add_the_passes_image_once_per_bootstrap() {
+    let (_, reference) = load_reduced("cornell-box", 8);
+    let pixels = (reference.width * reference.height) as u64;
+    let estimator = Estimator::Mlt(cmlt::mlt::MltSettings {
+        pass_records: 1.0,
+        ..level1(64)
+    });
+    let passes = u64::from(level1(64).normalisation_passes(pixels));
+    let frames = 8;
+    for refresh in [false, true] {
+        let (mut sum, mut wrong) = ([0.0f32; 3], [0.0f32; 3]);
+        let seeds = 4;
+        for seed in 0..seeds {
+            let (img, records, pass_records) =
+                still_kept_chains(estimator, frames, 8, refresh, 20 + seed);
+            // One pass record per pixel of every pass of every bootstrap
+            // joined: the first frame's, and one per later frame when the
+            // refreshes run.
+            let joined = if refresh { frames as u64 } else { 1 };
+            assert_eq!(pass_records, joined * passes * pixels, "refresh {refresh}");
+            let m = img.mean();
+            let k = records as f32 / (records - pass_records) as f32;
+            for c in 0..3 {
+                sum[c] += m[c] / seeds as f32;
+                wrong[c] += m[c] * k / seeds as f32;
+            }
+        }
+        eprintln!(
+            "refresh {refresh}: mean {sum:?}, pass image as if free {wrong:?}, reference {:?}",
+            reference.mean()
+        );
+        assert!(
+            means_within_2_percent(sum, &reference),
+            "refresh {refresh}: {sum:?}"
+        );
+        assert!(
+            !means_within_2_percent(wrong, &reference),
+            "negative control passed: {wrong:?}"
+        );
+    }
+}

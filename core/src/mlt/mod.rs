@@ -144,9 +144,10 @@ pub struct MltSettings {
     /// image, in level-1 mutations (their records, [`MltStats::records`]:
     /// 1 + s each with CMLT's level-2 share s): the passes' BDPT image is
     /// combined with the chains' by these fixed weights
-    /// (`mlt/pass_image.rs`); 0 = the passes only estimate b. Ignored with
-    /// kept chains ([`crate::renderer::Temporal::keep_chains`]: their
-    /// bootstrap may span several views) and without passes. At most
+    /// (`mlt/pass_image.rs`); 0 = the passes only estimate b. With kept
+    /// chains ([`crate::renderer::Temporal::keep_chains`], whose bootstrap
+    /// may span several views) a bootstrap's passes join only a frame of
+    /// the camera and scene it ran under. Ignored without passes. At most
     /// [`MAX_PASS_RECORDS`]; default [`DEFAULT_PASS_RECORDS`].
     pub pass_records: f32,
 }

@@ -44,8 +44,8 @@ impl WorkerChains {
     /// `samples` normalisation-pass samples, unscaled) into `film`, whose
     /// records are normalised by `b`, at `pass_records` mutations' records
     /// per sample (times 1 + s with level 2): scales `image` by records /
-    /// (samples · b) in place and counts the records in
-    /// [`super::MltStats::records`] (and `pass_records`).
+    /// (samples · b) in place and counts the records
+    /// ([`WorkerChains::count_pass_records`]).
     /// Nothing when there is nothing to weigh (b = 0, no sample, ρ = 0).
     /// Allocates nothing.
     pub(crate) fn add_pass_image(
@@ -56,14 +56,27 @@ impl WorkerChains {
         pass_records: f32,
         b: f64,
     ) {
-        let per_mutation = 1 + self.level2.as_ref().map_or(0, |l2| l2.share());
-        let records = records_for(pass_records * per_mutation as f32, samples);
-        if records == 0 || !(b > 0.0) || samples == 0 {
+        if !(b > 0.0) || samples == 0 {
+            return;
+        }
+        let records = self.count_pass_records(samples, pass_records);
+        if records == 0 {
             return;
         }
         image.scale(records as f64 / (samples as f64 * b));
         film.merge(image);
+    }
+
+    /// Counts the records of `samples` pass samples at `pass_records`
+    /// mutations' records each (times 1 + s with level 2) in
+    /// [`super::MltStats::records`] and `pass_records`, and returns them:
+    /// the weight of a pass image that the caller adds itself (the
+    /// renderer's kept frames, whose sums need no b).
+    pub(crate) fn count_pass_records(&mut self, samples: u64, pass_records: f32) -> u64 {
+        let per_mutation = 1 + self.level2.as_ref().map_or(0, |l2| l2.share());
+        let records = records_for(pass_records * per_mutation as f32, samples);
         self.stats.records += records;
         self.stats.pass_records += records;
+        records
     }
 }

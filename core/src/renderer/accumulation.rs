@@ -39,6 +39,12 @@
 //! with a still camera and one b it is the image of one long render of
 //! all the frames' mutations. Decay multiplies the kept sums and records
 //! by the factor at every frame start, as for PT and BDPT.
+//!
+//! With kept chains a frame's normalisation-pass image (`mlt/pass_image.rs`)
+//! goes straight into the kept sums as `ρ(1 + s) · P · Σ contributions`,
+//! its records counted in the frame's: the term `b · P · film` its share
+//! of a film would fold in, without b, so its weight does not move when a
+//! b refresh is joined within the frame.
 
 use alloc::vec::Vec;
 
@@ -135,10 +141,13 @@ impl Weights {
 /// A Metropolis worker's earlier frames (see the module docs): per pixel
 /// Σ_f factor^age · b_f · P · film_f(i), and Σ_f factor^age · records_f,
 /// sized when the worker is made (empty for PT and BDPT workers, which
-/// keep their films instead).
+/// keep their films instead). With kept chains the current frame's
+/// normalisation-pass image is added here too ([`Kept::add_pass_image`]).
 pub(crate) struct Kept {
     sums: Vec<[f64; 3]>,
     records: f64,
+    /// Whether `sums` may be nonzero.
+    holds: bool,
 }
 
 impl Kept {
@@ -147,7 +156,14 @@ impl Kept {
         Kept {
             sums: alloc::vec![[0.0; 3]; pixels],
             records: 0.0,
+            holds: false,
         }
+    }
+
+    /// Whether nothing is kept: the image is the current frame's film
+    /// alone.
+    pub(crate) fn is_empty(&self) -> bool {
+        !self.holds && self.records == 0.0
     }
 
     /// Pixel `i`'s kept sum (0 for a worker without kept frames).
@@ -174,10 +190,11 @@ impl Kept {
     ) {
         let factor = match mode {
             Accumulation::Reset => {
-                if self.records != 0.0 {
+                if self.holds {
                     self.sums.fill([0.0; 3]);
-                    self.records = 0.0;
+                    self.holds = false;
                 }
+                self.records = 0.0;
                 return;
             }
             Accumulation::Keep => 1.0,
@@ -193,6 +210,7 @@ impl Kept {
                 }
             }
             self.records += records as f64;
+            self.holds = true;
         } else if factor != 1.0 {
             for k in &mut self.sums {
                 for v in k {
@@ -201,5 +219,28 @@ impl Kept {
             }
         }
         self.records *= factor;
+    }
+
+    /// Adds the current frame's normalisation-pass image `image` (its
+    /// samples' contributions, unscaled: `samples` samples over the whole
+    /// image), whose `records` records the frame's chains count
+    /// (`WorkerChains::count_pass_records`): as `records · P / samples ·
+    /// image(i)`, the term `b · P · film(i)` a film holding the image
+    /// scaled by records / (samples · b) would fold in
+    /// (`mlt/pass_image.rs`) — without b, so that the weight stays exact
+    /// when b changes while chains are kept. It then ages with the frame
+    /// whose records hold its weight.
+    pub(crate) fn add_pass_image(&mut self, image: &Film, samples: u64, records: u64, pixels: u64) {
+        if samples == 0 || records == 0 {
+            return;
+        }
+        let scale = records as f64 * pixels as f64 / samples as f64;
+        for (i, k) in self.sums.iter_mut().enumerate() {
+            let t = image.pixel_total(i);
+            for c in 0..3 {
+                k[c] += t[c] * scale;
+            }
+        }
+        self.holds = true;
     }
 }

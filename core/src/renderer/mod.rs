@@ -94,7 +94,12 @@
 //! while the next bootstrap is evaluated in the pieces the host's
 //! `prepare_worker_while` calls allow, across as many frames as it takes,
 //! and joined by the `finish_prepare` after it completes (b is then an
-//! estimate over the views of those frames). A b estimated from the
+//! estimate over the views of those frames). The normalisation passes'
+//! image of such a bootstrap ([`MltSettings::pass_records`]) joins the
+//! first frame that uses its b only when the bootstrap ran entirely under
+//! that frame's camera and scene revision, once: a still camera's kept
+//! frames weigh each bootstrap's passes as one offline render does.
+//! A b estimated from the
 //! chains' own large steps (`mlt::LargeStepTally`, collected by every
 //! worker) would plug in at that join.
 //! Every estimator carries its image by [`Accumulation`]: reset
@@ -370,6 +375,16 @@ pub struct Renderer {
     /// Whether a bootstrap has been joined: kept chains can then go on
     /// with it while the next one is evaluated.
     has_bootstrap: bool,
+    /// The camera and scene revision the pending bootstrap began under,
+    /// and whether both have stayed so since (set_camera and
+    /// begin_prepare watch them): then every piece of it evaluated that
+    /// one view.
+    boot_view: (Camera, Option<u64>),
+    boot_one_view: bool,
+    /// The last joined bootstrap's epoch and view, when it ran under one
+    /// view: with kept chains its passes' image joins a frame of that view
+    /// (`mlt/pass_image.rs`).
+    joined_view: Option<(u64, Camera, Option<u64>)>,
     /// How workers carry their images into the next frame.
     accumulation: Accumulation,
     /// Where `finish_prepare` joins the workers' shares.
@@ -455,9 +470,10 @@ struct WorkerBootstrap {
     /// Normalisation-pass samples (pixels of its blocks) evaluated.
     pass_samples: u64,
     /// The image of its normalisation passes, when it is added to the
-    /// chains' ([`MltSettings::pass_records`] > 0 without kept chains),
-    /// and whether it has been added (once, to the frame of its
-    /// bootstrap).
+    /// chains' ([`MltSettings::pass_records`] > 0), and whether it has
+    /// been added (once, to the first frame that uses the bootstrap's b;
+    /// with kept chains only if that frame's view is the one the
+    /// bootstrap ran under: `Renderer::joined_view`).
     image: Option<Film>,
     image_added: bool,
     /// Rays of the set-up since the worker's last frame began (they count
@@ -516,6 +532,9 @@ impl Renderer {
             boot_settings: config.settings,
             boot_seed: config.seed,
             has_bootstrap: false,
+            boot_view: (camera, None),
+            boot_one_view: false,
+            joined_view: None,
             accumulation: Accumulation::Reset,
             shares: Shares {
                 values: Vec::with_capacity(Bootstrap::sample_count(&config.settings, &mlt) as usize),
@@ -629,7 +648,7 @@ impl Renderer {
             let k = config.estimator.level2().map_or(0, |l2| l2.k);
             let level2 = u64::from(k) * 8 * 1024 + 64 * 1024;
             // The normalisation passes' image (`mlt/pass_image.rs`).
-            if mlt.pass_records > 0.0 && !config.temporal.keep_chains {
+            if mlt.pass_records > 0.0 {
                 worker = c(worker.checked_add(pixels * Film::BYTES_PER_PIXEL))?;
             }
             worker = c(chains
@@ -718,6 +737,11 @@ impl Renderer {
         }
         check_lens(&camera)?;
         self.view_changed = camera != self.camera;
+        if self.pending.is_some() && camera != self.boot_view.0 {
+            // A bootstrap under way may be evaluated through this camera
+            // too: it no longer images one view.
+            self.boot_one_view = false;
+        }
         self.camera = camera;
         self.next_frame();
         Ok(())
@@ -777,6 +801,9 @@ impl Renderer {
             self.next_frame();
         }
         self.scene_revision = revision;
+        if self.pending.is_some() && self.boot_view != (self.camera, revision) {
+            self.boot_one_view = false;
+        }
         let fresh = self.prepared != Some(self.generation);
         if !fresh && self.pending.is_none() {
             return false;
@@ -824,6 +851,8 @@ impl Renderer {
             self.pending_generation = self.generation;
             self.boot_settings = self.settings;
             self.boot_seed = self.frame_seed();
+            self.boot_view = (self.camera, revision);
+            self.boot_one_view = true;
         }
         if keep && self.has_bootstrap {
             self.prepared = Some(self.generation);
@@ -1056,6 +1085,9 @@ impl Renderer {
         );
         self.pending = None;
         self.has_bootstrap = true;
+        self.joined_view =
+            self.boot_one_view
+                .then_some((epoch, self.boot_view.0, self.boot_view.1));
         self.push_b(self.bootstrap.b());
         self.prepared = Some(self.generation);
         Ok(())
@@ -1191,30 +1223,54 @@ impl Renderer {
                         worker.index as u64,
                         c.workers as u64,
                     );
-                    // The frame's own bootstrap (chains not kept): its
-                    // passes' image joins this frame's, weighed by
-                    // `pass_records` (`mlt/pass_image.rs`).
-                    if let Some(boot) = &mut worker.boot
-                        && let Some(image) = &mut boot.image
-                        && boot.epoch == Some(self.epochs)
-                        && boot.complete
-                        && !boot.image_added
-                    {
-                        m.add_pass_image(
-                            &mut worker.film,
-                            image,
-                            boot.pass_samples,
-                            self.boot_mlt.pass_records,
-                            self.b_used,
-                        );
-                        boot.image_added = true;
-                    }
                 } else if worker.camera != Some(self.camera)
                     || worker.scene_revision != self.scene_revision
                 {
                     m.reevaluate(&mut tracer, settings, &self.bootstrap, seed);
                 } else {
                     m.reset_stats();
+                }
+                // The passes' image of the bootstrap the frame's b comes
+                // from joins the frame, weighed by `pass_records`
+                // (`mlt/pass_image.rs`), once: without kept chains the
+                // frame's own bootstrap's; with them the last joined one's,
+                // if it ran entirely under this frame's camera and scene
+                // (a bootstrap spread over moving frames images no one
+                // view). Its records count once in all the frames' (a
+                // still camera's kept frames weigh it as one offline
+                // render of the same passes and mutations does); each b
+                // refresh adds its own passes the same way.
+                if let Some(boot) = &mut worker.boot
+                    && let Some(image) = &mut boot.image
+                    && boot.complete
+                    && !boot.image_added
+                    && self.b_used > 0.0
+                {
+                    if !c.temporal.keep_chains {
+                        if boot.epoch == Some(self.epochs) {
+                            m.add_pass_image(
+                                &mut worker.film,
+                                image,
+                                boot.pass_samples,
+                                mlt.pass_records,
+                                self.b_used,
+                            );
+                            boot.image_added = true;
+                        }
+                    } else if let Some(epoch) = boot.epoch
+                        && self.joined_view == Some((epoch, self.camera, self.scene_revision))
+                    {
+                        // Into the kept sums, which need no b: the weight
+                        // stays exact if b changes within the frame.
+                        let records = m.count_pass_records(boot.pass_samples, mlt.pass_records);
+                        worker.kept.add_pass_image(
+                            image,
+                            boot.pass_samples,
+                            records,
+                            self.pixels(),
+                        );
+                        boot.image_added = true;
+                    }
                 }
             } else {
                 worker
@@ -1499,7 +1555,7 @@ impl Renderer {
     /// + splats) / passes.
     fn pixel(&self, l: &Layers, t: &Totals, scale: f64) -> Rgb {
         if self.config.estimator.is_metropolis() {
-            if t.kept_records == 0.0 {
+            if !t.kept {
                 return scaled(l.total(), scale);
             }
             // The records-weighted mean of the kept frames' images and
@@ -1599,6 +1655,8 @@ struct Totals {
     samples: f64,
     records: u64,
     kept_records: f64,
+    /// Whether any worker keeps anything ([`Kept::is_empty`]).
+    kept: bool,
 }
 
 impl Totals {
@@ -1607,6 +1665,7 @@ impl Totals {
             self.samples += w.weights.total();
             self.records += w.mlt.as_ref().map_or(0, |m| m.stats().records);
             self.kept_records += w.kept.records();
+            self.kept |= !w.kept.is_empty();
         }
     }
 }
@@ -1721,7 +1780,7 @@ impl RenderWorker {
                     values: Vec::with_capacity(boot_samples as usize),
                     blocks: Vec::with_capacity(blocks as usize),
                     pass_samples: 0,
-                    image: (m.pass_records > 0.0 && !c.temporal.keep_chains && blocks > 0)
+                    image: (m.pass_records > 0.0 && blocks > 0)
                         .then(|| Film::new(camera.width(), camera.height())),
                     image_added: false,
                     stats: Stats::default(),

@@ -936,6 +936,86 @@ fn the_metropolis_set_up_runs_in_pieces_across_calls_and_frames() {
     assert_eq!(again.b(), whole.b());
 }
 
+/// With kept chains a bootstrap's normalisation-pass image joins the
+/// first frame that uses its b only when the bootstrap ran entirely under
+/// that frame's camera and scene revision (`mlt/pass_image.rs`): the
+/// first frame's, a b refresh evaluated across still frames, one begun
+/// and joined within a moved camera's frame; not one whose frames moved
+/// the camera (even when it came back) or updated the scene meanwhile.
+/// Its records are counted once: the frames after the join add none.
+#[test]
+fn kept_chains_add_a_bootstraps_pass_image_only_under_its_one_view() {
+    let mut scene = room();
+    let mut bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    let cfg = RendererConfig {
+        temporal: Temporal {
+            keep_chains: true,
+            ..Temporal::default()
+        },
+        ..config(mlt(), 2)
+    };
+    let ms = mlt_settings();
+    let pixels = 16 * 12;
+    let per_bootstrap =
+        ms.pass_records as u64 * u64::from(ms.normalisation_passes(pixels)) * pixels;
+    assert!(per_bootstrap > 0);
+    let mut r = Renderer::new(cfg, scene.camera).unwrap();
+    let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+    // One frame through `yaw`: the workers' share of the pending bootstrap
+    // (to its end when `finish`, else one piece each), a render; returns
+    // whether a bootstrap was joined (b changed) and the frame's pass
+    // records.
+    fn frame(
+        r: &mut Renderer,
+        ws: &mut [RenderWorker],
+        (scene, bvh): (&Scene, &Bvh),
+        yaw: f32,
+        finish: bool,
+    ) -> (bool, u64) {
+        if r.frame() > 0 || r.b() > 0.0 {
+            r.set_camera(camera(yaw)).unwrap();
+        }
+        let b = r.b();
+        if r.begin_prepare(scene) {
+            for w in ws.iter_mut() {
+                r.prepare_worker_while(w, scene, bvh, |_| finish).unwrap();
+            }
+            r.finish_prepare(ws.iter()).unwrap();
+        }
+        for w in ws.iter_mut() {
+            r.render(w, scene, bvh, 16 * 12).unwrap();
+        }
+        let refs: Vec<&RenderWorker> = ws.iter().collect();
+        (r.b() != b, r.stats(&refs).mlt.pass_records)
+    }
+    let joined = (true, per_bootstrap);
+    let (nothing, without) = ((false, 0), (true, 0));
+    // The first frame's bootstrap.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.0, true), joined);
+    // A refresh evaluated over still frames, then joined.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.0, false), nothing);
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.0, true), joined);
+    // Begun and joined within one moved camera's frame.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, true), joined);
+    // The frame after a join adds nothing more.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, false), nothing);
+    // A refresh whose frames moved the camera away and back.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.2, false), nothing);
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, true), without);
+    // A refresh across a scene update (the camera still).
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, false), nothing);
+    let light: Vec<Vec3> = scene.meshes[2]
+        .positions
+        .iter()
+        .map(|p| *p + Vec3::Y * 0.01)
+        .collect();
+    scene.update_mesh(2, &light, None).unwrap();
+    bvh.refit(|p| scene.triangle(p));
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, true), without);
+    // The next refresh runs under one view again.
+    assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, true), joined);
+}
+
 /// Moving a mesh between frames (`Scene::update_mesh` + `Bvh::refit`):
 /// `render` refuses the updated scene until preparing, which starts a new
 /// frame on its own — the same image as a fresh renderer on the moved
