@@ -13,7 +13,8 @@
 //   takes a suffix +keep or +decay (factor 0.8) for its accumulation
 //   across frames (reset otherwise).
 // MLT and CMLT keep their chains across frames (one normalisation pass
-// per bootstrap, b averaged over 8 bootstraps); after the first frame
+// per bootstrap, b tracked from the large steps of the last 32 frames);
+// after the first frame
 // their set-up gets 5 % of the budget (prepare_worker_while), the rest
 // renders. Prints one line per frame, then one `trial` line:
 //   trial <estimator> <w>x<h> budget_ms <b> frames <n> p50_ms <..> p95_ms <..>
@@ -238,7 +239,10 @@ int main(int argc, char **argv) {
     config.max_depth = 5;
     if (metropolis) {
         config.keep_chains = 1;
-        config.b_window = 8;
+        // b tracked from the chains' large steps of the last 32 frames:
+        // the dolly changes the image's mean and a bootstrap spans tens
+        // of frames (one frame's large steps are too noisy alone).
+        config.large_step_window = 32;
         // One normalisation pass per bootstrap: after the first, each is
         // evaluated in the frames' set-up slices (b tracked over them).
         config.normalisation_passes = 1;

@@ -429,6 +429,11 @@ typedef struct cmlt_renderer_config {
   // the normalisation. In [0, 1024]; with `keep_chains`, a bootstrap's
   // passes join only a frame of the camera and scene it ran under.
   float pass_records;
+  // Frames, MLT/CMLT with `keep_chains`: track the normalisation from
+  // the chains' large steps of this many frames, pooled with the last
+  // bootstrap's passes, across camera moves and mesh updates (0 = off;
+  // at most 64).
+  uint32_t large_step_window;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -66,6 +66,7 @@ pub fn configurations(b_window: u32) -> Vec<(&'static str, Temporal)> {
                 keep_chains: true,
                 b_window,
                 fixed_sequence: true,
+                ..none
             },
         ),
     ]

@@ -465,6 +465,7 @@ fn run(cli: Cli) -> Result<(), String> {
                         keep_chains: true,
                         b_window,
                         fixed_sequence: true,
+                        ..Temporal::default()
                     },
                     ..base
                 };

@@ -188,6 +188,11 @@ pub struct cmlt_renderer_config {
     /// the normalisation. In [0, 1024]; with `keep_chains`, a bootstrap's
     /// passes join only a frame of the camera and scene it ran under.
     pub pass_records: f32,
+    /// Frames, MLT/CMLT with `keep_chains`: track the normalisation from
+    /// the chains' large steps of this many frames, pooled with the last
+    /// bootstrap's passes, across camera moves and mesh updates (0 = off;
+    /// at most 64).
+    pub large_step_window: u32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -355,6 +360,7 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
             _ => CMLT_LEVEL1_PRIMARY_SAMPLE,
         },
         pass_records: mlt.pass_records,
+        large_step_window: c.temporal.large_step_window,
     }
 }
 
@@ -407,6 +413,11 @@ fn unread_field(
         ("pass_records", MLT, f(c.pass_records, d.pass_records)),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
+        (
+            "large_step_window",
+            MLT,
+            c.large_step_window == d.large_step_window,
+        ),
         ("k", CMLT, c.k == d.k),
         ("m", CMLT, c.m == d.m),
         ("lens_sigma", CMLT, f(c.lens_sigma, d.lens_sigma)),
@@ -526,6 +537,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
             keep_chains: c.keep_chains != 0,
             b_window: c.b_window,
             fixed_sequence: c.fixed_sequence != 0,
+            large_step_window: c.large_step_window,
         },
         all_effects: c.all_effects != 0,
     })

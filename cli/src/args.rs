@@ -419,6 +419,7 @@ impl FrameArgs {
             keep_chains: self.keep_chains,
             b_window: self.b_window,
             fixed_sequence: self.fixed_sequence,
+            ..Temporal::default()
         }
     }
 }

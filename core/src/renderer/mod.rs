@@ -113,6 +113,7 @@
 mod accumulation;
 mod estimator;
 mod resolve;
+mod tracked_b;
 
 use alloc::vec::Vec;
 use core::ops::Deref;
@@ -134,6 +135,7 @@ pub use accumulation::Accumulation;
 use accumulation::{Kept, Weights};
 pub use estimator::{Estimator, EstimatorKind};
 pub(crate) use resolve::check_buffer;
+use tracked_b::TrackedB;
 
 /// The smallest piece of work between two questions of a time budget's
 /// callback ([`Renderer::render_while`] for PT and BDPT,
@@ -238,6 +240,17 @@ pub struct Temporal {
     /// and a moving one a noise pattern that moves with the image.
     /// Otherwise frame f's streams are seeded by (seed, f).
     pub fixed_sequence: bool,
+    /// MLT with kept chains: b tracked from the chains' large steps of the
+    /// last `large_step_window` frames (the last joined bootstrap's passes
+    /// standing in for frames the window has not filled yet), across
+    /// camera moves and scene updates — so that b
+    /// follows a moving view (lagging it by about half the window)
+    /// instead of staying at an earlier bootstrap's and jumping when the
+    /// next one is joined (`renderer/tracked_b.rs`). Updated by every
+    /// frame's [`Renderer::finish_prepare`] from the workers' previous
+    /// frame. Replaces [`Temporal::b_window`]'s b while on; 0 = off. At
+    /// most [`MAX_B_WINDOW`].
+    pub large_step_window: u32,
 }
 
 impl Default for RendererConfig {
@@ -389,6 +402,8 @@ pub struct Renderer {
     accumulation: Accumulation,
     /// Where `finish_prepare` joins the workers' shares.
     shares: Shares,
+    /// The last frames' large steps, with [`Temporal::large_step_window`].
+    tracked: TrackedB,
     /// Identifies this renderer's workers.
     id: usize,
     /// Frames (accumulations) started so far, minus one: 0 for the first.
@@ -542,6 +557,11 @@ impl Renderer {
                 sums: Vec::with_capacity(depths),
                 joined: alloc::vec![false; config.workers as usize],
             },
+            tracked: TrackedB::new(
+                config.temporal.large_step_window,
+                config.workers,
+                depths as u32,
+            ),
             config,
             camera,
             generation: 0,
@@ -582,8 +602,18 @@ impl Renderer {
                 ));
             }
         }
+        if t.large_step_window != 0 && !t.keep_chains {
+            return Err(RenderError::Config(
+                "large_step_window is read with keep_chains only (other frames run their own bootstrap)",
+            ));
+        }
         if t.b_window > MAX_B_WINDOW {
             return Err(RenderError::Config("the b window is at most 64 frames"));
+        }
+        if t.large_step_window > MAX_B_WINDOW {
+            return Err(RenderError::Config(
+                "the large-step window is at most 64 frames",
+            ));
         }
         if config.depth_cap == 0 && config.settings.max_depth.is_none() {
             return Err(RenderError::Config("the depth cap must be at least 1"));
@@ -664,10 +694,16 @@ impl Renderer {
         // The renderer: bootstrap tables and the joined shares (bootstrap samples,
         // passes), one slot per worker, the accumulator (two RGB f64
         // layers per pixel).
+        // The tracked b's tallies (`renderer/tracked_b.rs`): one per frame
+        // of the window and per worker, and their merge, each three
+        // vectors of D numbers.
+        let window = u64::from(config.temporal.large_step_window);
+        let tallies = if window > 0 { window + workers + 1 } else { 0 };
         let renderer = c(boot_samples
             .checked_mul(16)
             .and_then(|b| b.checked_add(passes * 8 + 64 * BLOCK))
             .and_then(|b| b.checked_add(workers * 64))
+            .and_then(|b| b.checked_add(tallies * (depth * 24 + 4 * BLOCK)))
             .and_then(|b| b.checked_add(pixels * size_of::<Layers>() as u64)))?;
         let total = c(workers
             .checked_mul(worker)
@@ -1041,6 +1077,9 @@ impl Renderer {
         shares.joined.fill(false);
         let w = self.config.workers as usize;
         let mut incomplete = false;
+        // The workers' large steps of their last frame, once per frame,
+        // committed only if the call succeeds.
+        let track = self.has_bootstrap && self.tracked.begin(self.generation);
         for worker in workers {
             if worker.renderer != self.id {
                 return Err(RenderError::Worker);
@@ -1050,6 +1089,9 @@ impl Renderer {
                 return Err(RenderError::BootstrapIncomplete);
             }
             shares.joined[i] = true;
+            if track && let Some(m) = &worker.mlt {
+                self.tracked.take(i, worker.generation, m.large_steps());
+            }
             let share = worker
                 .boot
                 .as_ref()
@@ -1065,6 +1107,9 @@ impl Renderer {
         }
         if incomplete || shares.joined.contains(&false) {
             return if carried {
+                if track {
+                    self.track_b();
+                }
                 Ok(())
             } else {
                 Err(RenderError::BootstrapIncomplete)
@@ -1089,8 +1134,27 @@ impl Renderer {
             self.boot_one_view
                 .then_some((epoch, self.boot_view.0, self.boot_view.1));
         self.push_b(self.bootstrap.b());
+        if track {
+            self.track_b();
+        }
         self.prepared = Some(self.generation);
         Ok(())
+    }
+
+    /// Commits the frame of large steps `finish_prepare` took and sets b
+    /// to the window's ([`Temporal::large_step_window`]), with the last
+    /// joined bootstrap's passes standing in for the frames the window has
+    /// not filled yet (`renderer/tracked_b.rs`).
+    fn track_b(&mut self) {
+        self.tracked.commit(self.generation);
+        let pixels = self.pixels();
+        let passes = u64::from(self.boot_mlt.normalisation_passes(pixels));
+        let samples = if passes > 0 {
+            passes * pixels
+        } else {
+            u64::from(self.boot_mlt.n_bootstrap)
+        };
+        self.b_used = self.tracked.b(self.bootstrap.depth_b(), samples);
     }
 
     /// Adds this frame's bootstrap estimate to the b window (restarted when

@@ -447,6 +447,7 @@ fn frames_replay_bit_identically_with_any_worker_count() {
                 keep_chains: true,
                 b_window: 8,
                 fixed_sequence: false,
+                ..Temporal::default()
             },
         ] {
             let cfg = RendererConfig {
@@ -1016,6 +1017,72 @@ fn kept_chains_add_a_bootstraps_pass_image_only_under_its_one_view() {
     assert_eq!(frame(&mut r, &mut ws, (&scene, &bvh), 0.1, true), joined);
 }
 
+/// With kept chains whose later bootstraps get no time, b stays at the
+/// first bootstrap's through a scene update that brightens the room;
+/// tracked from the chains' large steps (`Temporal::large_step_window`)
+/// it follows the new scene to within 10 % of a fresh renderer's b in a
+/// window of frames. Negative control: the same frames without tracking
+/// keep the old b, off by more than the tolerance.
+#[test]
+fn tracked_b_follows_a_scene_update_from_the_large_steps() {
+    let scene = room();
+    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+    // The light grows 1.5× each way: 2.25× the power.
+    let light: Vec<Vec3> = scene.meshes[2]
+        .positions
+        .iter()
+        .map(|p| *p * Vec3::new(1.5, 1.0, 1.5))
+        .collect();
+    let run = |window: u32| -> (f64, f64) {
+        let mut scene = scene.clone();
+        let mut bvh = bvh.clone();
+        let cfg = RendererConfig {
+            temporal: Temporal {
+                keep_chains: true,
+                large_step_window: window,
+                ..Temporal::default()
+            },
+            ..config(mlt(), 2)
+        };
+        let mut r = Renderer::new(cfg, scene.camera).unwrap();
+        let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
+        for f in 0..24 {
+            if f == 4 {
+                scene.update_mesh(2, &light, None).unwrap();
+                bvh.refit(|p| scene.triangle(p));
+            }
+            if f > 0 {
+                r.set_camera(scene.camera).unwrap();
+            }
+            if r.begin_prepare(&scene) {
+                // The later bootstraps get no time: b is carried.
+                for w in ws.iter_mut() {
+                    r.prepare_worker_while(w, &scene, &bvh, |_| f == 0).unwrap();
+                }
+                r.finish_prepare(ws.iter()).unwrap();
+            }
+            for w in ws.iter_mut() {
+                r.render(w, &scene, &bvh, 16 * 12 * 16).unwrap();
+            }
+        }
+        let mut fresh = Renderer::new(config(mlt(), 1), scene.camera).unwrap();
+        let mut fw = RenderWorker::new(&fresh, 0).unwrap();
+        prepare(&mut fresh, std::slice::from_mut(&mut fw), &scene, &bvh);
+        (r.b(), fresh.b())
+    };
+    let (tracked, want) = run(8);
+    let (carried, _) = run(0);
+    eprintln!("b tracked {tracked}, carried {carried}, fresh {want}");
+    assert!(
+        (tracked / want - 1.0).abs() < 0.1,
+        "tracked b {tracked} vs fresh {want}"
+    );
+    assert!(
+        (carried / want - 1.0).abs() > 0.1,
+        "negative control: carried b {carried} vs fresh {want}"
+    );
+}
+
 /// Moving a mesh between frames (`Scene::update_mesh` + `Bvh::refit`):
 /// `render` refuses the updated scene until preparing, which starts a new
 /// frame on its own — the same image as a fresh renderer on the moved
@@ -1047,6 +1114,7 @@ fn scene_update_starts_a_frame_and_matches_a_fresh_renderer() {
                 fixed_sequence: true,
                 keep_chains,
                 b_window: if metropolis { 4 } else { 0 },
+                ..Temporal::default()
             },
             ..config(estimator, 1)
         };
@@ -1162,6 +1230,7 @@ fn bootstrap_is_the_same_for_every_split_over_workers() {
             keep_chains: true,
             b_window: 2,
             fixed_sequence: false,
+            ..Temporal::default()
         },
     ] {
         let boots = |frames: &[Frame]| -> Vec<(f64, Bootstrap)> {
