@@ -405,7 +405,7 @@ fn renderer_inputs_and_call_order_are_checked() {
 fn fields_the_estimator_does_not_read_are_refused() {
     let s = scene(None);
     type Tweak = fn(&mut cmlt_renderer_config);
-    let cases: [(u32, &str, Tweak); 8] = [
+    let cases: [(u32, &str, Tweak); 9] = [
         (CMLT_ESTIMATOR_MLT, "m", |c| c.m = 4),
         (CMLT_ESTIMATOR_MLT, "k", |c| c.k = 2),
         (CMLT_ESTIMATOR_MLT, "lens_sigma", |c| {
@@ -420,6 +420,9 @@ fn fields_the_estimator_does_not_read_are_refused() {
         }),
         (CMLT_ESTIMATOR_PT, "keep_chains", |c| c.keep_chains = 1),
         (CMLT_ESTIMATOR_BDPT, "b_window", |c| c.b_window = 2),
+        (CMLT_ESTIMATOR_BDPT, "large_step_window", |c| {
+            c.large_step_window = 8
+        }),
     ];
     for (estimator, field, tweak) in cases {
         let mut c = config(estimator, 1);

@@ -99,9 +99,10 @@
 //! first frame that uses its b only when the bootstrap ran entirely under
 //! that frame's camera and scene revision, once: a still camera's kept
 //! frames weigh each bootstrap's passes as one offline render does.
-//! A b estimated from the
-//! chains' own large steps (`mlt::LargeStepTally`, collected by every
-//! worker) would plug in at that join.
+//! Between joins b is the last bootstrap's, stale for a moving view;
+//! with [`Temporal::large_step_window`] it is tracked instead from the
+//! chains' own large steps of the last frames (`mlt::LargeStepTally`,
+//! collected by every worker, taken by every frame's `finish_prepare`).
 //! Every estimator carries its image by [`Accumulation`]: reset
 //! (default), keep or decay, set per frame by
 //! [`Renderer::set_accumulation`] — PT and BDPT their films, MLT and CMLT

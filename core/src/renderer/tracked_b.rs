@@ -6,7 +6,7 @@
 //! evaluated in the frames' set-up slices: at a game's budget one
 //! normalisation pass takes tens of frames, so b is stale in between and
 //! jumps when the next one is joined (the frame trial's dolly: the mean
-//! luminance stayed at the first view's for 80 frames, then rose by 25–30 %
+//! luminance stayed at the first view's for 80 frames, then rose by 25–31 %
 //! in one frame). The chains' large steps are independent samples of the
 //! target at every frame (`mlt/large_steps.rs`: their mean Y per depth
 //! estimates b_d), tens of thousands per frame, so b is taken from the
