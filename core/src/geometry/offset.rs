@@ -198,17 +198,18 @@ fn moved_off_edges(tri: [Vec3; 3], clamped: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// `b` with its largest weight replaced by one minus the other two.
-fn with_remainder(mut b: [f32; 3]) -> [f32; 3] {
-    let j = if b[0] >= b[1] && b[0] >= b[2] {
-        0
-    } else if b[1] >= b[2] {
-        1
+/// `b` with its largest weight replaced by one minus the other two (the
+/// three cases spelled out: a write at a computed index went through
+/// memory and stalled the reads after it).
+#[inline]
+fn with_remainder([b0, b1, b2]: [f32; 3]) -> [f32; 3] {
+    if b0 >= b1 && b0 >= b2 {
+        [1.0 - b1 - b2, b1, b2]
+    } else if b1 >= b2 {
+        [b0, 1.0 - b2 - b0, b2]
     } else {
-        2
-    };
-    b[j] = 1.0 - b[(j + 1) % 3] - b[(j + 2) % 3];
-    b
+        [b0, b1, 1.0 - b0 - b1]
+    }
 }
 
 /// Moves `p` (with per-axis error bound `p_error`) off the surface with
