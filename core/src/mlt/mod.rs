@@ -14,7 +14,6 @@
 //! - `chain`: one level-1 Markov chain (Metropolis–Hastings) with
 //!   expected-value splatting;
 //! - `target`: the target a chain of depth d samples, Y(f_d(u));
-//! - `ziggurat`: the small steps' normal deviates;
 //! - `bootstrap`: the normalisation b and the chains' starting points;
 //! - `large_steps`: b by depth from the large steps of a render
 //!   ([`LargeStepTally`]);
@@ -68,7 +67,6 @@ mod path_space;
 mod perturbation;
 mod primary;
 mod target;
-mod ziggurat;
 
 #[cfg(all(test, feature = "std"))]
 mod tests;
