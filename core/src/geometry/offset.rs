@@ -117,9 +117,52 @@ pub fn triangle_point(tri: [Vec3; 3], b1: f32, b2: f32) -> TrianglePoint {
 /// The weights of [`triangle_point`]: `given` moved off the edges by the
 /// margin where that is a short move within the triangle, else only
 /// clamped to it; the largest recomputed as the remainder of the others.
+///
+/// Most hits lie well inside their triangle: [`clear_of_margins`] settles
+/// those from squared lengths, without the four square roots and three
+/// divisions of [`moved_off_edges`], and with bit for bit its result.
+#[inline]
 fn margin_weights(tri: [Vec3; 3], given: [f32; 3]) -> [f32; 3] {
     // f32::max maps a NaN weight to 0.
     let clamped = given.map(|b| b.max(0.0));
+    if clear_of_margins(tri, clamped) {
+        with_remainder(clamped)
+    } else {
+        moved_off_edges(tri, clamped)
+    }
+}
+
+/// Relative slack of [`clear_of_margins`]'s squared test over the rounding
+/// of both sides (each within a few ulps of its exact value).
+const MARGIN_SLACK: f32 = 1.001;
+
+/// Whether every weight `clamped[i]` (non-negative) is at least the margin
+/// weight lᵢ = m·|eᵢ|/(2·area) that [`moved_off_edges`] computes, with room
+/// for rounding: then it moves no weight, and both of its branches return
+/// `with_remainder(clamped)`. Tested as bᵢ²·(2·area)² ≥ slack·m²·|eᵢ|² on
+/// the same rounded cross product, edges and error box as that function
+/// (their squared lengths are what its square roots read), where both
+/// sides are normal finite numbers; anything else (a degenerate triangle,
+/// overflow, underflow) goes the long way.
+#[inline]
+fn clear_of_margins(tri: [Vec3; 3], clamped: [f32; 3]) -> bool {
+    let area2_sq = (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared();
+    if !area2_sq.is_normal() {
+        return false;
+    }
+    let max_abs = tri[0].abs().max(tri[1].abs()).max(tri[2].abs());
+    let m_sq = 4.0 * (max_abs * gamma(7)).length_squared();
+    let edge = |i: usize| tri[(i + 2) % 3] - tri[(i + 1) % 3];
+    (0..3).all(|i| {
+        let need = MARGIN_SLACK * m_sq * edge(i).length_squared();
+        let have = clamped[i] * clamped[i] * area2_sq;
+        need.is_normal() && have.is_finite() && have >= need
+    })
+}
+
+/// [`margin_weights`] for `clamped`, the given weights clamped to ≥ 0: the
+/// moves off the edges, by the margin.
+fn moved_off_edges(tri: [Vec3; 3], clamped: [f32; 3]) -> [f32; 3] {
     let area2 = (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
     let max_abs = tri[0].abs().max(tri[1].abs()).max(tri[2].abs());
     let m = 2.0 * (max_abs * gamma(7)).length();
@@ -155,17 +198,18 @@ fn margin_weights(tri: [Vec3; 3], given: [f32; 3]) -> [f32; 3] {
     }
 }
 
-/// `b` with its largest weight replaced by one minus the other two.
-fn with_remainder(mut b: [f32; 3]) -> [f32; 3] {
-    let j = if b[0] >= b[1] && b[0] >= b[2] {
-        0
-    } else if b[1] >= b[2] {
-        1
+/// `b` with its largest weight replaced by one minus the other two (the
+/// three cases spelled out: a write at a computed index went through
+/// memory and stalled the reads after it).
+#[inline]
+fn with_remainder([b0, b1, b2]: [f32; 3]) -> [f32; 3] {
+    if b0 >= b1 && b0 >= b2 {
+        [1.0 - b1 - b2, b1, b2]
+    } else if b1 >= b2 {
+        [b0, 1.0 - b2 - b0, b2]
     } else {
-        2
-    };
-    b[j] = 1.0 - b[(j + 1) % 3] - b[(j + 2) % 3];
-    b
+        [b0, b1, 1.0 - b0 - b1]
+    }
 }
 
 /// Moves `p` (with per-axis error bound `p_error`) off the surface with
@@ -348,6 +392,57 @@ mod tests {
         let inner = triangle_point(tri, 0.5, 0.25);
         assert_eq!(inner.b, [0.25, 0.5, 0.25]);
         assert_eq!(inner.p, Vec3::new(0.5, -0.5, 1.0));
+    }
+
+    /// The squared-length shortcut ([`clear_of_margins`]) gives bit for
+    /// bit the weights of the full computation ([`moved_off_edges`]), on
+    /// random triangles from 10⁻⁶ to 10⁶ in size and offset, at random
+    /// weights drawn so that many lie within a few margins of an edge or a
+    /// vertex (where the shortcut must decline), and it takes almost every
+    /// point 1 % or more clear of the margins (else it would not be worth
+    /// its test).
+    #[test]
+    fn the_margin_shortcut_matches_the_full_computation() {
+        use rand_core::Rng;
+        let mut rng = rand_pcg::Pcg32::new(0x0FF5E7, 3);
+        let mut unit = || (rng.next_u32() >> 8) as f32 / 16_777_216.0;
+        let (mut inside, mut taken) = (0u32, 0u32);
+        for n in 0..200_000 {
+            let scale = 10f32.powf(unit() * 12.0 - 6.0);
+            let origin = Vec3::new(unit(), unit(), unit()) * 10f32.powf(unit() * 12.0 - 6.0);
+            let mut v = || origin + Vec3::new(unit(), unit(), unit()) * scale;
+            let tri = [v(), v(), v()];
+            // A weight at k margins' worth of its edge, k spread over
+            // 10⁻² … 10⁴ on a log scale, or an ordinary interior weight.
+            let max_abs = tri[0].abs().max(tri[1].abs()).max(tri[2].abs());
+            let m = 2.0 * (max_abs * gamma(7)).length();
+            let area2 = (tri[1] - tri[0]).cross(tri[2] - tri[0]).length();
+            let l = [0, 1, 2].map(|i| m * (tri[(i + 2) % 3] - tri[(i + 1) % 3]).length() / area2);
+            let mut w = || unit();
+            let b1 = w() * 0.5;
+            let b2 = if n % 2 == 0 {
+                w() * 0.5
+            } else {
+                let k = 10f32.powf(w() * 6.0 - 2.0);
+                (1.0 - b1 - k * l[0]).max(0.0)
+            };
+            let clamped = [1.0 - b1 - b2, b1, b2].map(|b: f32| b.max(0.0));
+            let fast = margin_weights(tri, [1.0 - b1 - b2, b1, b2]);
+            let full = moved_off_edges(tri, clamped);
+            assert_eq!(
+                fast.map(f32::to_bits),
+                full.map(f32::to_bits),
+                "{tri:?} at ({b1}, {b2})"
+            );
+            if (0..3).all(|i| clamped[i] > 1.01 * l[i]) {
+                inside += 1;
+                taken += u32::from(clear_of_margins(tri, clamped));
+            }
+        }
+        assert!(
+            taken as f32 > 0.99 * inside as f32,
+            "shortcut taken at {taken} of {inside} interior points"
+        );
     }
 
     /// Where the margin does not fit (a sliver narrower than it, the sharp

@@ -389,8 +389,8 @@ pub const DEFAULT_B_MIN_SAMPLES: u32 = 1 << 16;
 pub const DEFAULT_DIRECT_ALLOCATION: f32 = 0.1;
 
 /// Default of [`MltSettings::pass_records`]: a pass sample's cost in
-/// level-1 mutations on Tungsten's Cornell box (about 21 µs of CPU against
-/// 4.3 µs), so that the passes and the chains weigh the work each did. At
+/// level-1 mutations on Tungsten's Cornell box (7–10 µs of CPU against
+/// 1.4 µs), so that the passes and the chains weigh the work each did. At
 /// equal time it cut relMSE × CPU s by 1.10–1.16× there and relMSE by
 /// 1.03–1.7× on caustic-pool and veach-bidir (`docs/accuracy.md`, "Level 1
 /// against Tungsten's MMLT").
