@@ -33,6 +33,7 @@ use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep
 use super::traverse::{self, Prepared, Stack, descend, descend_any, traverse_from};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
+use core::any::Any;
 
 /// A packet prepared for traversal, the packet form of
 /// [`Prepared`]: an SoA copy of its live rays with their box and
@@ -944,8 +945,8 @@ mod x86 {
     }
 }
 
-/// Closest hits of the active lanes with the view's kernel.
-pub(super) fn intersect_packet<const N: usize>(
+/// Closest hits of the active lanes with the view's kernel, for any width.
+fn intersect_packet_kernel<const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
     active: LaneMask,
@@ -969,8 +970,8 @@ pub(super) fn intersect_packet<const N: usize>(
     }
 }
 
-/// Occlusion of the active lanes with the view's kernel.
-pub(super) fn occluded_packet<const N: usize>(
+/// Occlusion of the active lanes with the view's kernel, for any width.
+fn occluded_packet_kernel<const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
     active: LaneMask,
@@ -989,6 +990,87 @@ pub(super) fn occluded_packet<const N: usize>(
         Kernel::Avx512 => unsafe { x86::occluded_avx2(view, rays, active) },
         _ => occluded_packet_with::<ScalarBox, N>(view, rays, active),
     }
+}
+
+/// Compiles the traversal once, in this crate, for the packet widths the
+/// core traces (`$n`), and defines [`intersect_packet`] and
+/// [`occluded_packet`] to send those widths there.
+///
+/// Why: the traversal is generic over the width, and Rust compiles a
+/// generic function again in every crate that instantiates it. Called
+/// from the renderer's generic code, the kernels (about 0.9 MB of machine
+/// code per crate at opt-level 3: the frustum and per-lane forms for the
+/// scalar, SSE2, AVX2 and AVX-512 boxes, inlined into each width) were
+/// compiled again by the CLI, the C API, the benches and each test
+/// binary. Here each width is one non-generic function, so other crates
+/// call it; `Any` picks it without `unsafe`, and the type comparison is a
+/// constant that the optimiser folds, so the dispatch costs nothing at run
+/// time. Other widths compile their own copy, as before.
+macro_rules! widths_compiled_here {
+    ($($n:literal: $intersect:ident, $occluded:ident;)*) => {
+        $(
+            #[inline(never)]
+            fn $intersect(
+                view: &BvhView<'_>,
+                rays: &RayPacket<$n>,
+                active: LaneMask,
+                hits: &mut HitPacket<$n>,
+            ) {
+                intersect_packet_kernel(view, rays, active, hits)
+            }
+
+            #[inline(never)]
+            fn $occluded(view: &BvhView<'_>, rays: &RayPacket<$n>, active: LaneMask) -> LaneMask {
+                occluded_packet_kernel(view, rays, active)
+            }
+        )*
+
+        /// Closest hits of the active lanes with the view's kernel.
+        #[inline]
+        pub(super) fn intersect_packet<const N: usize>(
+            view: &BvhView<'_>,
+            rays: &RayPacket<N>,
+            active: LaneMask,
+            hits: &mut HitPacket<N>,
+        ) {
+            let any_rays: &dyn Any = rays;
+            let any_hits: &mut dyn Any = &mut *hits;
+            $(
+                if let (Some(r), Some(h)) = (
+                    any_rays.downcast_ref::<RayPacket<$n>>(),
+                    any_hits.downcast_mut::<HitPacket<$n>>(),
+                ) {
+                    return $intersect(view, r, active, h);
+                }
+            )*
+            intersect_packet_kernel(view, rays, active, hits)
+        }
+
+        /// Occlusion of the active lanes with the view's kernel.
+        #[inline]
+        pub(super) fn occluded_packet<const N: usize>(
+            view: &BvhView<'_>,
+            rays: &RayPacket<N>,
+            active: LaneMask,
+        ) -> LaneMask {
+            let any_rays: &dyn Any = rays;
+            $(
+                if let Some(r) = any_rays.downcast_ref::<RayPacket<$n>>() {
+                    return $occluded(view, r, active);
+                }
+            )*
+            occluded_packet_kernel(view, rays, active)
+        }
+    };
+}
+
+// The widths of the renderer's bundles (`mlt::perturbation::retrace`,
+// `integrator::tracer`, `aov`): 1, 4, 8 and 16 lanes.
+widths_compiled_here! {
+    1: intersect_1, occluded_1;
+    4: intersect_4, occluded_4;
+    8: intersect_8, occluded_8;
+    16: intersect_16, occluded_16;
 }
 
 #[cfg(all(test, feature = "std"))]
