@@ -55,37 +55,47 @@ fn render(
 }
 
 /// Renders `scene` at 1/`factor` resolution four times at `mpp`
-/// mutations/pixel and once at 4·`mpp`; asserts that no sample is
-/// non-finite and that the channel means agree with the reference within
-/// 2% (or 3 standard errors of the renders' spread, b's noise included:
-/// each render has its own bootstrap). Returns the reference, the small
-/// renders' relMSEs and the big render with its output.
+/// mutations/pixel and, with `long`, once at 4·`mpp`; asserts that no
+/// sample is non-finite and that the channel means agree with the
+/// reference within 2% (or 3 standard errors of the renders' spread, b's
+/// noise included: each render has its own bootstrap). Returns the
+/// reference, the four renders' relMSEs and the last render (the long one
+/// if any) with its output.
 fn check_means(
     scene: &str,
     factor: u32,
     mlt: &Estimator,
     mpp: u64,
+    long: bool,
 ) -> (Image, Vec<f64>, Image, RenderOutput) {
     let (loaded, reference) = load_reduced(scene, factor);
     let mut means = Vec::new();
     let mut errs = Vec::new();
+    let mut last = None;
     for seed in 0..4u64 {
         let (img, out) = render(&loaded, mlt, mpp, 2, 500 + seed);
         assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
         means.push(img.mean());
         errs.push(rel_mse(&img, &reference));
+        last = Some((img, out));
     }
-    let (big, out) = render(&loaded, mlt, 4 * mpp, 2, 77);
-    assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
+    if long {
+        let (big, out) = render(&loaded, mlt, 4 * mpp, 2, 77);
+        assert_eq!(out.stats.nonfinite, 0, "{scene}: non-finite samples");
+        means.push(big.mean());
+        last = Some((big, out));
+    }
     let rm = reference.mean();
     for c in 0..3 {
         let xs: Vec<f64> = means.iter().map(|m| m[c] as f64).collect();
-        let mu = xs.iter().sum::<f64>() / xs.len() as f64;
-        let var = xs.iter().map(|x| (x - mu) * (x - mu)).sum::<f64>() / (xs.len() - 1) as f64;
-        // The big render's mean has the same b noise as the others (same
-        // bootstrap size), so all five count equally.
-        let combined = (mu * 4.0 + big.mean()[c] as f64) / 5.0;
-        let se = (var / 5.0).sqrt();
+        let n = xs.len() as f64;
+        // The long render's mean has the same b noise as the others (same
+        // bootstrap size), so all count equally; the spread of the four
+        // short ones estimates that noise.
+        let mu4 = xs[..4].iter().sum::<f64>() / 4.0;
+        let var = xs[..4].iter().map(|x| (x - mu4) * (x - mu4)).sum::<f64>() / 3.0;
+        let combined = xs.iter().sum::<f64>() / n;
+        let se = (var / n).sqrt();
         let r = rm[c] as f64;
         let tol = (0.02 * r).max(3.0 * se);
         assert!(
@@ -93,14 +103,15 @@ fn check_means(
             "{scene}, channel {c}: mean {combined:.5} vs reference {r:.5} (tolerance {tol:.5}, se {se:.5})"
         );
     }
-    (reference, errs, big, out)
+    let (img, out) = last.expect("four renders");
+    (reference, errs, img, out)
 }
 
 /// [`check_means`], and the relMSE falls at least `min_ratio`-fold for 4×
 /// the mutations and ends well below a flat image's. Returns the big
 /// render's relMSE.
 fn check_reference(scene: &str, factor: u32, mlt: &Estimator, mpp: u64, min_ratio: f64) -> f64 {
-    let (reference, errs, big, out) = check_means(scene, factor, mlt, mpp);
+    let (reference, errs, big, out) = check_means(scene, factor, mlt, mpp, true);
     let rm = reference.mean();
     let err_small = errs.iter().sum::<f64>() / errs.len() as f64;
     let err_big = rel_mse(&big, &reference);
@@ -174,9 +185,13 @@ fn cornell_box_mlt_with_pass_image_matches_reference() {
         let (img, out) = render(&loaded, &with, 32, 2, 500 + seed);
         assert_eq!(out.stats.nonfinite, 0);
         let s = out.stats.mlt;
-        // 16 passes over every pixel at one record each.
+        // The passes over every pixel at one record each.
         let pixels = (reference.width * reference.height) as u64;
-        assert_eq!(s.pass_records, 16 * pixels, "{s:?}");
+        assert_eq!(
+            s.pass_records,
+            level1(128).b_passes as u64 * pixels,
+            "{s:?}"
+        );
         let m = img.mean();
         let k = s.records as f32 / (s.records - s.pass_records) as f32;
         means.push(m);
@@ -217,7 +232,7 @@ fn cornell_box_path_space_mlt_means_match_reference() {
         level1: Level1::PathSpace,
         ..level1(128)
     });
-    check_means("cornell-box", 4, &mlt, 64);
+    check_means("cornell-box", 4, &mlt, 64, false);
 }
 
 /// CMLT over the path-space level 1: level 2 (here one-proposal lanes of
@@ -231,7 +246,7 @@ fn cornell_box_path_space_cmlt_means_match_reference() {
         level1: Level1::PathSpace,
         ..level1(128)
     };
-    let (_, _, _, out) = check_means("cornell-box", 4, &cmlt_on(mlt, 1, 4), 32);
+    let (_, _, _, out) = check_means("cornell-box", 4, &cmlt_on(mlt, 1, 4), 32, false);
     let s = out.stats.mlt;
     assert!(s.lens_steps > 0 && s.lens_accepted > 0, "{s:?}");
 }
@@ -304,7 +319,15 @@ fn veach_bidir_cmlt_matches_reference() {
 /// mutations/pixel).
 #[test]
 fn veach_mis_cmlt_matches_reference() {
-    check_reference("veach-mis", 4, &cmlt_k8_m4(), 8, 1.4);
+    let cmlt = cmlt_on(
+        MltSettings {
+            b_passes: 16,
+            ..level1(64)
+        },
+        8,
+        4,
+    );
+    check_reference("veach-mis", 4, &cmlt, 8, 1.4);
 }
 
 /// CMLT converges to veach-ajar's reference (320×180 at factor 4).
@@ -537,7 +560,7 @@ fn metropolis_scene_settings() -> MltSettings {
 #[test]
 fn caustic_pool_mlt_matches_reference() {
     let mlt = metropolis_scene_settings();
-    check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 128);
+    check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 128, false);
 }
 
 /// CMLT over the path-space level 1 on the caustic pool (light through
@@ -549,7 +572,7 @@ fn caustic_pool_path_space_cmlt_matches_reference() {
         level1: Level1::PathSpace,
         ..metropolis_scene_settings()
     };
-    let (_, _, _, out) = check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
+    let (_, _, _, out) = check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32, false);
     let s = out.stats.mlt;
     assert!(s.caustic_steps + s.multi_chain_steps > 0, "{s:?}");
 }
@@ -559,7 +582,7 @@ fn caustic_pool_path_space_cmlt_matches_reference() {
 #[test]
 fn caustic_pool_cmlt_matches_reference() {
     let mlt = metropolis_scene_settings();
-    check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32);
+    check_means("caustic-pool", 2, &cmlt_on(mlt, 1, 4), 32, false);
 }
 
 /// Level 1 for the glossy room. Four times the chains of the pool's
@@ -690,7 +713,7 @@ fn cmlt_lanes_and_class_lengths_match_reference() {
             ..Level2Settings::default()
         },
     });
-    let (_, _, _, out) = check_means("veach-bidir", 8, &cmlt, 8);
+    let (_, _, _, out) = check_means("veach-bidir", 8, &cmlt, 8, false);
     let mlt = out.stats.mlt;
     // Both kinds of state occur: shallow ones carry their share, deep
     // ones run their lanes.
