@@ -86,9 +86,10 @@ pub fn render_scene(
 /// chains per thread; the passes only estimate b (no pass image). The
 /// passes are most of a test render's time (at 1/4 of the Cornell box's
 /// resolution, 16 passes took 0.77 s of CPU against 0.19 s for 32
-/// mutations per pixel); 8 keep b's noise (about 0.4 % per render there)
-/// well below the 2 % the mean checks allow, and the tests that need a
-/// finer b ask for more passes.
+/// mutations per pixel). With 8 every MLT/CMLT check still passes with
+/// its margin (the mean checks also widen to 3 standard errors of the
+/// renders' spread, b's noise included); veach-mis, whose b is
+/// heavy-tailed, asks for 16.
 pub fn level1(chains: u32) -> MltSettings {
     MltSettings {
         n_bootstrap: 1_000,
