@@ -1003,9 +1003,11 @@ fn occluded_packet_kernel<const N: usize>(
 /// scalar, SSE2, AVX2 and AVX-512 boxes, inlined into each width) were
 /// compiled again by the CLI, the C API, the benches and each test
 /// binary. Here each width is one non-generic function, so other crates
-/// call it; `Any` picks it without `unsafe`, and the type comparison is a
-/// constant that the optimiser folds, so the dispatch costs nothing at run
-/// time. Other widths compile their own copy, as before.
+/// call it: a fresh `cargo test --workspace --no-run` went from 364 to
+/// 305 s on 2 cores. `Any` picks the width without `unsafe`; the type
+/// comparison folds to a constant, and the optimised test binaries keep
+/// only a call of the width's function (a 5-byte jump to its kernel, seen
+/// with `nm`). Other widths compile their own copy, as before.
 macro_rules! widths_compiled_here {
     ($($n:literal: $intersect:ident, $occluded:ident;)*) => {
         $(
