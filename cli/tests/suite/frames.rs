@@ -12,10 +12,12 @@ use crate::common;
 use cmlt::accel::bvh::Bvh;
 use cmlt::mlt::{CmltSettings, Level2Settings};
 use cmlt::renderer::{Accumulation, Estimator, RenderWorker, Renderer, RendererConfig, Temporal};
+use cmlt::scene::Scene;
 use cmlt_cli::accel::Accel;
 use cmlt_cli::frames::{look_at_point, orbit_camera};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
+use cmlt_cli::mitsuba::LoadedScene;
 use cmlt_cli::render::{prepare_worker_while, render_steps};
 use common::{level1, load_reduced};
 
@@ -23,20 +25,12 @@ use common::{level1, load_reduced};
 /// `degrees` (each frame a few rounds of every chain), at `mpp` mutations
 /// per pixel once back, with kept chains on two workers; returns the image.
 fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, seed: u64) -> Image {
-    let (loaded, _) = load_reduced("cornell-box", 8);
-    let scene = &loaded.scene;
-    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
-    let cfg = RendererConfig {
-        estimator,
-        settings: loaded.settings,
-        seed,
-        workers: 2,
-        temporal: Temporal {
-            keep_chains: true,
-            ..Temporal::default()
-        },
-        ..RendererConfig::default()
+    let kept = Temporal {
+        keep_chains: true,
+        ..Temporal::default()
     };
+    let (loaded, accel, cfg) = the_box(estimator, seed, kept);
+    let scene = &loaded.scene;
     let home = scene.camera;
     let pivot = look_at_point(&home, &accel);
     let mut r = Renderer::new(cfg, home).unwrap();
@@ -47,21 +41,57 @@ fn moved_and_back(estimator: Estimator, away: usize, degrees: f32, mpp: u64, see
             r.set_camera(orbit_camera(&home, pivot, degrees, step, away.max(1)))
                 .unwrap();
         }
-        if r.begin_prepare(scene) {
-            // The first bootstrap runs to the end; the later ones get no
-            // time, so the first frame's b carries over.
-            for w in ws.iter_mut() {
-                prepare_worker_while(&r, w, scene, &accel, &mut |_| f == 0).unwrap();
-            }
-            r.finish_prepare(ws.iter()).unwrap();
-        }
+        // The first bootstrap runs to the end; the later ones get no
+        // time, so the first frame's b carries over.
         let back = f == 2 * away;
-        for w in ws.iter_mut() {
-            let steps = if back { r.steps_for(w.index(), mpp) } else { 4 };
-            render_steps(&r, w, scene, &accel, steps).unwrap();
-        }
+        frame(&mut r, &mut ws, scene, &accel, f == 0, |r, i| {
+            if back { r.steps_for(i, mpp) } else { 4 }
+        });
     }
     resolved(&r, &ws)
+}
+
+/// The Cornell box at 1/8 of its reference resolution, our BVH over it,
+/// and a config of two workers running `estimator` with `temporal`.
+fn the_box(
+    estimator: Estimator,
+    seed: u64,
+    temporal: Temporal,
+) -> (LoadedScene, Accel, RendererConfig) {
+    let (loaded, _) = load_reduced("cornell-box", 8);
+    let accel = Accel::Ours(Bvh::build(&loaded.scene.triangles().collect::<Vec<_>>()));
+    let cfg = RendererConfig {
+        estimator,
+        settings: loaded.settings,
+        seed,
+        workers: 2,
+        temporal,
+        ..RendererConfig::default()
+    };
+    (loaded, accel, cfg)
+}
+
+/// One frame as a host runs it (the camera already set): a due bootstrap's
+/// pieces run while `set_up` (else it gets no time and waits), then each
+/// worker renders `steps(r, worker index)` mutations.
+fn frame(
+    r: &mut Renderer,
+    ws: &mut [RenderWorker],
+    scene: &Scene,
+    accel: &Accel,
+    set_up: bool,
+    steps: impl Fn(&Renderer, u32) -> u64,
+) {
+    if r.begin_prepare(scene) {
+        for w in ws.iter_mut() {
+            prepare_worker_while(r, w, scene, accel, &mut |_| set_up).unwrap();
+        }
+        r.finish_prepare(ws.iter()).unwrap();
+    }
+    for w in ws.iter_mut() {
+        let n = steps(r, w.index());
+        render_steps(r, w, scene, accel, n).unwrap();
+    }
 }
 
 /// The merged image of `ws`, asserting that no sample was non-finite.
@@ -129,16 +159,8 @@ fn kept_cmlt_chains_after_a_camera_that_moves_and_returns_converge_to_the_refere
 /// kept by the accumulation (each frame its own bootstrap, chains and b),
 /// on two workers: the image of the last.
 fn kept_frames(estimator: Estimator, frames: usize, mpp: u64, seed: u64) -> Image {
-    let (loaded, _) = load_reduced("cornell-box", 8);
+    let (loaded, accel, cfg) = the_box(estimator, seed, Temporal::default());
     let scene = &loaded.scene;
-    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
-    let cfg = RendererConfig {
-        estimator,
-        settings: loaded.settings,
-        seed,
-        workers: 2,
-        ..RendererConfig::default()
-    };
     let mut r = Renderer::new(cfg, scene.camera).unwrap();
     r.set_accumulation(Accumulation::Keep).unwrap();
     let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
@@ -146,16 +168,9 @@ fn kept_frames(estimator: Estimator, frames: usize, mpp: u64, seed: u64) -> Imag
         if f > 0 {
             r.set_camera(scene.camera).unwrap();
         }
-        if r.begin_prepare(scene) {
-            for w in ws.iter_mut() {
-                prepare_worker_while(&r, w, scene, &accel, &mut |_| true).unwrap();
-            }
-            r.finish_prepare(ws.iter()).unwrap();
-        }
-        for w in ws.iter_mut() {
-            let steps = r.steps_for(w.index(), mpp);
-            render_steps(&r, w, scene, &accel, steps).unwrap();
-        }
+        frame(&mut r, &mut ws, scene, &accel, true, |r, i| {
+            r.steps_for(i, mpp)
+        });
     }
     resolved(&r, &ws)
 }
@@ -193,21 +208,13 @@ fn still_kept_chains(
     window: u32,
     seed: u64,
 ) -> (Image, u64, u64) {
-    let (loaded, _) = load_reduced("cornell-box", 8);
-    let scene = &loaded.scene;
-    let accel = Accel::Ours(Bvh::build(&scene.triangles().collect::<Vec<_>>()));
-    let cfg = RendererConfig {
-        estimator,
-        settings: loaded.settings,
-        seed,
-        workers: 2,
-        temporal: Temporal {
-            keep_chains: true,
-            large_step_window: window,
-            ..Temporal::default()
-        },
-        ..RendererConfig::default()
+    let tracked = Temporal {
+        keep_chains: true,
+        large_step_window: window,
+        ..Temporal::default()
     };
+    let (loaded, accel, cfg) = the_box(estimator, seed, tracked);
+    let scene = &loaded.scene;
     let mut r = Renderer::new(cfg, scene.camera).unwrap();
     r.set_accumulation(Accumulation::Keep).unwrap();
     let mut ws: Vec<RenderWorker> = (0..2).map(|i| RenderWorker::new(&r, i).unwrap()).collect();
@@ -216,16 +223,9 @@ fn still_kept_chains(
         if f > 0 {
             r.set_camera(scene.camera).unwrap();
         }
-        if r.begin_prepare(scene) {
-            for w in ws.iter_mut() {
-                prepare_worker_while(&r, w, scene, &accel, &mut |_| f == 0 || refresh).unwrap();
-            }
-            r.finish_prepare(ws.iter()).unwrap();
-        }
-        for w in ws.iter_mut() {
-            let steps = r.steps_for(w.index(), mpp);
-            render_steps(&r, w, scene, &accel, steps).unwrap();
-        }
+        frame(&mut r, &mut ws, scene, &accel, f == 0 || refresh, |r, i| {
+            r.steps_for(i, mpp)
+        });
         // Each frame's counters start from zero.
         let refs: Vec<&RenderWorker> = ws.iter().collect();
         let s = r.stats(&refs).mlt;
