@@ -939,7 +939,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_worker_while(
         let c = r.scene.live()?;
         let finished = with_worker(r, worker, |inner, w| {
             inner
-                .prepare_worker_while(w, &c.scene, &c.accel, ask)
+                .prepare_worker_while(w, &c.scene, &c.accel, &mut { ask })
                 .map(u64::from)
         })?;
         if !out_finished.is_null() {
@@ -1076,7 +1076,7 @@ pub unsafe extern "C" fn cmlt_renderer_render_while(
         let ask = |done: u64| unsafe { keep_going(user, done) } != 0;
         let c = r.scene.live()?;
         let done = with_worker(r, worker, |inner, w| {
-            inner.render_while(w, &c.scene, &c.accel, budget, ask)
+            inner.render_while(w, &c.scene, &c.accel, budget, &mut { ask })
         })?;
         if !out_done.is_null() {
             // SAFETY: the caller's contract.

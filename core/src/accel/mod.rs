@@ -17,11 +17,13 @@ pub mod backend;
 #[cfg(feature = "alloc")]
 pub mod brute;
 pub mod bvh;
+mod dynamic;
 #[cfg(feature = "embree")]
 pub mod embree;
 
 #[cfg(feature = "alloc")]
 pub use brute::BruteForce;
+pub use dynamic::DynIntersector;
 
 use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 

@@ -49,7 +49,7 @@ use glam::{Vec2, Vec3};
 
 pub use layer::{AovBuffers, AovFormat, AovLayer};
 
-use crate::accel::Intersector;
+use crate::accel::{DynIntersector, Intersector};
 use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use crate::integrator::Tracer;
 use crate::integrator::tracer::Shading;
@@ -69,9 +69,9 @@ const LANES: usize = 8;
 /// when the two cameras' resolutions differ, [`RenderError::Output`] when
 /// the rows leave the image or a layer is too small for them (nothing is
 /// written then). Allocates nothing.
-pub fn render_rows<I: Intersector>(
+pub fn render_rows(
     scene: &Scene,
-    accel: &I,
+    accel: &dyn DynIntersector,
     camera: &Camera,
     previous: &Camera,
     rows: Range<u32>,
@@ -94,7 +94,7 @@ pub fn render_rows<I: Intersector>(
             l.check(n, width, channels)?;
         }
     }
-    let mut tracer = Tracer::new(scene, accel).with_camera(*camera);
+    let mut tracer = Tracer::new(scene, &accel).with_camera(*camera);
     let want = Wanted {
         albedo: out.albedo.is_some(),
         normal: out.normal.is_some(),
@@ -142,7 +142,7 @@ pub fn render_rows<I: Intersector>(
                     run.shaded(i, &mut tracer, sh, ray.d, want);
                 }
             } else {
-                let hits = intersect(accel, &rays[..lanes]);
+                let hits = intersect(&accel, &rays[..lanes]);
                 for (i, ray) in rays[..lanes].iter().enumerate() {
                     let ray = ray.expect("set above");
                     let c = centre(x0 + i, y);

@@ -121,7 +121,7 @@ use core::ops::Deref;
 
 use glam::Vec2;
 
-use crate::accel::Intersector;
+use crate::accel::{DynIntersector, Intersector};
 use crate::film::Film;
 use crate::integrator::{Settings, Stats, Tracer, bdpt, pt};
 use crate::math::Rgb;
@@ -901,13 +901,13 @@ impl Renderer {
     /// [`Renderer::begin_prepare`], evaluated to the end:
     /// [`Renderer::prepare_worker_while`] with a callback that always says
     /// yes.
-    pub fn prepare_worker<I: Intersector>(
+    pub fn prepare_worker(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
-        accel: &I,
+        accel: &dyn DynIntersector,
     ) -> Result<(), RenderError> {
-        self.prepare_worker_while(worker, scene, accel, |_| true)
+        self.prepare_worker_while(worker, scene, accel, &mut |_| true)
             .map(|_| ())
     }
 
@@ -922,12 +922,12 @@ impl Renderer {
     /// for bit however the share was cut. Workers may run it at the same
     /// time on different threads. Returns `Ok(true)` at once when no
     /// bootstrap is pending. Allocates nothing.
-    pub fn prepare_worker_while<I: Intersector>(
+    pub fn prepare_worker_while(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
-        accel: &I,
-        mut keep_going: impl FnMut(u64) -> bool,
+        accel: &dyn DynIntersector,
+        keep_going: &mut dyn FnMut(u64) -> bool,
     ) -> Result<bool, RenderError> {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
@@ -980,7 +980,7 @@ impl Renderer {
         if boot.complete {
             return Ok(true);
         }
-        let mut tracer = self.tracer(scene, accel);
+        let mut tracer = self.tracer(scene, &accel);
         let mut done = 0;
         loop {
             if done > 0 && !keep_going(done) {
@@ -1178,14 +1178,14 @@ impl Renderer {
     /// open by [`Renderer::render_while`] is finished first), or whole
     /// rounds · chains (0 when b = 0 leaves no chain to run, or when
     /// `budget` is 0).
-    pub fn render<I: Intersector>(
+    pub fn render(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
-        accel: &I,
+        accel: &dyn DynIntersector,
         budget: u64,
     ) -> Result<u64, RenderError> {
-        let mut tracer = self.begin_render(worker, scene, accel)?;
+        let mut tracer = self.begin_render(worker, scene, &accel)?;
         let steps = if budget == 0 {
             0
         } else {
@@ -1225,14 +1225,14 @@ impl Renderer {
     /// starting its frame if the camera changed since its last call. Returns the units rendered, as
     /// [`Renderer::render`] does; `render_steps(worker, …, n)` then
     /// `render_steps(worker, …, m)` equals `render_steps(worker, …, n + m)`.
-    pub fn render_steps<I: Intersector>(
+    pub fn render_steps(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
-        accel: &I,
+        accel: &dyn DynIntersector,
         steps: u64,
     ) -> Result<u64, RenderError> {
-        let mut tracer = self.begin_render(worker, scene, accel)?;
+        let mut tracer = self.begin_render(worker, scene, &accel)?;
         let done = self.run_steps(worker, &mut tracer, steps);
         worker.stats.merge(&tracer.stats);
         Ok(done)
@@ -1434,15 +1434,15 @@ impl Renderer {
     /// at the top; whole passes differ from `render`'s only in the order
     /// BDPT's splats are added (rounding). The image then depends on how
     /// many pieces the clock allowed. Returns the units rendered.
-    pub fn render_while<I: Intersector>(
+    pub fn render_while(
         &self,
         worker: &mut RenderWorker,
         scene: &Scene,
-        accel: &I,
+        accel: &dyn DynIntersector,
         budget: u64,
-        mut keep_going: impl FnMut(u64) -> bool,
+        keep_going: &mut dyn FnMut(u64) -> bool,
     ) -> Result<u64, RenderError> {
-        let mut tracer = self.begin_render(worker, scene, accel)?;
+        let mut tracer = self.begin_render(worker, scene, &accel)?;
         let mut done = 0;
         while done < budget {
             if done > 0 && !keep_going(done) {

@@ -453,7 +453,7 @@ fn rendered() -> (Scene, Renderer, Vec<RenderWorker>) {
     }
     let mut pieces = 0;
     let done = r
-        .render_while(&mut ws[0], &scene, &bvh, 1 << 40, |_| {
+        .render_while(&mut ws[0], &scene, &bvh, 1 << 40, &mut |_| {
             pieces += 1;
             pieces < 3
         })

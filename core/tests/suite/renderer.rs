@@ -385,7 +385,7 @@ fn frames_allocate_nothing_after_setup() {
                 if r.begin_prepare(&scene) {
                     let mut asked = 0;
                     while !r
-                        .prepare_worker_while(&mut w, &scene, &bvh, |_| {
+                        .prepare_worker_while(&mut w, &scene, &bvh, &mut |_| {
                             asked += 1;
                             asked % 7 != 0
                         })
@@ -396,7 +396,7 @@ fn frames_allocate_nothing_after_setup() {
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
                 r.render(&mut w, &scene, &bvh, 16 * 12 * 4).unwrap();
                 let mut n = 0;
-                r.render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+                r.render_while(&mut w, &scene, &bvh, 1 << 40, &mut |_| {
                     n += 1;
                     n < 5
                 })
@@ -558,7 +558,7 @@ fn render_while_stops_when_the_host_clock_says_so() {
             // A "clock" that says yes `allowed − 1` times: `allowed` pieces.
             let mut asked = 0;
             let done = r
-                .render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+                .render_while(&mut w, &scene, &bvh, 1 << 40, &mut |_| {
                     asked += 1;
                     asked < allowed
                 })
@@ -625,7 +625,7 @@ fn frames_ending_inside_a_round_keep_the_depths_in_proportion() {
         // One and a half rounds: 9 pieces of 16 of the 96 chains.
         let mut n = 0;
         let done = r
-            .render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+            .render_while(&mut w, &scene, &bvh, 1 << 40, &mut |_| {
                 n += 1;
                 n < 9
             })
@@ -660,7 +660,7 @@ fn a_frame_ending_inside_a_pass_normalises_each_pixel_by_its_samples() {
     // Two whole passes, then 5 pieces of the third.
     r.render(&mut w, &scene, &bvh, 2 * 16 * 12).unwrap();
     let mut n = 0;
-    r.render_while(&mut w, &scene, &bvh, 1 << 40, |_| {
+    r.render_while(&mut w, &scene, &bvh, 1 << 40, &mut |_| {
         n += 1;
         n < 5
     })
@@ -863,7 +863,7 @@ fn the_metropolis_set_up_runs_in_pieces_across_calls_and_frames() {
                 // Three pieces per call.
                 let mut asked = 0;
                 finished &= r
-                    .prepare_worker_while(w, &scene, &bvh, |_| {
+                    .prepare_worker_while(w, &scene, &bvh, &mut |_| {
                         asked += 1;
                         asked < 3
                     })
@@ -893,7 +893,8 @@ fn the_metropolis_set_up_runs_in_pieces_across_calls_and_frames() {
             r.set_camera(camera(0.02 * frames as f32)).unwrap();
             assert!(r.begin_prepare(&scene));
             for w in ws.iter_mut() {
-                r.prepare_worker_while(w, &scene, &bvh, |_| false).unwrap();
+                r.prepare_worker_while(w, &scene, &bvh, &mut |_| false)
+                    .unwrap();
             }
             r.finish_prepare(ws.iter()).unwrap();
             for w in ws.iter_mut() {
@@ -923,7 +924,7 @@ fn the_metropolis_set_up_runs_in_pieces_across_calls_and_frames() {
         for w in aws.iter_mut() {
             let mut asked = 0;
             again
-                .prepare_worker_while(w, &scene, &bvh, |_| {
+                .prepare_worker_while(w, &scene, &bvh, &mut |_| {
                     asked += 1;
                     asked < 2
                 })
@@ -979,7 +980,8 @@ fn kept_chains_add_a_bootstraps_pass_image_only_under_its_one_view() {
         let b = r.b();
         if r.begin_prepare(scene) {
             for w in ws.iter_mut() {
-                r.prepare_worker_while(w, scene, bvh, |_| finish).unwrap();
+                r.prepare_worker_while(w, scene, bvh, &mut |_| finish)
+                    .unwrap();
             }
             r.finish_prepare(ws.iter()).unwrap();
         }
@@ -1059,7 +1061,8 @@ fn tracked_b_follows_a_scene_update_from_the_large_steps() {
                 if r.begin_prepare(&scene) {
                     // The later bootstraps get no time: b is carried.
                     for w in ws.iter_mut() {
-                        r.prepare_worker_while(w, &scene, &bvh, |_| f == 0).unwrap();
+                        r.prepare_worker_while(w, &scene, &bvh, &mut |_| f == 0)
+                            .unwrap();
                     }
                     r.finish_prepare(ws.iter()).unwrap();
                 }

@@ -945,7 +945,7 @@ mod x86 {
     }
 }
 
-/// Closest hits of the active lanes with the view's kernel, for any width.
+/// Closest hits of the active lanes with the view's kernel.
 fn intersect_packet_kernel<const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
@@ -970,7 +970,7 @@ fn intersect_packet_kernel<const N: usize>(
     }
 }
 
-/// Occlusion of the active lanes with the view's kernel, for any width.
+/// Occlusion of the active lanes with the view's kernel.
 fn occluded_packet_kernel<const N: usize>(
     view: &BvhView<'_>,
     rays: &RayPacket<N>,
@@ -997,17 +997,15 @@ fn occluded_packet_kernel<const N: usize>(
 /// [`occluded_packet`] to send those widths there.
 ///
 /// Why: the traversal is generic over the width, and Rust compiles a
-/// generic function again in every crate that instantiates it. Called
-/// from the renderer's generic code, the kernels (about 0.9 MB of machine
-/// code per crate at opt-level 3: the frustum and per-lane forms for the
-/// scalar, SSE2, AVX2 and AVX-512 boxes, inlined into each width) were
-/// compiled again by the CLI, the C API, the benches and each test
-/// binary. Here each width is one non-generic function, so other crates
-/// call it: a fresh `cargo test --workspace --no-run` went from 364 to
-/// 305 s on 2 cores. `Any` picks the width without `unsafe`; the type
-/// comparison folds to a constant, and the optimised test binaries keep
-/// only a call of the width's function (a 5-byte jump to its kernel, seen
-/// with `nm`). Other widths compile their own copy, as before.
+/// generic function again in every crate that instantiates it (the
+/// kernels are about 0.9 MB of machine code per crate at opt-level 3: the
+/// frustum and per-lane forms for the scalar, SSE2, AVX2 and AVX-512
+/// boxes, inlined into each width). Here each width is one non-generic
+/// function, so other crates call it. `Any` picks the width without
+/// `unsafe`; the type comparison folds to a constant. Other widths trace
+/// lane by lane (the trait's default, same answers): a generic fallback
+/// into the kernels would be instantiated, and fully optimised by LLVM
+/// before the fold removes it, in every crate that traces packets.
 macro_rules! widths_compiled_here {
     ($($n:literal: $intersect:ident, $occluded:ident;)*) => {
         $(
@@ -1045,7 +1043,9 @@ macro_rules! widths_compiled_here {
                     return $intersect(view, r, active, h);
                 }
             )*
-            intersect_packet_kernel(view, rays, active, hits)
+            for i in active.iter() {
+                hits.set(i, traverse::intersect(view, &rays.get(i)));
+            }
         }
 
         /// Occlusion of the active lanes with the view's kernel.
@@ -1061,7 +1061,13 @@ macro_rules! widths_compiled_here {
                     return $occluded(view, r, active);
                 }
             )*
-            occluded_packet_kernel(view, rays, active)
+            let mut out = LaneMask::NONE;
+            for i in active.iter() {
+                if traverse::occluded(view, &rays.get(i)) {
+                    out.set(i);
+                }
+            }
+            out
         }
     };
 }
