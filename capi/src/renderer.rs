@@ -498,6 +498,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         large_step_mis: c.large_step_mis != 0,
         pass_records: c.pass_records,
         level1,
+        path_mutations: Default::default(),
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(

@@ -109,7 +109,8 @@ impl Proposals {
         // times a pixel's angle, scaled (the specular chain magnifies or
         // compresses it on its way to the image).
         let s = sigma * pixel_angle * caustic_scale;
-        let caustic = CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
+        let caustic =
+            CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
         Some(Proposals {
             lens,
             caustic,
