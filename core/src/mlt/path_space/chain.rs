@@ -125,6 +125,10 @@ pub(crate) struct PathChain {
     seed: u64,
     iteration: u64,
     rng: Pcg32,
+    /// The current path's class ([`Mutations::class`]) once found: it
+    /// changes only when a proposal is accepted, whose class is found
+    /// for its ratio.
+    class: Option<Applicable>,
 }
 
 /// Stream index of a path-space mutation's random numbers.
@@ -141,6 +145,7 @@ impl PathChain {
             seed: 0,
             iteration: 0,
             rng: Pcg32::new(0, 0),
+            class: None,
         }
     }
 
@@ -150,6 +155,7 @@ impl PathChain {
         self.seed = seed;
         self.iteration = 0;
         self.rng = Pcg32::new(mix64(seed ^ 0x9A7B_0000), mix64(seed));
+        self.class = None;
     }
 
     /// The current path.
@@ -179,7 +185,12 @@ impl PathChain {
     pub fn step<I: Intersector>(&mut self, tr: &mut Tracer<'_, I>, m: &mut Mutations) -> PathStep {
         self.iteration += 1;
         let mut stream = SampleStream::new(self.seed, self.iteration, MUTATION_STREAM);
-        let class = m.class(tr, &self.current.path);
+        let class = match self.class {
+            Some(c) => c,
+            None => m.class(tr, &self.current.path),
+        };
+        self.class = Some(class);
+        let mut y_class = None;
         let p_x = Probabilities::at(&m.weights, &self.current.path, &class);
         let mutation = p_x.pick(stream.next_f32());
         let outcome = match mutation {
@@ -201,8 +212,9 @@ impl PathChain {
         };
         let outcome = match outcome {
             Proposal::Made { ratio } => {
-                let y_class = m.class(tr, &self.proposal.path);
-                let p_y = Probabilities::at(&m.weights, &self.proposal.path, &y_class);
+                let c = m.class(tr, &self.proposal.path);
+                y_class = Some(c);
+                let p_y = Probabilities::at(&m.weights, &self.proposal.path, &c);
                 let selection = p_y.of(mutation) / p_x.of(mutation);
                 #[cfg(test)]
                 let selection =
@@ -242,6 +254,7 @@ impl PathChain {
         };
         if accepted {
             core::mem::swap(&mut self.current, &mut self.proposal);
+            self.class = y_class;
         }
         PathStep {
             proposal,
