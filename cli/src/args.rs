@@ -158,8 +158,9 @@ impl EstimatorArgs {
 pub struct MltArgs {
     /// The space level 1's chains mutate in: primary (Kelemen et al.'s
     /// primary sample space) or path (Veach's path space with the
-    /// bidirectional and lens subpath mutations, CMLT's level 2 over them;
-    /// scenes lit by area emitters).
+    /// bidirectional and lens subpath mutations and the lens, caustic and
+    /// multi-chain perturbations, CMLT's level 2 over them; scenes lit by
+    /// area emitters).
     #[arg(long, default_value = "primary", value_parser = parse_level1)]
     pub level1: Level1,
     /// Markov chains per thread.

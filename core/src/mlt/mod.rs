@@ -247,7 +247,7 @@ impl Default for MltSettings {
     /// chains per worker, large steps 0.3 combined with the chains by MIS,
     /// σ = 0.01, at least a tenth of the b-proportional chains for
     /// emitters seen directly, the passes' image added at 5 mutations per
-    /// pass sample.
+    /// pass sample; the path-space mutations of [`PathMutations::default`].
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
