@@ -187,3 +187,36 @@ fn chain_with_perturbations_samples_paths_in_proportion_to_their_contribution() 
         }
     }
 }
+
+#[test]
+fn mutation_weights_are_checked() {
+    let ok = PathMutations::default();
+    assert_eq!(ok.validate(), Ok(()));
+    let bad = [
+        PathMutations {
+            bidirectional: 0.0,
+            ..ok
+        },
+        PathMutations {
+            caustic: -1.0,
+            ..ok
+        },
+        PathMutations {
+            lens_subpath: f32::NAN,
+            ..ok
+        },
+        PathMutations { sigma: 0.0, ..ok },
+        PathMutations {
+            caustic_scale: f32::INFINITY,
+            ..ok
+        },
+    ];
+    for p in bad {
+        assert!(p.validate().is_err(), "{p:?} accepted");
+        let mlt = crate::mlt::MltSettings {
+            path_mutations: p,
+            ..Default::default()
+        };
+        assert!(mlt.validate().is_err(), "{p:?} accepted by MltSettings");
+    }
+}
