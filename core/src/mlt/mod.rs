@@ -236,7 +236,8 @@ pub enum Level1 {
     /// by the bidirectional and lens subpath mutations and the lens,
     /// caustic and multi-chain perturbations, chosen by
     /// [`MltSettings::path_mutations`] (`mlt/path_space/`); CMLT's level 2
-    /// runs from its states as from primary-sample ones. Only scenes lit by area emitters alone can be rendered ([`path_space_supports`]:
+    /// runs from its states as from primary-sample ones. Only scenes lit
+    /// by area emitters alone can be rendered ([`path_space_supports`]:
     /// preparing the renderer for another scene is a `RenderError::Config`).
     PathSpace,
 }
