@@ -261,13 +261,15 @@ impl MltArgs {
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {})",
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {}, --path-mutations {:?}, --perturbation-sigma {})",
                 self.large_step,
                 self.sigma,
                 self.chains,
                 self.b_min_samples,
                 self.direct_allocation,
-                self.pass_records
+                self.pass_records,
+                self.path_mutations,
+                self.perturbation_sigma
             )
         })?;
         Ok(mlt)
