@@ -434,6 +434,16 @@ typedef struct cmlt_renderer_config {
   // bootstrap's passes, across camera moves and mesh updates (0 = off;
   // at most 64).
   uint32_t large_step_window;
+  // MLT with `CMLT_LEVEL1_PATH_SPACE`: the weights of the bidirectional
+  // mutation, the lens subpath mutation and the lens, caustic and
+  // multi-chain perturbations; at a path each mutation that applies is
+  // chosen in proportion to its weight (0 = off; the bidirectional one's
+  // must be positive, all finite). 1 each by default.
+  float path_mutations[5];
+  // MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
+  // image-plane σ in pixels (their angular σ is as many pixel angles);
+  // > 0, finite.
+  float perturbation_sigma;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

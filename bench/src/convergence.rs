@@ -306,8 +306,9 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
 /// `bdpt`, `mlt`, `cmlt`), or a Metropolis method with settings changed,
 /// `cmlt:lanes=4:m=2:share=8:depth=3:k=1:passes=32:sigma=8` (any subset,
 /// in any order; for mlt and cmlt `passes` the normalisation passes,
-/// `level1` `primary` or `path` and `pass_records` the weight of the
-/// passes' image; the rest CMLT's level 2: `depth` the side-chain minimum
+/// `level1` `primary` or `path`, `pass_records` the weight of the
+/// passes' image, `perturb` the path-space level 1's weight of each
+/// perturbation (0: off) and `psigma` their σ in pixels; the rest CMLT's level 2: `depth` the side-chain minimum
 /// depth, `sigma` the lens σ in pixels) — how the parameter study compares settings in one
 /// run. A setting the method does not read is an error.
 pub fn method_settings(spec: &str) -> Result<Estimator, String> {
@@ -325,10 +326,23 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
                 .map_err(|e| format!("'{spec}': {k} '{v}': {e}"))
         };
         if let Some(mlt) = estimator.mlt_mut()
-            && matches!(k, "passes" | "level1" | "pass_records")
+            && matches!(
+                k,
+                "passes" | "level1" | "pass_records" | "perturb" | "psigma"
+            )
         {
+            let float = || {
+                v.parse::<f32>()
+                    .map_err(|e| format!("'{spec}': {k} '{v}': {e}"))
+            };
             match k {
                 "passes" => mlt.b_passes = int()?,
+                "perturb" => {
+                    let w = float()?;
+                    let pm = &mut mlt.path_mutations;
+                    (pm.lens, pm.caustic, pm.multi_chain) = (w, w, w);
+                }
+                "psigma" => mlt.path_mutations.sigma = float()?,
                 "level1" => {
                     mlt.level1 = match v {
                         "primary" => Level1::PrimarySample,
@@ -361,7 +375,7 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
             }
             _ => {
                 return Err(format!(
-                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma, level1, pass_records)"
+                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma, level1, pass_records, perturb, psigma)"
                 ));
             }
         }

@@ -20,7 +20,8 @@ use cmlt_core::aov::{self, AovBuffers, AovFormat, AovLayer};
 use cmlt_core::film::PixelFormat;
 use cmlt_core::integrator::LobeCounts;
 use cmlt_core::mlt::{
-    Candidates, CmltSettings, Level1, Level2Settings, MltSettings, Splatting, path_space_supports,
+    Candidates, CmltSettings, Level1, Level2Settings, MltSettings, PathMutations, Splatting,
+    path_space_supports,
 };
 use cmlt_core::renderer::{
     Accumulation, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
@@ -193,6 +194,16 @@ pub struct cmlt_renderer_config {
     /// bootstrap's passes, across camera moves and mesh updates (0 = off;
     /// at most 64).
     pub large_step_window: u32,
+    /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the weights of the bidirectional
+    /// mutation, the lens subpath mutation and the lens, caustic and
+    /// multi-chain perturbations; at a path each mutation that applies is
+    /// chosen in proportion to its weight (0 = off; the bidirectional one's
+    /// must be positive, all finite). 1 each by default.
+    pub path_mutations: [f32; 5],
+    /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
+    /// image-plane σ in pixels (their angular σ is as many pixel angles);
+    /// > 0, finite.
+    pub perturbation_sigma: f32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -361,6 +372,17 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         },
         pass_records: mlt.pass_records,
         large_step_window: c.temporal.large_step_window,
+        path_mutations: {
+            let p = &mlt.path_mutations;
+            [
+                p.bidirectional,
+                p.lens_subpath,
+                p.lens,
+                p.caustic,
+                p.multi_chain,
+            ]
+        },
+        perturbation_sigma: mlt.path_mutations.sigma,
     }
 }
 
@@ -411,6 +433,16 @@ fn unread_field(
         ("large_step_mis", MLT, c.large_step_mis == d.large_step_mis),
         ("level1", MLT, c.level1 == d.level1),
         ("pass_records", MLT, f(c.pass_records, d.pass_records)),
+        (
+            "path_mutations",
+            MLT,
+            (0..5).all(|i| f(c.path_mutations[i], d.path_mutations[i])),
+        ),
+        (
+            "perturbation_sigma",
+            MLT,
+            f(c.perturbation_sigma, d.perturbation_sigma),
+        ),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
         (
@@ -498,6 +530,15 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         large_step_mis: c.large_step_mis != 0,
         pass_records: c.pass_records,
         level1,
+        path_mutations: PathMutations {
+            bidirectional: c.path_mutations[0],
+            lens_subpath: c.path_mutations[1],
+            lens: c.path_mutations[2],
+            caustic: c.path_mutations[3],
+            multi_chain: c.path_mutations[4],
+            sigma: c.perturbation_sigma,
+            ..PathMutations::default()
+        },
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(

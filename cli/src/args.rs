@@ -11,7 +11,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Command};
 use cmlt::integrator::Settings;
-use cmlt::mlt::{Candidates, CmltSettings, Level1, Level2Settings, MltSettings, Splatting};
+use cmlt::mlt::{
+    Candidates, CmltSettings, Level1, Level2Settings, MltSettings, PathMutations, Splatting,
+};
 use cmlt::renderer::{Accumulation, Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
@@ -156,8 +158,9 @@ impl EstimatorArgs {
 pub struct MltArgs {
     /// The space level 1's chains mutate in: primary (Kelemen et al.'s
     /// primary sample space) or path (Veach's path space with the
-    /// bidirectional and lens subpath mutations, CMLT's level 2 over them;
-    /// scenes lit by area emitters).
+    /// bidirectional and lens subpath mutations and the lens, caustic and
+    /// multi-chain perturbations, CMLT's level 2 over them; scenes lit by
+    /// area emitters).
     #[arg(long, default_value = "primary", value_parser = parse_level1)]
     pub level1: Level1,
     /// Markov chains per thread.
@@ -201,6 +204,32 @@ pub struct MltArgs {
     /// [0, 1024]. Not used with --keep-chains.
     #[arg(long, default_value_t = MltSettings::default().pass_records)]
     pub pass_records: f32,
+    /// With --level1 path: the weights of the bidirectional mutation, the
+    /// lens subpath mutation and the lens, caustic and multi-chain
+    /// perturbations, five comma-separated numbers; at a path each
+    /// mutation that applies is chosen in proportion to its weight (0 =
+    /// off; the bidirectional one's must be positive).
+    #[arg(long, default_value = "1,1,1,1,1", value_parser = parse_path_weights)]
+    pub path_mutations: [f32; 5],
+    /// With --level1 path: the perturbations' image-plane σ in pixels
+    /// (their angular σ is as many pixel angles).
+    #[arg(long, default_value_t = PathMutations::default().sigma)]
+    pub perturbation_sigma: f32,
+}
+
+/// `--path-mutations`: five comma-separated weights.
+pub fn parse_path_weights(s: &str) -> Result<[f32; 5], String> {
+    let w: Vec<f32> = s
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f32>()
+                .map_err(|_| format!("'{v}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    w.try_into().map_err(|_| {
+        format!("'{s}': five weights (bidirectional, lens subpath, lens, caustic, multi-chain)")
+    })
 }
 
 impl MltArgs {
@@ -220,16 +249,27 @@ impl MltArgs {
             direct_allocation: self.direct_allocation,
             large_step_mis: self.large_step_mis,
             pass_records: self.pass_records,
+            path_mutations: PathMutations {
+                bidirectional: self.path_mutations[0],
+                lens_subpath: self.path_mutations[1],
+                lens: self.path_mutations[2],
+                caustic: self.path_mutations[3],
+                multi_chain: self.path_mutations[4],
+                sigma: self.perturbation_sigma,
+                ..PathMutations::default()
+            },
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {})",
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {}, --path-mutations {:?}, --perturbation-sigma {})",
                 self.large_step,
                 self.sigma,
                 self.chains,
                 self.b_min_samples,
                 self.direct_allocation,
-                self.pass_records
+                self.pass_records,
+                self.path_mutations,
+                self.perturbation_sigma
             )
         })?;
         Ok(mlt)

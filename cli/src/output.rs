@@ -101,6 +101,16 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
             100.0 * m.lens_subpath_acceptance(),
             100.0 * m.zero_fraction()
         );
+        let a = m.perturbation_acceptance();
+        println!(
+            "path space: {} lens perturbations ({:.1}% accepted), {} caustic perturbations ({:.1}% accepted), {} multi-chain perturbations ({:.1}% accepted)",
+            m.perturbations_proposed[0],
+            100.0 * a[0],
+            m.perturbations_proposed[1],
+            100.0 * a[1],
+            m.perturbations_proposed[2],
+            100.0 * a[2]
+        );
     }
     if let Some(ls) = out.large_step_b().filter(|ls| ls.count > 0) {
         println!(

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The seed's experiment (Segovia 2007, §2.5) over the path-space level 1:
-# path-space CMLT against path-space MLT, and path-space MLT against the
+# path-space CMLT against path-space MLT, path-space MLT without its
+# level-1 perturbations (perturb=0), and path-space MLT against the
 # primary-sample MLT, at equal wall time on 2 threads, on veach-ajar,
 # veach-bidir and caustic-pool (reduced resolutions), relMSE on pixels and
 # on 4×4 and 16×16 blocks. The methods take turns at every seed (cmlt-bench
@@ -15,7 +16,7 @@ SEEDS=${2:-3}
 cargo build --release -q -p cmlt-bench
 BIN=${BIN:-target/release/cmlt-bench}
 OUT=${OUT:-docs/accuracy}
-METHODS=${METHODS:-mlt:level1=path,cmlt:level1=path,cmlt:level1=path:depth=0,mlt}
+METHODS=${METHODS:-mlt:level1=path,mlt:level1=path:perturb=0,cmlt:level1=path,cmlt:level1=path:depth=0,mlt}
 for spec in "veach-ajar 160 90" "veach-bidir 128 128" "caustic-pool 48 48"; do
   set -- $spec
   $BIN convergence tests/scenes/$1/scene.xml --reference tests/scenes/$1/reference.exr \

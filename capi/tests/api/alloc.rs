@@ -66,13 +66,18 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
         expect(cmlt_set_allocator(&hooks), CMLT_OK, "set_allocator");
     }
     let s = scene(None);
-    for estimator in [
-        CMLT_ESTIMATOR_PT,
-        CMLT_ESTIMATOR_BDPT,
-        CMLT_ESTIMATOR_MLT,
-        CMLT_ESTIMATOR_CMLT,
+    // Every estimator, and MLT and CMLT over the path-space level 1 too
+    // (its mutations, perturbations included, keep their scratch).
+    for (estimator, level1) in [
+        (CMLT_ESTIMATOR_PT, CMLT_LEVEL1_PRIMARY_SAMPLE),
+        (CMLT_ESTIMATOR_BDPT, CMLT_LEVEL1_PRIMARY_SAMPLE),
+        (CMLT_ESTIMATOR_MLT, CMLT_LEVEL1_PRIMARY_SAMPLE),
+        (CMLT_ESTIMATOR_CMLT, CMLT_LEVEL1_PRIMARY_SAMPLE),
+        (CMLT_ESTIMATOR_MLT, CMLT_LEVEL1_PATH_SPACE),
+        (CMLT_ESTIMATOR_CMLT, CMLT_LEVEL1_PATH_SPACE),
     ] {
-        let c = config(estimator, 2);
+        let mut c = config(estimator, 2);
+        c.level1 = level1;
         let (mut bytes, mut align) = (0usize, 0usize);
         // SAFETY: valid pointers.
         unsafe {
@@ -161,7 +166,10 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
             }
         });
         assert!(depth.iter().any(|d| d.is_finite() && *d > 0.0));
-        assert_eq!(n, 0, "estimator {estimator}: {n} allocations during frames");
+        assert_eq!(
+            n, 0,
+            "estimator {estimator}, level 1 {level1}: {n} allocations during frames"
+        );
         assert!(px.iter().any(|&v| v > 0.0));
         // Mesh updates are part of the frame loop, and so are refused
         // calls: their messages are literals (`expect`, which copies the

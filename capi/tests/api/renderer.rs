@@ -405,7 +405,7 @@ fn renderer_inputs_and_call_order_are_checked() {
 fn fields_the_estimator_does_not_read_are_refused() {
     let s = scene(None);
     type Tweak = fn(&mut cmlt_renderer_config);
-    let cases: [(u32, &str, Tweak); 9] = [
+    let cases: [(u32, &str, Tweak); 10] = [
         (CMLT_ESTIMATOR_MLT, "m", |c| c.m = 4),
         (CMLT_ESTIMATOR_MLT, "k", |c| c.k = 2),
         (CMLT_ESTIMATOR_MLT, "lens_sigma", |c| {
@@ -422,6 +422,9 @@ fn fields_the_estimator_does_not_read_are_refused() {
         (CMLT_ESTIMATOR_BDPT, "b_window", |c| c.b_window = 2),
         (CMLT_ESTIMATOR_BDPT, "large_step_window", |c| {
             c.large_step_window = 8
+        }),
+        (CMLT_ESTIMATOR_PT, "path_mutations", |c| {
+            c.path_mutations[2] = 0.0
         }),
     ];
     for (estimator, field, tweak) in cases {

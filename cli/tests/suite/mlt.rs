@@ -577,6 +577,20 @@ fn caustic_pool_path_space_cmlt_matches_reference() {
     assert!(s.caustic_steps + s.multi_chain_steps > 0, "{s:?}");
 }
 
+/// MLT over the path-space level 1 on the caustic pool, its level-1
+/// perturbations on (the multi-chain perturbation moves the E S D S L
+/// paths through the water): the channel means against the reference.
+#[test]
+fn caustic_pool_path_space_mlt_matches_reference() {
+    let mlt = MltSettings {
+        level1: Level1::PathSpace,
+        ..metropolis_scene_settings()
+    };
+    let (_, _, _, out) = check_means("caustic-pool", 2, &Estimator::Mlt(mlt), 32, false);
+    let s = out.stats.mlt;
+    assert!(s.perturbations_accepted[2] > 0, "{s:?}");
+}
+
 /// CMLT on the caustic pool: as [`caustic_pool_mlt_matches_reference`],
 /// the channel means against the reference.
 #[test]

@@ -57,7 +57,7 @@ use super::lanes::{LaneCounts, Lanes};
 use super::multiple_try::{ChainState, MultipleTry, Proposal, Target};
 use super::perturbation::{
     Applicable, CausticProposal, CausticState, CausticTarget, LensProposal, LensState, LensTarget,
-    MultiChainProposal, MultiChainState, MultiChainTarget, classify,
+    MultiChainProposal, MultiChainState, MultiChainTarget, Proposals, classify,
 };
 use super::{Level2Settings, MltStats};
 use crate::accel::Intersector;
@@ -89,10 +89,6 @@ pub(crate) struct Level2 {
     multi_proposal: MultiChainProposal,
 }
 
-/// Truncation radius of the perturbation offsets, in standard deviations:
-/// the disk holds 1 − e^{−8} of the Gaussian.
-const R_MAX_SIGMAS: f32 = 4.0;
-
 impl Level2 {
     /// Level 2 of `l2` on a `width` × `height` image whose pixels subtend
     /// `pixel_angle` radians; `None` when the parameters are invalid (see
@@ -102,14 +98,8 @@ impl Level2 {
             return None;
         }
         let k = l2.k as usize;
-        let sigma = l2.lens_sigma;
-        let lens_proposal = LensProposal::new(sigma, R_MAX_SIGMAS * sigma, width, height)?;
-        // The caustic offset is an angle at x_j: the lens width in pixels
-        // times a pixel's angle, scaled (the specular chain magnifies or
-        // compresses it on its way to the image).
-        let s = sigma * pixel_angle * l2.caustic_scale;
-        let caustic_proposal =
-            CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
+        let proposals =
+            Proposals::new(l2.lens_sigma, l2.caustic_scale, width, height, pixel_angle)?;
         let lanes = l2.lanes as usize;
         Some(Level2 {
             share: l2.share(),
@@ -125,12 +115,9 @@ impl Level2 {
             lens_lanes: Lanes::new(lanes, LensProposal::DIM),
             caustic_lanes: Lanes::new(lanes, CausticProposal::DIM),
             multi_lanes: Lanes::new(lanes, MultiChainProposal::DIM),
-            lens_proposal,
-            caustic_proposal,
-            // The direction leaving x_t moves by the caustic perturbation's
-            // angle: both are directions at a non-specular vertex whose
-            // change the specular chain carries to the image.
-            multi_proposal: MultiChainProposal::new(lens_proposal, caustic_proposal),
+            lens_proposal: proposals.lens,
+            caustic_proposal: proposals.caustic,
+            multi_proposal: proposals.multi_chain,
         })
     }
 

@@ -150,6 +150,77 @@ pub struct MltSettings {
     /// the camera and scene it ran under. Ignored without passes. At most
     /// [`MAX_PASS_RECORDS`]; default [`DEFAULT_PASS_RECORDS`].
     pub pass_records: f32,
+    /// The path-space level 1's mutations: how often each is chosen and
+    /// how far the perturbations move. Ignored by the primary-sample level
+    /// 1.
+    pub path_mutations: PathMutations,
+}
+
+/// The path-space level 1's mutation selection (Veach 1997, §11.4; read
+/// only with [`Level1::PathSpace`]). At a path x̄ each mutation that
+/// applies to it is chosen with probability its weight over the sum of the
+/// weights of those that apply: the bidirectional mutation applies to
+/// every path, the lens subpath mutation to paths E S* D (D | L), and of
+/// the three perturbations the one the path's pattern of specular
+/// vertices admits (`mlt/perturbation/mod.rs`). The acceptance ratio has
+/// the chosen mutation's probabilities at both paths
+/// (`mlt/path_space/chain.rs`), so any weights keep the chain unbiased; 0
+/// turns a mutation off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathMutations {
+    /// Weight of the bidirectional mutation (> 0: it is the one mutation
+    /// that reaches every path).
+    pub bidirectional: f32,
+    /// Weight of the lens subpath mutation.
+    pub lens_subpath: f32,
+    /// Weight of the lens perturbation.
+    pub lens: f32,
+    /// Weight of the caustic perturbation.
+    pub caustic: f32,
+    /// Weight of the multi-chain perturbation.
+    pub multi_chain: f32,
+    /// Standard deviation of the perturbations' image-plane offset, in
+    /// pixels (the lens and multi-chain perturbations).
+    pub sigma: f32,
+    /// The caustic and multi-chain perturbations' angular σ is `sigma`
+    /// pixel angles times this factor.
+    pub caustic_scale: f32,
+}
+
+impl Default for PathMutations {
+    /// Every mutation weight 1; offsets of σ = 2 pixels, angles of σ = 2
+    /// pixel angles.
+    fn default() -> Self {
+        PathMutations {
+            bidirectional: 1.0,
+            lens_subpath: 1.0,
+            lens: 1.0,
+            caustic: 1.0,
+            multi_chain: 1.0,
+            sigma: 2.0,
+            caustic_scale: 1.0,
+        }
+    }
+}
+
+impl PathMutations {
+    /// Checks the weights and offsets.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        if !(self.bidirectional > 0.0 && self.bidirectional.is_finite()) {
+            return Err("the bidirectional mutation's weight must be positive and finite");
+        }
+        let others = [self.lens_subpath, self.lens, self.caustic, self.multi_chain];
+        if !others.iter().all(|w| *w >= 0.0 && w.is_finite()) {
+            return Err("mutation weights must be non-negative and finite");
+        }
+        if !(self.sigma > 0.0 && self.sigma.is_finite()) {
+            return Err("the perturbations' σ must be a positive number of pixels");
+        }
+        if !(self.caustic_scale > 0.0 && self.caustic_scale.is_finite()) {
+            return Err("the perturbations' caustic scale must be positive and finite");
+        }
+        Ok(())
+    }
 }
 
 /// The space the level-1 chains mutate in.
@@ -162,10 +233,11 @@ pub enum Level1 {
     #[default]
     PrimarySample,
     /// Veach's path space: a chain's state is a path's vertices, mutated
-    /// by the bidirectional and lens subpath mutations
-    /// (`mlt/path_space/`); CMLT's level 2 runs from its states as from
-    /// primary-sample ones. The perturbations as level-1 mutations are not
-    /// built, and only scenes lit by area emitters alone can be rendered ([`path_space_supports`]:
+    /// by the bidirectional and lens subpath mutations and the lens,
+    /// caustic and multi-chain perturbations, chosen by
+    /// [`MltSettings::path_mutations`] (`mlt/path_space/`); CMLT's level 2
+    /// runs from its states as from primary-sample ones. Only scenes lit
+    /// by area emitters alone can be rendered ([`path_space_supports`]:
     /// preparing the renderer for another scene is a `RenderError::Config`).
     PathSpace,
 }
@@ -176,7 +248,7 @@ impl Default for MltSettings {
     /// chains per worker, large steps 0.3 combined with the chains by MIS,
     /// σ = 0.01, at least a tenth of the b-proportional chains for
     /// emitters seen directly, the passes' image added at 5 mutations per
-    /// pass sample.
+    /// pass sample; the path-space mutations of [`PathMutations::default`].
     fn default() -> Self {
         MltSettings {
             level1: Level1::PrimarySample,
@@ -189,6 +261,7 @@ impl Default for MltSettings {
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
             large_step_mis: true,
             pass_records: DEFAULT_PASS_RECORDS,
+            path_mutations: PathMutations::default(),
         }
     }
 }
@@ -241,7 +314,7 @@ impl MltSettings {
         if !(self.pass_records >= 0.0 && self.pass_records <= MAX_PASS_RECORDS) {
             return Err("the pass records must be in [0, 1024]");
         }
-        Ok(())
+        self.path_mutations.validate()
     }
 }
 
@@ -453,6 +526,12 @@ pub struct MltStats {
     pub lens_subpath_proposed: u64,
     /// Path-space level 1: lens subpath mutations accepted.
     pub lens_subpath_accepted: u64,
+    /// Path-space level 1: lens, caustic and multi-chain perturbations
+    /// proposed (level-1 mutations, not level 2's side-chain steps).
+    pub perturbations_proposed: [u64; 3],
+    /// Path-space level 1: lens, caustic and multi-chain perturbations
+    /// accepted.
+    pub perturbations_accepted: [u64; 3],
     /// Records splatted, in units of one mutation's total weight: level-1
     /// mutations times 1 + s, s the level-2 share (what [`image_scale`]
     /// divides by), the normalisation passes' records included.
@@ -500,6 +579,10 @@ impl MltStats {
         self.bidirectional_accepted += o.bidirectional_accepted;
         self.lens_subpath_proposed += o.lens_subpath_proposed;
         self.lens_subpath_accepted += o.lens_subpath_accepted;
+        for i in 0..3 {
+            self.perturbations_proposed[i] += o.perturbations_proposed[i];
+            self.perturbations_accepted[i] += o.perturbations_accepted[i];
+        }
         self.records += o.records;
         self.lens_steps += o.lens_steps;
         self.lens_accepted += o.lens_accepted;
@@ -550,6 +633,17 @@ impl MltStats {
     /// Fraction of lens subpath mutations accepted (0 when none).
     pub fn lens_subpath_acceptance(&self) -> f64 {
         ratio(self.lens_subpath_accepted, self.lens_subpath_proposed)
+    }
+
+    /// Fractions of the path-space level 1's lens, caustic and
+    /// multi-chain perturbations accepted (0 when none).
+    pub fn perturbation_acceptance(&self) -> [f64; 3] {
+        core::array::from_fn(|i| {
+            ratio(
+                self.perturbations_accepted[i],
+                self.perturbations_proposed[i],
+            )
+        })
     }
 
     /// Fraction of large steps accepted (0 when none).
@@ -741,7 +835,7 @@ impl WorkerChains {
             next: 0,
             strided: false,
             path_space: (mlt.level1 == Level1::PathSpace)
-                .then(|| (PathChains::with_capacity(settings, mlt, l2), 0, 1)),
+                .then(|| (PathChains::with_capacity(settings, mlt, l2, camera), 0, 1)),
         }
     }
 

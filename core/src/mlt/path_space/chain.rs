@@ -5,23 +5,28 @@
 //! position, one unit of luminance per mutation — the records of the
 //! primary-sample chain (`mlt/chain.rs`), normalised the same way by b.
 //!
-//! Mutation selection: the lens subpath mutation with probability ½ when
-//! it applies to the current path (`lens_subpath.rs`), else the
-//! bidirectional one. The lens subpath mutation applies to all or none of
-//! a path and its proposals, so its ratio is its densities'; the
-//! bidirectional mutation may join a path it applies to with one it does
-//! not, so its ratio also has the selection probabilities p_b(ȳ)/p_b(x̄)
-//! (T(x̄→ȳ) includes choosing the mutation).
+//! Mutation selection (`selection.rs`): at x̄, each mutation m that
+//! applies with probability p_m(x̄) — the bidirectional and lens subpath
+//! mutations and the perturbation the path's class admits
+//! (`perturbations.rs`). T(x̄→ȳ) includes choosing m, so the ratio of
+//! every mutation has p_m(ȳ)/p_m(x̄) besides its densities' ratio: 1 when
+//! ȳ admits the same mutations as x̄, as the lens subpath mutation's and
+//! the perturbations' proposals always do (they keep the part of the path
+//! that decides it), not always for the bidirectional mutation.
 
 use rand_core::Rng;
 use rand_pcg::Pcg32;
 
 use super::bidirectional::{Bidirectional, Proposal};
 use super::lens_subpath::{self, LensSubpath};
+use super::perturbations::Perturbations;
+use super::selection::{Mutation, Probabilities};
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::integrator::Tracer;
+use crate::mlt::PathMutations;
 use crate::mlt::chain::Splat;
+use crate::mlt::perturbation::{Applicable, Proposals, classify};
 use crate::sampler::{SampleStream, mix64};
 
 /// What one mutation did and records.
@@ -38,17 +43,73 @@ pub(crate) struct PathStep {
     /// The proposal's depth (0 when none was made: ȳ = x̄, or the move
     /// failed).
     pub proposal_depth: usize,
-    /// Whether the lens subpath mutation (rather than the bidirectional
-    /// one) made the proposal.
-    pub lens_subpath: bool,
+    /// The mutation that made the proposal.
+    pub mutation: Mutation,
 }
 
-/// The probability of the lens subpath mutation at `path`.
-fn lens_probability(path: &[crate::integrator::bdpt::PathVertex]) -> f32 {
-    if lens_subpath::applies(path).is_some() {
-        0.5
-    } else {
-        0.0
+/// The mutations a worker's path-space chains share, with their scratch
+/// storage, and how often each is chosen.
+#[derive(Clone, Debug)]
+pub(crate) struct Mutations {
+    /// The bidirectional mutation.
+    pub bidirectional: Bidirectional,
+    /// The lens subpath mutation.
+    pub lens_subpath: LensSubpath,
+    /// The lens, caustic and multi-chain perturbations.
+    pub perturbations: Perturbations,
+    /// The mutations' weights.
+    pub weights: PathMutations,
+}
+
+impl Mutations {
+    /// The mutations of `weights` for paths of up to `max_depth` segments
+    /// on a `width` × `height` image whose pixels subtend `pixel_angle`
+    /// radians. Perturbations whose offsets are invalid are never chosen.
+    pub fn new(
+        weights: &PathMutations,
+        max_depth: u32,
+        width: u32,
+        height: u32,
+        pixel_angle: f32,
+    ) -> Self {
+        let mut weights = *weights;
+        let proposals = Proposals::new(
+            weights.sigma,
+            weights.caustic_scale,
+            width,
+            height,
+            pixel_angle,
+        );
+        if proposals.is_none() {
+            weights.lens = 0.0;
+            weights.caustic = 0.0;
+            weights.multi_chain = 0.0;
+        }
+        Mutations {
+            bidirectional: Bidirectional::new(max_depth),
+            lens_subpath: LensSubpath::new(max_depth),
+            perturbations: Perturbations::new(proposals, max_depth),
+            weights,
+        }
+    }
+
+    /// Whether any perturbation can be chosen.
+    fn perturbing(&self) -> bool {
+        self.weights.lens + self.weights.caustic + self.weights.multi_chain > 0.0
+    }
+
+    /// The class of `path` when a perturbation can be chosen, else
+    /// `Neither` (no look at the path).
+    fn class<I: Intersector>(
+        &self,
+        tr: &Tracer<'_, I>,
+        path: &[crate::integrator::bdpt::PathVertex],
+    ) -> Applicable {
+        if self.perturbing() {
+            classify(tr, path)
+        } else {
+            Applicable::Neither
+        }
     }
 }
 
@@ -64,6 +125,10 @@ pub(crate) struct PathChain {
     seed: u64,
     iteration: u64,
     rng: Pcg32,
+    /// The current path's class ([`Mutations::class`]) once found: it
+    /// changes only when a proposal is accepted, whose class is found
+    /// for its ratio.
+    class: Option<Applicable>,
 }
 
 /// Stream index of a path-space mutation's random numbers.
@@ -80,6 +145,7 @@ impl PathChain {
             seed: 0,
             iteration: 0,
             rng: Pcg32::new(0, 0),
+            class: None,
         }
     }
 
@@ -89,6 +155,7 @@ impl PathChain {
         self.seed = seed;
         self.iteration = 0;
         self.rng = Pcg32::new(mix64(seed ^ 0x9A7B_0000), mix64(seed));
+        self.class = None;
     }
 
     /// The current path.
@@ -113,40 +180,54 @@ impl PathChain {
         &mut self.current
     }
 
-    /// One mutation (lens subpath or bidirectional, see the module docs)
-    /// with its expected-value records.
-    pub fn step<I: Intersector>(
-        &mut self,
-        tr: &mut Tracer<'_, I>,
-        bidirectional: &mut Bidirectional,
-        lens: &mut LensSubpath,
-    ) -> PathStep {
+    /// One mutation (chosen as the module docs say) with its
+    /// expected-value records.
+    pub fn step<I: Intersector>(&mut self, tr: &mut Tracer<'_, I>, m: &mut Mutations) -> PathStep {
         self.iteration += 1;
         let mut stream = SampleStream::new(self.seed, self.iteration, MUTATION_STREAM);
-        let p_lens = lens_probability(&self.current.path);
-        let use_lens = stream.next_f32() < p_lens;
-        let outcome = if use_lens {
-            let t = lens_subpath::applies(&self.current.path).unwrap_or(0);
-            lens.propose(tr, &self.current, t, &mut self.proposal, &mut stream)
-        } else {
-            let (_, o) = bidirectional.propose(tr, &self.current, &mut self.proposal, &mut stream);
-            match o {
-                Proposal::Made { ratio } => {
-                    let selection = (1.0 - lens_probability(&self.proposal.path)) / (1.0 - p_lens);
-                    #[cfg(test)]
-                    let selection = if bidirectional.broken
-                        == Some(super::bidirectional::Broken::NoSelection)
-                    {
+        let class = match self.class {
+            Some(c) => c,
+            None => m.class(tr, &self.current.path),
+        };
+        self.class = Some(class);
+        let mut y_class = None;
+        let p_x = Probabilities::at(&m.weights, &self.current.path, &class);
+        let mutation = p_x.pick(stream.next_f32());
+        let outcome = match mutation {
+            Mutation::Bidirectional => {
+                let x = &self.current;
+                m.bidirectional
+                    .propose(tr, x, &mut self.proposal, &mut stream)
+                    .1
+            }
+            Mutation::LensSubpath => {
+                let t = lens_subpath::applies(&self.current.path).unwrap_or(0);
+                m.lens_subpath
+                    .propose(tr, &self.current, t, &mut self.proposal, &mut stream)
+            }
+            _ => {
+                m.perturbations
+                    .propose(tr, &self.current, &class, &mut self.proposal, &mut stream)
+            }
+        };
+        let outcome = match outcome {
+            Proposal::Made { ratio } => {
+                let c = m.class(tr, &self.proposal.path);
+                y_class = Some(c);
+                let p_y = Probabilities::at(&m.weights, &self.proposal.path, &c);
+                let selection = p_y.of(mutation) / p_x.of(mutation);
+                #[cfg(test)]
+                let selection =
+                    if m.bidirectional.broken == Some(super::bidirectional::Broken::NoSelection) {
                         1.0
                     } else {
                         selection
                     };
-                    Proposal::Made {
-                        ratio: ratio * selection,
-                    }
+                Proposal::Made {
+                    ratio: ratio * selection,
                 }
-                other => other,
             }
+            other => other,
         };
         let y_x = self.current.target();
         let (a, y_y) = match outcome {
@@ -173,6 +254,7 @@ impl PathChain {
         };
         if accepted {
             core::mem::swap(&mut self.current, &mut self.proposal);
+            self.class = y_class;
         }
         PathStep {
             proposal,
@@ -180,7 +262,7 @@ impl PathChain {
             acceptance: a,
             accepted,
             proposal_depth,
-            lens_subpath: use_lens,
+            mutation,
         }
     }
 }

@@ -10,22 +10,25 @@
 //! the area densities with which BDPT's strategies generate each vertex
 //! ([`crate::integrator::bdpt::path_contribution`],
 //! [`crate::integrator::bdpt::path_densities`]); the state and Veach's
-//! start-up (`state`); the bidirectional mutation (`bidirectional`) and the
-//! lens subpath mutation (`lens_subpath`); the chain with its mutation
-//! selection and expected-value records (`chain`); a worker's chains as
-//! the renderer drives them (`worker`), selected by
-//! [`super::Level1::PathSpace`] for MLT, and with CMLT's level 2 run from
-//! each state (`worker`'s docs say why one level 2 serves both level 1s).
-//! Not yet: the lens, caustic and
-//! multi-chain perturbations as level-1 mutations (selection by path type
-//! beyond the lens subpath mutation's), lights other than area emitters, stratified raster positions for the lens subpath
-//! mutation.
+//! start-up (`state`); the bidirectional mutation (`bidirectional`), the
+//! lens subpath mutation (`lens_subpath`) and level 2's lens, caustic and
+//! multi-chain perturbations as level-1 mutations (`perturbations`); the
+//! choice among those that apply to a path (`selection`); the chain with
+//! its expected-value records (`chain`); a worker's chains as the renderer
+//! drives them (`worker`), selected by [`super::Level1::PathSpace`] for
+//! MLT, and with CMLT's level 2 run from each state (`worker`'s docs say
+//! why one level 2 serves both level 1s). Not yet: lights other than area
+//! emitters, stratified raster positions for the lens subpath mutation.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
 pub(crate) mod lens_subpath;
+pub(crate) mod perturbations;
+pub(crate) mod selection;
 pub(crate) mod state;
 pub(crate) mod worker;
 
+#[cfg(all(test, feature = "std"))]
+mod perturbation_tests;
 #[cfg(all(test, feature = "std"))]
 mod tests;

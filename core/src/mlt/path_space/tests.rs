@@ -6,13 +6,13 @@
 use super::super::PrimarySampler;
 use super::super::tests::scenes;
 use super::bidirectional::{Bidirectional, Broken, Proposal};
-use super::chain::PathChain;
-use super::lens_subpath::LensSubpath;
+use super::chain::{Mutations, PathChain};
 use super::state::PathState;
 use crate::accel::bvh::Bvh;
 use crate::integrator::bdpt::{self, path_contribution, path_densities, strategy_density};
 use crate::integrator::{Settings, Tracer};
 use crate::math::Rgb;
+use crate::mlt::PathMutations;
 use crate::sampler::SampleStream;
 use crate::scene::{Material, Scene};
 
@@ -96,7 +96,7 @@ fn strategy_estimates_are_contribution_over_density() {
 /// b_d = ∫ Y(f) over paths of `depth` segments, as the primary-sample
 /// level 1's target estimates it: the mean of Y over `n` uniform primary
 /// points.
-fn depth_b(scene: &Scene, depth: usize, n: u64) -> f64 {
+pub(super) fn depth_b(scene: &Scene, depth: usize, n: u64) -> f64 {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -145,7 +145,7 @@ fn mutation_estimate(scene: &Scene, depth: usize, n: u64, single_split: bool) ->
 
 /// The path of the first contributing BDPT strategy sample of `depth`
 /// from seed `first` on.
-fn start_path<I: crate::accel::Intersector>(
+pub(super) fn start_path<I: crate::accel::Intersector>(
     tracer: &mut Tracer<'_, I>,
     depth: usize,
     first: u64,
@@ -187,17 +187,37 @@ fn bidirectional_density_is_the_proposal_density() {
     );
 }
 
+/// The bidirectional and lens subpath mutations alone, equally likely.
+fn without_perturbations() -> PathMutations {
+    PathMutations {
+        lens: 0.0,
+        caustic: 0.0,
+        multi_chain: 0.0,
+        ..PathMutations::default()
+    }
+}
+
 /// 64 path-space chains of 20 000 mutations (after 500 of
-/// burn-in) on `scene` (a furnace) with paths of up to 4 segments: the
-/// share of the records' luminance at each depth, and in each 4×4 block of
-/// the 16×12 image.
-fn furnace_chains(scene: &Scene, broken: Option<Broken>) -> ([f64; 4], [f64; 12]) {
+/// burn-in) on `scene` (a furnace) with paths of up to 4 segments and the
+/// mutations of `weights`: the share of the records' luminance at each
+/// depth, and in each 4×4 block of the 16×12 image.
+pub(super) fn furnace_chains(
+    scene: &Scene,
+    weights: &PathMutations,
+    broken: Option<Broken>,
+) -> ([f64; 4], [f64; 12]) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
-    let mut mutation = Bidirectional::new(4);
-    mutation.broken = broken;
-    let mut lens = LensSubpath::new(4);
+    let camera = tracer.camera;
+    let mut mutations = Mutations::new(
+        weights,
+        4,
+        camera.width(),
+        camera.height(),
+        camera.pixel_angle(),
+    );
+    mutations.bidirectional.broken = broken;
     let (mut depths, mut blocks) = ([0.0f64; 4], [0.0f64; 12]);
     for c in 0..64u64 {
         let start = start_path(&mut tracer, 1 + (c % 4) as usize, 1000 * c);
@@ -206,7 +226,7 @@ fn furnace_chains(scene: &Scene, broken: Option<Broken>) -> ([f64; 4], [f64; 12]
         chain.start(0xC0 + c);
         for i in 0..20_500 {
             let from = chain.current().depth();
-            let st = chain.step(&mut tracer, &mut mutation, &mut lens);
+            let st = chain.step(&mut tracer, &mut mutations);
             if i < 500 {
                 continue;
             }
@@ -231,7 +251,7 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
     let grey = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
     let mirror = scenes::mirror_sphere_furnace();
     for (name, scene) in [("grey", &grey), ("mirror", &mirror)] {
-        let (depths, blocks) = furnace_chains(scene, None);
+        let (depths, blocks) = furnace_chains(scene, &without_perturbations(), None);
         eprintln!("{name}: depth shares {depths:?}, blocks {blocks:?}");
         for (i, &share) in depths.iter().enumerate() {
             let want = libm::pow(0.5, i as f64) / 1.875;
@@ -250,7 +270,7 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
     // (T of one split in place of Veach's sum, the other test's control,
     // happens to keep these shares on the furnace, where the splits'
     // densities are alike.)
-    let (wrong, _) = furnace_chains(&grey, Some(Broken::NoLengths));
+    let (wrong, _) = furnace_chains(&grey, &without_perturbations(), Some(Broken::NoLengths));
     let off = wrong
         .iter()
         .enumerate()
@@ -263,7 +283,8 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
     // Negative control: the bidirectional mutation's ratio without the
     // selection probabilities, on the mirror furnace, where the lens
     // subpath mutation applies to some paths and not to others.
-    let (wrong, blocks) = furnace_chains(&mirror, Some(Broken::NoSelection));
+    let (wrong, blocks) =
+        furnace_chains(&mirror, &without_perturbations(), Some(Broken::NoSelection));
     let off = wrong
         .iter()
         .enumerate()

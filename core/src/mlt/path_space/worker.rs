@@ -33,13 +33,13 @@ use super::super::{
     Bootstrap, LEVEL2_STREAM, MltSettings, MltStats, PrimarySampler, chain_seed, depths, mix64,
     start_sample, target, uniform_f64,
 };
-use super::bidirectional::Bidirectional;
-use super::chain::{PathChain, PathStep};
-use super::lens_subpath::LensSubpath;
+use super::chain::{Mutations, PathChain, PathStep};
+use super::selection::Mutation;
 use crate::accel::Intersector;
 use crate::film::Film;
 use crate::integrator::{Settings, Tracer, bdpt};
 use crate::sampler::SampleStream;
+use crate::scene::Camera;
 
 /// The depth at position `u` ∈ [0, 1) of the split of b into the b_d
 /// (`None` when b = 0).
@@ -67,8 +67,7 @@ pub(crate) struct PathChains {
     /// Room for `n_chains` chains; the first `live` run.
     chains: Vec<PathChain>,
     live: usize,
-    mutation: Bidirectional,
-    lens: LensSubpath,
+    mutations: Mutations,
     /// Replays bootstrap samples for the starts.
     sampler: PrimarySampler,
     /// CMLT: the class of each live chain's current path and its
@@ -81,9 +80,15 @@ pub(crate) struct PathChains {
 }
 
 impl PathChains {
-    /// Storage for `mlt.n_chains` chains at `settings`' depths, with their
-    /// classes when `level2` (CMLT): after this nothing is allocated.
-    pub fn with_capacity(settings: &Settings, mlt: &MltSettings, level2: bool) -> Self {
+    /// Storage for `mlt.n_chains` chains at `settings`' depths on
+    /// `camera`'s image, with their classes when `level2` (CMLT): after
+    /// this nothing is allocated.
+    pub fn with_capacity(
+        settings: &Settings,
+        mlt: &MltSettings,
+        level2: bool,
+        camera: &Camera,
+    ) -> Self {
         let depth = depths(settings);
         PathChains {
             classes: Vec::with_capacity(if level2 { mlt.n_chains as usize } else { 0 }),
@@ -93,8 +98,13 @@ impl PathChains {
                 .map(|_| PathChain::with_capacity(depth))
                 .collect(),
             live: 0,
-            mutation: Bidirectional::new(depth),
-            lens: LensSubpath::new(depth),
+            mutations: Mutations::new(
+                &mlt.path_mutations,
+                depth,
+                camera.width(),
+                camera.height(),
+                camera.pixel_angle(),
+            ),
             sampler: PrimarySampler::with_capacity(0, mlt.sigma, mlt.large_step_prob, depth),
         }
     }
@@ -166,23 +176,41 @@ impl PathChains {
         }
     }
 
-    /// One bidirectional mutation of chain `ci`, counted in `stats`.
+    /// One mutation of chain `ci`, counted in `stats`.
     pub fn step<I: Intersector>(
         &mut self,
         ci: usize,
         tracer: &mut Tracer<'_, I>,
         stats: &mut MltStats,
     ) -> PathStep {
-        let st = self.chains[ci].step(tracer, &mut self.mutation, &mut self.lens);
+        let st = self.chains[ci].step(tracer, &mut self.mutations);
         stats.mutations += 1;
         stats.records += 1;
-        if st.lens_subpath {
-            stats.lens_subpath_proposed += 1;
-            stats.lens_subpath_accepted += st.accepted as u64;
-        } else {
-            stats.bidirectional_proposed += 1;
-            stats.bidirectional_accepted += st.accepted as u64;
-        }
+        let accepted = st.accepted as u64;
+        let (proposed, taken) = match st.mutation {
+            Mutation::Bidirectional => (
+                &mut stats.bidirectional_proposed,
+                &mut stats.bidirectional_accepted,
+            ),
+            Mutation::LensSubpath => (
+                &mut stats.lens_subpath_proposed,
+                &mut stats.lens_subpath_accepted,
+            ),
+            Mutation::Lens => (
+                &mut stats.perturbations_proposed[0],
+                &mut stats.perturbations_accepted[0],
+            ),
+            Mutation::Caustic => (
+                &mut stats.perturbations_proposed[1],
+                &mut stats.perturbations_accepted[1],
+            ),
+            Mutation::MultiChain => (
+                &mut stats.perturbations_proposed[2],
+                &mut stats.perturbations_accepted[2],
+            ),
+        };
+        *proposed += 1;
+        *taken += accepted;
         stats.zero_proposals += (st.proposal_depth == 0) as u64;
         st
     }

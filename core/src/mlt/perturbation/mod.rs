@@ -75,6 +75,53 @@ use crate::integrator::Tracer;
 use crate::integrator::bdpt::{PathVertex, scatter};
 use crate::math::Rgb;
 
+/// Truncation radius of the perturbation offsets, in standard deviations:
+/// the disk holds 1 − e^{−8} of the Gaussian.
+const R_MAX_SIGMAS: f32 = 4.0;
+
+/// The three perturbations' proposals, as level 2 and the path-space
+/// level 1 both draw them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Proposals {
+    /// The lens perturbation's raster offset.
+    pub lens: LensProposal,
+    /// The caustic perturbation's angular offset.
+    pub caustic: CausticProposal,
+    /// The multi-chain perturbation's pair of offsets.
+    pub multi_chain: MultiChainProposal,
+}
+
+impl Proposals {
+    /// Raster offsets of σ = `lens_sigma` pixels and angular offsets of
+    /// σ = `lens_sigma` × `caustic_scale` pixel angles (`pixel_angle`
+    /// radians each) on a `width` × `height` image, each truncated at
+    /// [`R_MAX_SIGMAS`] σ; `None` for invalid parameters.
+    pub fn new(
+        lens_sigma: f32,
+        caustic_scale: f32,
+        width: u32,
+        height: u32,
+        pixel_angle: f32,
+    ) -> Option<Self> {
+        let sigma = lens_sigma;
+        let lens = LensProposal::new(sigma, R_MAX_SIGMAS * sigma, width, height)?;
+        // The caustic offset is an angle at x_j: the lens width in pixels
+        // times a pixel's angle, scaled (the specular chain magnifies or
+        // compresses it on its way to the image).
+        let s = sigma * pixel_angle * caustic_scale;
+        let caustic =
+            CausticProposal::new(s, (R_MAX_SIGMAS * s).min(0.99 * core::f32::consts::PI))?;
+        Some(Proposals {
+            lens,
+            caustic,
+            // The direction leaving x_t moves by the caustic perturbation's
+            // angle: both are directions at a non-specular vertex whose
+            // change the specular chain carries to the image.
+            multi_chain: MultiChainProposal::new(lens, caustic),
+        })
+    }
+}
+
 /// Longest specular chain a perturbation retraces (longer ones: identity).
 const MAX_CHAIN: usize = 32;
 

@@ -332,6 +332,18 @@ fn renderer_config_rejects_out_of_range_values_and_stays_usable() {
         ("lens σ 0", level2(|l| l.lens_sigma = 0.0)),
         ("caustic scale NaN", level2(|l| l.caustic_scale = f32::NAN)),
         ("no bootstrap samples", level1(|m| m.n_bootstrap = 0)),
+        (
+            "path space, bidirectional weight 0",
+            level1(|m| m.path_mutations.bidirectional = 0.0),
+        ),
+        (
+            "path space, caustic weight NaN",
+            level1(|m| m.path_mutations.caustic = f32::NAN),
+        ),
+        (
+            "path space, perturbation σ -1",
+            level1(|m| m.path_mutations.sigma = -1.0),
+        ),
         ("depth cap 0, unbounded", unbounded(0)),
         (
             "depth u32::MAX",
