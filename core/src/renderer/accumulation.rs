@@ -47,6 +47,7 @@
 //! b refresh is joined within the frame.
 
 use alloc::vec::Vec;
+use core::ops::Range;
 
 use crate::film::Film;
 
@@ -104,6 +105,19 @@ impl Weights {
     #[inline]
     pub(crate) fn add(&mut self, i: usize) {
         self.per_pixel[i] += 1.0;
+        self.total += 1.0;
+    }
+
+    /// Counts one sample spread over the pixels `xs × ys` of an image
+    /// `width` wide, `w` (1 / m) to each of the m pixels: a sample of a
+    /// coarser pass (`renderer/pixel_block.rs`).
+    pub(crate) fn add_area(&mut self, xs: Range<u32>, ys: Range<u32>, width: u32, w: f32) {
+        for y in ys {
+            let row = y as usize * width as usize;
+            for p in &mut self.per_pixel[row + xs.start as usize..row + xs.end as usize] {
+                *p += w;
+            }
+        }
         self.total += 1.0;
     }
 
