@@ -108,17 +108,24 @@ impl Weights {
         self.total += 1.0;
     }
 
-    /// Counts one sample spread over the pixels `xs × ys` of an image
-    /// `width` wide, `w` (1 / m) to each of the m pixels: a sample of a
-    /// coarser pass (`renderer/pixel_block.rs`).
-    pub(crate) fn add_area(&mut self, xs: Range<u32>, ys: Range<u32>, width: u32, w: f32) {
+    /// Counts one sample of weight `weight` spread over the pixels `xs ×
+    /// ys` of an image `width` wide, `w` (weight / m) to each of the m
+    /// pixels: a sample of a coarser pass (`renderer/pixel_block.rs`).
+    pub(crate) fn add_area(
+        &mut self,
+        xs: Range<u32>,
+        ys: Range<u32>,
+        width: u32,
+        w: f32,
+        weight: f32,
+    ) {
         for y in ys {
             let row = y as usize * width as usize;
             for p in &mut self.per_pixel[row + xs.start as usize..row + xs.end as usize] {
                 *p += w;
             }
         }
-        self.total += 1.0;
+        self.total += weight as f64;
     }
 
     /// Pixel `i`'s weight (0 for a worker without weights).

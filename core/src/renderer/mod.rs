@@ -455,8 +455,15 @@ pub struct RenderWorker {
     /// film is folded into `kept` with when its next frame starts.
     frame_b: f64,
     /// PT, BDPT: the position of the next sample in the open pass's
-    /// order (0 between passes).
+    /// order, and where the pass (or the worker's share of a guard pass)
+    /// ends; both 0 between passes.
     cursor: u64,
+    pass_end: u64,
+    /// PT, BDPT: whether the open pass is a reset frame's guard pass
+    /// (`renderer/pixel_block.rs`), and whether the next pass begun is
+    /// one.
+    guard: bool,
+    guard_due: bool,
     /// PT, BDPT: whether the open pass visits the pixels in the strided
     /// order of `render_while` (else row-major; see `Renderer::stride`).
     strided: bool,
@@ -1384,12 +1391,16 @@ impl Renderer {
                     // remaining pixels), so that frames ending inside
                     // passes cover the image in turn. Another size, or a
                     // fitted one (sized for the frame to complete it,
-                    // each worker starting its W-th of the order), starts
-                    // afresh.
+                    // each worker starting its W-th of the order, after
+                    // the frame's guard pass), starts afresh.
                     worker.passes = 0;
-                    if self.pixel_block != PixelBlock::Fixed(worker.block) {
+                    if worker.guard || self.pixel_block != PixelBlock::Fixed(worker.block) {
                         worker.cursor = 0;
+                        worker.pass_end = 0;
+                        worker.guard = false;
                     }
+                    worker.guard_due =
+                        self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
                 }
             }
             worker.generation = Some(self.generation);
@@ -1426,7 +1437,9 @@ impl Renderer {
     /// and visits its pixels (blocks) row-major, or with `strided` in the
     /// order of [`Renderer::stride`], worker `i` of `W` starting at
     /// position `⌊i · n / W⌋` of the n: the workers' partial passes then
-    /// cover the image together instead of the same part of it.
+    /// cover the image together instead of the same part of it. A reset
+    /// frame with the fitted size begins with the worker's share of the
+    /// frame's guard pass.
     fn run_samples<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -1435,17 +1448,21 @@ impl Renderer {
         strided: bool,
     ) -> u64 {
         let c = &self.config;
-        if worker.cursor == 0 {
-            worker.strided = strided;
-            worker.block = self.block_for(worker);
+        let workers = c.workers as u64;
+        if worker.pass_end == 0 {
+            self.begin_pass(worker, strided);
         }
         let grid = BlockGrid::new(self.camera.width(), self.camera.height(), worker.block);
         let n = grid.count();
-        let order = if worker.strided {
+        let order = if worker.strided || worker.guard {
             PassOrder {
                 count: n,
                 stride: mlt::coprime_stride(n as usize) as u64,
-                offset: worker.index as u64 * n / c.workers as u64,
+                offset: if worker.guard {
+                    0
+                } else {
+                    worker.index as u64 * n / workers
+                },
             }
         } else {
             PassOrder {
@@ -1454,8 +1471,12 @@ impl Renderer {
                 offset: 0,
             }
         };
-        let end = worker.cursor.saturating_add(count).min(n);
-        let pass = worker.index as u64 + c.workers as u64 * worker.passes;
+        let end = worker.cursor.saturating_add(count).min(worker.pass_end);
+        let (pass, weight) = if worker.guard {
+            (pixel_block::GUARD_PASS, pixel_block::GUARD_WEIGHT)
+        } else {
+            (worker.index as u64 + workers * worker.passes, 1.0)
+        };
         let pt = c.estimator.kind() == EstimatorKind::Path;
         let seed = self.frame_seed();
         if worker.block == 1 {
@@ -1475,7 +1496,7 @@ impl Renderer {
                 &self.settings,
                 pt,
                 &mut worker.bdpt,
-                (seed, pass),
+                (seed, pass, weight),
                 (worker.cursor..end, order, grid),
                 &mut worker.film,
                 &mut worker.weights,
@@ -1484,16 +1505,46 @@ impl Renderer {
         let done = end - worker.cursor;
         worker.cursor = end;
         worker.frame_samples += done;
-        if end == n {
-            // The film counts full-resolution passes only: its own
-            // `Film::resolve` is the image only of those.
-            if worker.block == 1 {
-                worker.film.end_pass();
+        if end == worker.pass_end {
+            if !worker.guard {
+                // The film counts full-resolution passes only: its own
+                // `Film::resolve` is the image only of those.
+                if worker.block == 1 {
+                    worker.film.end_pass();
+                }
+                worker.passes += 1;
             }
-            worker.passes += 1;
+            worker.guard = false;
             worker.cursor = 0;
+            worker.pass_end = 0;
         }
         done
+    }
+
+    /// Opens `worker`'s next pass: its block size, and where it starts
+    /// and ends — the whole pass, or the worker's W-th of a guard pass at
+    /// [`pixel_block::GUARD_FACTOR`] times the fitted size (skipped when
+    /// that is no coarser).
+    fn begin_pass(&self, worker: &mut RenderWorker, strided: bool) {
+        let (w, h) = (self.camera.width(), self.camera.height());
+        worker.strided = strided;
+        worker.block = self.block_for(worker);
+        worker.guard = false;
+        if core::mem::take(&mut worker.guard_due) {
+            let g = (worker.block * pixel_block::GUARD_FACTOR).min(MAX_PIXEL_BLOCK);
+            let n = BlockGrid::new(w, h, g).count();
+            let (i, workers) = (worker.index as u64, self.config.workers as u64);
+            let share = (i * n / workers)..((i + 1) * n / workers);
+            if g > worker.block && !share.is_empty() {
+                worker.block = g;
+                worker.guard = true;
+                worker.cursor = share.start;
+                worker.pass_end = share.end;
+                return;
+            }
+        }
+        worker.cursor = 0;
+        worker.pass_end = BlockGrid::new(w, h, worker.block).count();
     }
 
     /// The block size of the pass `worker` begins (`renderer/pixel_block.rs`):
@@ -1919,6 +1970,9 @@ impl RenderWorker {
             }),
             frame_b: 0.0,
             cursor: 0,
+            pass_end: 0,
+            guard: false,
+            guard_due: false,
             strided: false,
             block: 1,
             frame_samples: 0,

@@ -30,6 +30,17 @@
 //! one sample per block unless it renders less than the margin of its
 //! last frame; the first frame, with nothing measured, starts at
 //! [`MAX_PIXEL_BLOCK`] and refines pass by pass.
+//!
+//! A frame slower than that (a hitch, the scheduler) would leave blocks
+//! black, so a reset frame with the fitted size begins with a *guard
+//! pass*: one pass at [`GUARD_FACTOR`] times the fitted size, shared by
+//! the workers (worker i renders the i-th W-th of its order, so together
+//! they cover the image at about 1/16 of the forecast's samples), whose
+//! samples weigh [`GUARD_WEIGHT`]: a pixel the frame's passes reach is
+//! theirs (the guard's share of its weight below 10⁻³), one they do not
+//! reach shows the guard's coarser block. Either way the frame is a
+//! mixture of block-filtered images of its own camera, whose mean is the
+//! image's.
 
 use core::ops::Range;
 
@@ -49,6 +60,19 @@ pub const MAX_PIXEL_BLOCK: u32 = 16;
 /// The share of its last frame's samples [`PixelBlock::Fit`] plans a frame
 /// for: a frame up to 30 % slower than the last still completes its pass.
 pub const FIT_MARGIN: f64 = 0.7;
+
+/// A reset frame's guard pass is at this many times the fitted block size
+/// (at most [`MAX_PIXEL_BLOCK`]).
+pub const GUARD_FACTOR: u32 = 4;
+
+/// The weight of a guard pass's sample against a pass's (1): small enough
+/// that a pixel the frame's passes reach is theirs (to 10⁻³), and the
+/// whole weight of a pixel they do not.
+pub const GUARD_WEIGHT: f32 = 1e-3;
+
+/// The pass number of the guard passes' random streams, which no
+/// worker's passes reach.
+pub(crate) const GUARD_PASS: u64 = u64::MAX;
 
 /// How many pixels one PT or BDPT sample fills
 /// ([`super::Renderer::set_pixel_block`]; see the module docs).
@@ -171,9 +195,10 @@ impl PassOrder {
 }
 
 /// Renders the samples `range` of pass `pass` at block size `grid` (k > 1)
-/// into `film`, counting each in `weights` spread over its block, by path
-/// tracing (`pt`) or BDPT, BDPT's splats spread over the block they land
-/// in. The random stream of a sample depends only on `(seed, pass, k,
+/// into `film`, each of weight `weight` (1, or a guard pass's) spread
+/// over its block in `weights` and in the film, by path tracing (`pt`) or
+/// BDPT, BDPT's splats spread over the block they land in with the same
+/// weight. The random stream of a sample depends only on `(seed, pass, k,
 /// block)`, apart from the full-resolution passes' streams.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn render_block_samples<I: Intersector>(
@@ -181,7 +206,7 @@ pub(crate) fn render_block_samples<I: Intersector>(
     settings: &Settings,
     pt: bool,
     paths: &mut bdpt::PathStorage,
-    (seed, pass): (u64, u64),
+    (seed, pass, weight): (u64, u64, f32),
     (range, order, grid): (Range<u64>, PassOrder, BlockGrid),
     film: &mut Film,
     weights: &mut Weights,
@@ -211,7 +236,7 @@ pub(crate) fn render_block_samples<I: Intersector>(
                 |_, _, l, splat| match splat {
                     Some(r) => {
                         if let Some((sx, sy)) = grid.block_at(r) {
-                            film.add_splat_area(sx, sy, l);
+                            film.add_splat_area(sx, sy, l * weight);
                         }
                     }
                     None => l_pixel += l,
@@ -221,9 +246,9 @@ pub(crate) fn render_block_samples<I: Intersector>(
         };
         // One weight for the film and the weights, so that a pixel is the
         // weighted mean of its samples (its own f32 rounding in both).
-        let w = 1.0 / (xs.len() * ys.len()) as f32;
+        let w = weight / (xs.len() * ys.len()) as f32;
         film.add_sample_area(xs.clone(), ys.clone(), l, w as f64);
-        weights.add_area(xs, ys, grid.width, w);
+        weights.add_area(xs, ys, grid.width, w, weight);
         tracer.stats.samples += 1;
     }
 }
