@@ -961,14 +961,14 @@ enum cmlt_status cmlt_renderer_set_accumulation(struct cmlt_renderer *renderer,
 
 // How many pixels each PT or BDPT sample fills, for the passes begun from
 // now on (dynamic resolution): `size` 1 (the default) renders at full
-// resolution; 2 ..= 16 one sample per `size × size` block of pixels,
+// resolution; 2 ..= 64 one sample per `size × size` block of pixels,
 // filling the block (P / size² samples a pass; the image box-filtered
 // over the blocks); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
 // workers' measured samples fill, chosen at every pass start, so that a
 // frame within a time budget below one full-resolution pass still shows
 // a full image. May change every frame (a pass open at another size
 // finishes first unless the accumulation is reset). MLT and CMLT ignore
-// it. A size above 16 is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
+// it. A size above 64 is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
 // then. `CMLT_ERROR_BUSY` while a worker renders.
 //
 // # Safety

@@ -153,7 +153,7 @@ class Renderer {
         return detail::status(cmlt_renderer_set_accumulation(p_, static_cast<std::uint32_t>(mode), decay));
     }
     /// How many pixels each PT or BDPT sample fills from the next pass
-    /// on: 1 (full resolution, the default) ..= 16, or `pixel_block_fit`
+    /// on: 1 (full resolution, the default) ..= 64, or `pixel_block_fit`
     /// (dynamic resolution from the measured samples).
     [[nodiscard]] Status set_pixel_block(std::uint32_t size) {
         return detail::status(cmlt_renderer_set_pixel_block(p_, size));

@@ -61,7 +61,11 @@
 //! bootstrap samples or normalisation-pass pixels). The core never reads
 //! time. A PT or BDPT frame may end inside a pass: each pixel is then
 //! normalised by its own sample count (`renderer/accumulation.rs`), and
-//! the next call goes on with the open pass.
+//! the next call goes on with the open pass. Below one pass a frame would
+//! show only the pixels it reached; [`Renderer::set_pixel_block`] renders
+//! passes at a coarser pixel grid instead, each sample filling its block,
+//! with the block size fixed by the host or fitted to the workers'
+//! measured samples ([`PixelBlock`], `renderer/pixel_block.rs`).
 //!
 //! At the lowest level a budget is a number of *units*: camera samples for PT and BDPT (rounded
 //! up to whole passes, one sample per pixel), level-1 mutations for MLT and
@@ -1734,12 +1738,15 @@ impl Renderer {
         self.camera.pixel_count()
     }
 
-    /// The step of the order in which a pass begun by
-    /// [`Renderer::render_while`] visits the pixels: its k-th sample is in
-    /// pixel `k · stride mod P` (row-major index). The stride is the odd
-    /// number nearest P·(√5 − 1)/2 that is coprime with P (the order is a
-    /// permutation); golden-ratio steps spread any prefix of the order
-    /// evenly over the image (Weyl's sequence).
+    /// The step of the order in which a full-resolution pass begun by
+    /// [`Renderer::render_while`] visits the pixels: worker `i` of `W`'s
+    /// k-th sample is in pixel `((k + ⌊i·P/W⌋) mod P) · stride mod P`
+    /// (row-major index; a pass at a coarser grid orders its blocks the
+    /// same way with their own stride). The stride is the odd number
+    /// nearest P·(√5 − 1)/2 that is coprime with P (the order is a
+    /// permutation); golden-ratio steps spread any run of the order
+    /// evenly over the image (Weyl's sequence), and the workers' runs
+    /// start a W-th of the order apart.
     pub fn stride(&self) -> u64 {
         mlt::coprime_stride(self.pixels() as usize) as u64
     }

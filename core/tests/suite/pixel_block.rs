@@ -122,10 +122,10 @@ fn glowing_box() -> Scene {
 /// Two workers, reset frames of four pieces each (at most 128 samples for
 /// 1 536 pixels), but one of one piece: with the fitted block size every
 /// frame shows every pixel — the first refining from the coarsest grid,
-/// the others at the grid their forecast fills (5 × 5: 70 blocks), the
-/// workers starting half a pass apart, and the frame of one piece (32
-/// samples for those 70 blocks) through its guard pass; at full
-/// resolution most pixels are black.
+/// the others at the grid their forecast fills, the workers starting
+/// half a pass apart, and the frame of one piece (a quarter of its
+/// forecast) through its guard pass; at full resolution most pixels are
+/// black.
 #[test]
 fn a_fitted_frame_below_one_pass_fills_the_image() {
     let scene = glowing_box();
@@ -214,7 +214,7 @@ fn a_decayed_pixel_not_reached_keeps_its_value() {
     );
 }
 
-/// A fixed block size outside 1 ..= 16 is refused and changes nothing.
+/// A fixed block size outside 1 ..= 64 is refused and changes nothing.
 #[test]
 fn a_pixel_block_out_of_range_is_refused() {
     let scene = room();
