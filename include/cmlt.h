@@ -963,7 +963,7 @@ enum cmlt_status cmlt_renderer_set_accumulation(struct cmlt_renderer *renderer,
 // now on (dynamic resolution): `size` 1 (the default) renders at full
 // resolution; 2 ..= 64 one sample per `size × size` block of pixels,
 // filling the block (P / size² samples a pass; the image box-filtered
-// over the blocks); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
+// over the blocks, BDPT's light-tracing splats at full resolution); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
 // workers' measured samples fill, chosen at every pass start, so that a
 // frame within a time budget below one full-resolution pass still shows
 // a full image. May change every frame (a pass open at another size
@@ -973,7 +973,8 @@ enum cmlt_status cmlt_renderer_set_accumulation(struct cmlt_renderer *renderer,
 //
 // # Safety
 // `renderer` is NULL or valid.
-enum cmlt_status cmlt_renderer_set_pixel_block(struct cmlt_renderer *renderer, uint32_t size);
+enum cmlt_status cmlt_renderer_set_pixel_block(struct cmlt_renderer *renderer,
+                                               uint32_t size);
 
 // Readies the renderer for this frame's `cmlt_renderer_render` calls on
 // the calling thread: exactly `cmlt_renderer_prepare_begin`, then

@@ -766,7 +766,7 @@ pub unsafe extern "C" fn cmlt_renderer_set_accumulation(
 /// now on (dynamic resolution): `size` 1 (the default) renders at full
 /// resolution; 2 ..= 64 one sample per `size × size` block of pixels,
 /// filling the block (P / size² samples a pass; the image box-filtered
-/// over the blocks); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
+/// over the blocks, BDPT's light-tracing splats at full resolution); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
 /// workers' measured samples fill, chosen at every pass start, so that a
 /// frame within a time budget below one full-resolution pass still shows
 /// a full image. May change every frame (a pass open at another size

@@ -221,20 +221,6 @@ impl Film {
         add_area(&mut self.sum, self.width, xs, ys, v);
     }
 
-    /// Splats a contribution spread evenly over the pixels `xs × ys`
-    /// (`l / m` to each of their m splat sums): the splat of a pass at a
-    /// coarser pixel grid, filtered by the same block as its camera
-    /// samples. A non-finite `l` is counted and dropped.
-    pub fn add_splat_area(&mut self, xs: Range<u32>, ys: Range<u32>, l: Rgb) {
-        if !l.is_finite() {
-            self.nonfinite += 1;
-            return;
-        }
-        let inv = 1.0 / (xs.len() * ys.len()) as f64;
-        let v = [l.r as f64 * inv, l.g as f64 * inv, l.b as f64 * inv];
-        add_area(&mut self.splat, self.width, xs, ys, v);
-    }
-
     /// Adds another film of the same size into this one.
     ///
     /// # Panics
@@ -340,14 +326,13 @@ mod tests {
     fn an_area_sample_spreads_its_value_over_its_pixels_and_nothing_else() {
         let mut f = Film::new(4, 3);
         f.add_sample_area(1..3, 1..3, Rgb::splat(8.0), 0.25);
-        f.add_splat_area(3..4, 0..3, Rgb::splat(3.0));
         f.add_sample_area(0..1, 0..1, Rgb::splat(f32::INFINITY), 1.0);
         for y in 0..3 {
             for x in 0..4 {
                 let (s, p) = f.pixel_parts(y * 4 + x);
                 let inside = (1..3).contains(&x) && (1..3).contains(&y);
                 assert_eq!(s[0], if inside { 2.0 } else { 0.0 }, "sample at ({x}, {y})");
-                assert_eq!(p[1], if x == 3 { 1.0 } else { 0.0 }, "splat at ({x}, {y})");
+                assert_eq!(p, [0.0; 3]);
             }
         }
         assert_eq!(f.nonfinite(), 1);

@@ -18,9 +18,10 @@
 //! estimate) and P the pixel count. After whole passes both denominators
 //! are the pass count, and the image is (samples + splats) / passes as
 //! before, bit for bit. A sample of a coarser pass (`pixel_block.rs`)
-//! counts 1 / m in each of the m pixels of its block (its value and its
-//! splats spread the same way), so n_w stays the sum of the per-pixel
-//! weights; a guard pass's samples count 10⁻³ each. Decay multiplies sums and weights by the same
+//! counts 1 / m in each of the m pixels of its block (its value spread
+//! the same way; its splats count in n_w, once), so n_w stays the sum of
+//! the per-pixel weights; a guard pass's samples (and their splats) count
+//! 10⁻³ each. Decay multiplies sums and weights by the same
 //! factor at every frame start: an exponentially weighted mean of the
 //! samples, each frame's weighted `factor^age`.
 //!
