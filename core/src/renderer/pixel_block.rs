@@ -9,10 +9,9 @@
 //! samples over the pixels): BDPT estimates B_k I_c + I_t1, its camera-side
 //! strategies block-filtered and light tracing not, with the same mean.
 //! Spreading each splat over its block too would make every BDPT sample
-//! cost about (1 + splats) · k² pixel writes: measured in the frame trial
-//! at 640 × 360 under load, that cut BDPT's samples per frame to a quarter
-//! (124 against 527 at full resolution), while the camera-side fill costs
-//! one write per pixel per pass, whatever k.
+//! cost (1 + splats) · k² pixel writes instead of k²: the camera-side
+//! fill alone is one write per pixel per pass, whatever k, and even that
+//! is a large share of a frame at 640 × 360 (`bench/README.md`, frames).
 //!
 //! Every sample carries a weight of 1 spread over its block (1 / m per
 //! pixel, `accumulation::Weights`), so a pixel's value is the
