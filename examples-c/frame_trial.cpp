@@ -11,7 +11,11 @@
 // Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES]]]]
 //   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120; each
 //   takes a suffix +keep or +decay (factor 0.8) for its accumulation
-//   across frames (reset otherwise).
+//   across frames (reset otherwise). PT and BDPT render at the block size
+//   fitted to the frame's samples (cmlt_renderer_set_pixel_block with
+//   CMLT_PIXEL_BLOCK_FIT: dynamic resolution, a full image every frame);
+//   a further suffix +full keeps them at full resolution (frames below one
+//   pass then show only the pixels they reached).
 // MLT and CMLT keep their chains across frames (one normalisation pass
 // per bootstrap, b tracked from the large steps of the last 32 frames);
 // after the first frame
@@ -184,7 +188,9 @@ double percentile(std::vector<double> v, double p) {
 int main(int argc, char **argv) {
     const std::string method = argc > 1 ? argv[1] : "pt";
     const std::string base = method.substr(0, method.find('+'));
-    const std::string accumulation = method.find('+') == std::string::npos ? "" : method.substr(method.find('+') + 1);
+    const auto has = [&method](const char *suffix) {
+        return method.find(std::string("+") + suffix) != std::string::npos;
+    };
     const std::uint32_t width = argc > 3 ? std::uint32_t(std::atoi(argv[2])) : 320;
     const std::uint32_t height = argc > 3 ? std::uint32_t(std::atoi(argv[3])) : 180;
     const double budget_ms = argc > 4 ? std::atof(argv[4]) : 30.0;
@@ -251,9 +257,9 @@ int main(int argc, char **argv) {
     cmlt_camera camera{{0.0f, 1.5f, -4.5f}, {0.0f, 1.2f, 3.0f}, {0.0f, 1.0f, 0.0f}, 70.0f, 0.0f, 1.0f};
     cmlt::Renderer renderer;
     check(cmlt::Renderer::create(scene, config, camera, renderer), "cmlt_renderer_new");
-    if (accumulation == "keep") check(renderer.set_accumulation(cmlt::Accumulation::Keep), "set_accumulation");
-    if (accumulation == "decay")
-        check(renderer.set_accumulation(cmlt::Accumulation::Decay, 0.8f), "set_accumulation");
+    if (has("keep")) check(renderer.set_accumulation(cmlt::Accumulation::Keep), "set_accumulation");
+    if (has("decay")) check(renderer.set_accumulation(cmlt::Accumulation::Decay, 0.8f), "set_accumulation");
+    if (!metropolis && !has("full")) check(renderer.set_pixel_block(cmlt::pixel_block_fit), "set_pixel_block");
     std::vector<float> image(std::size_t(width) * height * 3);
     // Rendering stops this long before the frame's end, for the resolve:
     // the last resolve's time and a millisecond of margin.
@@ -345,10 +351,12 @@ int main(int argc, char **argv) {
         }
         black.push_back(double(dark) / double(width * height));
         means.push_back(mean);
-        std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f update_ms %.2f render_ms %.2f resolve_ms %.2f "
+        cmlt_stats stats{};
+        check(renderer.stats(stats), "stats");
+        std::printf("frame %d ms %.2f setup_ms %.2f mean %.5f black %.4f samples %llu update_ms %.2f render_ms %.2f resolve_ms %.2f "
                     "setup_begin_ms %.2f setup_workers_ms %.2f setup_finish_ms %.2f cpu_ms %.2f cpu0_ms %.2f "
                     "cpu1_ms %.2f\n",
-                    f, ms, setup, mean, black.back(), std::chrono::duration<double, std::milli>(s0 - t0).count(),
+                    f, ms, setup, mean, black.back(), static_cast<unsigned long long>(stats.samples), std::chrono::duration<double, std::milli>(s0 - t0).count(),
                     render, reserve_ms - 1.0, std::chrono::duration<double, std::milli>(b1 - s0).count(), workers_ms,
                     finish_ms, cpu, worker_cpu[0], worker_cpu[1]);
     }

@@ -73,6 +73,10 @@
 // average).
 #define CMLT_ACCUMULATION_DECAY 2
 
+// `cmlt_renderer_set_pixel_block`: the block size chosen from the
+// workers' measured samples (dynamic resolution within the frame's time).
+#define CMLT_PIXEL_BLOCK_FIT 0
+
 // Linear RGB, 3 × `float` per pixel.
 #define CMLT_FORMAT_RGB32F 0
 
@@ -964,6 +968,23 @@ enum cmlt_status cmlt_renderer_set_camera(struct cmlt_renderer *renderer,
 enum cmlt_status cmlt_renderer_set_accumulation(struct cmlt_renderer *renderer,
                                                 uint32_t mode,
                                                 float decay);
+
+// How many pixels each PT or BDPT sample fills, for the passes begun from
+// now on (dynamic resolution): `size` 1 (the default) renders at full
+// resolution; 2 ..= 64 one sample per `size × size` block of pixels,
+// filling the block (P / size² samples a pass; the image box-filtered
+// over the blocks, BDPT's light-tracing splats at full resolution); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
+// workers' measured samples fill, chosen at every pass start, so that a
+// frame within a time budget below one full-resolution pass still shows
+// a full image. May change every frame (a pass open at another size
+// finishes first unless the accumulation is reset). MLT and CMLT ignore
+// it. A size above 64 is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
+// then. `CMLT_ERROR_BUSY` while a worker renders.
+//
+// # Safety
+// `renderer` is NULL or valid.
+enum cmlt_status cmlt_renderer_set_pixel_block(struct cmlt_renderer *renderer,
+                                               uint32_t size);
 
 // Readies the renderer for this frame's `cmlt_renderer_render` calls on
 // the calling thread: exactly `cmlt_renderer_prepare_begin`, then

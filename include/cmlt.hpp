@@ -51,6 +51,10 @@ enum class Accumulation : std::uint32_t {
     Decay = CMLT_ACCUMULATION_DECAY,
 };
 
+/// `Renderer::set_pixel_block`: the block size chosen from the workers'
+/// measured samples (`CMLT_PIXEL_BLOCK_FIT`).
+constexpr std::uint32_t pixel_block_fit = CMLT_PIXEL_BLOCK_FIT;
+
 /// A status's readable name.
 inline const char *name(Status s) { return cmlt_status_name(static_cast<std::uint32_t>(s)); }
 
@@ -147,6 +151,12 @@ class Renderer {
     /// the next frames (every estimator).
     [[nodiscard]] Status set_accumulation(Accumulation mode, float decay = 0.0f) {
         return detail::status(cmlt_renderer_set_accumulation(p_, static_cast<std::uint32_t>(mode), decay));
+    }
+    /// How many pixels each PT or BDPT sample fills from the next pass
+    /// on: 1 (full resolution, the default) ..= 64, or `pixel_block_fit`
+    /// (dynamic resolution from the measured samples).
+    [[nodiscard]] Status set_pixel_block(std::uint32_t size) {
+        return detail::status(cmlt_renderer_set_pixel_block(p_, size));
     }
     [[nodiscard]] Status prepare() { return detail::status(cmlt_renderer_prepare(p_)); }
     [[nodiscard]] Status prepare_begin(bool &pending) {

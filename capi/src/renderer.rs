@@ -24,8 +24,8 @@ use cmlt_core::mlt::{
     path_space_supports,
 };
 use cmlt_core::renderer::{
-    Accumulation, Estimator, EstimatorKind, RenderError, RenderStats, RenderWorker, Renderer,
-    RendererConfig, Temporal,
+    Accumulation, Estimator, EstimatorKind, PixelBlock, RenderError, RenderStats, RenderWorker,
+    Renderer, RendererConfig, Temporal,
 };
 
 use crate::alloc::{check_oom, measure_allocations, try_reserve};
@@ -73,6 +73,10 @@ pub const CMLT_ACCUMULATION_KEEP: u32 = 1;
 /// Earlier frames weigh `decay` per frame of age (an exponential moving
 /// average).
 pub const CMLT_ACCUMULATION_DECAY: u32 = 2;
+
+/// `cmlt_renderer_set_pixel_block`: the block size chosen from the
+/// workers' measured samples (dynamic resolution within the frame's time).
+pub const CMLT_PIXEL_BLOCK_FIT: u32 = 0;
 
 /// Linear RGB, 3 × `float` per pixel.
 pub const CMLT_FORMAT_RGB32F: u32 = 0;
@@ -796,6 +800,40 @@ pub unsafe extern "C" fn cmlt_renderer_set_accumulation(
             .try_write()
             .map_err(|e| Error::lock(e, "workers are rendering"))?;
         inner.set_accumulation(mode).map_err(render_error)
+    })
+}
+
+/// How many pixels each PT or BDPT sample fills, for the passes begun from
+/// now on (dynamic resolution): `size` 1 (the default) renders at full
+/// resolution; 2 ..= 64 one sample per `size × size` block of pixels,
+/// filling the block (P / size² samples a pass; the image box-filtered
+/// over the blocks, BDPT's light-tracing splats at full resolution); `CMLT_PIXEL_BLOCK_FIT` (0) the finest block size the
+/// workers' measured samples fill, chosen at every pass start, so that a
+/// frame within a time budget below one full-resolution pass still shows
+/// a full image. May change every frame (a pass open at another size
+/// finishes first unless the accumulation is reset). MLT and CMLT ignore
+/// it. A size above 64 is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
+/// then. `CMLT_ERROR_BUSY` while a worker renders.
+///
+/// # Safety
+/// `renderer` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_renderer_set_pixel_block(
+    renderer: *mut cmlt_renderer,
+    size: u32,
+) -> cmlt_status {
+    guard("cmlt_renderer_set_pixel_block", || {
+        // SAFETY: the caller's contract.
+        let r = unsafe { read(renderer, "renderer") }?;
+        let block = match size {
+            CMLT_PIXEL_BLOCK_FIT => PixelBlock::Fit,
+            k => PixelBlock::Fixed(k),
+        };
+        let mut inner = r
+            .renderer
+            .try_write()
+            .map_err(|e| Error::lock(e, "workers are rendering"))?;
+        inner.set_pixel_block(block).map_err(render_error)
     })
 }
 

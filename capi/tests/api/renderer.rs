@@ -751,3 +751,49 @@ fn set_up_in_pieces_and_accumulation_modes() {
         cmlt_scene_release(s);
     }
 }
+
+/// `cmlt_renderer_set_pixel_block` through C: a size above 64 and a NULL
+/// renderer are refused and change nothing; at size 4 one pass fills
+/// every 4 × 4 block of the 16 × 12 image with one value; the fitted size
+/// is taken.
+#[test]
+fn pixel_block_sizes_through_c() {
+    let s = scene(None);
+    let r = renderer(s, &config(CMLT_ESTIMATOR_PT, 1));
+    // SAFETY: valid handles, or NULL on purpose.
+    unsafe {
+        let f = "cmlt_renderer_set_pixel_block";
+        expect(
+            cmlt_renderer_set_pixel_block(null_mut(), 4),
+            CMLT_ERROR_NULL_POINTER,
+            f,
+        );
+        expect(
+            cmlt_renderer_set_pixel_block(r, 65),
+            CMLT_ERROR_INVALID_ARGUMENT,
+            f,
+        );
+        expect(cmlt_renderer_set_pixel_block(r, 4), CMLT_OK, f);
+        expect(cmlt_renderer_prepare(r), CMLT_OK, "prepare");
+        expect(cmlt_renderer_render(r, 0, 1, null_mut()), CMLT_OK, "render");
+        let img = image(r);
+        for by in 0..3 {
+            for bx in 0..4 {
+                let corner = &img[(by * 4 * 16 + bx * 4) * 3..][..3];
+                for y in by * 4..by * 4 + 4 {
+                    for x in bx * 4..bx * 4 + 4 {
+                        assert_eq!(&img[(y * 16 + x) * 3..][..3], corner, "({x}, {y})");
+                    }
+                }
+            }
+        }
+        assert!(img.iter().any(|&v| v > 0.0));
+        expect(
+            cmlt_renderer_set_pixel_block(r, CMLT_PIXEL_BLOCK_FIT),
+            CMLT_OK,
+            f,
+        );
+        cmlt_renderer_release(r);
+        cmlt_scene_release(s);
+    }
+}

@@ -21,6 +21,7 @@ pub use format::PixelFormat;
 
 use alloc::vec;
 use alloc::vec::Vec;
+use core::ops::Range;
 
 use glam::Vec2;
 
@@ -203,6 +204,23 @@ impl Film {
         s[2] += l.b as f64;
     }
 
+    /// Adds a camera-path sample times `weight` to each of the pixels `xs
+    /// × ys`: a sample of a pass at a coarser pixel grid, which fills its
+    /// block of m pixels with weight 1 / m each (`renderer::PixelBlock`).
+    /// A non-finite `l` is counted and dropped.
+    pub fn add_sample_area(&mut self, xs: Range<u32>, ys: Range<u32>, l: Rgb, weight: f64) {
+        if !l.is_finite() {
+            self.nonfinite += 1;
+            return;
+        }
+        let v = [
+            l.r as f64 * weight,
+            l.g as f64 * weight,
+            l.b as f64 * weight,
+        ];
+        add_area(&mut self.sum, self.width, xs, ys, v);
+    }
+
     /// Adds another film of the same size into this one.
     ///
     /// # Panics
@@ -257,6 +275,18 @@ impl Film {
     }
 }
 
+/// Adds `v` to the pixels `xs × ys` of a row-major layer `width` wide.
+fn add_area(layer: &mut [[f64; 3]], width: u32, xs: Range<u32>, ys: Range<u32>, v: [f64; 3]) {
+    for y in ys {
+        let row = y as usize * width as usize;
+        for p in &mut layer[row + xs.start as usize..row + xs.end as usize] {
+            for c in 0..3 {
+                p[c] += v[c];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -290,5 +320,21 @@ mod tests {
         assert_eq!(img[0], Rgb::splat(2.0));
         assert_eq!(img[1], Rgb::splat(2.0));
         assert_eq!(a.nonfinite(), 1);
+    }
+
+    #[test]
+    fn an_area_sample_spreads_its_value_over_its_pixels_and_nothing_else() {
+        let mut f = Film::new(4, 3);
+        f.add_sample_area(1..3, 1..3, Rgb::splat(8.0), 0.25);
+        f.add_sample_area(0..1, 0..1, Rgb::splat(f32::INFINITY), 1.0);
+        for y in 0..3 {
+            for x in 0..4 {
+                let (s, p) = f.pixel_parts(y * 4 + x);
+                let inside = (1..3).contains(&x) && (1..3).contains(&y);
+                assert_eq!(s[0], if inside { 2.0 } else { 0.0 }, "sample at ({x}, {y})");
+                assert_eq!(p, [0.0; 3]);
+            }
+        }
+        assert_eq!(f.nonfinite(), 1);
     }
 }

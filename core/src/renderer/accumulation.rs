@@ -17,7 +17,11 @@
 //! whose t = 1 splats land anywhere: each is one sample of a whole-image
 //! estimate) and P the pixel count. After whole passes both denominators
 //! are the pass count, and the image is (samples + splats) / passes as
-//! before, bit for bit. Decay multiplies sums and weights by the same
+//! before, bit for bit. A sample of a coarser pass (`pixel_block.rs`)
+//! counts 1 / m in each of the m pixels of its block (its value spread
+//! the same way; its splats count in n_w, once), so n_w stays the sum of
+//! the per-pixel weights; a guard pass's samples (and their splats) count
+//! 10⁻³ each. Decay multiplies sums and weights by the same
 //! factor at every frame start: an exponentially weighted mean of the
 //! samples, each frame's weighted `factor^age`.
 //!
@@ -47,6 +51,7 @@
 //! b refresh is joined within the frame.
 
 use alloc::vec::Vec;
+use core::ops::Range;
 
 use crate::film::Film;
 
@@ -105,6 +110,26 @@ impl Weights {
     pub(crate) fn add(&mut self, i: usize) {
         self.per_pixel[i] += 1.0;
         self.total += 1.0;
+    }
+
+    /// Counts one sample of weight `weight` spread over the pixels `xs ×
+    /// ys` of an image `width` wide, `w` (weight / m) to each of the m
+    /// pixels: a sample of a coarser pass (`renderer/pixel_block.rs`).
+    pub(crate) fn add_area(
+        &mut self,
+        xs: Range<u32>,
+        ys: Range<u32>,
+        width: u32,
+        w: f32,
+        weight: f32,
+    ) {
+        for y in ys {
+            let row = y as usize * width as usize;
+            for p in &mut self.per_pixel[row + xs.start as usize..row + xs.end as usize] {
+                *p += w;
+            }
+        }
+        self.total += weight as f64;
     }
 
     /// Pixel `i`'s weight (0 for a worker without weights).

@@ -61,7 +61,11 @@
 //! bootstrap samples or normalisation-pass pixels). The core never reads
 //! time. A PT or BDPT frame may end inside a pass: each pixel is then
 //! normalised by its own sample count (`renderer/accumulation.rs`), and
-//! the next call goes on with the open pass.
+//! the next call goes on with the open pass. Below one pass a frame would
+//! show only the pixels it reached; [`Renderer::set_pixel_block`] renders
+//! passes at a coarser pixel grid instead, each sample filling its block,
+//! with the block size fixed by the host or fitted to the workers'
+//! measured samples ([`PixelBlock`], `renderer/pixel_block.rs`).
 //!
 //! At the lowest level a budget is a number of *units*: camera samples for PT and BDPT (rounded
 //! up to whole passes, one sample per pixel), level-1 mutations for MLT and
@@ -113,6 +117,7 @@
 
 mod accumulation;
 mod estimator;
+mod pixel_block;
 mod resolve;
 mod tracked_b;
 
@@ -135,6 +140,8 @@ use crate::scene::{Analysis, Camera, Effect, Scene};
 pub use accumulation::Accumulation;
 use accumulation::{Kept, Weights};
 pub use estimator::{Estimator, EstimatorKind};
+use pixel_block::{BlockGrid, PassOrder};
+pub use pixel_block::{FIT_MARGIN, MAX_PIXEL_BLOCK, PixelBlock};
 pub(crate) use resolve::check_buffer;
 use tracked_b::TrackedB;
 
@@ -401,6 +408,8 @@ pub struct Renderer {
     joined_view: Option<(u64, Camera, Option<u64>)>,
     /// How workers carry their images into the next frame.
     accumulation: Accumulation,
+    /// How many pixels a PT or BDPT sample fills.
+    pixel_block: PixelBlock,
     /// Where `finish_prepare` joins the workers' shares.
     shares: Shares,
     /// The last frames' large steps, with [`Temporal::large_step_window`].
@@ -450,11 +459,24 @@ pub struct RenderWorker {
     /// film is folded into `kept` with when its next frame starts.
     frame_b: f64,
     /// PT, BDPT: the position of the next sample in the open pass's
-    /// order (0 between passes).
+    /// order, and where the pass (or the worker's share of a guard pass)
+    /// ends; both 0 between passes.
     cursor: u64,
+    pass_end: u64,
+    /// PT, BDPT: whether the open pass is a reset frame's guard pass
+    /// (`renderer/pixel_block.rs`), and whether the next pass begun is
+    /// one.
+    guard: bool,
+    guard_due: bool,
     /// PT, BDPT: whether the open pass visits the pixels in the strided
     /// order of `render_while` (else row-major; see `Renderer::stride`).
     strided: bool,
+    /// PT, BDPT: the block size of the open pass (`PixelBlock`).
+    block: u32,
+    /// PT, BDPT: the samples of this worker's current frame, and of its
+    /// last one (what `PixelBlock::Fit` forecasts a frame by).
+    frame_samples: u64,
+    last_frame_samples: u64,
     bdpt: bdpt::PathStorage,
     mlt: Option<WorkerChains>,
     /// This worker's share of a split bootstrap (MLT, CMLT).
@@ -552,6 +574,7 @@ impl Renderer {
             boot_one_view: false,
             joined_view: None,
             accumulation: Accumulation::Reset,
+            pixel_block: PixelBlock::default(),
             shares: Shares {
                 values: Vec::with_capacity(Bootstrap::sample_count(&config.settings, &mlt) as usize),
                 blocks: Vec::with_capacity(passes * NORMALISATION_BLOCKS as usize * depths),
@@ -807,6 +830,28 @@ impl Renderer {
     /// The accumulation mode ([`Renderer::set_accumulation`]).
     pub fn accumulation(&self) -> Accumulation {
         self.accumulation
+    }
+
+    /// How many pixels each PT or BDPT sample of the passes begun from now
+    /// on fills (`renderer/pixel_block.rs`): [`PixelBlock::Fixed`]`(1)`
+    /// by default (full resolution), a host's dynamic resolution
+    /// [`PixelBlock::Fixed`]`(k)`, or [`PixelBlock::Fit`] chosen from the
+    /// workers' measured samples so that a frame below one
+    /// full-resolution pass still shows a full image, of the image
+    /// box-filtered over k × k blocks. May change every frame: a pass
+    /// open at another size finishes first, unless the frame is reset
+    /// ([`Accumulation::Reset`]), which drops it. MLT and CMLT ignore it.
+    /// [`RenderError::Config`] for a fixed size outside 1 ..=
+    /// [`MAX_PIXEL_BLOCK`]; nothing changes on error.
+    pub fn set_pixel_block(&mut self, block: PixelBlock) -> Result<(), RenderError> {
+        block.validate().map_err(RenderError::Config)?;
+        self.pixel_block = block;
+        Ok(())
+    }
+
+    /// The pixel block ([`Renderer::set_pixel_block`]).
+    pub fn pixel_block(&self) -> PixelBlock {
+        self.pixel_block
     }
 
     /// The first of the three steps that make the renderer ready for
@@ -1341,12 +1386,25 @@ impl Renderer {
                 worker
                     .weights
                     .next_frame(&mut worker.film, self.accumulation);
+                worker.last_frame_samples = worker.frame_samples;
+                worker.frame_samples = 0;
                 if self.accumulation == Accumulation::Reset {
                     // A new accumulation: passes are numbered from 0 again.
-                    // An open pass goes on from where it stopped (with the
-                    // streams of pass 0 for its remaining pixels), so that
-                    // frames ending inside passes cover the image in turn.
+                    // An open pass of the frame's block size goes on from
+                    // where it stopped (with the streams of pass 0 for its
+                    // remaining pixels), so that frames ending inside
+                    // passes cover the image in turn. Another size, or a
+                    // fitted one (sized for the frame to complete it,
+                    // each worker starting its W-th of the order, after
+                    // the frame's guard pass), starts afresh.
                     worker.passes = 0;
+                    if worker.guard || self.pixel_block != PixelBlock::Fixed(worker.block) {
+                        worker.cursor = 0;
+                        worker.pass_end = 0;
+                        worker.guard = false;
+                    }
+                    worker.guard_due =
+                        self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
                 }
             }
             worker.generation = Some(self.generation);
@@ -1371,7 +1429,7 @@ impl Renderer {
         }
         let mut done = 0;
         for _ in 0..steps {
-            done += self.run_samples(worker, tracer, self.pixels() - worker.cursor, false);
+            done += self.run_samples(worker, tracer, u64::MAX, false);
         }
         done
     }
@@ -1379,8 +1437,13 @@ impl Renderer {
     /// PT, BDPT: renders the next `count` samples of the worker's passes
     /// (at most to the end of the open pass) — pass `i + W·passes`, from
     /// the cursor on in the pass's order — and returns how many. A pass
-    /// begun here is row-major, or with `strided` in the order of
-    /// [`Renderer::stride`].
+    /// begun here takes its block size from [`Renderer::set_pixel_block`]
+    /// and visits its pixels (blocks) row-major, or with `strided` in the
+    /// order of [`Renderer::stride`], worker `i` of `W` starting at
+    /// position `⌊i · n / W⌋` of the n: the workers' partial passes then
+    /// cover the image together instead of the same part of it. A reset
+    /// frame with the fitted size begins with the worker's share of the
+    /// frame's guard pass.
     fn run_samples<I: Intersector>(
         &self,
         worker: &mut RenderWorker,
@@ -1389,34 +1452,122 @@ impl Renderer {
         strided: bool,
     ) -> u64 {
         let c = &self.config;
-        let pixels = self.pixels();
-        if worker.cursor == 0 {
-            worker.strided = strided;
+        let workers = c.workers as u64;
+        if worker.pass_end == 0 {
+            self.begin_pass(worker, strided);
         }
-        let end = (worker.cursor + count).min(pixels);
-        let pass = worker.index as u64 + c.workers as u64 * worker.passes;
-        render_samples(
-            tracer,
-            &self.settings,
-            c.estimator.kind() == EstimatorKind::Path,
-            &mut worker.bdpt,
-            self.frame_seed(),
-            pass,
-            (
-                worker.cursor..end,
-                if worker.strided { self.stride() } else { 1 },
-            ),
-            &mut worker.film,
-            &mut worker.weights,
-        );
+        let grid = BlockGrid::new(self.camera.width(), self.camera.height(), worker.block);
+        let n = grid.count();
+        let order = if worker.strided || worker.guard {
+            PassOrder {
+                count: n,
+                stride: mlt::coprime_stride(n as usize) as u64,
+                offset: if worker.guard {
+                    0
+                } else {
+                    worker.index as u64 * n / workers
+                },
+            }
+        } else {
+            PassOrder {
+                count: n,
+                stride: 1,
+                offset: 0,
+            }
+        };
+        let end = worker.cursor.saturating_add(count).min(worker.pass_end);
+        let (pass, weight) = if worker.guard {
+            (pixel_block::GUARD_PASS, pixel_block::GUARD_WEIGHT)
+        } else {
+            (worker.index as u64 + workers * worker.passes, 1.0)
+        };
+        let pt = c.estimator.kind() == EstimatorKind::Path;
+        let seed = self.frame_seed();
+        if worker.block == 1 {
+            render_samples(
+                tracer,
+                &self.settings,
+                pt,
+                &mut worker.bdpt,
+                (seed, pass),
+                (worker.cursor..end, order),
+                &mut worker.film,
+                &mut worker.weights,
+            );
+        } else {
+            pixel_block::render_block_samples(
+                tracer,
+                &self.settings,
+                pt,
+                &mut worker.bdpt,
+                (seed, pass, weight),
+                (worker.cursor..end, order, grid),
+                &mut worker.film,
+                &mut worker.weights,
+            );
+        }
         let done = end - worker.cursor;
         worker.cursor = end;
-        if end == pixels {
-            worker.film.end_pass();
-            worker.passes += 1;
+        worker.frame_samples += done;
+        if end == worker.pass_end {
+            if !worker.guard {
+                // The film counts full-resolution passes only: its own
+                // `Film::resolve` is the image only of those.
+                if worker.block == 1 {
+                    worker.film.end_pass();
+                }
+                worker.passes += 1;
+            }
+            worker.guard = false;
             worker.cursor = 0;
+            worker.pass_end = 0;
         }
         done
+    }
+
+    /// Opens `worker`'s next pass: its block size, and where it starts
+    /// and ends — the whole pass, or the worker's W-th of a guard pass at
+    /// [`pixel_block::GUARD_FACTOR`] times the fitted size (skipped when
+    /// that is no coarser).
+    fn begin_pass(&self, worker: &mut RenderWorker, strided: bool) {
+        let (w, h) = (self.camera.width(), self.camera.height());
+        worker.strided = strided;
+        worker.block = self.block_for(worker);
+        worker.guard = false;
+        if core::mem::take(&mut worker.guard_due) {
+            let g = (worker.block * pixel_block::GUARD_FACTOR).min(MAX_PIXEL_BLOCK);
+            let n = BlockGrid::new(w, h, g).count();
+            let (i, workers) = (worker.index as u64, self.config.workers as u64);
+            let share = (i * n / workers)..((i + 1) * n / workers);
+            if g > worker.block && !share.is_empty() {
+                worker.block = g;
+                worker.guard = true;
+                worker.cursor = share.start;
+                worker.pass_end = share.end;
+                return;
+            }
+        }
+        worker.cursor = 0;
+        worker.pass_end = BlockGrid::new(w, h, worker.block).count();
+    }
+
+    /// The block size of the pass `worker` begins (`renderer/pixel_block.rs`):
+    /// the fixed one, or the finest whose grid the accumulation can fill —
+    /// at most W · (T + margin · r) blocks, T the worker's sample weight
+    /// now, r what its last frame rendered beyond this frame's samples so
+    /// far.
+    fn block_for(&self, worker: &RenderWorker) -> u32 {
+        match self.pixel_block {
+            PixelBlock::Fixed(k) => k,
+            PixelBlock::Fit => {
+                let left = worker
+                    .last_frame_samples
+                    .saturating_sub(worker.frame_samples);
+                let capacity = self.config.workers as f64
+                    * (worker.weights.total() + FIT_MARGIN * left as f64);
+                pixel_block::fit(self.camera.width(), self.camera.height(), capacity)
+            }
+        }
     }
 
     /// [`Renderer::render`] in pieces, asking `keep_going(units_so_far)`
@@ -1587,12 +1738,15 @@ impl Renderer {
         self.camera.pixel_count()
     }
 
-    /// The step of the order in which a pass begun by
-    /// [`Renderer::render_while`] visits the pixels: its k-th sample is in
-    /// pixel `k · stride mod P` (row-major index). The stride is the odd
-    /// number nearest P·(√5 − 1)/2 that is coprime with P (the order is a
-    /// permutation); golden-ratio steps spread any prefix of the order
-    /// evenly over the image (Weyl's sequence).
+    /// The step of the order in which a full-resolution pass begun by
+    /// [`Renderer::render_while`] visits the pixels: worker `i` of `W`'s
+    /// k-th sample is in pixel `((k + ⌊i·P/W⌋) mod P) · stride mod P`
+    /// (row-major index; a pass at a coarser grid orders its blocks the
+    /// same way with their own stride). The stride is the odd number
+    /// nearest P·(√5 − 1)/2 that is coprime with P (the order is a
+    /// permutation); golden-ratio steps spread any run of the order
+    /// evenly over the image (Weyl's sequence), and the workers' runs
+    /// start a W-th of the order apart.
     pub fn stride(&self) -> u64 {
         mlt::coprime_stride(self.pixels() as usize) as u64
     }
@@ -1659,9 +1813,10 @@ impl Renderer {
 /// Renders the samples `range` of pass `pass` into `film`, counting them
 /// in `weights`, by path tracing (`pt`) or BDPT: the step of PT and BDPT
 /// (the Metropolis estimators' normalisation passes are
-/// `mlt::bootstrap`'s). Sample k is in pixel `k · stride mod P` (stride
-/// 1: row-major). Consecutive ranges render exactly what the whole pass
-/// renders.
+/// `mlt::bootstrap`'s), at full resolution (coarser passes:
+/// `pixel_block::render_block_samples`). Sample k is in pixel
+/// `order.at(k)` (row-major for stride 1 and offset 0). Consecutive
+/// ranges render exactly what the whole pass renders.
 ///
 /// The random stream of each sample depends only on `(seed, pass, pixel)`,
 /// so the same passes give the same samples whichever worker renders them.
@@ -1671,16 +1826,14 @@ fn render_samples<I: Intersector>(
     settings: &Settings,
     pt: bool,
     paths: &mut bdpt::PathStorage,
-    seed: u64,
-    pass: u64,
-    (range, stride): (core::ops::Range<u64>, u64),
+    (seed, pass): (u64, u64),
+    (range, order): (core::ops::Range<u64>, PassOrder),
     film: &mut Film,
     weights: &mut Weights,
 ) {
     let w = tracer.camera.width() as u64;
-    let p = tracer.camera.pixel_count();
     for k in range {
-        let i = if stride == 1 { k } else { k * stride % p };
+        let i = order.at(k);
         let (x, y) = ((i % w) as u32, (i / w) as u32);
         let mut rng = SampleStream::new(seed, pass, i);
         let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
@@ -1824,7 +1977,13 @@ impl RenderWorker {
             }),
             frame_b: 0.0,
             cursor: 0,
+            pass_end: 0,
+            guard: false,
+            guard_due: false,
             strided: false,
+            block: 1,
+            frame_samples: 0,
+            last_frame_samples: 0,
             bdpt: bdpt::PathStorage::with_capacity(depth),
             mlt: mlt.map(|m| WorkerChains::with_capacity(&c.settings, m, level2, camera)),
             boot: mlt.map(|m| {

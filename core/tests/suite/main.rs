@@ -19,6 +19,9 @@
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
 //! - [`outputs`]: the resolve by rows in every pixel format and the
 //!   auxiliary outputs (depth, normal, albedo, motion) on analytic scenes;
+//! - [`pixel_block`]: PT and BDPT passes at a coarser pixel grid
+//!   (dynamic resolution): filled blocks, the block-filtered image, full
+//!   frames below one pass;
 //! - [`renderer`]: the host's frame loop, including that it allocates
 //!   nothing per frame;
 //! - [`rough_diffuse`]: an Oren–Nayar plane under a sun, analytic;
@@ -43,6 +46,7 @@ mod lights;
 mod miri;
 mod mlt;
 mod outputs;
+mod pixel_block;
 mod renderer;
 mod rough_diffuse;
 mod shapes;

@@ -15,7 +15,7 @@ use cmlt::integrator::Settings;
 use cmlt::math::{Mat4, Rgb, Vec3};
 use cmlt::mlt::{Bootstrap, CmltSettings, Level2Settings, MltSettings};
 use cmlt::renderer::{
-    Accumulation, Estimator, EstimatorKind, PIECE, RenderError, RenderWorker, Renderer,
+    Accumulation, Estimator, EstimatorKind, PIECE, PixelBlock, RenderError, RenderWorker, Renderer,
     RendererConfig, Temporal,
 };
 use cmlt::scene::{
@@ -72,7 +72,7 @@ pub(crate) fn allocations<R>(f: impl FnOnce() -> R) -> (R, u64) {
 /// A closed diffuse room lit by a small ceiling quad, with a mirror sphere
 /// (caustics: level 2's caustic perturbation applies) seen by a 16×12
 /// pinhole camera.
-fn room() -> Scene {
+pub(crate) fn room() -> Scene {
     let mut b = SceneBuilder::new();
     let wall = b.add_material(Material::diffuse(Rgb::new(0.6, 0.5, 0.4)));
     let mirror = b.add_material(Material {
@@ -381,6 +381,11 @@ fn frames_allocate_nothing_after_setup() {
                     Accumulation::Decay(0.5),
                 ][frame];
                 r.set_accumulation(mode).unwrap();
+                // Full resolution, a host's block size, the fitted one.
+                r.set_pixel_block(
+                    [PixelBlock::Fixed(1), PixelBlock::Fixed(3), PixelBlock::Fit][frame],
+                )
+                .unwrap();
                 r.set_camera(camera(0.1 * frame as f32)).unwrap();
                 if r.begin_prepare(&scene) {
                     let mut asked = 0;
