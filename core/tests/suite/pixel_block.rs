@@ -143,7 +143,7 @@ fn a_fitted_frame_below_one_pass_fills_the_image() {
             common::prepare(&mut r, &mut ws, &scene, &bvh);
             for w in &mut ws {
                 let mut pieces = 1;
-                r.render_while(w, &scene, &bvh, 1 << 40, |_| {
+                r.render_while(w, &scene, &bvh, 1 << 40, &mut |_| {
                     pieces += 1;
                     pieces <= frame_pieces
                 })
@@ -188,7 +188,8 @@ fn a_decayed_pixel_not_reached_keeps_its_value() {
         if first {
             r.render_steps(w, &scene, &bvh, 1).unwrap();
         } else {
-            r.render_while(w, &scene, &bvh, 1 << 40, |_| false).unwrap();
+            r.render_while(w, &scene, &bvh, 1 << 40, &mut |_| false)
+                .unwrap();
         }
         let mut img = vec![Rgb::ZERO; 16 * 12];
         r.resolve(&[&*w], |i, c| img[i] = c).unwrap();
