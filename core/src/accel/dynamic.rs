@@ -14,7 +14,7 @@
 
 use core::any::Any;
 
-use super::Intersector;
+use super::{Intersector, intersect_lanes, occluded_lanes};
 use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 
 /// The object-safe face of [`Intersector`], implemented for every
@@ -127,9 +127,7 @@ impl Intersector for dyn DynIntersector + '_ {
         if let (Some(r), Some(h)) = (r.downcast_ref(), h.downcast_mut()) {
             return self.dyn_intersect_16(r, active, h);
         }
-        for i in active.iter() {
-            hits.set(i, self.dyn_intersect(&rays.get(i)));
-        }
+        intersect_lanes(self, rays, active, hits)
     }
 
     #[inline]
@@ -147,13 +145,7 @@ impl Intersector for dyn DynIntersector + '_ {
         if let Some(r) = r.downcast_ref() {
             return self.dyn_occluded_16(r, active);
         }
-        let mut out = LaneMask::NONE;
-        for i in active.iter() {
-            if self.dyn_occluded(&rays.get(i)) {
-                out.set(i);
-            }
-        }
-        out
+        occluded_lanes(self, rays, active)
     }
 
     #[inline]

@@ -50,20 +50,12 @@ pub trait Intersector {
         active: LaneMask,
         hits: &mut HitPacket<N>,
     ) {
-        for i in active.iter() {
-            hits.set(i, self.intersect(&rays.get(i)));
-        }
+        intersect_lanes(self, rays, active, hits)
     }
 
     /// Occlusion for the active lanes of a packet; bit `i` set = occluded.
     fn occluded_packet<const N: usize>(&self, rays: &RayPacket<N>, active: LaneMask) -> LaneMask {
-        let mut out = LaneMask::NONE;
-        for i in active.iter() {
-            if self.occluded(&rays.get(i)) {
-                out.set(i);
-            }
-        }
-        out
+        occluded_lanes(self, rays, active)
     }
 
     /// Closest hits of a stream of independent rays: `hits[i]` for
@@ -85,6 +77,35 @@ pub trait Intersector {
             *o = self.occluded(r);
         }
     }
+}
+
+/// A packet's closest hits traced lane by lane with single rays: the
+/// packet methods' default, and the form a packet takes where no kernel
+/// is compiled for its width.
+pub(crate) fn intersect_lanes<I: Intersector + ?Sized, const N: usize>(
+    accel: &I,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+    hits: &mut HitPacket<N>,
+) {
+    for i in active.iter() {
+        hits.set(i, accel.intersect(&rays.get(i)));
+    }
+}
+
+/// A packet's occlusion traced lane by lane ([`intersect_lanes`]).
+pub(crate) fn occluded_lanes<I: Intersector + ?Sized, const N: usize>(
+    accel: &I,
+    rays: &RayPacket<N>,
+    active: LaneMask,
+) -> LaneMask {
+    let mut out = LaneMask::NONE;
+    for i in active.iter() {
+        if accel.occluded(&rays.get(i)) {
+            out.set(i);
+        }
+    }
+    out
 }
 
 impl<T: Intersector + ?Sized> Intersector for &T {

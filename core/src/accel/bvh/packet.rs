@@ -31,6 +31,7 @@ use super::kernel::{BoxTest, LaneTests, ScalarBox, TriLanesOut};
 use super::leaf::slot_id;
 use super::node::{BoxFrustum, BoxRay, FAR_SCALE, Node, WIDTH, max_keep, min_keep};
 use super::traverse::{self, Prepared, Stack, descend, descend_any, traverse_from};
+use crate::accel::{intersect_lanes, occluded_lanes};
 use crate::geometry::triangle::{WatertightLanes, lane_mask};
 use crate::geometry::{Hit, HitPacket, LaneMask, RayPacket};
 use core::any::Any;
@@ -1043,9 +1044,7 @@ macro_rules! widths_compiled_here {
                     return $intersect(view, r, active, h);
                 }
             )*
-            for i in active.iter() {
-                hits.set(i, traverse::intersect(view, &rays.get(i)));
-            }
+            intersect_lanes(view, rays, active, hits)
         }
 
         /// Occlusion of the active lanes with the view's kernel.
@@ -1061,13 +1060,7 @@ macro_rules! widths_compiled_here {
                     return $occluded(view, r, active);
                 }
             )*
-            let mut out = LaneMask::NONE;
-            for i in active.iter() {
-                if traverse::occluded(view, &rays.get(i)) {
-                    out.set(i);
-                }
-            }
-            out
+            occluded_lanes(view, rays, active)
         }
     };
 }
