@@ -109,7 +109,8 @@ pub fn rendered(
         .map_err(|e| e.to_string())?;
     cmlt_cli::render::prepare(&mut r, &mut workers, scene, accel)?;
     for w in &mut workers {
-        cmlt_cli::render::render_steps(&r, w, scene, accel, passes).map_err(|e| e.to_string())?;
+        r.render_steps(w, scene, accel, passes)
+            .map_err(|e| e.to_string())?;
     }
     Ok((r, workers))
 }

@@ -78,7 +78,8 @@ pub fn run(
         let t = Instant::now();
         if serial.begin_prepare(scene) {
             for w in &mut workers {
-                cmlt_cli::render::prepare_worker_while(&serial, w, scene, accel, &mut |_| true)
+                serial
+                    .prepare_worker_while(w, scene, accel, &mut |_| true)
                     .map_err(|e| e.to_string())?;
             }
             serial

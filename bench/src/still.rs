@@ -36,7 +36,6 @@ use cmlt::math::Rgb;
 use cmlt::renderer::{
     Accumulation, Budget, Estimator, RenderWorker, Renderer, RendererConfig, Temporal,
 };
-use cmlt_cli::frames::render_while;
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::render::{prepare, render, render_workers};
@@ -165,14 +164,14 @@ fn render_frame(
                     match shares {
                         Shares::Fixed => {
                             let steps = r.steps_for(w.index(), per_pixel);
-                            cmlt_cli::render::render_steps(r, w, scene, accel, steps)?;
+                            r.render_steps(w, scene, accel, steps)?;
                         }
                         Shares::Shared => {
                             // Asked before every piece after the first: each
                             // piece's units go into the frame's count, and
                             // the worker stops once the count is reached.
                             let mut counted = 0;
-                            let done = render_while(r, w, scene, accel, u64::MAX, &mut |done| {
+                            let done = r.render_while(w, scene, accel, u64::MAX, &mut |done| {
                                 let sum = rendered.fetch_add(done - counted, Ordering::Relaxed)
                                     + (done - counted);
                                 counted = done;
@@ -266,7 +265,7 @@ pub fn run(
         } else if r.begin_prepare(scene) {
             // No set-up time: the kept chains go on with the b carried.
             for w in workers.iter_mut() {
-                cmlt_cli::render::prepare_worker_while(&r, w, scene, accel, &mut |_| false)
+                r.prepare_worker_while(w, scene, accel, &mut |_| false)
                     .map_err(err)?;
             }
             r.finish_prepare(workers.iter()).map_err(err)?;

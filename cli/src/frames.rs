@@ -10,7 +10,7 @@ use std::time::Instant;
 use cmlt::accel::Intersector;
 use cmlt::accel::backend::Accel;
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::renderer::{Accumulation, Budget, RenderError, RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::{Accumulation, Budget, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
@@ -32,22 +32,6 @@ pub fn look_at_point<I: Intersector>(camera: &Camera, accel: &I) -> Vec3 {
 pub fn orbit_camera(start: &Camera, pivot: Vec3, degrees: f32, f: usize, frames: usize) -> Camera {
     let angle = (degrees.to_radians()) * f as f32 / frames.max(1) as f32;
     start.orbited(pivot, start.up(), angle)
-}
-
-/// [`Renderer::render_while`] over [`Accel`]: one worker's frame in
-/// pieces while `keep_going(units so far)` says yes, for hosts
-/// (benchmarks, tests) that bound a frame by their own clock or share its
-/// work between workers as they go. Not generic, like the rest of the
-/// CLI's drivers.
-pub fn render_while(
-    renderer: &Renderer,
-    worker: &mut RenderWorker,
-    scene: &Scene,
-    accel: &Accel,
-    budget: u64,
-    keep_going: &mut dyn FnMut(u64) -> bool,
-) -> Result<u64, RenderError> {
-    renderer.render_while(worker, scene, accel, budget, keep_going)
 }
 
 /// `out.exr` → `out-0007.exr` (same folder and extension).

@@ -197,32 +197,6 @@ pub fn prepare(
         .map_err(|e| e.to_string())
 }
 
-/// [`Renderer::prepare_worker_while`] over [`Accel`]: one worker's share
-/// of the bootstrap in pieces, for hosts (benchmarks, tests) that drive
-/// the workers themselves. Not generic, like the rest of this module.
-pub fn prepare_worker_while(
-    renderer: &Renderer,
-    worker: &mut RenderWorker,
-    scene: &Scene,
-    accel: &Accel,
-    keep_going: &mut dyn FnMut(u64) -> bool,
-) -> Result<bool, RenderError> {
-    renderer.prepare_worker_while(worker, scene, accel, keep_going)
-}
-
-/// [`Renderer::render_steps`] over [`Accel`]: `steps` passes (PT, BDPT)
-/// or rounds (MLT, CMLT) of one worker. Not generic, like the rest of
-/// this module.
-pub fn render_steps(
-    renderer: &Renderer,
-    worker: &mut RenderWorker,
-    scene: &Scene,
-    accel: &Accel,
-    steps: u64,
-) -> Result<u64, RenderError> {
-    renderer.render_steps(worker, scene, accel, steps)
-}
-
 /// Renders every worker's share of `budget` on its own scoped thread: the
 /// CLI's one render loop (single images and `--frames`). A per-pixel budget
 /// is each worker's [`Renderer::steps_for`]; a time budget runs until

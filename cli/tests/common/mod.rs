@@ -63,6 +63,29 @@ pub fn render_loaded(loaded: &LoadedScene, config: RendererConfig, per_pixel: u6
     .expect("render")
 }
 
+/// The pixel-wise average of equally sized renders. For independent
+/// renders of an unbiased estimator it is a render with their samples
+/// pooled: four at N samples per pixel stand for one at 4N.
+pub fn average(renders: &[Image]) -> Image {
+    let first = &renders[0];
+    let mut pixels = vec![cmlt::math::Rgb::ZERO; first.pixels.len()];
+    for img in renders {
+        assert_eq!((img.width, img.height), (first.width, first.height));
+        for (sum, p) in pixels.iter_mut().zip(&img.pixels) {
+            *sum += *p;
+        }
+    }
+    let n = renders.len() as f32;
+    for p in &mut pixels {
+        *p /= n;
+    }
+    Image {
+        width: first.width,
+        height: first.height,
+        pixels,
+    }
+}
+
 /// Renders a loaded scene with the default BVH on two threads.
 pub fn render_scene(
     loaded: &LoadedScene,

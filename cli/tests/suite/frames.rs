@@ -18,7 +18,6 @@ use cmlt_cli::frames::{look_at_point, orbit_camera};
 use cmlt_cli::image_io::Image;
 use cmlt_cli::metrics::rel_mse;
 use cmlt_cli::mitsuba::LoadedScene;
-use cmlt_cli::render::{prepare_worker_while, render_steps};
 use common::{level1, load_reduced};
 
 /// Renders the scene's view after `away` frames of a camera turned up to
@@ -84,13 +83,14 @@ fn frame(
 ) {
     if r.begin_prepare(scene) {
         for w in ws.iter_mut() {
-            prepare_worker_while(r, w, scene, accel, &mut |_| set_up).unwrap();
+            r.prepare_worker_while(w, scene, accel, &mut |_| set_up)
+                .unwrap();
         }
         r.finish_prepare(ws.iter()).unwrap();
     }
     for w in ws.iter_mut() {
         let n = steps(r, w.index());
-        render_steps(r, w, scene, accel, n).unwrap();
+        r.render_steps(w, scene, accel, n).unwrap();
     }
 }
 
