@@ -448,6 +448,10 @@ typedef struct cmlt_renderer_config {
   // image-plane σ in pixels (their angular σ is as many pixel angles);
   // > 0, finite.
   float perturbation_sigma;
+  // MLT with `CMLT_LEVEL1_PATH_SPACE`: the caustic and multi-chain
+  // perturbations' angular σ is `perturbation_sigma` pixel angles times
+  // this factor; > 0, finite (1 by default).
+  float perturbation_caustic_scale;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving
