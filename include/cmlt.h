@@ -445,8 +445,8 @@ typedef struct cmlt_renderer_config {
   // must be positive, all finite). 1 each by default.
   float path_mutations[5];
   // MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
-  // image-plane σ in pixels (their angular σ is as many pixel angles);
-  // > 0, finite.
+  // image-plane σ in pixels (their angular σ is as many pixel angles
+  // times `perturbation_caustic_scale`); > 0, finite.
   float perturbation_sigma;
   // MLT with `CMLT_LEVEL1_PATH_SPACE`: the caustic and multi-chain
   // perturbations' angular σ is `perturbation_sigma` pixel angles times

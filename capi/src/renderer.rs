@@ -205,8 +205,8 @@ pub struct cmlt_renderer_config {
     /// must be positive, all finite). 1 each by default.
     pub path_mutations: [f32; 5],
     /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
-    /// image-plane σ in pixels (their angular σ is as many pixel angles);
-    /// > 0, finite.
+    /// image-plane σ in pixels (their angular σ is as many pixel angles
+    /// times `perturbation_caustic_scale`); > 0, finite.
     pub perturbation_sigma: f32,
     /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the caustic and multi-chain
     /// perturbations' angular σ is `perturbation_sigma` pixel angles times

@@ -212,7 +212,8 @@ pub struct MltArgs {
     #[arg(long, default_value = "1,1,1,1,1", value_parser = parse_path_weights)]
     pub path_mutations: [f32; 5],
     /// With --level1 path: the perturbations' image-plane σ in pixels
-    /// (their angular σ is as many pixel angles).
+    /// (their angular σ is as many pixel angles times
+    /// --perturbation-caustic-scale).
     #[arg(long, default_value_t = PathMutations::default().sigma)]
     pub perturbation_sigma: f32,
     /// With --level1 path: the caustic and multi-chain perturbations'
