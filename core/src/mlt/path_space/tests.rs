@@ -351,11 +351,12 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
     );
 }
 
-/// The measurement behind the depth checks' bounds (about 4 minutes: run
-/// with `--ignored`): 512 chains of 100 000 mutations on the mirror
+/// A measurement of the depth shares' bias (about 2½ minutes of one core:
+/// run with `--ignored`): 512 chains of 100 000 mutations on the mirror
 /// furnace, with the bidirectional and lens subpath mutations alone and
-/// with all five, resolve each depth's share to 0.1–0.6 % (one standard
-/// error), within 4 of them of the furnace's.
+/// with all five, resolve each depth's share to 0.13–0.5 % (one standard
+/// error), within 4 of them of the furnace's (`docs/accuracy.md`, the
+/// path-space section, has the figures).
 #[test]
 #[ignore]
 fn mirror_furnace_depth_shares_long_run() {
