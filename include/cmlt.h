@@ -445,9 +445,13 @@ typedef struct cmlt_renderer_config {
   // must be positive, all finite). 1 each by default.
   float path_mutations[5];
   // MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
-  // image-plane σ in pixels (their angular σ is as many pixel angles);
-  // > 0, finite.
+  // image-plane σ in pixels (their angular σ is as many pixel angles
+  // times `perturbation_caustic_scale`); > 0, finite.
   float perturbation_sigma;
+  // MLT with `CMLT_LEVEL1_PATH_SPACE`: the caustic and multi-chain
+  // perturbations' angular σ is `perturbation_sigma` pixel angles times
+  // this factor; > 0, finite (1 by default).
+  float perturbation_caustic_scale;
 } cmlt_renderer_config;
 
 // A perspective camera looking from `position` at `target`, `up` giving

@@ -205,9 +205,13 @@ pub struct cmlt_renderer_config {
     /// must be positive, all finite). 1 each by default.
     pub path_mutations: [f32; 5],
     /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the level-1 perturbations'
-    /// image-plane σ in pixels (their angular σ is as many pixel angles);
-    /// > 0, finite.
+    /// image-plane σ in pixels (their angular σ is as many pixel angles
+    /// times `perturbation_caustic_scale`); > 0, finite.
     pub perturbation_sigma: f32,
+    /// MLT with `CMLT_LEVEL1_PATH_SPACE`: the caustic and multi-chain
+    /// perturbations' angular σ is `perturbation_sigma` pixel angles times
+    /// this factor; > 0, finite (1 by default).
+    pub perturbation_caustic_scale: f32,
 }
 
 /// Counters of the current accumulation (since the last camera change).
@@ -376,17 +380,9 @@ fn defaults(estimator: u32) -> cmlt_renderer_config {
         },
         pass_records: mlt.pass_records,
         large_step_window: c.temporal.large_step_window,
-        path_mutations: {
-            let p = &mlt.path_mutations;
-            [
-                p.bidirectional,
-                p.lens_subpath,
-                p.lens,
-                p.caustic,
-                p.multi_chain,
-            ]
-        },
+        path_mutations: mlt.path_mutations.weights(),
         perturbation_sigma: mlt.path_mutations.sigma,
+        perturbation_caustic_scale: mlt.path_mutations.caustic_scale,
     }
 }
 
@@ -446,6 +442,11 @@ fn unread_field(
             "perturbation_sigma",
             MLT,
             f(c.perturbation_sigma, d.perturbation_sigma),
+        ),
+        (
+            "perturbation_caustic_scale",
+            MLT,
+            f(c.perturbation_caustic_scale, d.perturbation_caustic_scale),
         ),
         ("keep_chains", MLT, c.keep_chains == d.keep_chains),
         ("b_window", MLT, c.b_window == d.b_window),
@@ -534,15 +535,11 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         large_step_mis: c.large_step_mis != 0,
         pass_records: c.pass_records,
         level1,
-        path_mutations: PathMutations {
-            bidirectional: c.path_mutations[0],
-            lens_subpath: c.path_mutations[1],
-            lens: c.path_mutations[2],
-            caustic: c.path_mutations[3],
-            multi_chain: c.path_mutations[4],
-            sigma: c.perturbation_sigma,
-            ..PathMutations::default()
-        },
+        path_mutations: PathMutations::new(
+            c.path_mutations,
+            c.perturbation_sigma,
+            c.perturbation_caustic_scale,
+        ),
     };
     if kind.is_metropolis() && mlt.n_bootstrap == 0 {
         return Err(Error::invalid(

@@ -212,9 +212,14 @@ pub struct MltArgs {
     #[arg(long, default_value = "1,1,1,1,1", value_parser = parse_path_weights)]
     pub path_mutations: [f32; 5],
     /// With --level1 path: the perturbations' image-plane σ in pixels
-    /// (their angular σ is as many pixel angles).
+    /// (their angular σ is as many pixel angles times
+    /// --perturbation-caustic-scale).
     #[arg(long, default_value_t = PathMutations::default().sigma)]
     pub perturbation_sigma: f32,
+    /// With --level1 path: the caustic and multi-chain perturbations'
+    /// angular σ as a multiple of --perturbation-sigma pixel angles.
+    #[arg(long, default_value_t = PathMutations::default().caustic_scale)]
+    pub perturbation_caustic_scale: f32,
 }
 
 /// `--path-mutations`: five comma-separated weights.
@@ -249,19 +254,15 @@ impl MltArgs {
             direct_allocation: self.direct_allocation,
             large_step_mis: self.large_step_mis,
             pass_records: self.pass_records,
-            path_mutations: PathMutations {
-                bidirectional: self.path_mutations[0],
-                lens_subpath: self.path_mutations[1],
-                lens: self.path_mutations[2],
-                caustic: self.path_mutations[3],
-                multi_chain: self.path_mutations[4],
-                sigma: self.perturbation_sigma,
-                ..PathMutations::default()
-            },
+            path_mutations: PathMutations::new(
+                self.path_mutations,
+                self.perturbation_sigma,
+                self.perturbation_caustic_scale,
+            ),
         };
         mlt.validate().map_err(|e| {
             format!(
-                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {}, --path-mutations {:?}, --perturbation-sigma {})",
+                "{e} (--large-step {}, --sigma {}, --chains {}, --b-min-samples {}, --direct-allocation {}, --pass-records {}, --path-mutations {:?}, --perturbation-sigma {}, --perturbation-caustic-scale {})",
                 self.large_step,
                 self.sigma,
                 self.chains,
@@ -269,7 +270,8 @@ impl MltArgs {
                 self.direct_allocation,
                 self.pass_records,
                 self.path_mutations,
-                self.perturbation_sigma
+                self.perturbation_sigma,
+                self.perturbation_caustic_scale
             )
         })?;
         Ok(mlt)
@@ -679,6 +681,38 @@ mod tests {
         assert_eq!(cli.args.frames.accumulation, Accumulation::Decay(0.5));
         // Only the frame loop carries anything from frame to frame.
         assert!(check(&["--accumulation", "keep"]).is_err());
+    }
+
+    #[test]
+    fn path_mutation_options_reach_the_settings_and_bad_ones_are_refused() {
+        let path = ["render", "--method", "mlt", "--level1", "path"];
+        let given = [
+            "--path-mutations",
+            "1,2,3,4,5",
+            "--perturbation-sigma",
+            "3",
+            "--perturbation-caustic-scale",
+            "0.5",
+        ];
+        let cli = Render::parse_from(path.iter().chain(&given));
+        let Ok(Estimator::Mlt(m)) = cli.args.estimator() else {
+            panic!("MLT settings expected");
+        };
+        let want = PathMutations::new([1.0, 2.0, 3.0, 4.0, 5.0], 3.0, 0.5);
+        assert_eq!(m.path_mutations, want);
+        assert_eq!(want.weights(), [1.0, 2.0, 3.0, 4.0, 5.0]);
+        for bad in [
+            "--perturbation-caustic-scale=0",
+            "--perturbation-caustic-scale=NaN",
+            "--perturbation-caustic-scale=inf",
+            "--perturbation-sigma=-1",
+            "--path-mutations=0,1,1,1,1",
+        ] {
+            let cli = Render::parse_from(path.iter().chain(&[bad]));
+            let err = cli.args.estimator().unwrap_err();
+            let option = bad.split('=').next().unwrap();
+            assert!(err.contains(option), "{bad}: {err}");
+        }
     }
 
     #[test]

@@ -126,6 +126,34 @@ fn renderer_inputs_and_call_order_are_checked() {
                 },
             ),
             (
+                "path space, bidirectional weight 0",
+                cmlt_renderer_config {
+                    path_mutations: [0.0, 1.0, 1.0, 1.0, 1.0],
+                    ..good
+                },
+            ),
+            (
+                "path space, perturbation σ -1",
+                cmlt_renderer_config {
+                    perturbation_sigma: -1.0,
+                    ..good
+                },
+            ),
+            (
+                "path space, NaN perturbation caustic scale",
+                cmlt_renderer_config {
+                    perturbation_caustic_scale: f32::NAN,
+                    ..good
+                },
+            ),
+            (
+                "path space, zero perturbation caustic scale",
+                cmlt_renderer_config {
+                    perturbation_caustic_scale: 0.0,
+                    ..good
+                },
+            ),
+            (
                 "splatting 2 (the biased eq. 36 has no constant)",
                 cmlt_renderer_config {
                     splatting: 2,
@@ -405,7 +433,7 @@ fn renderer_inputs_and_call_order_are_checked() {
 fn fields_the_estimator_does_not_read_are_refused() {
     let s = scene(None);
     type Tweak = fn(&mut cmlt_renderer_config);
-    let cases: [(u32, &str, Tweak); 10] = [
+    let cases: [(u32, &str, Tweak); 11] = [
         (CMLT_ESTIMATOR_MLT, "m", |c| c.m = 4),
         (CMLT_ESTIMATOR_MLT, "k", |c| c.k = 2),
         (CMLT_ESTIMATOR_MLT, "lens_sigma", |c| {
@@ -425,6 +453,9 @@ fn fields_the_estimator_does_not_read_are_refused() {
         }),
         (CMLT_ESTIMATOR_PT, "path_mutations", |c| {
             c.path_mutations[2] = 0.0
+        }),
+        (CMLT_ESTIMATOR_BDPT, "perturbation_caustic_scale", |c| {
+            c.perturbation_caustic_scale = 2.0
         }),
     ];
     for (estimator, field, tweak) in cases {

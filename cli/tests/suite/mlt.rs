@@ -538,9 +538,10 @@ fn metropolis_scene_settings() -> MltSettings {
 
 /// MLT converges to the reference of the caustic seen through
 /// water (tests/scenes/caustic-pool): the floor's light arrives on
-/// E S D S L paths, which no perturbation applies to (Veach's multi-chain
-/// perturbation is not built), so level 1 carries them and level 2 repeats
-/// them. The chains mix slowly here — large steps were accepted for 44 of
+/// E S D S L paths, which the primary-sample level 1 carries with its
+/// large and small steps alone (the multi-chain perturbation moves them in
+/// CMLT's level 2 and in the path-space level 1: the tests below). The
+/// chains mix slowly here — large steps were accepted for 44 of
 /// 88 679 proposals, and a few chains stuck on bright rim paths dominate
 /// the error (relMSE 0.286 at 128 mutations/pixel, 0.268 at 512 with the
 /// test's seeds, 0.079 at 512 with another) — so the test holds the

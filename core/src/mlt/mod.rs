@@ -204,6 +204,35 @@ impl Default for PathMutations {
 }
 
 impl PathMutations {
+    /// The settings of the five mutation weights in the order
+    /// bidirectional, lens subpath, lens, caustic, multi-chain (the order
+    /// of the CLI's `--path-mutations` and the C config's
+    /// `path_mutations`), the perturbations' σ in pixels and their caustic
+    /// scale; unchecked ([`PathMutations::validate`]).
+    pub fn new(weights: [f32; 5], sigma: f32, caustic_scale: f32) -> Self {
+        let [bidirectional, lens_subpath, lens, caustic, multi_chain] = weights;
+        PathMutations {
+            bidirectional,
+            lens_subpath,
+            lens,
+            caustic,
+            multi_chain,
+            sigma,
+            caustic_scale,
+        }
+    }
+
+    /// The five mutation weights in [`PathMutations::new`]'s order.
+    pub fn weights(&self) -> [f32; 5] {
+        [
+            self.bidirectional,
+            self.lens_subpath,
+            self.lens,
+            self.caustic,
+            self.multi_chain,
+        ]
+    }
+
     /// Checks the weights and offsets.
     pub fn validate(&self) -> Result<(), &'static str> {
         if !(self.bidirectional > 0.0 && self.bidirectional.is_finite()) {

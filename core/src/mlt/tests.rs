@@ -260,12 +260,17 @@ fn direct_allocation_moves_chains_off_a_small_bright_emitter() {
     }
 }
 
-/// CMLT over the path-space level 1 on the mirror-sphere furnace (radiance
-/// 2 everywhere; lens, caustic, multi-chain and classless paths), side
-/// chains of 4 lane steps on every class from depth 1: the image's mean
-/// green, its left and right halves' means, and the counters. With
-/// `broken_carry`, classless states' records leave out the level-2 share.
-fn path_space_cmlt_furnace(broken_carry: bool) -> ([f32; 3], super::MltStats) {
+/// The mirror-sphere furnace (radiance 2 everywhere; lens, caustic,
+/// multi-chain and classless paths) rendered by the path-space level 1,
+/// `per_pixel` mutations per pixel, with `level2` run from its states when
+/// given: the image's mean green, its left and right halves' means, and
+/// the counters. With `broken_carry`, classless states' records leave out
+/// the level-2 share.
+fn path_space_furnace(
+    level2: Option<super::Level2Settings>,
+    per_pixel: u64,
+    broken_carry: bool,
+) -> ([f32; 3], super::MltStats) {
     let scene = scenes::mirror_sphere_furnace();
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
@@ -275,20 +280,14 @@ fn path_space_cmlt_furnace(broken_carry: bool) -> ([f32; 3], super::MltStats) {
         level1: super::Level1::PathSpace,
         ..m
     };
-    let l2 = super::Level2Settings {
-        m: 4,
-        lens_sigma: 1.5,
-        side_chain_min_depth: 0,
-        ..super::Level2Settings::default()
-    };
     let boot = bootstrap(&scene, st, m, 5);
-    let mut chains = WorkerChains::with_capacity(&st, &m, Some(&l2), &scene.camera);
+    let mut chains = WorkerChains::with_capacity(&st, &m, level2.as_ref(), &scene.camera);
     chains.restart(&mut tracer, &st, &m, &boot, 5, 0, 1);
     if let Some((ps, ..)) = &mut chains.path_space {
         ps.broken_carry = broken_carry;
     }
     let mut film = Film::new(16, 12);
-    chains.run(&mut tracer, &st, &mut film, 96 * 16 * 12 / 64);
+    chains.run(&mut tracer, &st, &mut film, per_pixel * 16 * 12 / 64);
     let stats = *chains.stats();
     let img = film.resolve_scaled(image_scale(boot.b(), 16 * 12, stats.records));
     let (mut all, mut left, mut right) = (0.0, 0.0, 0.0);
@@ -301,6 +300,19 @@ fn path_space_cmlt_furnace(broken_carry: bool) -> ([f32; 3], super::MltStats) {
         }
     }
     ([all / 192.0, left / 96.0, right / 96.0], stats)
+}
+
+/// CMLT over the path-space level 1 on the mirror-sphere furnace
+/// ([`path_space_furnace`]), side chains of 4 lane steps on every class
+/// from depth 1.
+fn path_space_cmlt_furnace(broken_carry: bool) -> ([f32; 3], super::MltStats) {
+    let l2 = super::Level2Settings {
+        m: 4,
+        lens_sigma: 1.5,
+        side_chain_min_depth: 0,
+        ..super::Level2Settings::default()
+    };
+    path_space_furnace(Some(l2), 96, broken_carry)
 }
 
 /// Level 2 runs from path-space level-1 states as from primary-sample
@@ -340,32 +352,7 @@ fn path_space_cmlt_furnace_is_two() {
 /// perturbations moved chains.
 #[test]
 fn path_space_mlt_furnace_is_two() {
-    let scene = scenes::mirror_sphere_furnace();
-    let tris: Vec<_> = scene.triangles().collect();
-    let accel = Bvh::build(&tris);
-    let mut tracer = Tracer::new(&scene, &accel);
-    let (st, m) = furnace_settings();
-    let m = MltSettings {
-        level1: super::Level1::PathSpace,
-        ..m
-    };
-    let boot = bootstrap(&scene, st, m, 5);
-    let mut chains = WorkerChains::with_capacity(&st, &m, None, &scene.camera);
-    chains.restart(&mut tracer, &st, &m, &boot, 5, 0, 1);
-    let mut film = Film::new(16, 12);
-    chains.run(&mut tracer, &st, &mut film, 512 * 16 * 12 / 64);
-    let stats = *chains.stats();
-    let img = film.resolve_scaled(image_scale(boot.b(), 16 * 12, stats.records));
-    let (mut all, mut left, mut right) = (0.0, 0.0, 0.0);
-    for (i, p) in img.iter().enumerate() {
-        all += p.g;
-        if i % 16 < 8 {
-            left += p.g;
-        } else {
-            right += p.g;
-        }
-    }
-    let means = [all / 192.0, left / 96.0, right / 96.0];
+    let (means, stats) = path_space_furnace(None, 512, false);
     eprintln!("path-space MLT: {means:?}, {stats:?}");
     assert!(
         stats.perturbations_accepted.iter().all(|&n| n > 0),

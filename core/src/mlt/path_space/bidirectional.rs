@@ -442,7 +442,7 @@ impl Bidirectional {
 }
 
 /// The lens vertex at `p` (its normal the viewing direction).
-fn lens_vertex(p: glam::Vec3, forward: glam::Vec3) -> PathVertex {
+pub(super) fn lens_vertex(p: glam::Vec3, forward: glam::Vec3) -> PathVertex {
     PathVertex {
         sp: SurfacePoint {
             p,

@@ -31,4 +31,6 @@ pub(crate) mod worker;
 #[cfg(all(test, feature = "std"))]
 mod perturbation_tests;
 #[cfg(all(test, feature = "std"))]
+mod stationary_tests;
+#[cfg(all(test, feature = "std"))]
 mod tests;

@@ -136,7 +136,9 @@ impl Perturbations {
         if !(p_y > 0.0 && p_x > 0.0) {
             return Proposal::Failed;
         }
-        if self.build(tr, x, class, to, y).is_none() || y.path.len() != x.path.len() {
+        y.f = Rgb::ZERO;
+        if self.build(tr, &x.path, class, to, &mut y.path).is_none() || y.path.len() != x.path.len()
+        {
             return Proposal::Failed;
         }
         let (scene, camera) = (tr.scene, tr.camera);
@@ -157,27 +159,26 @@ impl Perturbations {
         }
     }
 
-    /// Traces ȳ's moving vertices from the coordinates `to` and joins them
-    /// to `x`'s fixed ones; `None` when a specular link fails.
+    /// Traces ȳ's moving vertices into `y` from the coordinates `to` and
+    /// joins them to the fixed ones of x̄ (`x`, whose class is `class`);
+    /// `None` when a specular link fails.
     fn build<I: Intersector>(
         &mut self,
         tr: &mut Tracer<'_, I>,
-        x: &PathState,
+        x: &[PathVertex],
         class: &Applicable,
         to: &Coordinates,
-        y: &mut PathState,
+        y: &mut Vec<PathVertex>,
     ) -> Option<()> {
         let camera = tr.camera;
-        let x0 = x.path[0];
-        y.path.clear();
-        y.f = Rgb::ZERO;
-        y.path.push(x0);
+        y.clear();
+        y.push(x[0]);
         match (class, to) {
             (Applicable::Lens(a), Coordinates::Lens(s)) => {
                 let t = a.chain.len() + 1;
                 let ray = camera.ray_from_lens(s.raster, a.p_lens);
-                follow(tr, ray, &a.chain, TransportMode::Radiance, &mut y.path)?;
-                y.path.extend_from_slice(x.path.get(t + 1..)?);
+                follow(tr, ray, &a.chain, TransportMode::Radiance, y)?;
+                y.extend_from_slice(x.get(t + 1..)?);
             }
             (Applicable::Caustic(a), Coordinates::Caustic(s)) => {
                 let j = a.chain.len() + 2;
@@ -191,17 +192,17 @@ impl Perturbations {
                     TransportMode::Importance,
                     &mut self.scratch,
                 )?;
-                y.path.extend(self.scratch.iter().rev());
-                y.path.extend_from_slice(x.path.get(j..)?);
+                y.extend(self.scratch.iter().rev());
+                y.extend_from_slice(x.get(j..)?);
             }
             (Applicable::MultiChain(a), Coordinates::MultiChain(s)) => {
                 let u = a.first.len() + a.second.len() + 2;
                 let ray = camera.ray_from_lens(s.raster, a.p_lens);
-                follow(tr, ray, &a.first, TransportMode::Radiance, &mut y.path)?;
-                let xt = &y.path[y.path.len() - 1].sp;
+                follow(tr, ray, &a.first, TransportMode::Radiance, y)?;
+                let xt = &y[y.len() - 1].sp;
                 let ray = offset::spawn_ray(xt.p, xt.p_error, xt.ng, s.dir);
-                follow(tr, ray, &a.second, TransportMode::Radiance, &mut y.path)?;
-                y.path.extend_from_slice(x.path.get(u + 1..)?);
+                follow(tr, ray, &a.second, TransportMode::Radiance, y)?;
+                y.extend_from_slice(x.get(u + 1..)?);
             }
             _ => return None,
         }
