@@ -23,10 +23,15 @@
 //! **Work.** The fill takes [`FILL_SHARE`] of a frame's work, counting a
 //! fill sample as [`crate::mlt::MltSettings::pass_records`] (ρ) level-1
 //! mutations (ρ is a pass sample's cost in mutations): after m mutations a
-//! worker owes `⌈m · f / ((1 − f) · ρ)⌉` fill samples (f the share), and it
-//! renders them before the mutations they pair with, so a frame begins
-//! with its fill (and its guard pass) and a frame cut short at any point
-//! holds both in proportion.
+//! worker owes `max(⌈m · f / ((1 − f) · ρ)⌉, minimum)` fill samples (f the
+//! share), and it renders them before the mutations they pair with, so a
+//! frame begins with its minimum (its guard pass first) and a frame cut
+//! short at any later point holds both in proportion. The minimum is a
+//! piece ([`super::PIECE`]), or the worker's W-th of a pass at
+//! [`super::MAX_PIXEL_BLOCK`] if that is more (640 × 360: 60 blocks): the
+//! fill then completes its coarsest pass in every frame the clock allows
+//! that much, as fitted BDPT does, however few mutations the frame holds.
+//! The weights do not depend on how much work the fill got.
 //!
 //! **Weights.** A fill sample weighs ρ′ = ρ(1 + s) records (s CMLT's
 //! level-2 share), as a normalisation-pass sample does, spread over its
@@ -66,16 +71,16 @@
 pub const FILL_SHARE: f64 = 0.125;
 
 /// The fill samples a worker owes after `mutations` level-1 mutations of
-/// its frame at `pass_records` (ρ) mutations per fill sample, beyond the
-/// `rendered` it has rendered (0 for ρ = 0: a fill that weighs nothing
-/// is not rendered).
-pub(crate) fn owed(mutations: u64, pass_records: f32, rendered: u64) -> u64 {
+/// its frame at `pass_records` (ρ) mutations per fill sample, at least
+/// `minimum`, beyond the `rendered` it has rendered (0 for ρ = 0: a fill
+/// that weighs nothing is not rendered).
+pub(crate) fn owed(mutations: u64, pass_records: f32, minimum: u64, rendered: u64) -> u64 {
     if !(pass_records > 0.0) {
         return 0;
     }
     let due =
         libm::ceil(mutations as f64 * FILL_SHARE / ((1.0 - FILL_SHARE) * f64::from(pass_records)));
-    (due as u64).saturating_sub(rendered)
+    (due as u64).max(minimum).saturating_sub(rendered)
 }
 
 /// One merged pixel of a Metropolis frame with a fill (module docs):
@@ -113,15 +118,15 @@ mod tests {
 
     #[test]
     fn the_fill_owes_its_share_of_the_work() {
-        // f = 1/8, ρ = 5: one sample per 35 mutations, the first before
-        // any mutation it pairs with.
-        assert_eq!(owed(0, 5.0, 0), 0);
-        assert_eq!(owed(1, 5.0, 0), 1);
-        assert_eq!(owed(35, 5.0, 0), 1);
-        assert_eq!(owed(36, 5.0, 0), 2);
-        assert_eq!(owed(3500, 5.0, 40), 60);
-        assert_eq!(owed(3500, 5.0, 200), 0);
-        assert_eq!(owed(3500, 0.0, 0), 0);
+        // f = 1/8, ρ = 5: one sample per 35 mutations, the first 16 (the
+        // minimum) before any mutation.
+        assert_eq!(owed(0, 5.0, 16, 0), 16);
+        assert_eq!(owed(1, 5.0, 16, 0), 16);
+        assert_eq!(owed(560, 5.0, 16, 16), 0);
+        assert_eq!(owed(561, 5.0, 16, 16), 1);
+        assert_eq!(owed(3500, 5.0, 16, 40), 60);
+        assert_eq!(owed(3500, 5.0, 16, 200), 0);
+        assert_eq!(owed(3500, 0.0, 16, 0), 0);
     }
 
     #[test]

@@ -1470,11 +1470,20 @@ impl Renderer {
     /// `ahead` more mutations (0 with the fill off).
     fn fill_owed(&self, worker: &RenderWorker, ahead: u64) -> u64 {
         match (&worker.mlt, self.config.estimator.mlt()) {
-            (Some(m), Some(s)) if self.fill_on() => fill::owed(
-                m.stats().mutations + ahead,
-                s.pass_records,
-                worker.frame_samples,
-            ),
+            (Some(m), Some(s)) if self.fill_on() => {
+                let coarsest =
+                    BlockGrid::new(self.camera.width(), self.camera.height(), MAX_PIXEL_BLOCK);
+                let minimum = coarsest
+                    .count()
+                    .div_ceil(u64::from(self.config.workers))
+                    .max(PIECE);
+                fill::owed(
+                    m.stats().mutations + ahead,
+                    s.pass_records,
+                    minimum,
+                    worker.frame_samples,
+                )
+            }
             _ => 0,
         }
     }
@@ -1502,8 +1511,8 @@ impl Renderer {
         if let Some(m) = &mut worker.mlt {
             let done = m.run(tracer, &self.settings, &mut worker.film, steps);
             // The block fill's share of the rounds' work, after them
-            // (`renderer/fill.rs`).
-            loop {
+            // (`renderer/fill.rs`; none for no rounds).
+            while done > 0 {
                 let owed = self.fill_owed(worker, 0);
                 if owed == 0 {
                     break;
@@ -1618,15 +1627,15 @@ impl Renderer {
 
     /// Opens `worker`'s next pass: its block size, and where it starts
     /// and ends — the whole pass, or the worker's W-th of a guard pass at
-    /// [`pixel_block::GUARD_FACTOR`] times the fitted size (skipped when
-    /// that is no coarser).
+    /// [`pixel_block::GUARD_FACTOR`] times the fitted size, at most
+    /// [`pixel_block::MAX_GUARD_BLOCK`] (skipped when that is no coarser).
     fn begin_pass(&self, worker: &mut RenderWorker, strided: bool) {
         let (w, h) = (self.camera.width(), self.camera.height());
         worker.strided = strided;
         worker.block = self.block_for(worker);
         worker.guard = false;
         if core::mem::take(&mut worker.guard_due) {
-            let g = (worker.block * pixel_block::GUARD_FACTOR).min(MAX_PIXEL_BLOCK);
+            let g = (worker.block * pixel_block::GUARD_FACTOR).min(pixel_block::MAX_GUARD_BLOCK);
             let n = BlockGrid::new(w, h, g).count();
             let (i, workers) = (worker.index as u64, self.config.workers as u64);
             let share = (i * n / workers)..((i + 1) * n / workers);
@@ -2034,11 +2043,21 @@ struct Layers {
 impl Layers {
     fn add(&mut self, worker: &RenderWorker, pixel: usize) {
         let (s, p) = worker.film.pixel_parts(pixel);
-        let k = worker.kept.at(pixel);
         for c in 0..3 {
             self.samples[c] += s[c];
             self.splats[c] += p[c];
-            self.kept[c] += k[c];
+        }
+        // Layers that hold nothing are not read: a resolve is bound by
+        // the bytes it reads (MLT at 640 × 360: two films, kept sums and
+        // weights per worker).
+        if !worker.kept.is_empty() {
+            let k = worker.kept.at(pixel);
+            for c in 0..3 {
+                self.kept[c] += k[c];
+            }
+        }
+        if worker.weights.total() == 0.0 {
+            return;
         }
         self.weight += worker.weights.at(pixel);
         if worker.mlt.is_some() {
