@@ -144,7 +144,7 @@ mod tests {
     /// The white furnace (closed box, albedo ½, Le = 1) to depth 4: every
     /// pixel is 1 + ½ + ¼ + ⅛ = 1.875, for the chains and for the fill
     /// alike, so any mixture of the two whose weights sum to one converges
-    /// to it. Reset MLT frames of a fifth of a mutation per pixel with a
+    /// to it. Reset MLT frames of a quarter of a mutation per pixel with a
     /// fill at 2 × 2 blocks, averaged over the frames: 1.875 in the mean.
     /// The negative control, the
     /// same frames with the fill's weight ρ′PW(i) left out of the

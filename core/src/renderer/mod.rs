@@ -1512,12 +1512,14 @@ impl Renderer {
             let done = m.run(tracer, &self.settings, &mut worker.film, steps);
             // The block fill's share of the rounds' work, after them
             // (`renderer/fill.rs`; none for no rounds).
-            while done > 0 {
-                let owed = self.fill_owed(worker, 0);
-                if owed == 0 {
-                    break;
+            if done > 0 {
+                loop {
+                    let owed = self.fill_owed(worker, 0);
+                    if owed == 0 {
+                        break;
+                    }
+                    self.run_samples(worker, tracer, owed, false);
                 }
-                self.run_samples(worker, tracer, owed, false);
             }
             return done;
         }
@@ -2051,9 +2053,8 @@ impl Layers {
         // the bytes it reads (MLT at 640 × 360: two films, kept sums and
         // weights per worker).
         if !worker.kept.is_empty() {
-            let k = worker.kept.at(pixel);
-            for c in 0..3 {
-                self.kept[c] += k[c];
+            for (sum, k) in self.kept.iter_mut().zip(worker.kept.at(pixel)) {
+                *sum += k;
             }
         }
         if worker.weights.total() == 0.0 {
