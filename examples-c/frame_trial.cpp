@@ -11,11 +11,13 @@
 // Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES]]]]
 //   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120; each
 //   takes a suffix +keep or +decay (factor 0.8) for its accumulation
-//   across frames (reset otherwise). PT and BDPT render at the block size
-//   fitted to the frame's samples (cmlt_renderer_set_pixel_block with
-//   CMLT_PIXEL_BLOCK_FIT: dynamic resolution, a full image every frame);
-//   a further suffix +full keeps them at full resolution (frames below one
-//   pass then show only the pixels they reached).
+//   across frames (reset otherwise). Every estimator renders with the
+//   block size fitted to the frame's samples (cmlt_renderer_set_pixel_block
+//   with CMLT_PIXEL_BLOCK_FIT: dynamic resolution, a full image every
+//   frame): PT and BDPT their passes, MLT and CMLT their block fill (BDPT
+//   samples mixed with the chains' splats); a further suffix +full keeps
+//   them at full resolution (PT and BDPT frames below one pass then show
+//   only the pixels they reached, MLT and CMLT their chains alone).
 // MLT and CMLT keep their chains across frames (one normalisation pass
 // per bootstrap, b tracked from the large steps of the last 32 frames);
 // after the first frame
@@ -259,7 +261,7 @@ int main(int argc, char **argv) {
     check(cmlt::Renderer::create(scene, config, camera, renderer), "cmlt_renderer_new");
     if (has("keep")) check(renderer.set_accumulation(cmlt::Accumulation::Keep), "set_accumulation");
     if (has("decay")) check(renderer.set_accumulation(cmlt::Accumulation::Decay, 0.8f), "set_accumulation");
-    if (!metropolis && !has("full")) check(renderer.set_pixel_block(cmlt::pixel_block_fit), "set_pixel_block");
+    if (!has("full")) check(renderer.set_pixel_block(cmlt::pixel_block_fit), "set_pixel_block");
     std::vector<float> image(std::size_t(width) * height * 3);
     // Rendering stops this long before the frame's end, for the resolve:
     // the last resolve's time and a millisecond of margin.

@@ -154,7 +154,9 @@ class Renderer {
     }
     /// How many pixels each PT or BDPT sample fills from the next pass
     /// on: 1 (full resolution, the default) ..= 64, or `pixel_block_fit`
-    /// (dynamic resolution from the measured samples).
+    /// (dynamic resolution from the measured samples); MLT and CMLT at
+    /// any size but 1 mix such BDPT samples with their chains' splats
+    /// (the block fill: full frames far below one mutation per pixel).
     [[nodiscard]] Status set_pixel_block(std::uint32_t size) {
         return detail::status(cmlt_renderer_set_pixel_block(p_, size));
     }

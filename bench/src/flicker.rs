@@ -19,7 +19,7 @@
 
 use std::io::Write;
 
-use cmlt::renderer::{Accumulation, Estimator, RendererConfig, Temporal};
+use cmlt::renderer::{Accumulation, Estimator, PixelBlock, RendererConfig, Temporal};
 use cmlt::scene::{Camera, Scene};
 use cmlt_cli::accel::Accel;
 
@@ -100,6 +100,7 @@ pub fn measure(
         frames,
         per_pixel,
         Accumulation::Reset,
+        PixelBlock::Fixed(1),
         |_| camera,
         |_, r| {
             seconds += r.seconds;
@@ -214,6 +215,7 @@ pub fn run_moving(
         frames,
         per_pixel,
         Accumulation::Reset,
+        PixelBlock::Fixed(1),
         camera_at,
         |_, r| {
             means.push(r.image.mean().luminance() as f64);
@@ -257,6 +259,7 @@ fn reference_mean(
         1,
         per_pixel,
         Accumulation::Reset,
+        PixelBlock::Fixed(1),
         |_| camera,
         |_, r| {
             mean = r.image.mean().luminance() as f64;

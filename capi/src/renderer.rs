@@ -808,9 +808,14 @@ pub unsafe extern "C" fn cmlt_renderer_set_accumulation(
 /// workers' measured samples fill, chosen at every pass start, so that a
 /// frame within a time budget below one full-resolution pass still shows
 /// a full image. May change every frame (a pass open at another size
-/// finishes first unless the accumulation is reset). MLT and CMLT ignore
-/// it. A size above 64 is `CMLT_ERROR_INVALID_ARGUMENT`; nothing changes
-/// then. `CMLT_ERROR_BUSY` while a worker renders.
+/// finishes first unless the accumulation is reset). MLT and CMLT at any
+/// size but 1 render such BDPT passes beside their chains (the block fill:
+/// an eighth of a frame's work, mixed with the chains' splats pixel by
+/// pixel at `pass_records` records per sample), so that a frame far below
+/// one mutation per pixel still shows a full image; at 1 their chains
+/// alone. A size above 64, or a fill for MLT or CMLT with `pass_records`
+/// 0 (its samples would weigh nothing), is `CMLT_ERROR_INVALID_ARGUMENT`;
+/// nothing changes then. `CMLT_ERROR_BUSY` while a worker renders.
 ///
 /// # Safety
 /// `renderer` is NULL or valid.

@@ -14,7 +14,10 @@ use cmlt::integrator::Settings;
 use cmlt::mlt::{
     Candidates, CmltSettings, Level1, Level2Settings, MltSettings, PathMutations, Splatting,
 };
-use cmlt::renderer::{Accumulation, Budget, Estimator, EstimatorKind, RendererConfig, Temporal};
+use cmlt::renderer::{
+    Accumulation, Budget, Estimator, EstimatorKind, MAX_PIXEL_BLOCK, PixelBlock, RendererConfig,
+    Temporal,
+};
 
 /// The longest `--time` budget accepted: a year, so that a deadline
 /// always fits the clock (`inf` or 1e30 s used to panic).
@@ -440,6 +443,13 @@ pub struct FrameArgs {
     /// frames weigh F per frame of age, 0 < F < 1). Every method.
     #[arg(long, default_value = "reset", value_parser = parse_accumulation, requires = "frames")]
     pub accumulation: Accumulation,
+    /// Frames: dynamic resolution, k (1..=64) or fit. PT and BDPT take
+    /// one sample per k × k block of pixels, filling it (fit: k chosen
+    /// at every pass from the last frame's samples); MLT and CMLT at any
+    /// k but 1 mix such BDPT samples with their chains' splats (the
+    /// block fill, an eighth of the work). 1 = full resolution.
+    #[arg(long, default_value = "1", value_parser = parse_pixel_block, requires = "frames")]
+    pub pixel_block: PixelBlock,
 }
 
 impl OutputArgs {
@@ -571,6 +581,18 @@ pub fn parse_accumulation(s: &str) -> Result<Accumulation, String> {
     };
     mode.validate().map_err(|e| format!("{e}, got {s}"))?;
     Ok(mode)
+}
+
+/// `--pixel-block`: a block size in 1..=[`MAX_PIXEL_BLOCK`] or `fit`.
+pub fn parse_pixel_block(s: &str) -> Result<PixelBlock, String> {
+    let block = match s {
+        "fit" => PixelBlock::Fit,
+        k => PixelBlock::Fixed(k.parse().map_err(|_| {
+            format!("the pixel block must be 1..={MAX_PIXEL_BLOCK} or fit, got {s}")
+        })?),
+    };
+    block.validate().map_err(|e| format!("{e}, got {s}"))?;
+    Ok(block)
 }
 
 /// A frame count in 1..=[`MAX_FRAMES`].
@@ -713,6 +735,21 @@ mod tests {
             let option = bad.split('=').next().unwrap();
             assert!(err.contains(option), "{bad}: {err}");
         }
+    }
+
+    #[test]
+    fn pixel_blocks_parse_and_bad_sizes_are_refused() {
+        assert_eq!(parse_pixel_block("fit"), Ok(PixelBlock::Fit));
+        assert_eq!(parse_pixel_block("1"), Ok(PixelBlock::Fixed(1)));
+        assert_eq!(parse_pixel_block("64"), Ok(PixelBlock::Fixed(64)));
+        for bad in ["0", "65", "-1", "x", "Fit", ""] {
+            assert!(parse_pixel_block(bad).is_err(), "{bad}");
+        }
+        let cli = Render::parse_from(["render", "--frames", "3", "--pixel-block", "fit"]);
+        assert_eq!(cli.args.frames.pixel_block, PixelBlock::Fit);
+        let cli = Render::parse_from(["render", "--frames", "3"]);
+        assert_eq!(cli.args.frames.pixel_block, PixelBlock::Fixed(1));
+        assert!(check(&["--pixel-block", "4"]).is_err());
     }
 
     #[test]

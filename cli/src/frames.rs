@@ -10,7 +10,7 @@ use std::time::Instant;
 use cmlt::accel::Intersector;
 use cmlt::accel::backend::Accel;
 use cmlt::math::{Rgb, Vec2, Vec3};
-use cmlt::renderer::{Accumulation, Budget, RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::{Accumulation, Budget, PixelBlock, RenderWorker, Renderer, RendererConfig};
 use cmlt::scene::{Camera, Scene};
 
 use crate::image_io::Image;
@@ -59,7 +59,8 @@ pub struct FrameResult {
 /// Renders `frames` frames with `cfg` (one worker per `cfg.workers`
 /// thread, the bootstrap spread over them), each of `per_pixel` samples or
 /// mutations per pixel over all workers ([`Renderer::steps_for`]), carried
-/// from frame to frame by `accumulation`, the camera of frame `f` given by
+/// from frame to frame by `accumulation`, at the pixel block `pixel_block`
+/// ([`Renderer::set_pixel_block`]), the camera of frame `f` given by
 /// `camera_at(f)`, handing each finished frame to `on_frame`.
 #[allow(clippy::too_many_arguments)]
 pub fn render_frames(
@@ -69,6 +70,7 @@ pub fn render_frames(
     frames: usize,
     per_pixel: u64,
     accumulation: Accumulation,
+    pixel_block: PixelBlock,
     camera_at: impl Fn(usize) -> Camera,
     mut on_frame: impl FnMut(usize, FrameResult) -> Result<(), String>,
 ) -> Result<(), String> {
@@ -78,6 +80,9 @@ pub fn render_frames(
     let mut renderer = Renderer::new(cfg, first).map_err(|e| e.to_string())?;
     renderer
         .set_accumulation(accumulation)
+        .map_err(|e| e.to_string())?;
+    renderer
+        .set_pixel_block(pixel_block)
         .map_err(|e| e.to_string())?;
     let mut workers: Vec<RenderWorker> = (0..cfg.workers)
         .map(|i| RenderWorker::new(&renderer, i))

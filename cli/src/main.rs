@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::parser::ValueSource;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cmlt::mlt::{Level1, path_space_supports};
-use cmlt::renderer::{Accumulation, Budget, RendererConfig};
+use cmlt::renderer::{Accumulation, Budget, PixelBlock, RendererConfig};
 use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
 use cmlt_cli::args::{AccelArg, RenderArgs, check_method_options};
@@ -141,6 +141,9 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
                 return Err(
                     "--frame renders one frame on its own: --keep-chains, --b-window and --accumulation carry state from frame to frame".to_string(),
                 );
+            }
+            if fr.pixel_block != PixelBlock::Fixed(1) {
+                return Err("--frame renders one frame on its own, at full resolution: --pixel-block is for the frame loop".to_string());
             }
             let start = loaded.scene.camera;
             let camera = if fr.orbit {
@@ -308,6 +311,7 @@ fn run_frames(
         count,
         per_pixel,
         args.frames.accumulation,
+        args.frames.pixel_block,
         |f| match orbit {
             Some(d) => frames::orbit_camera(&start, pivot, d, f, count),
             None => start,

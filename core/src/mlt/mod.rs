@@ -69,7 +69,7 @@ mod primary;
 mod target;
 
 #[cfg(all(test, feature = "std"))]
-mod tests;
+pub(crate) mod tests;
 
 pub use bootstrap::Bootstrap;
 pub use large_steps::LargeStepTally;

@@ -19,7 +19,7 @@ use crate::scene::{Material, SceneBuilder};
 /// here too so that both kinds of test render the same scenes; they name
 /// this crate `cmlt` (see `lib.rs`).
 #[path = "../../tests/common/mod.rs"]
-pub(super) mod scenes;
+pub(crate) mod scenes;
 
 /// The furnace's settings: depth 16 (the series 2·(1 − 2⁻¹⁶) is 2 to
 /// 3·10⁻⁵) and 64 chains from 8 000 bootstrap samples per depth, b from 64

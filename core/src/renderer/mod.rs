@@ -117,6 +117,7 @@
 
 mod accumulation;
 mod estimator;
+mod fill;
 mod pixel_block;
 mod resolve;
 mod tracked_b;
@@ -140,6 +141,7 @@ use crate::scene::{Analysis, Camera, Effect, Scene};
 pub use accumulation::Accumulation;
 use accumulation::{Kept, Weights};
 pub use estimator::{Estimator, EstimatorKind};
+pub use fill::FILL_SHARE;
 use pixel_block::{BlockGrid, PassOrder};
 pub use pixel_block::{FIT_MARGIN, MAX_PIXEL_BLOCK, PixelBlock};
 pub(crate) use resolve::check_buffer;
@@ -360,7 +362,8 @@ pub struct RenderStats {
     pub tracer: Stats,
     /// Metropolis counters (zero for PT and BDPT).
     pub mlt: MltStats,
-    /// Passes (PT, BDPT) completed by all workers.
+    /// Passes (PT, BDPT; MLT, CMLT: of the block fill) completed by all
+    /// workers.
     pub passes: u64,
     /// Non-finite contributions dropped by the films (0 in a correct
     /// render).
@@ -450,8 +453,11 @@ pub struct RenderWorker {
     /// The scene revision of this worker's last accumulation.
     scene_revision: Option<u64>,
     film: Film,
-    /// PT, BDPT: samples per pixel in `film` (empty for MLT, CMLT).
+    /// PT, BDPT: samples per pixel in `film`; MLT, CMLT: in `fill`.
     weights: Weights,
+    /// MLT, CMLT: the block fill's BDPT samples (`renderer/fill.rs`;
+    /// empty for PT and BDPT, whose samples are in `film`).
+    fill: Film,
     /// MLT, CMLT: the earlier frames' images kept by [`Accumulation`]
     /// (empty for PT, BDPT).
     kept: Kept,
@@ -701,6 +707,8 @@ impl Renderer {
             let chain = 1024 + sampler + (depth + 1) * vertex + 4 * BLOCK;
             let k = config.estimator.level2().map_or(0, |l2| l2.k);
             let level2 = u64::from(k) * 8 * 1024 + 64 * 1024;
+            // The block fill's film and sample weights (`renderer/fill.rs`).
+            worker = c(worker.checked_add(pixels * (Film::BYTES_PER_PIXEL + 4)))?;
             // The normalisation passes' image (`mlt/pass_image.rs`).
             if mlt.pass_records > 0.0 {
                 worker = c(worker.checked_add(pixels * Film::BYTES_PER_PIXEL))?;
@@ -840,11 +848,28 @@ impl Renderer {
     /// full-resolution pass still shows a full image, of the image
     /// box-filtered over k × k blocks. May change every frame: a pass
     /// open at another size finishes first, unless the frame is reset
-    /// ([`Accumulation::Reset`]), which drops it. MLT and CMLT ignore it.
-    /// [`RenderError::Config`] for a fixed size outside 1 ..=
-    /// [`MAX_PIXEL_BLOCK`]; nothing changes on error.
+    /// ([`Accumulation::Reset`]), which drops it. MLT and CMLT render
+    /// such passes of BDPT beside their chains at any size but 1 — the
+    /// *block fill*, [`FILL_SHARE`] of a frame's work, mixed with the
+    /// chains' splats pixel by pixel by fixed weights, so that a frame far
+    /// below one mutation per pixel still shows a full image
+    /// (`renderer/fill.rs`); at `Fixed(1)` they render their chains
+    /// alone. [`RenderError::Config`] for a fixed size outside 1 ..=
+    /// [`MAX_PIXEL_BLOCK`], or a block fill for MLT or CMLT whose samples
+    /// would weigh nothing (`pass_records` = 0); nothing changes on error.
     pub fn set_pixel_block(&mut self, block: PixelBlock) -> Result<(), RenderError> {
         block.validate().map_err(RenderError::Config)?;
+        if block != PixelBlock::Fixed(1)
+            && self
+                .config
+                .estimator
+                .mlt()
+                .is_some_and(|m| !(m.pass_records > 0.0))
+        {
+            return Err(RenderError::Config(
+                "MLT and CMLT weigh the pixel blocks' samples by pass_records, which is 0",
+            ));
+        }
         self.pixel_block = block;
         Ok(())
     }
@@ -1222,7 +1247,8 @@ impl Renderer {
     /// Returns the units rendered: samples up to a pass's end (a pass left
     /// open by [`Renderer::render_while`] is finished first), or whole
     /// rounds · chains (0 when b = 0 leaves no chain to run, or when
-    /// `budget` is 0).
+    /// `budget` is 0; MLT and CMLT with a block fill then render its
+    /// share of the rounds' work, `renderer/fill.rs`).
     pub fn render(
         &self,
         worker: &mut RenderWorker,
@@ -1310,6 +1336,11 @@ impl Renderer {
                 None => Stats::default(),
             };
             let seed = self.frame_seed();
+            // MLT, CMLT: the block fill carries as the chains' image does;
+            // one that holds nothing and is not rendered is left alone.
+            if worker.mlt.is_some() && (self.fill_on() || worker.weights.total() > 0.0) {
+                self.next_pass_frame(worker);
+            }
             if let (Some(m), Some(mlt)) = (&mut worker.mlt, c.estimator.mlt()) {
                 // The ended frame's image, at the b it was rendered with,
                 // into what the accumulation keeps of earlier frames.
@@ -1320,7 +1351,6 @@ impl Renderer {
                     self.accumulation,
                 );
                 worker.film.clear();
-                worker.passes = 0;
                 let kept =
                     c.temporal.keep_chains && worker.generation.is_some() && m.chain_count() > 0;
                 if !kept {
@@ -1383,29 +1413,7 @@ impl Renderer {
                     }
                 }
             } else {
-                worker
-                    .weights
-                    .next_frame(&mut worker.film, self.accumulation);
-                worker.last_frame_samples = worker.frame_samples;
-                worker.frame_samples = 0;
-                if self.accumulation == Accumulation::Reset {
-                    // A new accumulation: passes are numbered from 0 again.
-                    // An open pass of the frame's block size goes on from
-                    // where it stopped (with the streams of pass 0 for its
-                    // remaining pixels), so that frames ending inside
-                    // passes cover the image in turn. Another size, or a
-                    // fitted one (sized for the frame to complete it,
-                    // each worker starting its W-th of the order, after
-                    // the frame's guard pass), starts afresh.
-                    worker.passes = 0;
-                    if worker.guard || self.pixel_block != PixelBlock::Fixed(worker.block) {
-                        worker.cursor = 0;
-                        worker.pass_end = 0;
-                        worker.guard = false;
-                    }
-                    worker.guard_due =
-                        self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
-                }
+                self.next_pass_frame(worker);
             }
             worker.generation = Some(self.generation);
             worker.camera = Some(self.camera);
@@ -1413,6 +1421,82 @@ impl Renderer {
         }
         worker.frame_b = self.b_used;
         Ok(tracer)
+    }
+
+    /// Starts a frame of `worker`'s passes (PT, BDPT; MLT and CMLT: the
+    /// block fill): its film and sample weights cleared, kept or decayed
+    /// ([`Accumulation`]), its last frame's samples kept for the fit.
+    fn next_pass_frame(&self, worker: &mut RenderWorker) {
+        let film = if worker.mlt.is_some() {
+            &mut worker.fill
+        } else {
+            &mut worker.film
+        };
+        worker.weights.next_frame(film, self.accumulation);
+        worker.last_frame_samples = worker.frame_samples;
+        worker.frame_samples = 0;
+        if self.accumulation == Accumulation::Reset {
+            // A new accumulation: passes are numbered from 0 again.
+            // An open pass of the frame's block size goes on from
+            // where it stopped (with the streams of pass 0 for its
+            // remaining pixels), so that frames ending inside
+            // passes cover the image in turn. Another size, or a
+            // fitted one (sized for the frame to complete it,
+            // each worker starting its W-th of the order, after
+            // the frame's guard pass), starts afresh.
+            worker.passes = 0;
+            if worker.guard || self.pixel_block != PixelBlock::Fixed(worker.block) {
+                worker.cursor = 0;
+                worker.pass_end = 0;
+                worker.guard = false;
+            }
+            worker.guard_due = self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
+        }
+    }
+
+    /// MLT, CMLT: whether frames render the block fill
+    /// (`renderer/fill.rs`): a pixel block other than full resolution and
+    /// a fill sample that weighs something (`pass_records` > 0).
+    fn fill_on(&self) -> bool {
+        self.pixel_block != PixelBlock::Fixed(1)
+            && self
+                .config
+                .estimator
+                .mlt()
+                .is_some_and(|m| m.pass_records > 0.0)
+    }
+
+    /// MLT, CMLT: the fill samples `worker` owes once it has made
+    /// `ahead` more mutations (0 with the fill off).
+    fn fill_owed(&self, worker: &RenderWorker, ahead: u64) -> u64 {
+        match (&worker.mlt, self.config.estimator.mlt()) {
+            (Some(m), Some(s)) if self.fill_on() => {
+                let coarsest =
+                    BlockGrid::new(self.camera.width(), self.camera.height(), MAX_PIXEL_BLOCK);
+                let minimum = coarsest
+                    .count()
+                    .div_ceil(u64::from(self.config.workers))
+                    .max(PIECE);
+                fill::owed(
+                    m.stats().mutations + ahead,
+                    s.pass_records,
+                    minimum,
+                    worker.frame_samples,
+                )
+            }
+            _ => 0,
+        }
+    }
+
+    /// MLT, CMLT: ρ′ · P, the records a fill sample's pixel weight counts
+    /// for in a pixel (`renderer/fill.rs`): `pass_records` times 1 + s,
+    /// times the pixels.
+    fn fill_rho_pixels(&self) -> f64 {
+        let Some(m) = self.config.estimator.mlt() else {
+            return 0.0;
+        };
+        let s = self.config.estimator.level2().map_or(0, |l2| l2.share());
+        f64::from(m.pass_records) * f64::from(1 + s) * self.pixels() as f64
     }
 
     /// Runs `steps` steps into a worker `begin_render` readied — rounds
@@ -1425,7 +1509,19 @@ impl Renderer {
         steps: u64,
     ) -> u64 {
         if let Some(m) = &mut worker.mlt {
-            return m.run(tracer, &self.settings, &mut worker.film, steps);
+            let done = m.run(tracer, &self.settings, &mut worker.film, steps);
+            // The block fill's share of the rounds' work, after them
+            // (`renderer/fill.rs`; none for no rounds).
+            if done > 0 {
+                loop {
+                    let owed = self.fill_owed(worker, 0);
+                    if owed == 0 {
+                        break;
+                    }
+                    self.run_samples(worker, tracer, owed, false);
+                }
+            }
+            return done;
         }
         let mut done = 0;
         for _ in 0..steps {
@@ -1483,6 +1579,12 @@ impl Renderer {
         };
         let pt = c.estimator.kind() == EstimatorKind::Path;
         let seed = self.frame_seed();
+        // MLT and CMLT render their block fill with these passes.
+        let film = if worker.mlt.is_some() {
+            &mut worker.fill
+        } else {
+            &mut worker.film
+        };
         if worker.block == 1 {
             render_samples(
                 tracer,
@@ -1491,7 +1593,7 @@ impl Renderer {
                 &mut worker.bdpt,
                 (seed, pass),
                 (worker.cursor..end, order),
-                &mut worker.film,
+                film,
                 &mut worker.weights,
             );
         } else {
@@ -1502,7 +1604,7 @@ impl Renderer {
                 &mut worker.bdpt,
                 (seed, pass, weight),
                 (worker.cursor..end, order, grid),
-                &mut worker.film,
+                film,
                 &mut worker.weights,
             );
         }
@@ -1514,7 +1616,7 @@ impl Renderer {
                 // The film counts full-resolution passes only: its own
                 // `Film::resolve` is the image only of those.
                 if worker.block == 1 {
-                    worker.film.end_pass();
+                    film.end_pass();
                 }
                 worker.passes += 1;
             }
@@ -1527,15 +1629,15 @@ impl Renderer {
 
     /// Opens `worker`'s next pass: its block size, and where it starts
     /// and ends — the whole pass, or the worker's W-th of a guard pass at
-    /// [`pixel_block::GUARD_FACTOR`] times the fitted size (skipped when
-    /// that is no coarser).
+    /// [`pixel_block::GUARD_FACTOR`] times the fitted size, at most
+    /// [`pixel_block::MAX_GUARD_BLOCK`] (skipped when that is no coarser).
     fn begin_pass(&self, worker: &mut RenderWorker, strided: bool) {
         let (w, h) = (self.camera.width(), self.camera.height());
         worker.strided = strided;
         worker.block = self.block_for(worker);
         worker.guard = false;
         if core::mem::take(&mut worker.guard_due) {
-            let g = (worker.block * pixel_block::GUARD_FACTOR).min(MAX_PIXEL_BLOCK);
+            let g = (worker.block * pixel_block::GUARD_FACTOR).min(pixel_block::MAX_GUARD_BLOCK);
             let n = BlockGrid::new(w, h, g).count();
             let (i, workers) = (worker.index as u64, self.config.workers as u64);
             let share = (i * n / workers)..((i + 1) * n / workers);
@@ -1583,8 +1685,12 @@ impl Renderer {
     /// ([`Renderer::stride`]) rather than row by row, so that a frame that
     /// ends inside it has samples spread over the whole image, not a band
     /// at the top; whole passes differ from `render`'s only in the order
-    /// BDPT's splats are added (rounding). The image then depends on how
-    /// many pieces the clock allowed. Returns the units rendered.
+    /// BDPT's splats are added (rounding). MLT and CMLT with a block
+    /// fill ([`Renderer::set_pixel_block`]) render its samples in such
+    /// passes too, [`PIECE`] at a time before the mutations they pair
+    /// with (`renderer/fill.rs`), and count them as units. The image then
+    /// depends on how many pieces the clock allowed. Returns the units
+    /// rendered.
     pub fn render_while(
         &self,
         worker: &mut RenderWorker,
@@ -1599,7 +1705,11 @@ impl Renderer {
             if done > 0 && !keep_going(done) {
                 break;
             }
+            // MLT, CMLT: the block fill's share before the mutations it
+            // pairs with (`renderer/fill.rs`).
+            let owed = self.fill_owed(worker, PIECE);
             let step = match &mut worker.mlt {
+                Some(_) if owed > 0 => self.run_samples(worker, &mut tracer, owed.min(PIECE), true),
                 Some(m) => m.advance(
                     &mut tracer,
                     &self.settings,
@@ -1718,7 +1828,7 @@ impl Renderer {
         if w.renderer == self.id && self.is_current(w) {
             s.tracer = w.stats;
             s.passes = w.passes;
-            s.nonfinite = w.film.nonfinite();
+            s.nonfinite = w.film.nonfinite() + w.fill.nonfinite();
             if let Some(m) = &w.mlt {
                 s.mlt = *m.stats();
             }
@@ -1767,13 +1877,30 @@ impl Renderer {
         }
     }
 
-    /// One merged pixel's radiance: its sums times the Metropolis `scale`,
+    /// One merged pixel's radiance: its sums times the Metropolis `scale`
+    /// (mixed with the block fill's by `fill::mix` when there is one),
     /// or (PT, BDPT) its camera samples over its sample weight and its
     /// splats over the whole image's (see `renderer/accumulation.rs`) —
     /// after whole passes both are the pass count and the pixel is (samples
     /// + splats) / passes.
     fn pixel(&self, l: &Layers, t: &Totals, scale: f64) -> Rgb {
         if self.config.estimator.is_metropolis() {
+            if t.samples > 0.0 {
+                // With the block fill (`renderer/fill.rs`).
+                let b_pixels = self.b_used * self.pixels() as f64;
+                let s = l.total();
+                return scaled(
+                    fill::mix(
+                        core::array::from_fn(|c| l.kept[c] + s[c] * b_pixels),
+                        t.kept_records + t.records as f64,
+                        (l.fill_samples, l.fill_splats, l.weight),
+                        t.samples,
+                        self.fill_rho_pixels(),
+                        self.pixels() as f64,
+                    ),
+                    1.0,
+                );
+            }
             if !t.kept {
                 return scaled(l.total(), scale);
             }
@@ -1866,8 +1993,9 @@ fn check_lens(camera: &Camera) -> Result<(), RenderError> {
     Ok(())
 }
 
-/// The sample weight (PT, BDPT) and Metropolis records of the current
-/// accumulation: the current frame's and the kept frames'.
+/// The sample weight (PT, BDPT; MLT, CMLT: the block fill's) and
+/// Metropolis records of the current accumulation: the current frame's
+/// and the kept frames'.
 #[derive(Clone, Copy, Debug, Default)]
 struct Totals {
     samples: f64,
@@ -1908,18 +2036,38 @@ struct Layers {
     weight: f64,
     /// MLT, CMLT: the kept frames' sums (`accumulation::Kept`).
     kept: [f64; 3],
+    /// MLT, CMLT: the block fill's camera-side sums and splats
+    /// (`renderer/fill.rs`; its pixel weight is `weight`).
+    fill_samples: [f64; 3],
+    fill_splats: [f64; 3],
 }
 
 impl Layers {
     fn add(&mut self, worker: &RenderWorker, pixel: usize) {
         let (s, p) = worker.film.pixel_parts(pixel);
-        let k = worker.kept.at(pixel);
         for c in 0..3 {
             self.samples[c] += s[c];
             self.splats[c] += p[c];
-            self.kept[c] += k[c];
+        }
+        // Layers that hold nothing are not read: a resolve is bound by
+        // the bytes it reads (MLT at 640 × 360: two films, kept sums and
+        // weights per worker).
+        if !worker.kept.is_empty() {
+            for (sum, k) in self.kept.iter_mut().zip(worker.kept.at(pixel)) {
+                *sum += k;
+            }
+        }
+        if worker.weights.total() == 0.0 {
+            return;
         }
         self.weight += worker.weights.at(pixel);
+        if worker.mlt.is_some() {
+            let (s, p) = worker.fill.pixel_parts(pixel);
+            for c in 0..3 {
+                self.fill_samples[c] += s[c];
+                self.fill_splats[c] += p[c];
+            }
+        }
     }
 
     fn total(&self) -> [f64; 3] {
@@ -1965,11 +2113,12 @@ impl RenderWorker {
             camera: None,
             scene_revision: None,
             film: Film::new(camera.width(), camera.height()),
-            weights: Weights::new(if mlt.is_some() {
-                0
+            weights: Weights::new(camera.pixel_count() as usize),
+            fill: if mlt.is_some() {
+                Film::new(camera.width(), camera.height())
             } else {
-                camera.pixel_count() as usize
-            }),
+                Film::new(0, 0)
+            },
             kept: Kept::new(if mlt.is_some() {
                 camera.pixel_count() as usize
             } else {

@@ -39,7 +39,8 @@
 //!
 //! A frame slower than that (a hitch, the scheduler) would leave blocks
 //! black, so a reset frame with the fitted size begins with a *guard
-//! pass*: one pass at [`GUARD_FACTOR`] times the fitted size, shared by
+//! pass*: one pass at [`GUARD_FACTOR`] times the fitted size (at most
+//! [`MAX_GUARD_BLOCK`]), shared by
 //! the workers (worker i renders the i-th W-th of its order, so together
 //! they cover the image at about 1/16 of the forecast's samples), whose
 //! samples weigh [`GUARD_WEIGHT`]: a pixel the frame's passes reach is
@@ -70,8 +71,14 @@ pub const MAX_PIXEL_BLOCK: u32 = 64;
 pub const FIT_MARGIN: f64 = 0.7;
 
 /// A reset frame's guard pass is at this many times the fitted block size
-/// (at most [`MAX_PIXEL_BLOCK`]).
+/// (at most [`MAX_GUARD_BLOCK`]).
 pub const GUARD_FACTOR: u32 = 4;
+
+/// The coarsest guard pass, in pixels per side: coarser than
+/// [`MAX_PIXEL_BLOCK`], so that a frame fitted at the coarsest size (MLT's
+/// block fill at 640 × 360 under load) still has a guard (6 blocks at
+/// 640 × 360).
+pub const MAX_GUARD_BLOCK: u32 = GUARD_FACTOR * MAX_PIXEL_BLOCK;
 
 /// The weight of a guard pass's sample against a pass's (1): small enough
 /// that a pixel the frame's passes reach is theirs (to 10⁻³), and the

@@ -38,6 +38,7 @@ mod common;
 mod intersect;
 
 mod architecture;
+mod block_fill;
 mod bvh;
 mod detail;
 mod effects;
