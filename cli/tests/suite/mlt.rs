@@ -104,38 +104,50 @@ const MIN_RATIO: f64 = 2.5;
 /// below a flat image's. Returns the average's relMSE.
 fn check_reference(scene: &str, factor: u32, mlt: &Estimator, mpp: u64) -> f64 {
     let (reference, renders, out) = check_means(scene, factor, mlt, mpp);
-    let rm = reference.mean();
-    let err_small = renders
+    converges(scene, &renders, &reference, |small, big, ratio| {
+        format!(
+            "{scene} ({:?}, k {}, m {}): relMSE {small:.5} at {mpp} mutations/pixel, {big:.5} at {} (ratio {ratio:.2}); {:?}",
+            mlt.kind(),
+            mlt.level2().map_or(0, |l| l.k),
+            mlt.level2().map_or(0, |l| l.m),
+            4 * mpp,
+            out.stats.mlt
+        )
+    })
+}
+
+/// The four `renders`' mean relMSE against the relMSE of their average:
+/// prints `describe(small, big, ratio)` and asserts that the ratio is at
+/// least [`MIN_RATIO`] (converging like 1/N: the error is the chains'
+/// noise, not a bias) and that the average is well below a flat image
+/// with the right mean. Returns the average's relMSE.
+fn converges(
+    scene: &str,
+    renders: &[Image],
+    reference: &Image,
+    describe: impl FnOnce(f64, f64, f64) -> String,
+) -> f64 {
+    let small = renders
         .iter()
-        .map(|img| rel_mse(img, &reference))
+        .map(|img| rel_mse(img, reference))
         .sum::<f64>()
-        / 4.0;
-    let err_big = rel_mse(&average(&renders), &reference);
-    let ratio = err_small / err_big;
-    eprintln!(
-        "{scene} ({:?}, k {}, m {}): relMSE {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2}); {:?}",
-        mlt.kind(),
-        mlt.level2().map_or(0, |l| l.k),
-        mlt.level2().map_or(0, |l| l.m),
-        4 * mpp,
-        out.stats.mlt
-    );
-    // Converging like 1/N: the error is the chains' noise, not a bias.
+        / renders.len() as f64;
+    let big = rel_mse(&average(renders), reference);
+    let ratio = small / big;
+    eprintln!("{}", describe(small, big, ratio));
     assert!(
         ratio >= MIN_RATIO,
         "{scene}: 4x the mutations cut relMSE only {ratio:.2}x"
     );
-    // A flat image with the right mean is far above any error we accept.
     let flat = Image {
-        width: reference.width,
-        height: reference.height,
-        pixels: vec![rm; reference.pixels.len()],
+        pixels: vec![reference.mean(); reference.pixels.len()],
+        ..reference.clone()
     };
     assert!(
-        rel_mse(&flat, &reference) > 2.0 * err_big,
+        rel_mse(&flat, reference) > 2.0 * big,
         "{scene}: no better than a flat image"
     );
-    err_big
+    big
 }
 
 #[test]
@@ -648,30 +660,13 @@ fn check_shape(scene: &str, factor: u32, mlt: &Estimator, mpp: u64) {
             "{scene}, channel {c}: share {mean_share:.5} vs reference {want:.5}"
         );
     }
-    let err_small = renders
-        .iter()
-        .map(|img| rel_mse(img, &reference))
-        .sum::<f64>()
-        / 4.0;
-    let err_big = rel_mse(&average(&renders), &reference);
-    let ratio = err_small / err_big;
-    eprintln!(
-        "{scene} ({:?}): relMSE at b's scale {err_small:.5} at {mpp} mutations/pixel, {err_big:.5} at {} (ratio {ratio:.2}); scales {scales:.3?}",
-        mlt.kind(),
-        4 * mpp
-    );
-    assert!(
-        ratio >= MIN_RATIO,
-        "{scene}: 4x the mutations cut relMSE only {ratio:.2}x"
-    );
-    let flat = Image {
-        pixels: vec![reference.mean(); reference.pixels.len()],
-        ..reference.clone()
-    };
-    assert!(
-        rel_mse(&flat, &reference) > 2.0 * err_big,
-        "{scene}: no better than a flat image"
-    );
+    converges(scene, &renders, &reference, |small, big, ratio| {
+        format!(
+            "{scene} ({:?}): relMSE at b's scale {small:.5} at {mpp} mutations/pixel, {big:.5} at {} (ratio {ratio:.2}); scales {scales:.3?}",
+            mlt.kind(),
+            4 * mpp
+        )
+    });
 }
 
 /// MLT converges to the reference of the glossy room lit by a small lamp
