@@ -7,16 +7,17 @@
 //! with a negative control, in the unit tests of `renderer::fill`.
 
 use crate::common;
-use crate::renderer::{allocations, room};
+use crate::pixel_block::glowing_box;
+use crate::renderer::{allocations, room, room_with_sphere};
 
 use cmlt::accel::bvh::Bvh;
 use cmlt::integrator::Settings;
-use cmlt::math::{Mat4, Rgb, Vec3};
+use cmlt::math::Rgb;
 use cmlt::mlt::{CmltSettings, MltSettings};
 use cmlt::renderer::{
     Estimator, PixelBlock, RenderError, RenderWorker, Renderer, RendererConfig, Temporal,
 };
-use cmlt::scene::{Camera, FovAxis, Material, Mesh, Scene, SceneBuilder};
+use cmlt::scene::{Material, Scene};
 
 /// Few chains, and b from 64 passes (one bootstrap serves every frame:
 /// its error would be every frame's); with the trial's temporal switch,
@@ -104,16 +105,6 @@ fn frames(
     out
 }
 
-/// The inside of a cube whose walls emit 1 and reflect nothing, seen from
-/// its centre at 48 × 32: every pixel is 1.
-fn glowing_box() -> Scene {
-    let mut b = SceneBuilder::new();
-    let black = b.add_material(Material::diffuse(Rgb::ZERO));
-    b.add_mesh(common::inward_box(black, 1.0));
-    b.set_camera(Camera::perspective(Mat4::IDENTITY, 70.0, FovAxis::X, 48, 32, 0.0, 1.0).unwrap());
-    b.build().unwrap()
-}
-
 /// Two workers, reset frames of six pieces each (under 0.2 mutations per
 /// pixel): with the fitted fill every frame after the first (which holds
 /// its bootstrap's normalisation-pass image) has no black pixel, and its
@@ -155,27 +146,7 @@ fn a_reset_frame_far_below_one_mutation_per_pixel_is_full() {
 /// (on the mirror room 2 000 such frames of chains alone still leave a
 /// block 20 % off).
 fn diffuse_room() -> Scene {
-    let mut b = SceneBuilder::new();
-    let wall = b.add_material(Material::diffuse(Rgb::new(0.6, 0.5, 0.4)));
-    let ball = b.add_material(Material::diffuse(Rgb::new(0.2, 0.6, 0.3)));
-    b.add_mesh(common::inward_box(wall, 0.0));
-    b.add_mesh(common::sphere(Vec3::new(0.2, 0.3, 0.3), 0.4, ball));
-    let y = -0.98;
-    b.add_mesh(Mesh {
-        positions: vec![
-            Vec3::new(-0.3, y, -0.3),
-            Vec3::new(0.3, y, -0.3),
-            Vec3::new(0.3, y, 0.3),
-            Vec3::new(-0.3, y, 0.3),
-        ],
-        normals: vec![],
-        uvs: vec![],
-        indices: vec![[0, 2, 1], [0, 3, 2]],
-        material: wall,
-        emission: Some(Rgb::splat(12.0)),
-    });
-    b.set_camera(room().camera);
-    b.build().unwrap()
+    room_with_sphere(Material::diffuse(Rgb::new(0.2, 0.6, 0.3)))
 }
 
 /// Reset MLT frames on a diffuse room with a fill at 3 × 3 blocks, under

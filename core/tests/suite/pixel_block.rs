@@ -112,7 +112,7 @@ fn a_block_pass_fills_its_blocks_and_converges_to_the_block_filtered_image() {
 /// The inside of a cube whose walls emit 1 and reflect nothing, seen from
 /// its centre at 48 × 32: every PT sample is exactly 1, so a pixel is 1
 /// where a frame reached it and 0 where it did not.
-fn glowing_box() -> Scene {
+pub(crate) fn glowing_box() -> Scene {
     let mut b = SceneBuilder::new();
     let black = b.add_material(Material::diffuse(Rgb::ZERO));
     b.add_mesh(common::inward_box(black, 1.0));

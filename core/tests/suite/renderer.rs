@@ -73,18 +73,23 @@ pub(crate) fn allocations<R>(f: impl FnOnce() -> R) -> (R, u64) {
 /// (caustics: level 2's caustic perturbation applies) seen by a 16×12
 /// pinhole camera.
 pub(crate) fn room() -> Scene {
-    let mut b = SceneBuilder::new();
-    let wall = b.add_material(Material::diffuse(Rgb::new(0.6, 0.5, 0.4)));
-    let mirror = b.add_material(Material {
+    room_with_sphere(Material {
         kind: MaterialKind::Conductor {
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: Texture::Constant(Rgb::splat(0.9)),
         },
         two_sided: false,
         detail: Default::default(),
-    });
+    })
+}
+
+/// [`room`] with its sphere made of `sphere`.
+pub(crate) fn room_with_sphere(sphere: Material) -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.add_material(Material::diffuse(Rgb::new(0.6, 0.5, 0.4)));
+    let sphere = b.add_material(sphere);
     b.add_mesh(common::inward_box(wall, 0.0));
-    b.add_mesh(common::sphere(Vec3::new(0.2, 0.3, 0.3), 0.4, mirror));
+    b.add_mesh(common::sphere(Vec3::new(0.2, 0.3, 0.3), 0.4, sphere));
     let y = -0.98;
     b.add_mesh(Mesh {
         positions: vec![
