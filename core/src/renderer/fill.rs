@@ -31,6 +31,16 @@
 //! [`super::MAX_PIXEL_BLOCK`] if that is more (640 × 360: 60 blocks): the
 //! fill then completes its coarsest pass in every frame the clock allows
 //! that much, as fitted BDPT does, however few mutations the frame holds.
+//! At [`super::PixelBlock::Fit`] the fill also renders its first fitted
+//! pass of a reset frame (the worker's W-th of it, after its share of the
+//! guard pass) before any further mutation: that pass is sized to about
+//! 0.7 of the fill's last frame, so a frame slower than the last still
+//! completes it and a pixel is never left to the guard pass alone, whose
+//! samples weigh 10⁻³ of a pass sample's and so next to nothing against
+//! the chains' records (the frame trial under load: black blocks of the
+//! guard's size, 0.4–12 % of a frame, where no chain splatted). The
+//! fill's share of a frame is then at least that pass and otherwise
+//! [`FILL_SHARE`]; a frame cut short spends more of its work on the fill.
 //! The weights do not depend on how much work the fill got.
 //!
 //! **Weights.** A fill sample weighs ρ′ = ρ(1 + s) records (s CMLT's
@@ -139,6 +149,90 @@ mod tests {
         let v = mix([0.0; 3], 0.0, fill, 20.0, 50.0, 10.0);
         assert_eq!(v, [2.0 + 0.25, 4.0, 8.0]);
         assert_eq!(mix([0.0; 3], 0.0, none, 0.0, 50.0, 10.0), [0.0; 3]);
+    }
+
+    /// A reset frame slower than the last (a tenth of its pieces) still
+    /// completes the fill's fitted pass: every pixel is covered by a
+    /// sample of it, not by the guard pass alone (whose weight, 10⁻³ of a
+    /// sample's, is next to nothing against the chains' records: such a
+    /// pixel is black where no chain splatted). Two workers, frames of 200
+    /// and 20 pieces in turn; without the fill's first pass ahead of the
+    /// mutations the short frames leave a part of their pass undone.
+    #[cfg(feature = "std")]
+    #[test]
+    fn a_short_frame_completes_the_fills_fitted_pass() {
+        use crate::accel::bvh::Bvh;
+        use crate::integrator::Settings;
+        use crate::math::Rgb;
+        use crate::mlt::MltSettings;
+        use crate::mlt::tests::scenes;
+        use crate::renderer::pixel_block::GUARD_WEIGHT;
+        use crate::renderer::{
+            Estimator, PixelBlock, RenderWorker, Renderer, RendererConfig, Temporal,
+        };
+        use crate::scene::Material;
+
+        let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+        let bvh = Bvh::build(&scene.triangles().collect::<alloc::vec::Vec<_>>());
+        let config = RendererConfig {
+            estimator: Estimator::Mlt(MltSettings {
+                n_bootstrap: 1_000,
+                b_passes: 1,
+                b_min_samples: 0,
+                n_chains: 32,
+                ..MltSettings::default()
+            }),
+            settings: Settings {
+                max_depth: Some(4),
+                ..Settings::default()
+            },
+            workers: 2,
+            seed: 3,
+            temporal: Temporal {
+                keep_chains: true,
+                ..Temporal::default()
+            },
+            ..RendererConfig::default()
+        };
+        let mut r = Renderer::new(config, scene.camera).unwrap();
+        r.set_pixel_block(PixelBlock::Fit).unwrap();
+        let mut ws = [
+            RenderWorker::new(&r, 0).unwrap(),
+            RenderWorker::new(&r, 1).unwrap(),
+        ];
+        for f in 0..8 {
+            if f > 0 {
+                r.set_camera(scene.camera).unwrap();
+            }
+            if r.begin_prepare(&scene) && f == 0 {
+                for w in &mut ws {
+                    r.prepare_worker(w, &scene, &bvh).unwrap();
+                }
+                r.finish_prepare([&ws[0], &ws[1]]).unwrap();
+            }
+            let pieces = if f % 2 == 0 { 200 } else { 20 };
+            for w in &mut ws {
+                let mut n = 0;
+                r.render_while(w, &scene, &bvh, u64::MAX, &mut |_| {
+                    n += 1;
+                    n < pieces
+                })
+                .unwrap();
+            }
+            if f == 0 {
+                continue;
+            }
+            let blocks = [ws[0].block, ws[1].block];
+            let uncovered = (0..r.pixels() as usize)
+                .filter(|&i| {
+                    ws.iter().map(|w| w.weights.at(i)).sum::<f64>() <= f64::from(GUARD_WEIGHT)
+                })
+                .count();
+            assert_eq!(
+                uncovered, 0,
+                "frame {f} ({pieces} pieces, blocks {blocks:?})"
+            );
+        }
     }
 
     /// The white furnace (closed box, albedo ½, Le = 1) to depth 4: every

@@ -474,6 +474,10 @@ pub struct RenderWorker {
     /// one.
     guard: bool,
     guard_due: bool,
+    /// MLT, CMLT with a fitted block fill: where the worker's share of
+    /// the frame's first fitted fill pass stands, which the fill renders
+    /// before any further mutation (`renderer/fill.rs`, work).
+    front: Front,
     /// PT, BDPT: whether the open pass visits the pixels in the strided
     /// order of `render_while` (else row-major; see `Renderer::stride`).
     strided: bool,
@@ -490,6 +494,18 @@ pub struct RenderWorker {
     /// Passes this worker has completed since the last reset.
     passes: u64,
     stats: Stats,
+}
+
+/// Where a worker's block fill stands with the first fitted pass of its
+/// frame (`renderer/fill.rs`, work).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Front {
+    /// Not begun: the fill owes samples until it begins.
+    Due,
+    /// Begun: the fill owes samples until the frame has this many.
+    Until(u64),
+    /// No fitted fill (PT, BDPT; a fixed pixel block).
+    Done,
 }
 
 /// One worker's share of a bootstrap spread over the workers
@@ -1452,6 +1468,11 @@ impl Renderer {
             }
             worker.guard_due = self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
         }
+        worker.front = if worker.mlt.is_some() && self.pixel_block == PixelBlock::Fit {
+            Front::Due
+        } else {
+            Front::Done
+        };
     }
 
     /// MLT, CMLT: whether frames render the block fill
@@ -1477,12 +1498,20 @@ impl Renderer {
                     .count()
                     .div_ceil(u64::from(self.config.workers))
                     .max(PIECE);
-                fill::owed(
+                let owed = fill::owed(
                     m.stats().mutations + ahead,
                     s.pass_records,
                     minimum,
                     worker.frame_samples,
-                )
+                );
+                // The frame's first fitted pass (its guard first) before
+                // any further mutation.
+                let front = match worker.front {
+                    Front::Due => PIECE,
+                    Front::Until(end) => end.saturating_sub(worker.frame_samples),
+                    Front::Done => 0,
+                };
+                owed.max(front)
             }
             _ => 0,
         }
@@ -1651,6 +1680,12 @@ impl Renderer {
         }
         worker.cursor = 0;
         worker.pass_end = BlockGrid::new(w, h, worker.block).count();
+        if worker.front == Front::Due {
+            // The worker's W-th of the pass: with the other workers' (each
+            // starting a W-th of the order apart) the whole grid.
+            let share = worker.pass_end.div_ceil(u64::from(self.config.workers));
+            worker.front = Front::Until(worker.frame_samples + share);
+        }
     }
 
     /// The block size of the pass `worker` begins (`renderer/pixel_block.rs`):
@@ -2129,6 +2164,7 @@ impl RenderWorker {
             pass_end: 0,
             guard: false,
             guard_due: false,
+            front: Front::Done,
             strided: false,
             block: 1,
             frame_samples: 0,
