@@ -474,9 +474,9 @@ pub struct RenderWorker {
     /// one.
     guard: bool,
     guard_due: bool,
-    /// MLT, CMLT with a fitted block fill: where the worker's share of
-    /// the frame's first fitted fill pass stands, which the fill renders
-    /// before any further mutation (`renderer/fill.rs`, work).
+    /// MLT, CMLT with a fitted block fill: where the frame's first fitted
+    /// fill pass stands, which the fill renders whole before any further
+    /// mutation (`renderer/fill.rs`, work).
     front: Front,
     /// PT, BDPT: whether the open pass visits the pixels in the strided
     /// order of `render_while` (else row-major; see `Renderer::stride`).
@@ -1681,18 +1681,16 @@ impl Renderer {
         worker.cursor = 0;
         worker.pass_end = BlockGrid::new(w, h, worker.block).count();
         if worker.front == Front::Due {
-            // The worker's W-th of the pass: with the other workers' (each
-            // starting a W-th of the order apart) the whole grid.
-            let share = worker.pass_end.div_ceil(u64::from(self.config.workers));
-            worker.front = Front::Until(worker.frame_samples + share);
+            // The whole pass: fitted to this worker's forecast alone.
+            worker.front = Front::Until(worker.frame_samples + worker.pass_end);
         }
     }
 
     /// The block size of the pass `worker` begins (`renderer/pixel_block.rs`):
     /// the fixed one, or the finest whose grid the accumulation can fill —
-    /// at most W · (T + margin · r) blocks, T the worker's sample weight
-    /// now, r what its last frame rendered beyond this frame's samples so
-    /// far.
+    /// at most W · (T + margin · r) blocks (W = 1 for a block fill), T the
+    /// worker's sample weight now, r what its last frame rendered beyond
+    /// this frame's samples so far.
     fn block_for(&self, worker: &RenderWorker) -> u32 {
         match self.pixel_block {
             PixelBlock::Fixed(k) => k,
@@ -1700,8 +1698,17 @@ impl Renderer {
                 let left = worker
                     .last_frame_samples
                     .saturating_sub(worker.frame_samples);
-                let capacity = self.config.workers as f64
-                    * (worker.weights.total() + FIT_MARGIN * left as f64);
+                // The workers' passes complement one another only at one
+                // block size, which workers fitting their own forecasts
+                // need not reach; a block fill, whose few samples make k
+                // differ from worker to worker more often, fits each
+                // worker's pass to its own forecast (`renderer/fill.rs`).
+                let workers = if worker.mlt.is_some() {
+                    1.0
+                } else {
+                    self.config.workers as f64
+                };
+                let capacity = workers * (worker.weights.total() + FIT_MARGIN * left as f64);
                 pixel_block::fit(self.camera.width(), self.camera.height(), capacity)
             }
         }
