@@ -31,6 +31,20 @@
 //! [`super::MAX_PIXEL_BLOCK`] if that is more (640 × 360: 60 blocks): the
 //! fill then completes its coarsest pass in every frame the clock allows
 //! that much, as fitted BDPT does, however few mutations the frame holds.
+//! At [`super::PixelBlock::Fit`] each worker fits its fill's passes to
+//! its own forecast (not to the W workers' together, as PT and BDPT do:
+//! workers whose few fill samples give them different block sizes do not
+//! complement one another's passes, and left about a quarter of a frame
+//! to the guard pass), and renders its first fitted pass of a reset frame
+//! whole (after its share of the guard pass) before any further mutation:
+//! that pass is sized to about 0.7 of the worker's last frame's fill, so
+//! a frame slower than the last still completes it and no pixel is left
+//! to the guard pass alone, whose samples weigh 10⁻³ of a pass sample's
+//! and so next to nothing against the chains' records (exactly black
+//! where its one coarse sample was 0 and no chain splatted: the frame
+//! trial's black MLT frames under load were such regions). The fill's
+//! share of a frame is then at least that pass and otherwise
+//! [`FILL_SHARE`]; a frame cut short spends more of its work on the fill.
 //! The weights do not depend on how much work the fill got.
 //!
 //! **Weights.** A fill sample weighs ρ′ = ρ(1 + s) records (s CMLT's
@@ -139,6 +153,99 @@ mod tests {
         let v = mix([0.0; 3], 0.0, fill, 20.0, 50.0, 10.0);
         assert_eq!(v, [2.0 + 0.25, 4.0, 8.0]);
         assert_eq!(mix([0.0; 3], 0.0, none, 0.0, 50.0, 10.0), [0.0; 3]);
+    }
+
+    /// A reset frame slower than the last (a tenth of its pieces) still
+    /// completes the fill's fitted pass, and so does one after a frame in
+    /// which the two workers rendered unequal shares (their fitted block
+    /// sizes then differ): every pixel is covered by a fitted pass's
+    /// sample, not by the guard pass alone (whose weight, 10⁻³ of a
+    /// sample's, is next to nothing against the chains' records: such a
+    /// pixel is black where no chain splatted). Two workers, a camera that
+    /// moves every frame, frames of 400 pieces (250 for worker 1) and 30
+    /// in turn. Fails with the fill's samples paired with the mutations
+    /// only, and with passes fitted to the workers' joint forecast.
+    #[cfg(feature = "std")]
+    #[test]
+    fn a_short_frame_completes_the_fills_fitted_pass() {
+        use crate::accel::bvh::Bvh;
+        use crate::integrator::Settings;
+        use crate::math::Rgb;
+        use crate::mlt::MltSettings;
+        use crate::mlt::tests::scenes;
+        use crate::renderer::pixel_block::GUARD_WEIGHT;
+        use crate::renderer::{
+            Estimator, PixelBlock, RenderWorker, Renderer, RendererConfig, Temporal,
+        };
+        use crate::scene::{Camera, FovAxis, Material};
+        use glam::{Mat4, Vec3};
+
+        let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
+        let bvh = Bvh::build(&scene.triangles().collect::<alloc::vec::Vec<_>>());
+        let camera = |x: f32| {
+            let to_world = Mat4::from_translation(Vec3::new(x, -0.2, -0.6));
+            Camera::perspective(to_world, 70.0, FovAxis::X, 64, 48, 0.0, 1.0).unwrap()
+        };
+        let config = RendererConfig {
+            estimator: Estimator::Mlt(MltSettings {
+                n_bootstrap: 1_000,
+                b_passes: 1,
+                b_min_samples: 0,
+                n_chains: 32,
+                ..MltSettings::default()
+            }),
+            settings: Settings {
+                max_depth: Some(4),
+                ..Settings::default()
+            },
+            workers: 2,
+            seed: 3,
+            temporal: Temporal {
+                keep_chains: true,
+                ..Temporal::default()
+            },
+            ..RendererConfig::default()
+        };
+        let mut r = Renderer::new(config, camera(0.0)).unwrap();
+        r.set_pixel_block(PixelBlock::Fit).unwrap();
+        let mut ws = [
+            RenderWorker::new(&r, 0).unwrap(),
+            RenderWorker::new(&r, 1).unwrap(),
+        ];
+        for f in 0..6 {
+            if f > 0 {
+                r.set_camera(camera(0.01 * f as f32)).unwrap();
+            }
+            if r.begin_prepare(&scene) && f == 0 {
+                for w in &mut ws {
+                    r.prepare_worker(w, &scene, &bvh).unwrap();
+                }
+                r.finish_prepare([&ws[0], &ws[1]]).unwrap();
+            }
+            for (i, w) in ws.iter_mut().enumerate() {
+                let pieces = match (f % 2, i) {
+                    (0, 0) => 400,
+                    (0, _) => 250,
+                    _ => 30,
+                };
+                let mut n = 0;
+                r.render_while(w, &scene, &bvh, u64::MAX, &mut |_| {
+                    n += 1;
+                    n < pieces
+                })
+                .unwrap();
+            }
+            if f == 0 {
+                continue;
+            }
+            let blocks = [ws[0].block, ws[1].block];
+            let uncovered = (0..r.pixels() as usize)
+                .filter(|&i| {
+                    ws.iter().map(|w| w.weights.at(i)).sum::<f64>() <= f64::from(GUARD_WEIGHT)
+                })
+                .count();
+            assert_eq!(uncovered, 0, "frame {f} (blocks {blocks:?})");
+        }
     }
 
     /// The white furnace (closed box, albedo ½, Le = 1) to depth 4: every

@@ -474,6 +474,10 @@ pub struct RenderWorker {
     /// one.
     guard: bool,
     guard_due: bool,
+    /// MLT, CMLT with a fitted block fill: where the frame's first fitted
+    /// fill pass stands, which the fill renders whole before any further
+    /// mutation (`renderer/fill.rs`, work).
+    front: Front,
     /// PT, BDPT: whether the open pass visits the pixels in the strided
     /// order of `render_while` (else row-major; see `Renderer::stride`).
     strided: bool,
@@ -490,6 +494,18 @@ pub struct RenderWorker {
     /// Passes this worker has completed since the last reset.
     passes: u64,
     stats: Stats,
+}
+
+/// Where a worker's block fill stands with the first fitted pass of its
+/// frame (`renderer/fill.rs`, work).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Front {
+    /// Not begun: the fill owes samples until it begins.
+    Due,
+    /// Begun: the fill owes samples until the frame has this many.
+    Until(u64),
+    /// No fitted fill (PT, BDPT; a fixed pixel block).
+    Done,
 }
 
 /// One worker's share of a bootstrap spread over the workers
@@ -1452,6 +1468,11 @@ impl Renderer {
             }
             worker.guard_due = self.pixel_block == PixelBlock::Fit && worker.last_frame_samples > 0;
         }
+        worker.front = if worker.mlt.is_some() && self.pixel_block == PixelBlock::Fit {
+            Front::Due
+        } else {
+            Front::Done
+        };
     }
 
     /// MLT, CMLT: whether frames render the block fill
@@ -1477,12 +1498,20 @@ impl Renderer {
                     .count()
                     .div_ceil(u64::from(self.config.workers))
                     .max(PIECE);
-                fill::owed(
+                let owed = fill::owed(
                     m.stats().mutations + ahead,
                     s.pass_records,
                     minimum,
                     worker.frame_samples,
-                )
+                );
+                // The frame's first fitted pass (its guard first) before
+                // any further mutation.
+                let front = match worker.front {
+                    Front::Due => PIECE,
+                    Front::Until(end) => end.saturating_sub(worker.frame_samples),
+                    Front::Done => 0,
+                };
+                owed.max(front)
             }
             _ => 0,
         }
@@ -1651,13 +1680,17 @@ impl Renderer {
         }
         worker.cursor = 0;
         worker.pass_end = BlockGrid::new(w, h, worker.block).count();
+        if worker.front == Front::Due {
+            // The whole pass: fitted to this worker's forecast alone.
+            worker.front = Front::Until(worker.frame_samples + worker.pass_end);
+        }
     }
 
     /// The block size of the pass `worker` begins (`renderer/pixel_block.rs`):
     /// the fixed one, or the finest whose grid the accumulation can fill —
-    /// at most W · (T + margin · r) blocks, T the worker's sample weight
-    /// now, r what its last frame rendered beyond this frame's samples so
-    /// far.
+    /// at most W · (T + margin · r) blocks (W = 1 for a block fill), T the
+    /// worker's sample weight now, r what its last frame rendered beyond
+    /// this frame's samples so far.
     fn block_for(&self, worker: &RenderWorker) -> u32 {
         match self.pixel_block {
             PixelBlock::Fixed(k) => k,
@@ -1665,8 +1698,17 @@ impl Renderer {
                 let left = worker
                     .last_frame_samples
                     .saturating_sub(worker.frame_samples);
-                let capacity = self.config.workers as f64
-                    * (worker.weights.total() + FIT_MARGIN * left as f64);
+                // The workers' passes complement one another only at one
+                // block size, which workers fitting their own forecasts
+                // need not reach; a block fill, whose few samples make k
+                // differ from worker to worker more often, fits each
+                // worker's pass to its own forecast (`renderer/fill.rs`).
+                let workers = if worker.mlt.is_some() {
+                    1.0
+                } else {
+                    self.config.workers as f64
+                };
+                let capacity = workers * (worker.weights.total() + FIT_MARGIN * left as f64);
                 pixel_block::fit(self.camera.width(), self.camera.height(), capacity)
             }
         }
@@ -2129,6 +2171,7 @@ impl RenderWorker {
             pass_end: 0,
             guard: false,
             guard_due: false,
+            front: Front::Done,
             strided: false,
             block: 1,
             frame_samples: 0,

@@ -31,7 +31,8 @@
 //! otherwise), r the samples its last frame rendered minus those of this
 //! frame so far (the forecast of what is left of the frame), W the
 //! workers (each worker's passes start a W-th of the order apart, so
-//! their passes complement one another) and the margin [`FIT_MARGIN`]
+//! their passes complement one another when their sizes agree; 1 for
+//! MLT's and CMLT's block fill, `fill.rs`) and the margin [`FIT_MARGIN`]
 //! for frames slower than the last. A reset frame then holds at least
 //! one sample per block unless it renders less than the margin of its
 //! last frame; the first frame, with nothing measured, starts at
