@@ -30,7 +30,7 @@ use crate::scene::EmitterSample;
 mod media;
 
 /// Radiance arriving at the camera along `ray` (the primary ray). A scene
-/// with media or null boundaries takes [`media`]'s estimator (the same
+/// with media or null boundaries takes `pt/media.rs`'s estimator (the same
 /// one, extended), so that a scene without them runs none of its code.
 pub fn radiance<I: Intersector>(
     t: &mut Tracer<'_, I>,

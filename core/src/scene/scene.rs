@@ -314,6 +314,8 @@ impl SceneBuilder {
         self.materials.try_reserve(1)?;
         self.bitmaps.try_reserve(1)?;
         self.shapes.try_reserve(1)?;
+        self.media.try_reserve(1)?;
+        self.mesh_media.try_reserve(1)?;
         self.lights.try_reserve(1)
     }
 

@@ -1,5 +1,6 @@
 //! Path tracing through homogeneous participating media and null
-//! boundaries (the volumetric path tracer; Mitsuba 3's `volpath`).
+//! boundaries (the volumetric path tracer; the images of Mitsuba 3's
+//! `volpath` and `volpathmis`).
 //!
 //! The current medium is tracked along the path: it starts as the
 //! camera's, and changes wherever the path crosses a mesh that names
@@ -9,9 +10,12 @@
 //! scattering vertex stays the one whose density competes with next-event
 //! estimation when the path reaches an emitter.
 //!
-//! **Distance sampling: spectral MIS over the RGB channels** (Mitsuba's
-//! `volpath`; Miller et al. 2019, "A null-scattering path integral
-//! formulation of light transport", §5.3, one-sample balance heuristic).
+//! **Distance sampling: spectral MIS over the RGB channels** (Mitsuba 3's
+//! `volpathmis`; Miller et al. 2019, "A null-scattering path integral
+//! formulation of light transport", one-sample balance heuristic over the
+//! wavelengths; Mitsuba's plain `volpath` divides by the chosen channel's
+//! density alone, which its documentation says handles spectrally varying
+//! extinction poorly).
 //! A channel c is chosen uniformly and a free-flight distance drawn with
 //! density σ_t,c e^{−σ_t,c s}; the estimator divides by the density
 //! averaged over the channels, (1/3) Σ_c σ_t,c e^{−σ_t,c s} for a scattering
