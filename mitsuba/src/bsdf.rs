@@ -168,6 +168,7 @@ impl<'a> Loader<'a> {
                 fix(specular_reflectance);
             }
             MaterialKind::Principled(p) => p.textures_mut().into_iter().for_each(fix),
+            MaterialKind::Null => {}
         }
         self.material_origin.push(origin);
         self.builder.add_material(m)
@@ -240,6 +241,12 @@ impl<'a> Loader<'a> {
                 m
             }
             "normalmap" | "bumpmap" | "mask" => self.detail_wrapper(&props, node, depth)?,
+            // An index-matched boundary between media.
+            "null" => Material {
+                kind: MaterialKind::Null,
+                two_sided: false,
+                detail: Default::default(),
+            },
             "diffuse" => {
                 let reflectance = self.texture_param(&props, "reflectance", Rgb::splat(0.5))?;
                 Material {

@@ -47,6 +47,7 @@ mod error;
 mod image_io;
 pub mod input;
 mod loader;
+mod media;
 mod mesh_io;
 mod pfm;
 mod serialized;

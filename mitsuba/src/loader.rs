@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use cmlt::integrator::Settings;
 use cmlt::math::Rgb;
 use cmlt::scene::{
-    Camera, FovAxis, Light, Material, MaterialId, Mesh, SceneBuilder, SceneError, Texture,
+    Camera, FovAxis, Light, Material, MaterialId, MediumId, Mesh, SceneBuilder, SceneError, Texture,
 };
 use glam::{DMat4, DVec3};
 use roxmltree::{Document, Node, NodeId, ParsingOptions};
@@ -38,6 +38,8 @@ pub(crate) struct Loader<'a> {
     pub bsdf_memo: HashMap<NodeId, Material>,
     pub texture_memo: HashMap<NodeId, Texture>,
     pub used_materials: HashMap<NodeId, MaterialId>,
+    /// The scene's medium of each `<medium>` element used so far.
+    pub used_media: HashMap<NodeId, MediumId>,
     pub default_materials: [Option<MaterialId>; 2],
     pub bitmaps: Vec<PendingBitmap>,
     pub bitmap_index: HashMap<(PathBuf, bool), usize>,
@@ -79,6 +81,7 @@ pub(crate) fn load(
         bsdf_memo: HashMap::new(),
         texture_memo: HashMap::new(),
         used_materials: HashMap::new(),
+        used_media: HashMap::new(),
         default_materials: [None, None],
         bitmaps: Vec::new(),
         bitmap_index: HashMap::new(),
@@ -163,11 +166,20 @@ impl<'a> Loader<'a> {
                     let light = self.scene_emitter(child)?;
                     self.builder.add_light(light);
                 }
-                "medium" | "phase" | "volume" => {
-                    return Err(self.xml.err(
-                        child,
-                        format!("<{tag}>: participating media are not supported"),
-                    ));
+                // Mitsuba instantiates every top-level object: an unused
+                // medium must be valid too (it changes no image).
+                "medium" => {
+                    self.use_medium(child)?;
+                }
+                "phase" => {
+                    return Err(self
+                        .xml
+                        .err(child, "a <phase> must be nested inside a <medium>"));
+                }
+                "volume" => {
+                    return Err(self
+                        .xml
+                        .err(child, "<volume>: volume textures (grids) are not supported"));
                 }
                 "include" | "path" | "alias" => {
                     return Err(self.xml.err(
@@ -312,6 +324,8 @@ impl<'a> Loader<'a> {
                     .err(second.node, "only one <film> per sensor is allowed"));
             }
         };
+        let medium = self.sensor_medium(&props)?;
+        self.builder.set_camera_medium(medium);
         let samplers = props.objects("sampler");
         let spp = match samplers.as_slice() {
             [] => None,
@@ -747,6 +761,7 @@ impl<'a> Loader<'a> {
             }
         };
 
+        let media = self.shape_media(&props)?;
         let x = &self.xml;
         let (to_world, tnode) = props
             .transform(x, "to_world")?
@@ -840,7 +855,7 @@ impl<'a> Loader<'a> {
             shapes::flip(&mut mesh);
         }
         let w = shapes::to_world_mesh(mesh).map_err(|e| x.err(node, e))?;
-        self.builder.add_mesh(Mesh {
+        let mesh = self.builder.add_mesh(Mesh {
             positions: w.positions,
             normals: w.normals,
             uvs: w.uvs,
@@ -848,6 +863,9 @@ impl<'a> Loader<'a> {
             material,
             emission,
         });
+        if media.is_transition() {
+            self.builder.set_mesh_media(mesh, media);
+        }
         self.mesh_origin.push(node);
         Ok(())
     }

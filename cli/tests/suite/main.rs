@@ -13,6 +13,8 @@
 //! - [`frames`]: kept Metropolis chains after a camera that moves and
 //!   returns against the Cornell-box reference;
 //! - [`loader`]: the Mitsuba 3 XML loader and its malformed corpus;
+//! - [`media_loader`]: participating media and the null BSDF in the
+//!   loader, malformed media refused with their line;
 //! - [`mlt`]: level-1 MLT against the Cornell-box reference, determinism;
 //! - [`pfm_images`]: PFM environment maps and textures as Mitsuba 3 reads
 //!   them, and malformed files refused;
@@ -33,6 +35,7 @@ mod corpus;
 mod effects;
 mod frames;
 mod loader;
+mod media_loader;
 mod mlt;
 mod parts;
 mod pfm_images;

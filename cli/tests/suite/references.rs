@@ -1,4 +1,6 @@
-//! PT and BDPT converge to Mitsuba 3's references on the shared scenes.
+//! PT and BDPT converge to Mitsuba 3's references on the shared scenes
+//! (the scenes with participating media: PT, the one estimator that
+//! renders them so far).
 //!
 //! At 1/4 resolution (the reference block-averaged 4×4 is the exact
 //! reference of that render, box filter), we check
@@ -192,4 +194,22 @@ fn glossy_room_pt() {
 #[test]
 fn glossy_room_bdpt() {
     check_scene("glossy-room", Estimator::Bdpt, 256);
+}
+
+/// Absorbing media behind dielectric boundaries (tests/scenes/media-glass):
+/// a sphere of coloured liquid and a cube of grey-absorbing glass, PT
+/// against Mitsuba 3's `volpath`. Caustics through the glass onto the
+/// floor reach PT only by BSDF sampling (as in caustic-pool): 1024 spp
+/// for its relMSE to fall like 1/N.
+#[test]
+fn media_glass_pt() {
+    check_scene("media-glass", Estimator::Path, 1024);
+}
+
+/// Scattering fog lit by an area light (tests/scenes/media-fog): a haze
+/// around everything, the camera in it, a denser Henyey–Greenstein fog
+/// behind null boundaries; PT against Mitsuba 3's `volpath`.
+#[test]
+fn media_fog_pt() {
+    check_scene("media-fog", Estimator::Path, 256);
 }

@@ -26,13 +26,22 @@ use crate::math::{Rgb, power_heuristic};
 use crate::sampler::SampleStream;
 use crate::scene::EmitterSample;
 
-/// Radiance arriving at the camera along `ray` (the primary ray).
+#[cfg(feature = "media")]
+mod media;
+
+/// Radiance arriving at the camera along `ray` (the primary ray). A scene
+/// with media or null boundaries takes `pt/media.rs`'s estimator (the same
+/// one, extended), so that a scene without them runs none of its code.
 pub fn radiance<I: Intersector>(
     t: &mut Tracer<'_, I>,
     settings: &Settings,
     ray: Ray,
     rng: &mut SampleStream,
 ) -> Rgb {
+    #[cfg(feature = "media")]
+    if t.has_media() {
+        return media::radiance(t, settings, ray, rng);
+    }
     let max_depth = settings.max_depth.unwrap_or(u32::MAX);
     let mut l = Rgb::ZERO;
     let mut beta = Rgb::ONE;

@@ -16,6 +16,8 @@ use crate::scene::detail;
 #[cfg(feature = "normal-mapping")]
 use crate::scene::detail::Detail;
 use crate::scene::{Analysis, Camera, Effect, Scene, SurfacePoint};
+#[cfg(feature = "media")]
+use crate::scene::{MaterialKind, MediumId};
 
 /// One counter per [`Lobe`] kind (index `lobe as usize`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -122,6 +124,10 @@ pub struct Tracer<'a, I: Intersector> {
     /// opacity: only then do ray queries walk (an [`Analysis::all`] of a
     /// scene without masks keeps the plain queries and packets).
     masks: bool,
+    /// The scene has media or null boundaries ([`Scene::has_media`]),
+    /// found once: only then does path tracing run its media code.
+    #[cfg(feature = "media")]
+    media: bool,
 }
 
 /// A surface point with its resolved BSDF and shading frame.
@@ -145,7 +151,19 @@ impl<'a, I: Intersector> Tracer<'a, I> {
             stats: Stats::default(),
             analysis: Analysis::all(),
             masks: Self::scene_has_masks(scene),
+            #[cfg(feature = "media")]
+            media: scene.has_media(),
         }
+    }
+
+    /// Whether the scene has media or null boundaries (always false
+    /// without the `media` feature, which refuses such scenes).
+    #[inline]
+    pub fn has_media(&self) -> bool {
+        #[cfg(feature = "media")]
+        return self.media;
+        #[cfg(not(feature = "media"))]
+        false
     }
 
     fn scene_has_masks(scene: &Scene) -> bool {
@@ -514,6 +532,110 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         }
         self.stats.packets += 1;
         self.stats.packet_rays += n;
+    }
+}
+
+/// The far end of a transmittance query ([`Tracer::transmittance`]).
+#[cfg(feature = "media")]
+#[derive(Clone, Copy, Debug)]
+pub enum Endpoint {
+    /// A point on a surface (offset off it towards the query's start).
+    Surface(SurfacePoint),
+    /// A point on no surface (a point light).
+    Point(Vec3),
+    /// Infinitely far along a unit direction (a light at infinity).
+    Direction(Vec3),
+}
+
+/// Most null boundaries one transmittance query crosses before it counts
+/// as blocked (a bound on the work of a ray through a stack of them).
+#[cfg(feature = "media")]
+pub const MAX_NULL_CROSSINGS: usize = 64;
+
+#[cfg(feature = "media")]
+impl<I: Intersector> Tracer<'_, I> {
+    /// Transmittance from a point (`p` with error bound `p_error` on a
+    /// surface with geometric normal `ng`, or `ng` zero for a point in a
+    /// medium) to `to`, starting in `medium`: zero when a surface other
+    /// than a null boundary is in the way; otherwise the product of each
+    /// medium's exp(−σ_t ℓ) over the lengths ℓ the segment runs in it,
+    /// the medium tracked across null boundaries as a path crosses them.
+    /// Every ray it traces counts in [`Stats::shadow_rays`].
+    pub fn transmittance(
+        &mut self,
+        p: Vec3,
+        p_error: Vec3,
+        ng: Vec3,
+        to: Endpoint,
+        medium: Option<MediumId>,
+    ) -> Rgb {
+        let scene = self.scene;
+        let towards = match to {
+            Endpoint::Surface(sp) => sp.p - p,
+            Endpoint::Point(q) => q - p,
+            Endpoint::Direction(d) => d,
+        };
+        // A segment tangent to the start's surface carries nothing (as
+        // `offset::spawn_rays_between` refuses it).
+        if offset::side_of(ng, towards).is_none() {
+            return Rgb::ZERO;
+        }
+        let end = match to {
+            Endpoint::Surface(sp) => {
+                Some(offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, p - sp.p))
+            }
+            Endpoint::Point(q) => Some(q),
+            Endpoint::Direction(_) => None,
+        };
+        let t_max = match to {
+            Endpoint::Surface(_) => 1.0 - offset::SHADOW_EPSILON,
+            _ => 1.0,
+        };
+        let mut o = offset::offset_ray_origin(p, p_error, ng, towards);
+        let mut medium = medium;
+        let mut tr = Rgb::ONE;
+        for _ in 0..MAX_NULL_CROSSINGS {
+            let ray = match end {
+                Some(e) => Ray { o, d: e - o, t_max },
+                None => Ray::new(o, towards),
+            };
+            self.stats.shadow_rays += 1;
+            let Some(hit) = self.accel.intersect(&ray) else {
+                let left = match end {
+                    Some(e) => (e - o).length(),
+                    None => f32::INFINITY,
+                };
+                if let Some(m) = medium {
+                    tr *= scene.medium(m).transmittance(left);
+                }
+                return tr;
+            };
+            // A degenerate triangle the query reported still blocks.
+            let Some(sp) = scene.hit_point(&hit) else {
+                return Rgb::ZERO;
+            };
+            // A masked surface whose test passes is walked through as the
+            // plain shadow rays walk it (it changes no medium).
+            #[cfg(feature = "alpha-masks")]
+            let passes = self.has_masks() && self.passes_mask(&ray, &sp);
+            #[cfg(not(feature = "alpha-masks"))]
+            let passes = false;
+            if !passes && !matches!(scene.material(&sp).kind, MaterialKind::Null) {
+                return Rgb::ZERO;
+            }
+            if let Some(m) = medium {
+                tr *= scene.medium(m).transmittance((sp.p - o).length());
+                if tr.is_black() {
+                    return tr;
+                }
+            }
+            let iface = scene.surface_media(sp.surface);
+            if !passes && iface.is_transition() {
+                medium = iface.target(sp.ng, ray.d);
+            }
+            o = offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, ray.d);
+        }
+        Rgb::ZERO
     }
 }
 

@@ -1018,6 +1018,7 @@ impl Renderer {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
+        check_media(&self.config.estimator, scene)?;
         let Some(epoch) = self.pending else {
             return Ok(true);
         };
@@ -1341,6 +1342,7 @@ impl Renderer {
         if self.prepared != Some(self.generation) || self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
         }
+        check_media(&self.config.estimator, scene)?;
         let c = &self.config;
         let settings = &self.settings;
         let mut tracer = self.tracer(scene, accel);
@@ -2024,6 +2026,19 @@ fn render_samples<I: Intersector>(
 fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
     let w = w.max(1);
     (i * blocks / w)..((i + 1) * blocks / w)
+}
+
+/// Refuses a scene with media or null boundaries for every estimator but
+/// path tracing, the only one that renders them so far: BDPT and the
+/// Metropolis estimators would treat a null boundary as a black surface
+/// and ignore the media, a silently wrong image.
+fn check_media(estimator: &Estimator, scene: &Scene) -> Result<(), RenderError> {
+    if estimator.kind() != EstimatorKind::Path && scene.has_media() {
+        return Err(RenderError::Config(
+            "participating media and null boundaries are rendered by path tracing (pt) only so far",
+        ));
+    }
+    Ok(())
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's

@@ -46,11 +46,13 @@ pub enum Effect {
     Principled = 13,
     /// Rough diffuse (Oren–Nayar) reflection.
     RoughDiffuse = 14,
+    /// Participating media and null (index-matched) boundaries.
+    Media = 15,
 }
 
 impl Effect {
     /// Every effect, in bit order.
-    pub const ALL: [Effect; 15] = [
+    pub const ALL: [Effect; 16] = [
         Effect::Diffuse,
         Effect::Glossy,
         Effect::SpecularReflection,
@@ -66,6 +68,7 @@ impl Effect {
         Effect::Environment,
         Effect::Principled,
         Effect::RoughDiffuse,
+        Effect::Media,
     ];
 
     /// A short lower-case name (`"specular-reflection"` …).
@@ -86,6 +89,7 @@ impl Effect {
             Effect::Environment => "environment",
             Effect::Principled => "principled",
             Effect::RoughDiffuse => "rough-diffuse",
+            Effect::Media => "media",
         }
     }
 
@@ -106,6 +110,7 @@ impl Effect {
             Effect::Environment => Some("environment"),
             Effect::Principled => Some("principled"),
             Effect::RoughDiffuse => Some("rough-diffuse"),
+            Effect::Media => Some("media"),
             Effect::Diffuse | Effect::AreaLights => None,
         }
     }
@@ -127,6 +132,7 @@ impl Effect {
             Effect::Environment => cfg!(feature = "environment"),
             Effect::Principled => cfg!(feature = "principled"),
             Effect::RoughDiffuse => cfg!(feature = "rough-diffuse"),
+            Effect::Media => cfg!(feature = "media"),
             Effect::Diffuse | Effect::AreaLights => true,
         }
     }
@@ -149,6 +155,7 @@ impl Effect {
             Effect::Environment => "no environment: escaping rays carry nothing",
             Effect::Principled => "no principled material",
             Effect::RoughDiffuse => "no rough diffuse material",
+            Effect::Media => "no medium or null boundary: rays run from surface to surface",
         }
     }
 }
@@ -273,6 +280,7 @@ impl Analysis {
                 ),
                 // Its many textures are visited below.
                 MaterialKind::Principled(_) => (Effect::Principled, [None, None]),
+                MaterialKind::Null => (Effect::Media, [None, None]),
             };
             effects = effects.with(effect);
             let principled = match &m.kind {

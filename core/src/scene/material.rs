@@ -145,6 +145,10 @@ pub enum MaterialKind {
     /// with retro-reflection, sheen, anisotropic GGX reflection and
     /// transmission, a GTR1 clearcoat).
     Principled(PrincipledParams),
+    /// Mitsuba's `null` BSDF: an index-matched boundary that only changes
+    /// the medium a ray is in (see [`crate::scene::medium`]); rays pass it
+    /// unchanged and it never scatters. Needs the `media` effect.
+    Null,
 }
 
 /// The parameters of [`MaterialKind::Principled`], named as Mitsuba 3 names
@@ -403,7 +407,9 @@ impl Material {
     #[inline(never)]
     #[allow(unused_variables)]
     fn bsdf_other(&self, texture: impl Fn(&Texture) -> Rgb) -> Bsdf {
-        // With every model built the fallback arm is unreachable.
+        // The fallback arm: a model left out of the build, and the null
+        // material, which no estimator shades (path tracing passes it by,
+        // the others refuse scenes with media).
         #[allow(unreachable_patterns)]
         match &self.kind {
             #[cfg(feature = "refraction")]
@@ -654,6 +660,7 @@ impl Material {
                     .ok_or("roughplastic reflectances must be finite and in [0, 1]")
             }
             MaterialKind::Principled(p) => p.validate(),
+            MaterialKind::Null => Ok(()),
         }
     }
 }

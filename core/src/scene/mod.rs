@@ -17,6 +17,7 @@ pub mod envmap;
 #[cfg(feature = "alloc")]
 pub mod light;
 pub mod material;
+pub mod medium;
 pub mod texture;
 
 #[cfg(feature = "alloc")]
@@ -44,6 +45,7 @@ pub use crate::bsdf::roughplastic::RoughCoating;
 pub use material::{
     MAX_ROUGHNESS, Material, MaterialId, MaterialKind, PrincipledParams, roughness_ok,
 };
+pub use medium::{Medium, MediumError, MediumId, MediumInterface, Phase};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
 pub use texture::{BitmapId, Texture};

@@ -8,7 +8,8 @@ use glam::{Vec2, Vec3};
 use super::camera::Camera;
 use super::effects::{Analysis, Effect};
 use super::light::{Chosen, Light, LightSet};
-use super::material::{Material, MaterialId};
+use super::material::{Material, MaterialId, MaterialKind};
+use super::medium::{Medium, MediumId, MediumInterface};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
 use super::texture::{Bitmap, BitmapId, Texture};
 use crate::geometry::Hit;
@@ -142,6 +143,12 @@ pub enum SceneError {
     TooManyShapes,
     /// No camera was set.
     MissingCamera,
+    /// A mesh's or the camera's medium does not exist, or media were
+    /// attached to a mesh that does not exist.
+    UnknownMedium {
+        /// The mesh (`None`: the camera).
+        mesh: Option<usize>,
+    },
     /// A light's parameter is out of range.
     InvalidLight {
         /// Light index (in [`SceneBuilder::add_light`] order).
@@ -223,6 +230,12 @@ impl fmt::Display for SceneError {
             }
             SceneError::TooManyShapes => write!(f, "scene has more than 2^31 - 1 host shapes"),
             SceneError::MissingCamera => write!(f, "scene has no camera"),
+            SceneError::UnknownMedium { mesh: Some(m) } => {
+                write!(f, "mesh {m}: a medium (or the mesh) does not exist")
+            }
+            SceneError::UnknownMedium { mesh: None } => {
+                write!(f, "the camera's medium does not exist")
+            }
             SceneError::InvalidLight { light, reason } => write!(f, "light {light}: {reason}"),
             SceneError::EffectNotBuilt { effect } => write!(
                 f,
@@ -280,6 +293,11 @@ pub struct SceneBuilder {
     shapes: Vec<ShapeGroup>,
     lights: Vec<Light>,
     camera: Option<Camera>,
+    media: Vec<Medium>,
+    /// (mesh, its media), in the order given; a later entry for a mesh
+    /// replaces an earlier one.
+    mesh_media: Vec<(usize, MediumInterface)>,
+    camera_medium: Option<MediumId>,
 }
 
 impl SceneBuilder {
@@ -296,6 +314,8 @@ impl SceneBuilder {
         self.materials.try_reserve(1)?;
         self.bitmaps.try_reserve(1)?;
         self.shapes.try_reserve(1)?;
+        self.media.try_reserve(1)?;
+        self.mesh_media.try_reserve(1)?;
         self.lights.try_reserve(1)
     }
 
@@ -337,6 +357,24 @@ impl SceneBuilder {
     /// Sets the camera.
     pub fn set_camera(&mut self, camera: Camera) {
         self.camera = Some(camera);
+    }
+
+    /// Adds a participating medium (checked when it was made,
+    /// [`Medium::homogeneous`]) and returns its id.
+    pub fn add_medium(&mut self, medium: Medium) -> MediumId {
+        self.media.push(medium);
+        MediumId(self.media.len() as u32 - 1)
+    }
+
+    /// Attaches media to the two sides of mesh `mesh` (an index
+    /// [`SceneBuilder::add_mesh`] returned). Validation happens in `build`.
+    pub fn set_mesh_media(&mut self, mesh: usize, media: MediumInterface) {
+        self.mesh_media.push((mesh, media));
+    }
+
+    /// Sets the medium the camera sits in (`None`: vacuum, the default).
+    pub fn set_camera_medium(&mut self, medium: Option<MediumId>) {
+        self.camera_medium = medium;
     }
 
     /// Validates everything and builds the scene (light set included).
@@ -385,7 +423,7 @@ impl SceneBuilder {
                     specular_reflectance,
                     ..
                 } => [Some(diffuse_reflectance), Some(specular_reflectance)],
-                super::MaterialKind::Principled(_) => [None, None],
+                super::MaterialKind::Principled(_) | super::MaterialKind::Null => [None, None],
             };
             let principled = match &m.kind {
                 super::MaterialKind::Principled(p) => Some(p.textures()),
@@ -458,6 +496,22 @@ impl SceneBuilder {
             }
         }
         let camera = self.camera.ok_or(SceneError::MissingCamera)?;
+        let medium_ok = |m: Option<MediumId>| m.is_none_or(|m| (m.0 as usize) < self.media.len());
+        if !medium_ok(self.camera_medium) {
+            return Err(SceneError::UnknownMedium { mesh: None });
+        }
+        // One interface per mesh, or none at all when no mesh names media
+        // (then the estimators never look them up).
+        let mut mesh_media = Vec::new();
+        for &(mi, m) in &self.mesh_media {
+            if mi >= self.meshes.len() || !medium_ok(m.interior) || !medium_ok(m.exterior) {
+                return Err(SceneError::UnknownMedium { mesh: Some(mi) });
+            }
+            if mesh_media.is_empty() {
+                mesh_media = alloc::vec![MediumInterface::default(); self.meshes.len()];
+            }
+            mesh_media[mi] = m;
+        }
         let mut tri_mesh = Vec::with_capacity(total as usize);
         let mut first_tri = Vec::with_capacity(self.meshes.len());
         for (mi, m) in self.meshes.iter().enumerate() {
@@ -490,6 +544,9 @@ impl SceneBuilder {
             first_vertex,
             moved_in,
             motion_frame: 1,
+            media: self.media,
+            mesh_media,
+            camera_medium: self.camera_medium,
         };
         // A build without some effect's code must refuse a scene that needs
         // it (meshes and host shapes alike), never render it wrong.
@@ -537,6 +594,12 @@ pub struct Scene {
     moved_in: Vec<u64>,
     /// Counts [`Scene::begin_frame`] calls, from 1.
     motion_frame: u64,
+    /// Participating media, referenced by [`MediumId`].
+    pub media: Vec<Medium>,
+    /// Each mesh's media; empty when no mesh names any.
+    mesh_media: Vec<MediumInterface>,
+    /// The medium the camera sits in.
+    camera_medium: Option<MediumId>,
 }
 
 /// A light chosen by [`Scene::sample_emitter`].
@@ -603,7 +666,50 @@ impl Scene {
         for l in self.lights.others() {
             a.effects = a.effects.with(l.effect());
         }
+        if self.has_media() {
+            a.effects = a.effects.with(Effect::Media);
+            // Light scattered in a medium makes paths beyond one segment
+            // count even when no surface scatters.
+            a.emitters_only &= !self.media.iter().any(Medium::scatters);
+        }
         a
+    }
+
+    /// Whether light meets a medium or a null boundary anywhere: a
+    /// medium is attached to a mesh or the camera, or a used material is
+    /// null. Only then do the estimators run the media code.
+    pub fn has_media(&self) -> bool {
+        !self.mesh_media.is_empty()
+            || self.camera_medium.is_some()
+            || self
+                .meshes
+                .iter()
+                .map(|m| m.material)
+                .chain(self.shapes.iter().map(|g| g.material))
+                .any(|id| matches!(self.materials[id.0 as usize].kind, MaterialKind::Null))
+    }
+
+    /// The medium the camera sits in.
+    #[inline]
+    pub fn camera_medium(&self) -> Option<MediumId> {
+        self.camera_medium
+    }
+
+    /// The media on the two sides of the surface `surface` (a
+    /// [`SurfacePoint::surface`]): none for host shapes and for meshes
+    /// that name none.
+    #[inline]
+    pub fn surface_media(&self, surface: u32) -> MediumInterface {
+        self.mesh_media
+            .get(surface as usize)
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// The medium `id`.
+    #[inline]
+    pub fn medium(&self, id: MediumId) -> &Medium {
+        &self.media[id.0 as usize]
     }
 
     /// Number of triangles in the scene.

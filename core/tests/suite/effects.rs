@@ -179,6 +179,15 @@ fn scenes() -> Vec<(Effect, Material, f32)> {
             },
             0.0,
         ),
+        (
+            Effect::Media,
+            Material {
+                kind: MaterialKind::Null,
+                two_sided: false,
+                detail: Detail::NONE,
+            },
+            0.0,
+        ),
     ]
 }
 

@@ -14,6 +14,9 @@
 //! - [`furnace`]: white-furnace answers of every estimator;
 //! - [`lights`]: point, spot, directional and environment lights with
 //!   analytic answers;
+//! - [`media`]: participating media with analytic answers (slab
+//!   transmittance, the scattering furnace), and their refusal by the
+//!   estimators that do not render them yet;
 //! - [`miri`]: the subset Miri runs (scalar BVH kernel, packets, tiny
 //!   render passes), natively;
 //! - [`mlt`]: level-1 MLT and CMLT on scenes with exact answers;
@@ -44,6 +47,7 @@ mod detail;
 mod effects;
 mod furnace;
 mod lights;
+mod media;
 mod miri;
 mod mlt;
 mod outputs;
