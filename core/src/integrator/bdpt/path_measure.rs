@@ -75,9 +75,9 @@ use crate::scene::{Camera, Light, Scene};
 pub enum PathEnd {
     /// A point on an emissive mesh.
     Area,
-    /// Point or spot light `.0` of [`crate::scene::LightSet::others`].
+    /// Point or spot light `.0` of [`crate::scene::light::LightSet::others`].
     Point(u32),
-    /// Directional light `.0` of [`crate::scene::LightSet::others`].
+    /// Directional light `.0` of [`crate::scene::light::LightSet::others`].
     Directional(u32),
     /// The environment (every non-delta light at infinity), in direction
     /// `sp.ng`.
@@ -123,7 +123,7 @@ impl PathEnd {
 }
 
 /// The emitter vertex of other light `index` from which emission `e`
-/// leaves ([`crate::scene::LightSet::sample_emission`]), as a light subpath
+/// leaves ([`crate::scene::light::LightSet::sample_emission`]), as a light subpath
 /// of BDPT starts.
 pub fn emission_vertex(scene: &Scene, index: usize, e: &Emission) -> PathVertex {
     let mut v = other_light_vertex(scene, index, e.origin, e.origin, -e.dir);
