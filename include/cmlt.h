@@ -59,7 +59,7 @@
 #define CMLT_LEVEL1_PRIMARY_SAMPLE 0
 
 // MLT and CMLT: level 1 in Veach's path space, with the bidirectional
-// and lens subpath mutations (scenes lit by area emitters only).
+// and lens subpath mutations and Veach's perturbations.
 #define CMLT_LEVEL1_PATH_SPACE 1
 
 // Every frame starts a new accumulation (the default).

@@ -21,7 +21,6 @@ use cmlt_core::film::PixelFormat;
 use cmlt_core::integrator::LobeCounts;
 use cmlt_core::mlt::{
     Candidates, CmltSettings, Level1, Level2Settings, MltSettings, PathMutations, Splatting,
-    path_space_supports,
 };
 use cmlt_core::renderer::{
     Accumulation, Estimator, EstimatorKind, PixelBlock, RenderError, RenderStats, RenderWorker,
@@ -62,7 +61,7 @@ pub const CMLT_SPLATTING_EXPECTED_VALUE: u32 = 1;
 /// MLT: level 1 in Kelemen et al.'s primary sample space (the default).
 pub const CMLT_LEVEL1_PRIMARY_SAMPLE: u32 = 0;
 /// MLT and CMLT: level 1 in Veach's path space, with the bidirectional
-/// and lens subpath mutations (scenes lit by area emitters only).
+/// and lens subpath mutations and Veach's perturbations.
 pub const CMLT_LEVEL1_PATH_SPACE: u32 = 1;
 
 /// Every frame starts a new accumulation (the default).
@@ -510,14 +509,7 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
     };
     let level1 = match c.level1 {
         CMLT_LEVEL1_PRIMARY_SAMPLE => Level1::PrimarySample,
-        CMLT_LEVEL1_PATH_SPACE => {
-            if !path_space_supports(&scene.live()?.scene) {
-                return Err(Error::invalid(
-                    "the path-space level 1 renders scenes lit by area emitters only",
-                ));
-            }
-            Level1::PathSpace
-        }
+        CMLT_LEVEL1_PATH_SPACE => Level1::PathSpace,
         other => return Err(Error::invalid(format!("unknown level 1 {other}"))),
     };
     let mut settings = scene.settings;

@@ -11,7 +11,6 @@ use std::path::PathBuf;
 
 use clap::parser::ValueSource;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
-use cmlt::mlt::{Level1, path_space_supports};
 use cmlt::renderer::{Accumulation, Budget, PixelBlock, RendererConfig};
 use cmlt::scene::Camera;
 use cmlt_cli::accel::{Accel, AccelKind};
@@ -115,14 +114,6 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
         eprintln!("{}", scene.analysis(&scene.camera).report());
     }
     let mut config = args.config(loaded.settings)?;
-    if config
-        .estimator
-        .mlt()
-        .is_some_and(|m| m.level1 == Level1::PathSpace)
-        && !path_space_supports(scene)
-    {
-        return Err("--level1 path renders scenes lit by area emitters only (this one has point, spot, directional or environment lights)".to_string());
-    }
     let budget = args.estimator.budget(loaded.spp);
     if let Some((i, n)) = args.part.part {
         config.seed = state::part_seed(args.estimator.seed, i);

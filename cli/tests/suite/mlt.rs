@@ -376,6 +376,31 @@ fn envmap_cmlt_matches_reference() {
     check_reference("envmap", 4, &cmlt, 256);
 }
 
+/// The path-space level 1 converges to the reference of the scene lit by
+/// point, spot, directional and constant lights: its paths end on lights
+/// at a delta position, a delta direction and the environment, with
+/// their own emitter densities in T.
+#[test]
+fn lights_punctual_path_space_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(64)
+    });
+    check_reference("lights-punctual", 4, &mlt, 256);
+}
+
+/// The path-space level 1 converges to the environment-map scene's
+/// reference: the camera side of the bidirectional mutation reaches the
+/// map when it leaves the scene, the light side starts on it.
+#[test]
+fn envmap_path_space_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(64)
+    });
+    check_reference("envmap", 4, &mlt, 256);
+}
+
 #[test]
 fn threads_share_one_bootstrap_and_replay_bit_for_bit() {
     let (loaded, _) = load_reduced("cornell-box", 16);

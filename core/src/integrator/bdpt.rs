@@ -34,7 +34,10 @@
 
 mod path_measure;
 
-pub use path_measure::{path_contribution, path_densities, strategy_density};
+pub use path_measure::{
+    PathEnd, emission_vertex, environment_vertex, path_contribution, path_densities,
+    strategy_density,
+};
 
 use alloc::vec::Vec;
 

@@ -265,9 +265,9 @@ pub enum Level1 {
     /// by the bidirectional and lens subpath mutations and the lens,
     /// caustic and multi-chain perturbations, chosen by
     /// [`MltSettings::path_mutations`] (`mlt/path_space/`); CMLT's level 2
-    /// runs from its states as from primary-sample ones. Only scenes lit
-    /// by area emitters alone can be rendered ([`path_space_supports`]:
-    /// preparing the renderer for another scene is a `RenderError::Config`).
+    /// runs from its states as from primary-sample ones. Its paths end
+    /// on every kind of emitter: area, point, spot, directional and
+    /// environment lights.
     PathSpace,
 }
 
@@ -468,16 +468,6 @@ impl CmltSettings {
         self.mlt.validate()?;
         self.level2.validate()
     }
-}
-
-/// Whether the path-space level 1 ([`Level1::PathSpace`]) can render
-/// `scene`: only area emitters light it (its mutations make paths that end
-/// on an emitter's surface; a point, spot, directional or environment
-/// light's paths would be missing from the image, not its share of b). The
-/// renderer refuses to prepare the path-space level 1 for other scenes,
-/// and the CLI and the C API say so before they render.
-pub fn path_space_supports(scene: &crate::scene::Scene) -> bool {
-    scene.lights.others().next().is_none()
 }
 
 /// Default of [`MltSettings::b_min_samples`]: 2¹⁶ samples, four passes

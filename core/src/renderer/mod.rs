@@ -133,7 +133,7 @@ use crate::integrator::{Settings, Stats, Tracer, bdpt, pt};
 use crate::math::Rgb;
 use crate::mlt::bootstrap;
 use crate::mlt::{
-    self, Bootstrap, LargeStepTally, Level1, MltSettings, MltStats, PrimarySampler, WorkerChains,
+    self, Bootstrap, LargeStepTally, MltSettings, MltStats, PrimarySampler, WorkerChains,
 };
 use crate::sampler::{SampleStream, mix64};
 use crate::scene::{Analysis, Camera, Effect, Scene};
@@ -1024,19 +1024,6 @@ impl Renderer {
         };
         if self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
-        }
-        // The path-space level 1's paths end on emitters' surfaces: other
-        // lights would be missing from the image, not from b.
-        if self
-            .config
-            .estimator
-            .mlt()
-            .is_some_and(|m| m.level1 == Level1::PathSpace)
-            && !mlt::path_space_supports(scene)
-        {
-            return Err(RenderError::Config(
-                "the path-space level 1 renders scenes lit by area emitters only",
-            ));
         }
         let Some(boot) = &mut worker.boot else {
             return Err(RenderError::Worker);

@@ -889,11 +889,7 @@ impl LightSet {
                     Light::Envmap { .. } => self.envmaps[l.env as usize].sample(u_dir),
                     _ => (warp::square_to_uniform_sphere(u_dir), 1.0 / (4.0 * PI)),
                 };
-                // A disk of the bounding sphere's radius facing wi, pushed
-                // out of the sphere: every ray through the scene crosses it.
-                let f = Frame::from_normal(wi);
-                let d = warp::square_to_uniform_disk_concentric(u_pos);
-                let origin = self.center + (f.s * d.x + f.t * d.y + wi) * self.radius;
+                let origin = self.disk_origin(wi, u_pos);
                 (origin, -wi, 1.0 / (PI * self.radius * self.radius), pdf_dir)
             }
         };
@@ -913,6 +909,17 @@ impl LightSet {
             pdf_pos,
             pdf_dir,
         })
+    }
+
+    /// The origin, placed by `u`, of a ray an infinite light sends along
+    /// −`wi` (`wi` the unit direction towards the light): uniform, density
+    /// [`LightSet::pdf_disk`], on a disk of the bounding sphere's radius
+    /// facing `wi`, pushed out of the sphere, so that every ray through
+    /// the scene crosses it.
+    pub fn disk_origin(&self, wi: Vec3, u: Vec2) -> Vec3 {
+        let f = Frame::from_normal(wi);
+        let d = warp::square_to_uniform_disk_concentric(u);
+        self.center + (f.s * d.x + f.t * d.y + wi) * self.radius
     }
 
     /// Intensity of point or spot light `index` along unit `w` (away from

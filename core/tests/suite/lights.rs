@@ -17,7 +17,7 @@ use cmlt::geometry::Ray;
 use cmlt::integrator::Settings;
 use cmlt::math::{Mat3, Rgb, Vec2, Vec3};
 use cmlt::mlt::{CmltSettings, Level1, Level2Settings, MltSettings};
-use cmlt::renderer::{Estimator, RenderError, RenderWorker, Renderer, RendererConfig};
+use cmlt::renderer::Estimator;
 use cmlt::scene::{Bitmap, Effect, Light, Material, Mesh, Scene, SceneBuilder, SceneError};
 
 const PLANE_Z: f32 = 2.0;
@@ -245,29 +245,20 @@ fn point_light_over_a_plane_mlt_and_cmlt() {
     assert_quadrants("CMLT", &img, &expected, 0.01, 0.08);
 }
 
-/// The path-space level 1 refuses a scene with a point light when it is
-/// prepared: its paths end on area emitters' surfaces, so the light's
-/// share of the image would be missing.
+/// The path-space level 1 renders the point light over a plane: its
+/// paths end on the light's delta position (next-event and light-tracing
+/// splits of the bidirectional mutation; no perturbation applies).
 #[test]
-fn path_space_level1_refuses_a_point_light() {
-    let (scene, _) = point_light_scene();
-    let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
-    let config = RendererConfig {
-        estimator: Estimator::Mlt(MltSettings {
-            level1: Level1::PathSpace,
-            ..mlt_settings()
-        }),
-        workers: 1,
-        ..RendererConfig::default()
-    };
-    let mut r = Renderer::new(config, scene.camera).unwrap();
-    let mut w = RenderWorker::new(&r, 0).unwrap();
-    assert!(r.begin_prepare(&scene));
-    let e = r.prepare_worker(&mut w, &scene, &bvh).unwrap_err();
-    assert!(
-        matches!(e, RenderError::Config(m) if m.contains("area emitters")),
-        "{e}"
-    );
+fn point_light_over_a_plane_path_space_mlt() {
+    let (scene, expected) = point_light_scene();
+    let path_space = Estimator::Mlt(MltSettings {
+        level1: Level1::PathSpace,
+        ..mlt_settings()
+    });
+    let (img, r) = render_mlt(&scene, path_space, 256);
+    let st = r.stats.mlt;
+    assert!(st.bidirectional_accepted > 0, "{st:?}");
+    assert_quadrants("path-space MLT", &img, &expected, 0.01, 0.08);
 }
 
 /// A convex diffuse sphere of albedo `rho` in front of the camera under a

@@ -41,23 +41,129 @@
 //! cannot sample the path; [`strategy_density`] does not know the path
 //! and the caller must leave them out. A mixed BSDF's Dirac lobe (smooth
 //! plastic's coating, [`PathVertex::mixed_delta`]) is not handled.
+//!
+//! Lights that are not meshes end a path as BDPT's vertices for them do
+//! ([`PathEnd`]; pbrt-v4's convention). A point or spot light x_k is a
+//! delta position: its segment's factor is 1/d² (no cosine at the light)
+//! times the intensity I(x_k→x_{k−1}), `rev[k]` its selection probability
+//! (the position's Dirac measure symbolic) and `fwd[k]` = 0 (no ray hits
+//! it, so s = 0 cannot make the path). A light at infinity x_k is a unit
+//! direction ω (`sp.ng`, towards the light): its segment's factor is 1 (a
+//! solid-angle measure at x_{k−1}) times the radiance L(ω) of the
+//! environment or the irradiance E of a directional light, `fwd[k]` the
+//! solid-angle density of ω from x_{k−1} (0 for a directional light's
+//! delta direction), `rev[k]` the density of ω by light selection and
+//! sampling (the environment's summed over its lights; a directional
+//! light's selection probability) and `rev[k−1]` the area density of the
+//! emitted ray's origin on the bounding sphere's disk, 1/(π r²)·|n_g·ω|.
+//! Every strategy's estimate is then f/p as above (the
+//! `strategy_estimates_are_contribution_over_density` tests check it).
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
-use super::{Kind, Local, PathVertex, Vertex, camera_vertex, light_emission_pdf};
+use super::{
+    Kind, Local, PathVertex, Vertex, at_infinity, camera_vertex, light_emission_pdf,
+    other_light_vertex,
+};
 use crate::bsdf::TransportMode;
 use crate::math::Rgb;
-use crate::scene::{Camera, Scene};
+use crate::scene::light::Emission;
+use crate::scene::{Camera, Light, Scene};
 
-/// The BDPT vertex of `path[i]`: the camera at 0, the emitter at the end,
-/// a surface between (one with no BSDF is treated as absorbing).
-fn vertex(camera: &Camera, path: &[PathVertex], i: usize) -> Vertex {
+/// What the last vertex x_k of a complete path is (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathEnd {
+    /// A point on an emissive mesh.
+    Area,
+    /// Point or spot light `.0` of [`crate::scene::light::LightSet::others`].
+    Point(u32),
+    /// Directional light `.0` of [`crate::scene::light::LightSet::others`].
+    Directional(u32),
+    /// The environment (every non-delta light at infinity), in direction
+    /// `sp.ng`.
+    Environment,
+}
+
+impl PathEnd {
+    /// The kind of emitter vertex `v` (the end of a path of `scene`, made
+    /// by [`super::strategy_path`] or the path-space mutations): a vertex
+    /// on no surface is one of the other lights, an index in `sp.prim`
+    /// naming a point or directional light and none the environment.
+    pub fn of(scene: &Scene, v: &PathVertex) -> PathEnd {
+        if v.sp.surface != u32::MAX {
+            return PathEnd::Area;
+        }
+        let i = v.sp.prim;
+        match scene.lights.others().nth(i as usize) {
+            Some(Light::Directional { .. }) => PathEnd::Directional(i),
+            Some(Light::Point { .. } | Light::Spot { .. }) => PathEnd::Point(i),
+            _ => PathEnd::Environment,
+        }
+    }
+
+    /// A point, spot or directional light: no ray reaches it.
+    pub fn is_delta(self) -> bool {
+        matches!(self, PathEnd::Point(_) | PathEnd::Directional(_))
+    }
+
+    /// A light at infinity: the vertex is a direction.
+    pub fn is_infinite(self) -> bool {
+        matches!(self, PathEnd::Directional(_) | PathEnd::Environment)
+    }
+
+    /// The BDPT vertex kind.
+    fn kind(self) -> Kind {
+        match self {
+            PathEnd::Area => Kind::Light,
+            PathEnd::Point(_) => Kind::PointLight,
+            PathEnd::Directional(_) => Kind::Directional,
+            PathEnd::Environment => Kind::Environment,
+        }
+    }
+}
+
+/// The emitter vertex of other light `index` from which emission `e`
+/// leaves ([`crate::scene::light::LightSet::sample_emission`]), as a light subpath
+/// of BDPT starts.
+pub fn emission_vertex(scene: &Scene, index: usize, e: &Emission) -> PathVertex {
+    let mut v = other_light_vertex(scene, index, e.origin, e.origin, -e.dir);
+    v.sp.p = e.origin;
+    PathVertex {
+        sp: v.sp,
+        shading: None,
+        mixed_delta: false,
+    }
+}
+
+/// The environment vertex a ray from `from` along unit `d` reaches when
+/// it leaves the scene, as BDPT's escaped camera subpath ends.
+pub fn environment_vertex(scene: &Scene, from: Vec3, d: Vec3) -> PathVertex {
+    let (center, r) = scene.lights.bounding_sphere();
+    PathVertex {
+        sp: at_infinity(Kind::Environment, from, d, center, r).sp,
+        shading: None,
+        mixed_delta: false,
+    }
+}
+
+/// Unit direction from x_i to x_{i+1} of `path` (whose end is `end`).
+fn direction(path: &[PathVertex], end: PathEnd, i: usize) -> Vec3 {
+    if i + 2 == path.len() && end.is_infinite() {
+        path[i + 1].sp.ng
+    } else {
+        (path[i + 1].sp.p - path[i].sp.p).normalize()
+    }
+}
+
+/// The BDPT vertex of `path[i]`: the camera at 0, the emitter `end` at
+/// the end, a surface between (one with no BSDF is treated as absorbing).
+fn vertex(camera: &Camera, path: &[PathVertex], end: PathEnd, i: usize) -> Vertex {
     let v = &path[i];
     if i == 0 {
         return camera_vertex(v.sp.p, camera.forward());
     }
     let kind = if i + 1 == path.len() {
-        Kind::Light
+        end.kind()
     } else {
         Kind::Surface
     };
@@ -75,33 +181,46 @@ fn vertex(camera: &Camera, path: &[PathVertex], i: usize) -> Vertex {
     }
 }
 
-/// f(x̄) of the complete path `path` = x₀ … x_k (k ≥ 1, x_k on an area
-/// emitter) and the raster position of x₀ → x₁ (module docs); `None` when
-/// that direction leaves the image or the path has fewer than two
-/// vertices. Visibility is not tested: the path's segments were traced
-/// when it was made. A specular vertex contributes its Dirac lobe's
-/// weight (the factor BSDF sampling gives it), the Dirac measure itself
-/// left symbolic.
+/// f(x̄) of the complete path `path` = x₀ … x_k (k ≥ 1, x_k an emitter of
+/// any kind, [`PathEnd`]) and the raster position of x₀ → x₁ (module
+/// docs); `None` when that direction leaves the image or the path has
+/// fewer than two vertices. Visibility is not tested: the path's segments
+/// were traced when it was made. A specular vertex contributes its Dirac
+/// lobe's weight (the factor BSDF sampling gives it), the Dirac measure
+/// itself left symbolic.
 pub fn path_contribution(
     scene: &Scene,
     camera: &Camera,
     path: &[PathVertex],
 ) -> Option<(Rgb, Vec2)> {
     let k = path.len().checked_sub(1).filter(|&k| k >= 1)?;
+    let end = PathEnd::of(scene, &path[k]);
     let p0 = path[0].sp.p;
-    let w0 = (path[1].sp.p - p0).normalize();
+    let w0 = direction(path, end, 0);
     let (we, raster) = camera.importance(p0, w0)?;
     let cos0 = camera.forward().dot(w0);
     let mut f = Rgb::splat(we * cos0);
     for i in 0..k {
         let (a, b) = (&path[i], &path[i + 1]);
-        let d = b.sp.p - a.sp.p;
-        let d2 = d.length_squared();
-        if !(d2 > 0.0) {
-            return Some((Rgb::ZERO, raster));
-        }
-        let w = d / libm::sqrtf(d2);
-        let mut g = b.sp.ng.dot(w).abs() / d2;
+        let last = i + 1 == k;
+        let (w, mut g) = if last && end.is_infinite() {
+            // A direction: solid angle at x_{k−1}, no area conversion.
+            (b.sp.ng, 1.0)
+        } else {
+            let d = b.sp.p - a.sp.p;
+            let d2 = d.length_squared();
+            if !(d2 > 0.0) {
+                return Some((Rgb::ZERO, raster));
+            }
+            let w = d / libm::sqrtf(d2);
+            // A point light has no surface: no cosine at it.
+            let cos = if last && end.is_delta() {
+                1.0
+            } else {
+                b.sp.ng.dot(w).abs()
+            };
+            (w, cos / d2)
+        };
         if i > 0 {
             let Some(sh) = &a.shading else {
                 return Some((Rgb::ZERO, raster));
@@ -111,28 +230,43 @@ pub fn path_contribution(
                 // The lobe's weight f·|cos|/p of sampling it, without the
                 // Dirac measure; the cosine is in it already.
                 let wo = sh.frame.to_local((prev - a.sp.p).normalize());
-                let reflect = (prev - a.sp.p).dot(a.sp.ng) * d.dot(a.sp.ng) > 0.0;
+                let reflect = (prev - a.sp.p).dot(a.sp.ng) * w.dot(a.sp.ng) > 0.0;
                 match sh.bsdf.specular(wo, reflect, TransportMode::Radiance) {
                     Some((_, weight)) => weight,
                     None => return Some((Rgb::ZERO, raster)),
                 }
             } else {
                 g *= sh.sp.ns.dot(w).abs();
-                super::scatter(sh, prev, b.sp.p, TransportMode::Radiance)
+                let next = if last && end.is_infinite() {
+                    a.sp.p + w
+                } else {
+                    b.sp.p
+                };
+                super::scatter(sh, prev, next, TransportMode::Radiance)
             };
             f *= fs;
         }
         f *= g;
     }
     let light = &path[k];
-    f *= scene.emitted(&light.sp, (path[k - 1].sp.p - light.sp.p).normalize());
-    Some((f, raster))
+    // Towards x_{k−1} from the light.
+    let back = -direction(path, end, k - 1);
+    let le = match end {
+        PathEnd::Area => scene.emitted(&light.sp, back),
+        PathEnd::Point(i) => scene.lights.intensity(i as usize, back),
+        PathEnd::Directional(i) => match scene.lights.others().nth(i as usize) {
+            Some(&Light::Directional { irradiance, .. }) => irradiance,
+            _ => Rgb::ZERO,
+        },
+        PathEnd::Environment => scene.lights.environment_radiance(light.sp.ng),
+    };
+    Some((f * le, raster))
 }
 
 /// Fills `fwd[i]` and `rev[i]` (i = 0 … k) with the area densities of
 /// generating x_i from x_{i−1} and from x_{i+1} (module docs) for the
-/// complete path `path` = x₀ … x_k, x_k on an area emitter. Both slices
-/// must hold at least `path.len()` values.
+/// complete path `path` = x₀ … x_k, x_k an emitter of any kind. Both
+/// slices must hold at least `path.len()` values.
 pub fn path_densities(
     scene: &Scene,
     camera: &Camera,
@@ -144,16 +278,22 @@ pub fn path_densities(
     if n < 2 {
         return;
     }
+    let end = PathEnd::of(scene, &path[n - 1]);
     let lights_pdf = |l: &Vertex, to: &Vertex| light_emission_pdf(scene, l, to);
-    let w0 = (path[1].sp.p - path[0].sp.p).normalize();
+    let w0 = direction(path, end, 0);
     let lens = camera.pdf_ray(path[0].sp.p, w0).0;
     fwd[0] = lens;
     rev[0] = lens;
-    rev[n - 1] = scene.lights.pdf_area(path[n - 1].sp.surface as usize);
+    let lights = &scene.lights;
+    rev[n - 1] = match end {
+        PathEnd::Area => lights.pdf_area(path[n - 1].sp.surface as usize),
+        PathEnd::Point(i) | PathEnd::Directional(i) => lights.pmf_other(i as usize),
+        PathEnd::Environment => lights.pdf_environment(path[n - 1].sp.ng),
+    };
     // A sliding window of three vertices, so that none is built twice.
     let mut before: Option<Vertex> = None;
-    let mut a = vertex(camera, path, 0);
-    let mut b = vertex(camera, path, 1);
+    let mut a = vertex(camera, path, end, 0);
+    let mut b = vertex(camera, path, end, 1);
     for i in 1..n {
         // fwd[i]: from a = x_{i−1}, reached from x_{i−2}.
         fwd[i] = if is_specular(&a) {
@@ -162,7 +302,7 @@ pub fn path_densities(
             a.pdf(camera, lights_pdf, before.as_ref(), &b)
         };
         // rev[i − 1]: from b = x_i, reached from x_{i+1}.
-        let c = (i + 1 < n).then(|| vertex(camera, path, i + 1));
+        let c = (i + 1 < n).then(|| vertex(camera, path, end, i + 1));
         if i > 1 {
             rev[i - 1] = if is_specular(&b) {
                 b.area_density_at(1.0, &a)
@@ -175,6 +315,9 @@ pub fn path_densities(
         if let Some(c) = c {
             b = c;
         }
+    }
+    if end.is_delta() {
+        fwd[n - 1] = 0.0;
     }
 }
 

@@ -22,10 +22,12 @@
 //!    max(l + 1, 1) to m′, without BDPT's missing (1, 1)). The camera side
 //!    extends x_l by random walk (a new lens point first when l = −1; a
 //!    uniform raster position from the lens), the light side extends x_m
-//!    backwards (a new emitter point first when m = k + 1; cosine
-//!    emission from the emitter; BSDF sampling in importance mode), and
-//!    y_{t−1}, y_t are joined by an edge (no edge when s = k′ + 1 − t = 0:
-//!    the camera side reached the emitter).
+//!    backwards (a new emitter vertex first when m = k + 1; emission
+//!    from the emitter as BDPT's light subpaths sample it, `emitters`;
+//!    BSDF sampling in importance mode), and y_{t−1}, y_t are joined by
+//!    an edge (no edge when s = k′ + 1 − t = 0: the camera side reached
+//!    the emitter, an emissive surface or, leaving the scene, the
+//!    environment).
 //!
 //! ## Its density
 //!
@@ -41,22 +43,26 @@
 //! T(ȳ→x̄) is the same function with the roles swapped, so the chain
 //! accepts with min(1, f(ȳ)T(ȳ→x̄) / (f(x̄)T(x̄→ȳ))).
 //!
-//! Only area emitters: a path ending on a point, spot, directional or
-//! environment light has no emitter point to delete or sample here.
+//! Every kind of emitter ([`bdpt::PathEnd`]): a point, spot or
+//! directional light cannot be reached by the camera side (its `fwd[k]`
+//! is 0, so the split s = 0 adds nothing to T and is never made), and its
+//! vertex is joined by the edge of the split s = 1 as next-event
+//! estimation joins it; the environment is reached when the camera side's
+//! last ray leaves the scene.
 
 use alloc::vec::Vec;
 
 use glam::Vec2;
 
+use super::emitters::{edge_visible, emission_ray, new_emitter};
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::offset;
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::{self, PathVertex};
-use crate::math::{Frame, warp};
+use crate::integrator::bdpt::{self, PathEnd, PathVertex};
 use crate::sampler::Sampler;
-use crate::scene::{Camera, EmitterSample, Scene, SurfacePoint};
+use crate::scene::{Camera, Scene, SurfacePoint};
 
 /// What a proposal did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,6 +122,9 @@ pub(crate) enum Broken {
     /// which differ between a path the lens subpath mutation applies to
     /// and one it does not.
     NoSelection,
+    /// Without the density of the emitter vertex (its `rev[k]`: light
+    /// selection, and the direction's density on the environment).
+    NoEmitterDensity,
 }
 
 /// Veach's deletion weight p_d(k_d).
@@ -231,6 +240,10 @@ impl Bidirectional {
         let lens = camera.has_lens();
         let choice = self.choice_probability(k, mv, lens);
         bdpt::path_densities(scene, camera, to, &mut self.fwd, &mut self.rev);
+        #[cfg(test)]
+        if self.broken == Some(Broken::NoEmitterDensity) {
+            self.rev[k2] = 1.0;
+        }
         let m2 = (mv.l + mv.ka as isize) as usize;
         let first = (mv.l + 1) as usize;
         let (lo, hi, n) = splits(mv.l, m2, k2);
@@ -316,7 +329,7 @@ impl Bidirectional {
         if self.make(tr, x, y, l, m, m2, t, rng).is_none() || !joinable(&y.path, t) {
             return (mv, Proposal::Failed);
         }
-        if k2 + 1 != t && !self.visible(tr, &y.path, t) {
+        if k2 + 1 != t && !edge_visible(tr, &y.path, t - 1) {
             return (mv, Proposal::Failed);
         }
         let (scene, camera) = (tr.scene, tr.camera);
@@ -348,15 +361,6 @@ impl Bidirectional {
         (mv, Proposal::Made { ratio: t_yx / t_xy })
     }
 
-    /// Whether the edge y_{t−1} – y_t is unblocked.
-    fn visible<I: Intersector>(&self, tr: &mut Tracer<'_, I>, y: &[PathVertex], t: usize) -> bool {
-        if t == 1 {
-            !tr.occluded_to_point(&y[1].sp, y[0].sp.p)
-        } else {
-            !tr.occluded_between(&y[t - 1].sp, &y[t].sp)
-        }
-    }
-
     /// Builds ȳ: x₀ … x_l, t − l − 1 camera-side vertices, m2 − t
     /// light-side ones, x_m … x_k. `None` when a walk fails.
     #[allow(clippy::too_many_arguments)]
@@ -373,6 +377,7 @@ impl Bidirectional {
     ) -> Option<()> {
         let k = x.depth();
         let camera = tr.camera;
+        let environment = cfg!(feature = "environment") && tr.scene.lights.has_environment();
         y.path.clear();
         y.f = crate::math::Rgb::ZERO;
         if l >= 0 {
@@ -400,8 +405,18 @@ impl Bidirectional {
                     TransportMode::Radiance,
                 )?
             };
-            let sh = tr.trace(&ray)?;
-            y.path.push(surface_vertex(sh));
+            match tr.trace(&ray) {
+                Some(sh) => y.path.push(surface_vertex(sh)),
+                // The camera side's last vertex is the path's emitter
+                // (s = 0, the emitter deleted): leaving the scene, it is
+                // the environment, as BDPT's escaped camera subpath.
+                None if m > k && n + 1 == m2 && t == m2 && environment => {
+                    let from = y.path[n - 1].sp.p;
+                    y.path
+                        .push(bdpt::environment_vertex(tr.scene, from, ray.d.normalize()));
+                }
+                None => return None,
+            }
         }
         // The light side, from the emitter backwards.
         self.light.clear();
@@ -409,20 +424,32 @@ impl Bidirectional {
             self.light.extend(x.path[m..].iter().rev());
         }
         let new_light = m2 - t;
+        // The ray a new light that is not a mesh emits with its vertex.
+        let mut emitted = None;
         for _ in 0..new_light {
             let n = self.light.len();
             let u_lobe = rng.next_f32();
             let u = rng.next_2d();
             if n == 0 {
-                let EmitterSample::Area { sp, .. } = tr.scene.sample_emitter(u_lobe, u)? else {
-                    return None;
-                };
-                let sh = tr.shade(sp);
-                self.light.push(surface_vertex(sh));
+                let (v, ray) = new_emitter(tr, u_lobe, u, rng.next_2d())?;
+                self.light.push(v);
+                emitted = ray;
                 continue;
             }
             let ray = if n == 1 {
-                emission_ray(&self.light[0].sp, u)
+                match emitted.take() {
+                    Some(ray) => ray,
+                    None => {
+                        let ray = emission_ray(tr.scene, &self.light[0], u)?;
+                        if PathEnd::of(tr.scene, &self.light[0]) != PathEnd::Area {
+                            // A light at infinity's vertex stands where
+                            // its ray starts, so that the direction from
+                            // the next vertex towards it is the ray's.
+                            self.light[0].sp.p = ray.o;
+                        }
+                        ray
+                    }
+                }
             } else {
                 scatter_ray(
                     tr,
@@ -465,13 +492,6 @@ pub(super) fn surface_vertex(sh: crate::integrator::tracer::Shading) -> PathVert
         shading: Some(sh),
         mixed_delta: false,
     }
-}
-
-/// The ray leaving emitter point `sp` in a cosine-distributed direction
-/// about its shading normal (the density `light_emission_pdf` gives).
-fn emission_ray(sp: &SurfacePoint, u: Vec2) -> crate::geometry::Ray {
-    let w = Frame::from_normal(sp.ns).to_world(warp::square_to_cosine_hemisphere(u));
-    offset::spawn_ray(sp.p, sp.p_error, sp.ng, w)
 }
 
 /// The ray BSDF sampling sends from `v`, reached from `from`, in `mode`;

@@ -9,7 +9,7 @@
 //! position through x₀, follows it through the specular vertices it meets
 //! (sampling their Dirac lobes) to the first non-specular vertex y_j, and
 //! joins y_j to x_{t+1}. It applies when t < k and x_{t+1} can be joined
-//! (non-specular, or the emitter point): then it applies to every path it
+//! (non-specular, or the emitter, of any kind): then it applies to every path it
 //! proposes too (their lens subpaths end at y_j, followed by the same
 //! x_{t+1}), so choosing it with a probability that depends only on
 //! whether it applies keeps detailed balance (`chain.rs`).
@@ -25,6 +25,7 @@ use alloc::vec::Vec;
 use glam::Vec2;
 
 use super::bidirectional::{Proposal, scatter_ray, surface_vertex};
+use super::emitters::edge_visible;
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
@@ -126,7 +127,7 @@ impl LensSubpath {
             return Proposal::Failed;
         }
         y.path.extend_from_slice(&x.path[t + 1..]);
-        if tr.occluded_between(&y.path[j].sp, &y.path[j + 1].sp) {
+        if !edge_visible(tr, &y.path, j) {
             return Proposal::Failed;
         }
         let scene = tr.scene;

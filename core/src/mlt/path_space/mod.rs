@@ -17,17 +17,23 @@
 //! its expected-value records (`chain`); a worker's chains as the renderer
 //! drives them (`worker`), selected by [`super::Level1::PathSpace`] for
 //! MLT, and with CMLT's level 2 run from each state (`worker`'s docs say
-//! why one level 2 serves both level 1s). Not yet: lights other than area
-//! emitters, stratified raster positions for the lens subpath mutation.
+//! why one level 2 serves both level 1s); paths ending on every kind of
+//! emitter — area, point, spot, directional and environment lights
+//! (`emitters`; the perturbations leave paths ending on the lights that
+//! are not meshes alone, `mlt::perturbation::classify`). Not yet:
+//! stratified raster positions for the lens subpath mutation.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
+mod emitters;
 pub(crate) mod lens_subpath;
 pub(crate) mod perturbations;
 pub(crate) mod selection;
 pub(crate) mod state;
 pub(crate) mod worker;
 
+#[cfg(all(test, feature = "std"))]
+mod emitter_tests;
 #[cfg(all(test, feature = "std"))]
 mod perturbation_tests;
 #[cfg(all(test, feature = "std"))]

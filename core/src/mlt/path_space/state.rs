@@ -20,7 +20,7 @@ use glam::Vec2;
 
 use super::super::{Bootstrap, PrimarySampler, target};
 use crate::accel::Intersector;
-use crate::integrator::bdpt::{self, PathVertex};
+use crate::integrator::bdpt::{self, PathEnd, PathVertex};
 use crate::integrator::{Settings, Tracer};
 use crate::math::Rgb;
 use crate::scene::{Camera, Scene};
@@ -64,7 +64,16 @@ impl PathState {
     }
 
     /// Sets f and the raster position from the path (see the module docs).
+    /// A light at infinity ending the path is moved to lie along its
+    /// direction from x_{k−1} (a mutation may have replaced x_{k−1}), where
+    /// the mutations' BSDF sampling at x_{k−1} looks for it.
     pub fn evaluate(&mut self, scene: &Scene, camera: &Camera) {
+        if let [.., before, end] = &mut self.path[..]
+            && end.sp.surface == u32::MAX
+            && PathEnd::of(scene, end).is_infinite()
+        {
+            end.sp.p = bdpt::environment_vertex(scene, before.sp.p, end.sp.ng).sp.p;
+        }
         let supported = !self.path.iter().any(|v| v.mixed_delta);
         match bdpt::path_contribution(scene, camera, &self.path) {
             Some((f, raster)) if supported => (self.f, self.raster) = (f, raster),

@@ -16,9 +16,13 @@ use crate::mlt::PathMutations;
 use crate::sampler::SampleStream;
 use crate::scene::{Material, Scene};
 
-/// Checks every strategy of depths 1–4 on paths sampled in `scene`;
-/// returns how many paths through a specular vertex were checked.
-fn check_strategies(scene: &Scene) -> u32 {
+/// Checks every strategy of depths 1–4 on paths sampled in `scene`
+/// (the strategies s = 0 only when `hit_lights`: a scene lit by point
+/// lights alone has no such paths), each on at least `least[0]` paths,
+/// light tracing (t = 1), which reaches the small image seldom, on at
+/// least `least[1]`; returns how many paths through a specular vertex
+/// were checked.
+pub(super) fn check_strategies(scene: &Scene, hit_lights: bool, least: [u32; 2]) -> u32 {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -69,11 +73,10 @@ fn check_strategies(scene: &Scene) -> u32 {
     // is not a strategy).
     for depth in 1..=4usize {
         for t in 1..=depth + 1 {
-            if depth == 1 && t == 1 {
+            if (depth == 1 && t == 1) || (t == depth + 1 && !hit_lights) {
                 continue;
             }
-            // Light tracing (t = 1) reaches the small image seldom.
-            let least = if t == 1 { 5 } else { 20 };
+            let least = if t == 1 { least[1] } else { least[0] };
             assert!(
                 checked[depth * 6 + t] >= least,
                 "depth {depth}, t {t}: {} paths",
@@ -87,9 +90,9 @@ fn check_strategies(scene: &Scene) -> u32 {
 #[test]
 fn strategy_estimates_are_contribution_over_density() {
     let diffuse = scenes::furnace_scene(Material::diffuse(Rgb::new(0.5, 0.4, 0.3)), 1.0);
-    check_strategies(&diffuse);
+    check_strategies(&diffuse, true, [20, 5]);
     // An emitting mirror sphere: specular vertices, symbolic in f and p.
-    let specular = check_strategies(&scenes::mirror_sphere_furnace());
+    let specular = check_strategies(&scenes::mirror_sphere_furnace(), true, [20, 5]);
     assert!(specular >= 50, "{specular} paths through the mirror");
 }
 
@@ -117,17 +120,24 @@ pub(super) fn depth_b(scene: &Scene, depth: usize, n: u64) -> f64 {
 /// density with which the mutation proposes them, Veach's sum over the
 /// splits that could have made ȳ. (A partial move keeps vertices of x̄: its
 /// proposals lie on a subset of measure zero of the depth's paths, whose
-/// densities the chain test below checks.) With `single_split`, T counts
-/// only the split that was drawn.
-fn mutation_estimate(scene: &Scene, depth: usize, n: u64, single_split: bool) -> f64 {
+/// densities the chain test below checks.) With `broken`, T is the
+/// negative control's: `SingleSplit` counts only the split that was drawn.
+/// Returns the estimate and its standard error.
+pub(super) fn mutation_estimate(
+    scene: &Scene,
+    depth: usize,
+    n: u64,
+    broken: Option<Broken>,
+) -> (f64, f64) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
     let x = start_path(&mut tracer, 2, 0);
     let mut mutation = Bidirectional::new(8);
+    mutation.broken = broken.filter(|&b| b != Broken::SingleSplit);
     let mut y = PathState::with_capacity(8);
     let camera = tracer.camera;
-    let mut sum = 0.0f64;
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
     for i in 0..n {
         let mut rng = SampleStream::new(77, i, 3);
         let (mv, outcome) = mutation.propose(&mut tracer, &x, &mut y, &mut rng);
@@ -135,12 +145,18 @@ fn mutation_estimate(scene: &Scene, depth: usize, n: u64, single_split: bool) ->
         if !whole || !matches!(outcome, Proposal::Made { .. }) || y.depth() != depth {
             continue;
         }
-        let only = single_split.then_some(mv.t);
+        let only = (broken == Some(Broken::SingleSplit)).then_some(mv.t);
         let t = mutation.density(scene, &camera, &x.path, &y.path, mv, only);
         assert!(t > 0.0, "{mv:?}: a proposal of density 0");
-        sum += y.target() as f64 / t as f64;
+        let v = y.target() as f64 / t as f64;
+        sum += v;
+        sum2 += v * v;
     }
-    sum / n as f64
+    let mean = sum / n as f64;
+    (
+        mean,
+        ((sum2 / n as f64 - mean * mean) / (n - 1) as f64).sqrt(),
+    )
 }
 
 /// The path of the first contributing BDPT strategy sample of `depth`
@@ -170,7 +186,7 @@ fn bidirectional_density_is_the_proposal_density() {
     let scene = scenes::furnace_scene(Material::diffuse(Rgb::new(0.5, 0.4, 0.3)), 1.0);
     for depth in [1, 2, 3] {
         let b = depth_b(&scene, depth, 400_000);
-        let est = mutation_estimate(&scene, depth, 400_000, false);
+        let est = mutation_estimate(&scene, depth, 400_000, None).0;
         eprintln!("depth {depth}: b_d {b:.5}, from the mutation's density {est:.5}");
         assert!(
             (est - b).abs() < 0.03 * b,
@@ -180,7 +196,7 @@ fn bidirectional_density_is_the_proposal_density() {
     // Negative control: without Veach's sum over the splits that could
     // have made ȳ, T is too small and the estimate too large.
     let b = depth_b(&scene, 2, 100_000);
-    let wrong = mutation_estimate(&scene, 2, 100_000, true);
+    let wrong = mutation_estimate(&scene, 2, 100_000, Some(Broken::SingleSplit)).0;
     assert!(
         wrong > 1.2 * b,
         "a single split's density went unnoticed: {wrong} vs {b}"
