@@ -51,6 +51,8 @@ fn shared_scenes_call_for_what_they_contain() {
             "envmap",
             "glossy-room",
             "lights-punctual",
+            "media-fog",
+            "media-glass",
             "plastics",
             "principled",
             "rough-glass",
@@ -119,6 +121,18 @@ fn shared_scenes_call_for_what_they_contain() {
             set(&[Diffuse, Textures, AreaLights, NormalMapping, AlphaMasks]),
             false
         )
+    );
+    // A haze around camera and scene and a fog box, both behind null
+    // boundaries, over diffuse surfaces: media, and no Dirac lobe.
+    assert_eq!(
+        effects("media-fog"),
+        (set(&[Diffuse, AreaLights, Media]), false)
+    );
+    // Absorbing interiors of a glass sphere and a glass cube: media, and
+    // refraction, so specular chains.
+    assert_eq!(
+        effects("media-glass"),
+        (set(&[Diffuse, Refraction, AreaLights, Media]), true)
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.
