@@ -20,7 +20,7 @@ use glam::Vec2;
 use super::Settings;
 use super::tracer::{Shading, Tracer};
 use crate::accel::Intersector;
-use crate::bsdf::TransportMode;
+use crate::bsdf::{BsdfSample, TransportMode};
 use crate::geometry::{Ray, offset};
 use crate::math::{Rgb, power_heuristic};
 use crate::sampler::SampleStream;
@@ -121,18 +121,9 @@ pub fn radiance<I: Intersector>(
         }
 
         // Continue the path by sampling the BSDF.
-        let u_lobe = rng.next_f32();
-        let u_dir: Vec2 = rng.next_2d();
-        let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u_dir, TransportMode::Radiance) else {
+        let Some(bs) = continue_path(t, &hit, wo, rng, &mut beta, &mut eta_scale) else {
             break;
         };
-        if bs.pdf <= 0.0 || bs.f.is_black() {
-            break;
-        }
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-        if bs.eta != 1.0 {
-            eta_scale *= bs.eta * bs.eta;
-        }
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
         let wi_world = hit.frame.to_world(bs.wi);
@@ -151,6 +142,33 @@ pub fn radiance<I: Intersector>(
         }
     }
     l
+}
+
+/// Samples the BSDF at `hit` (local outgoing direction `wo`) to continue
+/// the path: the sample, with the throughput `beta` multiplied by
+/// f·|cos θ|/p and `eta_scale` by η² across a refraction (roulette
+/// compares the throughput with the radiance scaling η² undone). `None`
+/// ends the path: no sample, or one that carries nothing.
+#[inline]
+fn continue_path<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    hit: &Shading,
+    wo: glam::Vec3,
+    rng: &mut SampleStream,
+    beta: &mut Rgb,
+    eta_scale: &mut f32,
+) -> Option<BsdfSample> {
+    let u_lobe = rng.next_f32();
+    let u_dir: Vec2 = rng.next_2d();
+    let bs = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u_dir, TransportMode::Radiance)?;
+    if bs.pdf <= 0.0 || bs.f.is_black() {
+        return None;
+    }
+    *beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+    if bs.eta != 1.0 {
+        *eta_scale *= bs.eta * bs.eta;
+    }
+    Some(bs)
 }
 
 /// Radiance of the environment arriving along unit `d` from the scene,

@@ -155,6 +155,35 @@ mod tests {
         assert_eq!(mix([0.0; 3], 0.0, none, 0.0, 50.0, 10.0), [0.0; 3]);
     }
 
+    /// Kept-chain MLT frames of the white furnace to depth 4 (1 000
+    /// bootstrap samples, 32 chains, `b_passes` normalisation passes), one
+    /// worker: the fill tests' renderer.
+    #[cfg(feature = "std")]
+    fn furnace_frames(b_passes: u32, seed: u64) -> crate::renderer::RendererConfig {
+        use crate::integrator::Settings;
+        use crate::mlt::MltSettings;
+        use crate::renderer::{Estimator, RendererConfig, Temporal};
+        RendererConfig {
+            estimator: Estimator::Mlt(MltSettings {
+                n_bootstrap: 1_000,
+                b_passes,
+                b_min_samples: 0,
+                n_chains: 32,
+                ..MltSettings::default()
+            }),
+            settings: Settings {
+                max_depth: Some(4),
+                ..Settings::default()
+            },
+            seed,
+            temporal: Temporal {
+                keep_chains: true,
+                ..Temporal::default()
+            },
+            ..RendererConfig::default()
+        }
+    }
+
     /// A reset frame slower than the last (a tenth of its pieces) still
     /// completes the fill's fitted pass, and so does one after a frame in
     /// which the two workers rendered unequal shares (their fitted block
@@ -169,14 +198,10 @@ mod tests {
     #[test]
     fn a_short_frame_completes_the_fills_fitted_pass() {
         use crate::accel::bvh::Bvh;
-        use crate::integrator::Settings;
         use crate::math::Rgb;
-        use crate::mlt::MltSettings;
         use crate::mlt::tests::scenes;
         use crate::renderer::pixel_block::GUARD_WEIGHT;
-        use crate::renderer::{
-            Estimator, PixelBlock, RenderWorker, Renderer, RendererConfig, Temporal,
-        };
+        use crate::renderer::{PixelBlock, RenderWorker, Renderer, RendererConfig};
         use crate::scene::{Camera, FovAxis, Material};
         use glam::{Mat4, Vec3};
 
@@ -187,24 +212,8 @@ mod tests {
             Camera::perspective(to_world, 70.0, FovAxis::X, 64, 48, 0.0, 1.0).unwrap()
         };
         let config = RendererConfig {
-            estimator: Estimator::Mlt(MltSettings {
-                n_bootstrap: 1_000,
-                b_passes: 1,
-                b_min_samples: 0,
-                n_chains: 32,
-                ..MltSettings::default()
-            }),
-            settings: Settings {
-                max_depth: Some(4),
-                ..Settings::default()
-            },
             workers: 2,
-            seed: 3,
-            temporal: Temporal {
-                keep_chains: true,
-                ..Temporal::default()
-            },
-            ..RendererConfig::default()
+            ..furnace_frames(1, 3)
         };
         let mut r = Renderer::new(config, camera(0.0)).unwrap();
         r.set_pixel_block(PixelBlock::Fit).unwrap();
@@ -260,36 +269,14 @@ mod tests {
     #[test]
     fn furnace_frames_with_a_fill_converge_and_without_its_weight_do_not() {
         use crate::accel::bvh::Bvh;
-        use crate::integrator::Settings;
         use crate::math::Rgb;
-        use crate::mlt::MltSettings;
         use crate::mlt::tests::scenes;
-        use crate::renderer::{
-            Estimator, Layers, PixelBlock, RenderWorker, Renderer, RendererConfig, Temporal, Totals,
-        };
+        use crate::renderer::{Layers, PixelBlock, RenderWorker, Renderer, Totals};
         use crate::scene::Material;
 
         let scene = scenes::furnace_scene(Material::diffuse(Rgb::splat(0.5)), 1.0);
         let bvh = Bvh::build(&scene.triangles().collect::<alloc::vec::Vec<_>>());
-        let config = RendererConfig {
-            estimator: Estimator::Mlt(MltSettings {
-                n_bootstrap: 1_000,
-                b_passes: 4,
-                b_min_samples: 0,
-                n_chains: 32,
-                ..MltSettings::default()
-            }),
-            settings: Settings {
-                max_depth: Some(4),
-                ..Settings::default()
-            },
-            seed: 5,
-            temporal: Temporal {
-                keep_chains: true,
-                ..Temporal::default()
-            },
-            ..RendererConfig::default()
-        };
+        let config = furnace_frames(4, 5);
         let mut r = Renderer::new(config, scene.camera).unwrap();
         r.set_pixel_block(PixelBlock::Fixed(2)).unwrap();
         let mut w = RenderWorker::new(&r, 0).unwrap();

@@ -40,7 +40,7 @@
 
 use glam::Vec3;
 
-use super::{Settings, escaped};
+use super::{Settings, continue_path, escaped};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -231,18 +231,9 @@ pub(super) fn radiance<I: Intersector>(
             rng.next_2d();
         }
 
-        let u_lobe = rng.next_f32();
-        let u_dir = rng.next_2d();
-        let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u_dir, TransportMode::Radiance) else {
+        let Some(bs) = continue_path(t, &hit, wo, rng, &mut beta, &mut eta_scale) else {
             break;
         };
-        if bs.pdf <= 0.0 || bs.f.is_black() {
-            break;
-        }
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-        if bs.eta != 1.0 {
-            eta_scale *= bs.eta * bs.eta;
-        }
         prev_p = sp.p;
         prev_pdf = bs.pdf;
         prev_delta = bs.delta;
