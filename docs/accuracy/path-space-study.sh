@@ -8,7 +8,9 @@
 # convergence interleaves them), so the machine's load falls on all alike.
 # The first method is the base of the printed ratios.
 #   docs/accuracy/path-space-study.sh [seconds] [seeds]   (default 8 s, 3 seeds)
-# Writes docs/accuracy/path-space-study-<scene>.csv and .log.
+# Writes docs/accuracy/$NAME-<scene>.csv and .log (NAME path-space-study).
+# METHODS, SCENES ("scene width height" triples, ';'-separated) and NAME
+# make other studies of the same form (path-space-params.sh is one).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 T=${1:-8}
@@ -17,9 +19,12 @@ cargo build --release -q -p cmlt-bench
 BIN=${BIN:-target/release/cmlt-bench}
 OUT=${OUT:-docs/accuracy}
 METHODS=${METHODS:-mlt:level1=path,mlt:level1=path:perturb=0,cmlt:level1=path,cmlt:level1=path:depth=0,mlt}
-for spec in "veach-ajar 160 90" "veach-bidir 128 128" "caustic-pool 48 48"; do
+NAME=${NAME:-path-space-study}
+SCENES=${SCENES:-veach-ajar 160 90;veach-bidir 128 128;caustic-pool 48 48}
+IFS=';' read -r -a SPECS <<<"$SCENES"
+for spec in "${SPECS[@]}"; do
   set -- $spec
   $BIN convergence tests/scenes/$1/scene.xml --reference tests/scenes/$1/reference.exr \
     -D resx=$2 -D resy=$3 --methods "$METHODS" --budgets "$T" \
-    --threads 2 --seeds "$SEEDS" --seeds-up-to "$T" --csv $OUT/path-space-study-$1.csv | tee $OUT/path-space-study-$1.log
+    --threads 2 --seeds "$SEEDS" --seeds-up-to "$T" --csv $OUT/$NAME-$1.csv | tee $OUT/$NAME-$1.log
 done
