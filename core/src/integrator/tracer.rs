@@ -570,27 +570,22 @@ impl<I: Intersector> Tracer<'_, I> {
         medium: Option<MediumId>,
     ) -> Rgb {
         let scene = self.scene;
-        let towards = match to {
-            Endpoint::Surface(sp) => sp.p - p,
-            Endpoint::Point(q) => q - p,
-            Endpoint::Direction(d) => d,
+        // The direction to the far end, that end (offset off its surface
+        // towards the start; none at infinity) and the rays' extent.
+        let (towards, end, t_max) = match to {
+            Endpoint::Surface(sp) => (
+                sp.p - p,
+                Some(offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, p - sp.p)),
+                1.0 - offset::SHADOW_EPSILON,
+            ),
+            Endpoint::Point(q) => (q - p, Some(q), 1.0),
+            Endpoint::Direction(d) => (d, None, 1.0),
         };
         // A segment tangent to the start's surface carries nothing (as
         // `offset::spawn_rays_between` refuses it).
         if offset::side_of(ng, towards).is_none() {
             return Rgb::ZERO;
         }
-        let end = match to {
-            Endpoint::Surface(sp) => {
-                Some(offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, p - sp.p))
-            }
-            Endpoint::Point(q) => Some(q),
-            Endpoint::Direction(_) => None,
-        };
-        let t_max = match to {
-            Endpoint::Surface(_) => 1.0 - offset::SHADOW_EPSILON,
-            _ => 1.0,
-        };
         let mut o = offset::offset_ray_origin(p, p_error, ng, towards);
         let mut medium = medium;
         let mut tr = Rgb::ONE;
