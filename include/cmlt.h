@@ -195,6 +195,12 @@
 // Oren–Nayar's σ is α/√2).
 #define CMLT_MATERIAL_ROUGH_DIFFUSE 10
 
+// An index-matched boundary (Mitsuba's `null`): rays pass it unchanged
+// and it never scatters; it only changes the medium a ray is in, as the
+// mesh's media say (`cmlt_scene_set_mesh_media`). The other fields are
+// ignored. Needs the media effect (`CMLT_EFFECT_MEDIA`).
+#define CMLT_MATERIAL_NULL 11
+
 // The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 // (default), or Embree (builds with the `embree` feature only). A scene
 // with a host intersector uses that instead.
@@ -278,6 +284,21 @@
 
 // Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
 #define CMLT_EFFECT_ROUGH_DIFFUSE 16384
+
+// Participating media and null boundaries (`cmlt_scene_add_medium`,
+// `CMLT_MATERIAL_NULL`).
+#define CMLT_EFFECT_MEDIA 32768
+
+// Isotropic scattering, 1/(4π) over the sphere (`cmlt_medium.g` ignored).
+#define CMLT_PHASE_ISOTROPIC 0
+
+// Henyey–Greenstein scattering with asymmetry `cmlt_medium.g` in (−1, 1):
+// g > 0 scatters forwards, g < 0 backwards, 0 is isotropic.
+#define CMLT_PHASE_HG 1
+
+// "No medium" (vacuum) in `cmlt_scene_set_mesh_media` and
+// `cmlt_scene_set_camera_medium`.
+#define CMLT_MEDIUM_NONE UINT32_MAX
 
 // Result of every C API call.
 typedef enum cmlt_status {
@@ -850,6 +871,23 @@ typedef struct cmlt_intersector {
   // Packet occlusion (optional).
   cmlt_occluded_packet_fn occluded_packet;
 } cmlt_intersector;
+
+// A homogeneous participating medium (Mitsuba 3's `homogeneous` with
+// its `scale` folded into `sigma_t`).
+typedef struct cmlt_medium {
+  // Extinction coefficient σ_t per RGB channel, per unit of scene
+  // length: finite, ≥ 0. Light crossing a distance d keeps
+  // exp(−σ_t d) of itself.
+  float sigma_t[3];
+  // Single-scattering albedo σ_s / σ_t per channel, in [0, 1]: 0 absorbs
+  // only, 1 scatters without absorbing.
+  float albedo[3];
+  // One of the `CMLT_PHASE_*` values.
+  uint32_t phase;
+  // Henyey–Greenstein asymmetry for `CMLT_PHASE_HG`, finite with
+  // |g| < 1; ignored (but must be finite) otherwise.
+  float g;
+} cmlt_medium;
 
 #ifdef __cplusplus
 extern "C" {
@@ -1424,6 +1462,42 @@ enum cmlt_status cmlt_scene_get_effects(const struct cmlt_scene *scene,
 // # Safety
 // `scene` is NULL or a valid handle; `out` is NULL or valid.
 enum cmlt_status cmlt_scene_triangle_count(const struct cmlt_scene *scene, uint32_t *out);
+
+// Adds a homogeneous medium; its id (for `cmlt_scene_set_mesh_media` and
+// `cmlt_scene_set_camera_medium`; ids count from 0 in the order added)
+// goes to `*out_id` (may be NULL). On failure the scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle; `medium` is NULL or valid; `out_id` is NULL
+// or valid.
+enum cmlt_status cmlt_scene_add_medium(struct cmlt_scene *scene,
+                                       const struct cmlt_medium *medium,
+                                       uint32_t *out_id);
+
+// Names the media on the two sides of mesh `mesh` (its index: 0 for the
+// first mesh added, as in `cmlt_scene_update_mesh`): `interior` on the
+// side its geometric normal points away from (the inside of a closed
+// mesh wound counter-clockwise seen from outside), `exterior` on the side
+// it points to; `CMLT_MEDIUM_NONE` for vacuum. A ray that crosses the
+// mesh (through a `CMLT_MATERIAL_NULL` surface, or refracted by glass)
+// is then in the medium of the side it leaves into. A later call for the
+// same mesh replaces the earlier one. On failure the scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle.
+enum cmlt_status cmlt_scene_set_mesh_media(struct cmlt_scene *scene,
+                                           uint32_t mesh,
+                                           uint32_t interior,
+                                           uint32_t exterior);
+
+// Sets the medium the cameras of the scene's renderers sit in
+// (`CMLT_MEDIUM_NONE`, the default, for vacuum): the medium camera rays
+// start in, until they cross a mesh that names media. On failure the
+// scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle.
+enum cmlt_status cmlt_scene_set_camera_medium(struct cmlt_scene *scene, uint32_t medium);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -108,6 +108,18 @@ class Scene {
     [[nodiscard]] Status add_mesh(const cmlt_mesh &m, std::uint32_t *first_triangle = nullptr) {
         return detail::status(cmlt_scene_add_mesh(p_, &m, first_triangle));
     }
+    /// A homogeneous medium; its id into `id`.
+    [[nodiscard]] Status add_medium(const cmlt_medium &m, std::uint32_t &id) {
+        return detail::status(cmlt_scene_add_medium(p_, &m, &id));
+    }
+    /// The media inside and outside mesh `mesh` (`CMLT_MEDIUM_NONE`: vacuum).
+    [[nodiscard]] Status set_mesh_media(std::uint32_t mesh, std::uint32_t interior, std::uint32_t exterior) {
+        return detail::status(cmlt_scene_set_mesh_media(p_, mesh, interior, exterior));
+    }
+    /// The medium the cameras sit in (`CMLT_MEDIUM_NONE`: vacuum).
+    [[nodiscard]] Status set_camera_medium(std::uint32_t medium) {
+        return detail::status(cmlt_scene_set_camera_medium(p_, medium));
+    }
     [[nodiscard]] Status commit() { return detail::status(cmlt_scene_commit(p_)); }
     /// Moves mesh `mesh` (packed or strided positions; normals optional).
     [[nodiscard]] Status update_mesh(std::uint32_t mesh, const float *positions, std::size_t vertex_count,

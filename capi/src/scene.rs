@@ -25,6 +25,9 @@ use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::host::{HostIntersector, HostShapes, cmlt_intersector, cmlt_shapes};
 use crate::loader::{self, Loaded};
 
+mod media;
+pub use media::*;
+
 /// Lambertian diffuse: `color` is the albedo.
 pub const CMLT_MATERIAL_DIFFUSE: u32 = 0;
 /// Smooth mirror: `color` is the specular reflectance.
@@ -102,6 +105,11 @@ pub const CMLT_PRINCIPLED_FLATNESS: u32 = 9;
 /// Mitsuba's `alpha`, the RMS facet slope in [0, 1e4] (0 is Lambertian;
 /// Oren–Nayar's σ is α/√2).
 pub const CMLT_MATERIAL_ROUGH_DIFFUSE: u32 = 10;
+/// An index-matched boundary (Mitsuba's `null`): rays pass it unchanged
+/// and it never scatters; it only changes the medium a ray is in, as the
+/// mesh's media say (`cmlt_scene_set_mesh_media`). The other fields are
+/// ignored. Needs the media effect (`CMLT_EFFECT_MEDIA`).
+pub const CMLT_MATERIAL_NULL: u32 = 11;
 
 /// The acceleration structure `cmlt_scene_commit` builds: our SIMD BVH
 /// (default), or Embree (builds with the `embree` feature only). A scene
@@ -424,6 +432,8 @@ struct Building {
     /// among the scene's bitmaps too, so ids and bitmaps differ).
     textures: Vec<BitmapId>,
     meshes: usize,
+    /// Media added so far (`media::cmlt_scene_add_medium`).
+    media: u32,
     triangles: u64,
     shapes: u64,
     intersector: Option<cmlt_intersector>,
@@ -495,6 +505,7 @@ pub unsafe extern "C" fn cmlt_scene_new(out: *mut *mut cmlt_scene) -> cmlt_statu
                 materials: 0,
                 textures: Vec::new(),
                 meshes: 0,
+                media: 0,
                 triangles: 0,
                 shapes: 0,
                 intersector: None,
@@ -660,6 +671,7 @@ pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Resul
             fresnel: ConductorFresnel::Perfect,
             specular_reflectance: colour,
         },
+        CMLT_MATERIAL_NULL => MaterialKind::Null,
         CMLT_MATERIAL_ROUGH_DIFFUSE => MaterialKind::RoughDiffuse {
             reflectance: colour,
             alpha: m.roughness,
@@ -1679,6 +1691,9 @@ pub const CMLT_EFFECT_ENVIRONMENT: u32 = 0x1000;
 pub const CMLT_EFFECT_PRINCIPLED: u32 = 0x2000;
 /// Rough diffuse reflection (`CMLT_MATERIAL_ROUGH_DIFFUSE`).
 pub const CMLT_EFFECT_ROUGH_DIFFUSE: u32 = 0x4000;
+/// Participating media and null boundaries (`cmlt_scene_add_medium`,
+/// `CMLT_MATERIAL_NULL`).
+pub const CMLT_EFFECT_MEDIA: u32 = 0x8000;
 
 // The bits are the core's `Effect` discriminants (literals here so that
 // cbindgen writes them into the header).
@@ -1698,6 +1713,8 @@ const _: () = assert!(
         && CMLT_EFFECT_ENVIRONMENT == 1 << Effect::Environment as u32
         && CMLT_EFFECT_PRINCIPLED == 1 << Effect::Principled as u32
         && CMLT_EFFECT_ROUGH_DIFFUSE == 1 << Effect::RoughDiffuse as u32
+        && CMLT_EFFECT_MEDIA == 1 << Effect::Media as u32
+        && Effect::ALL.len() == 16
 );
 
 /// `*out_effects` = the `CMLT_EFFECT_*` bits a committed scene calls for

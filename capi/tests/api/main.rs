@@ -12,6 +12,7 @@ mod errors;
 mod host;
 mod lights;
 mod materials;
+mod media;
 mod memory;
 mod outputs;
 mod renderer;
