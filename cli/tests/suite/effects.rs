@@ -53,6 +53,7 @@ fn shared_scenes_call_for_what_they_contain() {
             "lights-punctual",
             "media-fog",
             "media-glass",
+            "media-milk",
             "plastics",
             "principled",
             "rough-glass",
@@ -133,6 +134,15 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("media-glass"),
         (set(&[Diffuse, Refraction, AreaLights, Media]), true)
+    );
+    // Scattering interiors of a smooth glass sphere and a rough glass cube:
+    // media, refraction of both kinds, so specular chains.
+    assert_eq!(
+        effects("media-milk"),
+        (
+            set(&[Diffuse, Refraction, RoughRefraction, AreaLights, Media]),
+            true
+        )
     );
     // Bitmap and checkerboard textures; the dielectric's meshes are absent
     // from the snapshot (commented out in the XML), so no refraction.

@@ -213,3 +213,13 @@ fn media_glass_pt() {
 fn media_fog_pt() {
     check_scene("media-fog", Estimator::Path, 256);
 }
+
+/// Scattering media seen through dielectric boundaries
+/// (tests/scenes/media-milk): a smooth glass sphere of milky,
+/// forward-scattering liquid and a rough glass cube of grey smoke. No
+/// shadow ray crosses the glass, so PT lights the media only by sampling
+/// the interfaces towards the light (L S M S E and L G M G E paths).
+#[test]
+fn media_milk_pt() {
+    check_scene("media-milk", Estimator::Path, 2048);
+}
