@@ -14,7 +14,9 @@
 //! whatever the aperture). The first hit, not the first non-specular one:
 //! one deterministic ray gives outputs without noise and keeps depth,
 //! normal and motion of the same point, which is what a temporal upscaler
-//! reprojects. OIDN reads a normal in world or view space with 0 where
+//! reprojects. Index-matched (null) boundaries are invisible in the image
+//! and so in the outputs too: the ray passes them to the first other
+//! surface; participating media leave the outputs unchanged. OIDN reads a normal in world or view space with 0 where
 //! nothing is hit, and an albedo in [0, 1], for which its documentation
 //! allows a mirror's or glass's own reflectance (or 1) instead of the
 //! surface seen through them.
@@ -50,9 +52,10 @@ use glam::{Vec2, Vec3};
 pub use layer::{AovBuffers, AovFormat, AovLayer};
 
 use crate::accel::{DynIntersector, Intersector};
+use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::{Hit, HitPacket, LaneMask, Ray, RayPacket};
 use crate::integrator::Tracer;
-use crate::integrator::tracer::Shading;
+use crate::integrator::tracer::{MAX_NULL_CROSSINGS, Shading};
 use crate::math::Rgb;
 use crate::renderer::RenderError;
 use crate::scene::material::MaterialKind;
@@ -117,7 +120,8 @@ pub fn render_rows(
     // `Option<Uniform>` and `Option<Shading>` between two loops cost a
     // store-forwarding stall per pixel (their copies at odd offsets were
     // the hottest instruction of depth and motion).
-    let masks = tracer.has_alpha_masks();
+    // Null boundaries (media scenes) are walked through ray by ray too.
+    let walks = tracer.has_alpha_masks() || scene.has_media();
     let mut rays = [None; LANES];
     let mut shaded: [Option<Shading>; LANES] = [None; LANES];
     let mut run = Run::default();
@@ -128,8 +132,12 @@ pub fn render_rows(
             for (i, r) in rays[..lanes].iter_mut().enumerate() {
                 *r = Some(camera.pinhole_ray(centre(x0 + i, y)));
             }
-            if masks {
-                tracer.trace_bundle(&rays[..lanes], &mut shaded[..lanes]);
+            if walks {
+                for (r, o) in rays[..lanes].iter().zip(&mut shaded[..lanes]) {
+                    *o = r
+                        .as_ref()
+                        .and_then(|r| first_visible(scene, &mut tracer, r));
+                }
                 for i in 0..lanes {
                     let ray = rays[i].expect("set above");
                     let c = centre(x0 + i, y);
@@ -193,6 +201,29 @@ pub fn render_rows(
         }
     }
     Ok(())
+}
+
+/// The first surface `ray` meets that is not a null boundary (alpha-masked
+/// surfaces whose test passes are walked through by [`Tracer::trace`]):
+/// the surface a denoiser should see, as the index-matched boundaries of
+/// media are invisible in the image. Media themselves are not seen by the
+/// outputs (their scattering is noise a denoiser's albedo does not carry).
+/// `None` on a miss, or after [`MAX_NULL_CROSSINGS`] boundaries in a row.
+fn first_visible<I: Intersector>(
+    scene: &Scene,
+    tracer: &mut Tracer<'_, I>,
+    ray: &Ray,
+) -> Option<Shading> {
+    let mut ray = *ray;
+    for _ in 0..MAX_NULL_CROSSINGS {
+        let sh = tracer.trace(&ray)?;
+        if !matches!(scene.material(&sh.sp).kind, MaterialKind::Null) {
+            return Some(sh);
+        }
+        let sp = &sh.sp;
+        ray = Ray::new(offset_ray_origin(sp.p, sp.p_error, sp.ng, ray.d), ray.d);
+    }
+    None
 }
 
 /// Which outputs a call writes (the others are not computed).

@@ -549,7 +549,6 @@ pub enum Endpoint {
 
 /// Most null boundaries one transmittance query crosses before it counts
 /// as blocked (a bound on the work of a ray through a stack of them).
-#[cfg(feature = "media")]
 pub const MAX_NULL_CROSSINGS: usize = 64;
 
 #[cfg(feature = "media")]

@@ -385,6 +385,64 @@ fn masked_scenes_see_through_transparent_surfaces_and_move_with_them() {
     }
 }
 
+/// A null boundary (an index-matched surface that only changes the
+/// medium) is invisible in the image, so the outputs see through it: a
+/// null square at depth 2 holding a fog before the wall gives the wall's
+/// depth, normal and albedo; the same square diffuse (the control) gives
+/// its own depth.
+#[test]
+#[cfg(feature = "media")]
+fn null_boundaries_are_seen_through() {
+    use cmlt::scene::{Medium, MediumInterface, Phase};
+    for (null, depth_seen) in [(true, DEPTH), (false, 2.0)] {
+        let mut b = SceneBuilder::new();
+        let m = b.add_material(Material::diffuse(ALBEDO));
+        let boundary = if null {
+            b.add_material(Material {
+                kind: cmlt::scene::MaterialKind::Null,
+                ..Material::diffuse(Rgb::ZERO)
+            })
+        } else {
+            b.add_material(Material::diffuse(Rgb::splat(0.9)))
+        };
+        b.add_mesh(wall(20.0, m));
+        let mut front = wall(20.0, boundary);
+        for p in &mut front.positions {
+            p.z = 2.0;
+        }
+        let front = b.add_mesh(front);
+        let fog = b.add_medium(
+            Medium::homogeneous(Rgb::splat(0.5), Rgb::splat(0.8), 1.0, Phase::Isotropic).unwrap(),
+        );
+        b.set_mesh_media(
+            front,
+            MediumInterface {
+                interior: Some(fog),
+                exterior: None,
+            },
+        );
+        b.set_camera(camera(Vec3::ZERO));
+        let scene = b.build().unwrap();
+        let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+        let cam = camera(Vec3::ZERO);
+        let (albedo, normal, depth, _) = aovs(&scene, &bvh, &cam, &cam);
+        let want_albedo = if null { 0.25 } else { 0.9 };
+        for i in 0..(W * H) as usize {
+            assert!(
+                close(depth[i], depth_seen, 4e-7),
+                "null {null}: depth {}",
+                depth[i]
+            );
+            assert!(
+                close(albedo[3 * i], want_albedo, 1e-6),
+                "null {null}: albedo {}",
+                albedo[3 * i]
+            );
+            assert_eq!(&normal[3 * i..3 * i + 3], &[0.0, 0.0, -1.0]);
+        }
+    }
+}
+
 #[test]
 fn bad_aov_calls_are_refused_and_write_nothing() {
     let scene = wall_scene(20.0);
