@@ -1072,8 +1072,7 @@ enum cmlt_status cmlt_renderer_prepare_begin(struct cmlt_renderer *renderer, uin
 //
 // # Safety
 // `renderer` is NULL or valid.
-enum cmlt_status cmlt_renderer_prepare_worker(const struct cmlt_renderer *renderer,
-                                              uint32_t worker);
+enum cmlt_status cmlt_renderer_prepare_worker(struct cmlt_renderer *renderer, uint32_t worker);
 
 // `cmlt_renderer_prepare_worker` in pieces of about a millisecond of
 // work (16 bootstrap samples or normalisation-pass pixels), calling
@@ -1095,7 +1094,7 @@ enum cmlt_status cmlt_renderer_prepare_worker(const struct cmlt_renderer *render
 // # Safety
 // `renderer` is NULL or valid; `keep_going` is callable with `user`;
 // `out_finished` is NULL or valid.
-enum cmlt_status cmlt_renderer_prepare_worker_while(const struct cmlt_renderer *renderer,
+enum cmlt_status cmlt_renderer_prepare_worker_while(struct cmlt_renderer *renderer,
                                                     uint32_t worker,
                                                     cmlt_keep_going_fn keep_going,
                                                     void *user,
@@ -1123,7 +1122,7 @@ enum cmlt_status cmlt_renderer_prepare_finish(struct cmlt_renderer *renderer);
 //
 // # Safety
 // `renderer` is NULL or valid; `out_done` is NULL or valid.
-enum cmlt_status cmlt_renderer_render_per_pixel(const struct cmlt_renderer *renderer,
+enum cmlt_status cmlt_renderer_render_per_pixel(struct cmlt_renderer *renderer,
                                                 uint32_t worker,
                                                 uint64_t per_pixel,
                                                 uint64_t *out_done);
@@ -1137,7 +1136,7 @@ enum cmlt_status cmlt_renderer_render_per_pixel(const struct cmlt_renderer *rend
 //
 // # Safety
 // `renderer` is NULL or valid; `out_done` is NULL or valid.
-enum cmlt_status cmlt_renderer_render(const struct cmlt_renderer *renderer,
+enum cmlt_status cmlt_renderer_render(struct cmlt_renderer *renderer,
                                       uint32_t worker,
                                       uint64_t budget,
                                       uint64_t *out_done);
@@ -1158,7 +1157,7 @@ enum cmlt_status cmlt_renderer_render(const struct cmlt_renderer *renderer,
 // # Safety
 // `renderer` is NULL or valid; `keep_going` is callable with `user`;
 // `out_done` is NULL or valid.
-enum cmlt_status cmlt_renderer_render_while(const struct cmlt_renderer *renderer,
+enum cmlt_status cmlt_renderer_render_while(struct cmlt_renderer *renderer,
                                             uint32_t worker,
                                             uint64_t budget,
                                             cmlt_keep_going_fn keep_going,

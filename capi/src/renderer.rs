@@ -961,7 +961,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_begin(
 /// `renderer` is NULL or valid.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn cmlt_renderer_prepare_worker(
-    renderer: *const cmlt_renderer,
+    renderer: *mut cmlt_renderer,
     worker: u32,
 ) -> cmlt_status {
     guard("cmlt_renderer_prepare_worker", || {
@@ -997,7 +997,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_worker(
 /// `out_finished` is NULL or valid.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn cmlt_renderer_prepare_worker_while(
-    renderer: *const cmlt_renderer,
+    renderer: *mut cmlt_renderer,
     worker: u32,
     keep_going: cmlt_keep_going_fn,
     user: *mut c_void,
@@ -1058,7 +1058,7 @@ pub unsafe extern "C" fn cmlt_renderer_prepare_finish(renderer: *mut cmlt_render
 /// `renderer` is NULL or valid; `out_done` is NULL or valid.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn cmlt_renderer_render_per_pixel(
-    renderer: *const cmlt_renderer,
+    renderer: *mut cmlt_renderer,
     worker: u32,
     per_pixel: u64,
     out_done: *mut u64,
@@ -1090,7 +1090,7 @@ pub unsafe extern "C" fn cmlt_renderer_render_per_pixel(
 /// `renderer` is NULL or valid; `out_done` is NULL or valid.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn cmlt_renderer_render(
-    renderer: *const cmlt_renderer,
+    renderer: *mut cmlt_renderer,
     worker: u32,
     budget: u64,
     out_done: *mut u64,
@@ -1134,7 +1134,7 @@ pub type cmlt_keep_going_fn = Option<unsafe extern "C" fn(user: *mut c_void, don
 /// `out_done` is NULL or valid.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn cmlt_renderer_render_while(
-    renderer: *const cmlt_renderer,
+    renderer: *mut cmlt_renderer,
     worker: u32,
     budget: u64,
     keep_going: cmlt_keep_going_fn,

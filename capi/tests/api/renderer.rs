@@ -239,7 +239,7 @@ fn renderer_inputs_and_call_order_are_checked() {
             f,
         );
         expect(
-            cmlt_renderer_render(null(), 0, 100, null_mut()),
+            cmlt_renderer_render(null_mut(), 0, 100, null_mut()),
             CMLT_ERROR_NULL_POINTER,
             f,
         );
@@ -543,7 +543,7 @@ fn bootstrap_on_the_hosts_threads_equals_prepare() {
             std::thread::scope(|sc| {
                 for w in 0..3 {
                     sc.spawn(move || {
-                        let r = addr as *const cmlt_renderer;
+                        let r = addr as *mut cmlt_renderer;
                         expect(
                             cmlt_renderer_prepare_worker(r, w),
                             CMLT_OK,
