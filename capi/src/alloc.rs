@@ -75,12 +75,25 @@ static USED: AtomicUsize = AtomicUsize::new(1);
 /// The library's global allocator (see the module docs).
 pub struct HostAllocator;
 
-/// Bytes and largest alignment allocated (not yet freed) on one thread
-/// while [`measure_allocations`] ran.
+/// What one thread allocated while [`measure_allocations`] ran, as the
+/// host allocator sees it (headers included).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct Usage {
-    pub bytes: usize,
+    /// The most bytes allocated at once at any point (at least what is
+    /// left allocated at the end): what an allocator of fixed capacity
+    /// must have free for the measured work.
+    pub peak: usize,
+    /// The largest alignment requested.
     pub max_align: usize,
+}
+
+/// The running tally of [`measure_allocations`]: live bytes, their peak,
+/// the largest alignment.
+#[derive(Clone, Copy)]
+struct Tally {
+    live: isize,
+    peak: isize,
+    align: usize,
 }
 
 thread_local! {
@@ -88,34 +101,73 @@ thread_local! {
     /// (const-initialised, no destructor: safe to touch from the
     /// allocator).
     static MEASURING: Cell<bool> = const { Cell::new(false) };
-    static USAGE: Cell<(isize, usize)> = const { Cell::new((0, 0)) };
+    static USAGE: Cell<Tally> = const { Cell::new(Tally { live: 0, peak: 0, align: 0 }) };
 }
 
 fn tally(outer: Layout, sign: isize) {
     if MEASURING.with(Cell::get) {
         USAGE.with(|u| {
-            let (b, a) = u.get();
-            u.set((b + sign * outer.size() as isize, a.max(outer.align())));
+            let t = u.get();
+            let live = t.live + sign * outer.size() as isize;
+            u.set(Tally {
+                live,
+                peak: t.peak.max(live),
+                align: t.align.max(outer.align()),
+            });
         });
     }
 }
 
-/// Runs `f` and reports the bytes it left allocated on this thread, as the
-/// host allocator sees them (headers included), and the largest alignment
-/// requested.
+/// Runs `f` and reports what it allocated on this thread ([`Usage`]).
 pub(crate) fn measure_allocations<R>(f: impl FnOnce() -> R) -> (R, Usage) {
-    USAGE.with(|u| u.set((0, 0)));
+    USAGE.with(|u| {
+        u.set(Tally {
+            live: 0,
+            peak: 0,
+            align: 0,
+        })
+    });
     MEASURING.with(|m| m.set(true));
     let r = f();
     MEASURING.with(|m| m.set(false));
-    let (bytes, max_align) = USAGE.with(Cell::get);
+    let t = USAGE.with(Cell::get);
     (
         r,
         Usage {
-            bytes: bytes.max(0) as usize,
-            max_align,
+            peak: t.peak.max(0) as usize,
+            max_align: t.align,
         },
     )
+}
+
+/// Whether the system allocator can give `bytes` in one block right now:
+/// asks it (fallibly) and frees the block at once. This bypasses the host's
+/// hooks on purpose: a host's fixed-size pool never sees the probe, only
+/// the blocks the library keeps, and what the probe guards against is the
+/// system refusing a block the core would ask for infallibly (a host's
+/// refusal is served by the system instead, see the module docs).
+pub(crate) fn system_can_give(bytes: usize) -> crate::error::Result<()> {
+    let refused = || {
+        Error::out_of_memory(
+            "out of memory: the system cannot give the renderer's upper bound of memory",
+        )
+    };
+    if bytes == 0 {
+        return Ok(());
+    }
+    let layout = Layout::from_size_align(bytes, 1).map_err(|_| refused())?;
+    // SAFETY: `layout` has a non-zero size; the block is freed with the
+    // same layout right away and never read or written. `black_box` keeps
+    // the pair: a malloc whose block is never used may be removed by the
+    // optimiser and assumed to succeed, which would make the probe a no-op.
+    unsafe {
+        let block = std::hint::black_box(System.alloc(layout));
+        if block.is_null() {
+            return Err(refused());
+        }
+        System.dealloc(block, layout);
+    }
+    Ok(())
 }
 
 /// `CMLT_ERROR_OUT_OF_MEMORY` if a block was refused so far in this call.

@@ -27,7 +27,7 @@ use cmlt_core::renderer::{
     Renderer, RendererConfig, Temporal,
 };
 
-use crate::alloc::{check_oom, measure_allocations, try_reserve};
+use crate::alloc::{check_oom, measure_allocations, system_can_give, try_reserve};
 use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::scene::{Accel, Committed, cmlt_camera, cmlt_scene};
 
@@ -601,11 +601,14 @@ fn render_error(e: RenderError) -> Error {
 /// Builds the renderer and its workers (everything a frame needs).
 ///
 /// The core sizes its buffers with infallible allocations; so that none of
-/// them is ever asked for a block the allocator cannot give (which would
-/// abort), the allocator is first asked, fallibly, for the renderer's
-/// upper bound ([`Renderer::memory_bound`]) in one block, which is freed
-/// at once: a configuration too large for the allocator is refused with
-/// out-of-memory before anything else is allocated.
+/// them is ever asked for a block the system cannot give (which would
+/// abort: a block the host's hooks refuse is served by the system and the
+/// call then fails, `alloc.rs`), the system allocator is first asked,
+/// fallibly, for the renderer's upper bound ([`Renderer::memory_bound`])
+/// in one block, which is freed at once: a configuration too large for
+/// the machine is refused with out-of-memory before anything else is
+/// allocated. The probe bypasses the host's hooks, so a host pool the size
+/// `cmlt_renderer_memory_requirements` gives is enough.
 fn build(
     scene: Arc<Committed>,
     config: &cmlt_renderer_config,
@@ -614,10 +617,9 @@ fn build(
     let cfg = core_config(config, &scene)?;
     let camera = camera.camera(config.width, config.height)?;
     let bound = Renderer::memory_bound(&cfg, config.width, config.height).map_err(render_error)?;
-    let mut probe = Vec::<u8>::new();
-    try_reserve(&mut probe, bound as usize)?;
-    drop(probe);
-    check_oom()?;
+    system_can_give(usize::try_from(bound).map_err(|_| {
+        Error::out_of_memory("out of memory: the renderer's memory overflows the address space")
+    })?)?;
     let renderer = Renderer::new(cfg, camera).map_err(render_error)?;
     let mut workers = Vec::new();
     try_reserve(&mut workers, cfg.workers as usize)?;
@@ -671,7 +673,7 @@ pub unsafe extern "C" fn cmlt_renderer_memory_requirements(
         // SAFETY: the caller's contract.
         unsafe {
             if let Some(b) = out_bytes.as_mut() {
-                *b = usage.bytes;
+                *b = usage.peak;
             }
             if let Some(a) = out_alignment.as_mut() {
                 *a = usage.max_align;

@@ -46,8 +46,13 @@ fn counted<R>(f: impl FnOnce() -> R) -> (R, u64, usize) {
     (r, ALLOCS.with(Cell::get), BYTES.with(Cell::get))
 }
 
+/// Held by each test that installs hooks: the hooks are the process's, and
+/// the tests of this binary run in parallel.
+static HOOKS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
+    let _hooks = HOOKS.lock().unwrap_or_else(|e| e.into_inner());
     let hooks = cmlt_allocator {
         user: null_mut(),
         alloc: Some(counting_alloc),
@@ -223,6 +228,97 @@ fn frames_allocate_nothing_through_the_hooks_and_the_query_is_exact() {
         }
         // SAFETY: handle from this test.
         unsafe { cmlt_renderer_release(r) };
+    }
+    // SAFETY: handle from this test; NULL restores the system allocator.
+    unsafe {
+        cmlt_scene_release(s);
+        expect(cmlt_set_allocator(null()), CMLT_OK, "set_allocator");
+    }
+}
+
+thread_local! {
+    /// The capacity of this thread's pool (`None`: not limited) and the
+    /// bytes it has handed out.
+    static CAPACITY: Cell<Option<usize>> = const { Cell::new(None) };
+    static LIVE: Cell<usize> = const { Cell::new(0) };
+}
+
+/// A host pool of fixed capacity: refuses a block that would take more
+/// than `CAPACITY` bytes out of it at once (no fragmentation).
+unsafe extern "C" fn pool_alloc(_: *mut c_void, size: usize, align: usize) -> *mut c_void {
+    if let Some(cap) = CAPACITY.with(Cell::get) {
+        let live = LIVE.with(Cell::get);
+        if live + size > cap {
+            return null_mut();
+        }
+        LIVE.with(|l| l.set(live + size));
+    }
+    // SAFETY: valid layout (the library passes a power-of-two alignment).
+    unsafe { std::alloc::System.alloc(std::alloc::Layout::from_size_align_unchecked(size, align)) }
+        .cast()
+}
+
+unsafe extern "C" fn pool_free(_: *mut c_void, ptr: *mut c_void, size: usize, align: usize) {
+    if CAPACITY.with(Cell::get).is_some() {
+        LIVE.with(|l| l.set(l.get().saturating_sub(size)));
+    }
+    // SAFETY: `ptr` came from `pool_alloc` with this layout.
+    unsafe {
+        std::alloc::System.dealloc(
+            ptr.cast(),
+            std::alloc::Layout::from_size_align_unchecked(size, align),
+        )
+    }
+}
+
+/// A host pool of exactly the size `cmlt_renderer_memory_requirements`
+/// gives is enough for `cmlt_renderer_new` (nothing asks the host for more
+/// at once, not even the check of the renderer's upper bound), and one 10 %
+/// smaller is refused cleanly with out-of-memory.
+#[test]
+fn a_pool_of_the_queried_size_is_enough_to_create_a_renderer() {
+    let _hooks = HOOKS.lock().unwrap_or_else(|e| e.into_inner());
+    let hooks = cmlt_allocator {
+        user: null_mut(),
+        alloc: Some(pool_alloc),
+        free: Some(pool_free),
+    };
+    // SAFETY: valid allocator with process-lifetime callbacks.
+    unsafe { expect(cmlt_set_allocator(&hooks), CMLT_OK, "set_allocator") };
+    let s = scene(None);
+    for estimator in [
+        CMLT_ESTIMATOR_PT,
+        CMLT_ESTIMATOR_BDPT,
+        CMLT_ESTIMATOR_MLT,
+        CMLT_ESTIMATOR_CMLT,
+    ] {
+        let c = config(estimator, 2);
+        let mut bytes = 0usize;
+        // SAFETY: valid pointers.
+        unsafe {
+            expect(
+                cmlt_renderer_memory_requirements(s, &c, &mut bytes, null_mut()),
+                CMLT_OK,
+                "memory_requirements",
+            )
+        };
+        for (capacity, want) in [(bytes, CMLT_OK), (bytes / 10 * 9, CMLT_ERROR_OUT_OF_MEMORY)] {
+            CAPACITY.with(|cap| cap.set(Some(capacity)));
+            LIVE.with(|l| l.set(0));
+            let mut r = null_mut();
+            // SAFETY: valid pointers.
+            let status = unsafe { cmlt_renderer_new(s, &c, &CAMERA, &mut r) };
+            CAPACITY.with(|cap| cap.set(None));
+            assert_eq!(
+                status,
+                want,
+                "estimator {estimator}: a pool of {capacity} B (query {bytes} B): {}",
+                last_error()
+            );
+            assert_eq!(r.is_null(), want != CMLT_OK);
+            // SAFETY: NULL or a renderer from this test.
+            unsafe { cmlt_renderer_release(r) };
+        }
     }
     // SAFETY: handle from this test; NULL restores the system allocator.
     unsafe {
