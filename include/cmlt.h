@@ -376,8 +376,12 @@ typedef struct cmlt_renderer_config {
   uint32_t estimator;
   // Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
   uint32_t workers;
-  // Longest path in segments; 0 = the scene's setting (unbounded paths
-  // are capped at `depth_cap`, for every estimator).
+  // Longest path in segments; 0 = the scene's own depth. A scene built
+  // through this API has none (unbounded, Mitsuba's default), so 0
+  // renders it at `depth_cap` (32 by default) segments; a scene loaded
+  // from a file has its integrator's `max_depth` (capped the same way
+  // when unbounded). Russian roulette starts at 5 segments (a file may
+  // set its own `rr_depth`).
   uint32_t max_depth;
   // Seed of all random numbers.
   uint64_t seed;
@@ -1355,7 +1359,9 @@ enum cmlt_status cmlt_scene_set_accel(struct cmlt_scene *scene, uint32_t accel);
 
 // Validates the scene and builds its acceleration structure; afterwards
 // the scene is immutable and renderers can be made from it. On failure
-// the scene is unchanged and can still be edited.
+// the scene is unchanged and can still be edited. A scene in which
+// nothing emits commits too (its frames are black):
+// `cmlt_scene_light_count` tells.
 //
 // Besides each element's own checks, meshes farther from the origin than
 // 65536 (2^16) times their bounding box's diagonal are refused
@@ -1461,6 +1467,19 @@ enum cmlt_status cmlt_scene_get_effects(const struct cmlt_scene *scene,
 // # Safety
 // `scene` is NULL or a valid handle; `out` is NULL or valid.
 enum cmlt_status cmlt_scene_triangle_count(const struct cmlt_scene *scene, uint32_t *out);
+
+// Number of lights of a committed scene that emit: emitting meshes with
+// a non-zero area (degenerate triangles emit nothing), point, spot and
+// directional lights and environments of non-zero power. 0 means every
+// frame of the scene is black whatever the estimator; the scene still
+// commits and renders (a level may be dark on purpose), so a host that
+// did not mean it should check this after `cmlt_scene_commit` and after
+// `cmlt_scene_update_mesh` moved an emitter (an emitter squashed to zero
+// area stops counting, and counts again when it has area).
+//
+// # Safety
+// `scene` is NULL or a valid handle; `out` is NULL or valid.
+enum cmlt_status cmlt_scene_light_count(const struct cmlt_scene *scene, uint32_t *out);
 
 // Adds a homogeneous medium; its id (for `cmlt_scene_set_mesh_media` and
 // `cmlt_scene_set_camera_medium`; ids count from 0 in the order added)

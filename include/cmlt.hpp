@@ -121,6 +121,10 @@ class Scene {
         return detail::status(cmlt_scene_set_camera_medium(p_, medium));
     }
     [[nodiscard]] Status commit() { return detail::status(cmlt_scene_commit(p_)); }
+    /// Lights of the committed scene that emit (0: every frame is black).
+    [[nodiscard]] Status light_count(std::uint32_t &count) const {
+        return detail::status(cmlt_scene_light_count(p_, &count));
+    }
     /// Moves mesh `mesh` (packed or strided positions; normals optional).
     [[nodiscard]] Status update_mesh(std::uint32_t mesh, const float *positions, std::size_t vertex_count,
                                      std::size_t position_stride = 0, const float *normals = nullptr,

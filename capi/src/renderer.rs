@@ -114,8 +114,12 @@ pub struct cmlt_renderer_config {
     pub estimator: u32,
     /// Workers (≥ 1): rendered by `cmlt_renderer_render(…, worker, …)`.
     pub workers: u32,
-    /// Longest path in segments; 0 = the scene's setting (unbounded paths
-    /// are capped at `depth_cap`, for every estimator).
+    /// Longest path in segments; 0 = the scene's own depth. A scene built
+    /// through this API has none (unbounded, Mitsuba's default), so 0
+    /// renders it at `depth_cap` (32 by default) segments; a scene loaded
+    /// from a file has its integrator's `max_depth` (capped the same way
+    /// when unbounded). Russian roulette starts at 5 segments (a file may
+    /// set its own `rr_depth`).
     pub max_depth: u32,
     /// Seed of all random numbers.
     pub seed: u64,

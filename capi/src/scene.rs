@@ -1309,7 +1309,9 @@ fn build_accel(kind: AccelKind, scene: &Scene) -> Result<Accel> {
 
 /// Validates the scene and builds its acceleration structure; afterwards
 /// the scene is immutable and renderers can be made from it. On failure
-/// the scene is unchanged and can still be edited.
+/// the scene is unchanged and can still be edited. A scene in which
+/// nothing emits commits too (its frames are black):
+/// `cmlt_scene_light_count` tells.
 ///
 /// Besides each element's own checks, meshes farther from the origin than
 /// 65536 (2^16) times their bounding box's diagonal are refused
@@ -1759,6 +1761,30 @@ pub unsafe extern "C" fn cmlt_scene_triangle_count(
         // SAFETY: the caller's contract.
         let (scene, out) = unsafe { (read(scene, "scene")?, write(out, "out")?) };
         *out = scene.committed()?.live()?.scene.triangle_count() as u32;
+        Ok(())
+    })
+}
+
+/// Number of lights of a committed scene that emit: emitting meshes with
+/// a non-zero area (degenerate triangles emit nothing), point, spot and
+/// directional lights and environments of non-zero power. 0 means every
+/// frame of the scene is black whatever the estimator; the scene still
+/// commits and renders (a level may be dark on purpose), so a host that
+/// did not mean it should check this after `cmlt_scene_commit` and after
+/// `cmlt_scene_update_mesh` moved an emitter (an emitter squashed to zero
+/// area stops counting, and counts again when it has area).
+///
+/// # Safety
+/// `scene` is NULL or a valid handle; `out` is NULL or valid.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn cmlt_scene_light_count(
+    scene: *const cmlt_scene,
+    out: *mut u32,
+) -> cmlt_status {
+    guard("cmlt_scene_light_count", || {
+        // SAFETY: the caller's contract.
+        let (scene, out) = unsafe { (read(scene, "scene")?, write(out, "out")?) };
+        *out = scene.committed()?.live()?.scene.lights.len() as u32;
         Ok(())
     })
 }

@@ -273,3 +273,76 @@ fn envmaps_are_checked_copied_and_rendered() {
         cmlt_scene_release(plain);
     }
 }
+
+/// `cmlt_scene_light_count` says when nothing emits: the floor and light
+/// has one light, the light squashed to zero area by `update_mesh` none
+/// (its frames are black, and OK) and again one when it is restored; a
+/// scene of the floor alone none (the query needs a committed scene).
+#[test]
+fn the_light_count_tells_a_scene_that_cannot_be_lit() {
+    let count = |s: *const cmlt_scene| {
+        let mut n = 99;
+        // SAFETY: valid pointers.
+        unsafe { expect(cmlt_scene_light_count(s, &mut n), CMLT_OK, "light_count") };
+        n
+    };
+    let s = scene(None);
+    assert_eq!(count(s), 1);
+    // The light quad's four corners moved onto one point: no area.
+    let mut squashed = POSITIONS;
+    for v in squashed[12..].chunks_mut(3) {
+        v.copy_from_slice(&[0.0, 1.0, 0.0]);
+    }
+    // SAFETY: valid pointers; 8 packed positions.
+    unsafe {
+        expect(
+            cmlt_scene_update_mesh(s, 1, squashed.as_ptr(), 8, 0, null(), 0),
+            CMLT_OK,
+            "update_mesh",
+        );
+    }
+    assert_eq!(count(s), 0);
+    // SAFETY: as above.
+    unsafe {
+        expect(
+            cmlt_scene_update_mesh(s, 1, POSITIONS.as_ptr(), 8, 0, null(), 0),
+            CMLT_OK,
+            "update_mesh",
+        );
+    }
+    assert_eq!(count(s), 1);
+    let mut dark = null_mut();
+    let mut id = 0;
+    // SAFETY: valid pointers; the second scene is uncommitted at first.
+    unsafe {
+        expect(cmlt_scene_new(&mut dark), CMLT_OK, "scene_new");
+        expect(
+            cmlt_scene_add_material(dark, &WHITE, &mut id),
+            CMLT_OK,
+            "add_material",
+        );
+        expect(
+            cmlt_scene_add_mesh(dark, &mesh(&FLOOR, id, 0.0), null_mut()),
+            CMLT_OK,
+            "add_mesh",
+        );
+        let mut n = 0;
+        expect(
+            cmlt_scene_light_count(dark, &mut n),
+            CMLT_ERROR_INVALID_OPERATION,
+            "cmlt_scene_light_count",
+        );
+        expect(
+            cmlt_scene_light_count(dark, null_mut()),
+            CMLT_ERROR_NULL_POINTER,
+            "cmlt_scene_light_count",
+        );
+        expect(cmlt_scene_commit(dark), CMLT_OK, "commit");
+    }
+    assert_eq!(count(dark), 0);
+    // SAFETY: handles from this test.
+    unsafe {
+        cmlt_scene_release(s);
+        cmlt_scene_release(dark);
+    }
+}
