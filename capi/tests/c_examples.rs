@@ -438,3 +438,124 @@ fn check_host_example(name: &str) {
         }
     }
 }
+
+/// Runs `cmd` (in `dir`); panics with its output when it fails.
+fn checked(cmd: &mut Command, what: &str) -> String {
+    let o = cmd.output().unwrap_or_else(|e| panic!("{what}: {e}"));
+    assert!(
+        o.status.success(),
+        "{what} failed ({}):\n{}\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// What `make -C examples-c install` installs is usable as a package: a
+/// CMake project finds it with `find_package(cmlt 0.1)` and links the
+/// static (`cmlt::cmlt`) and the shared (`cmlt::shared`) library, a
+/// `find_package(cmlt 0.2)` is refused, and `pkg-config --static` links
+/// the static one. Each program creates and releases a scene and checks
+/// the header's version against the library's. Installs this test run's
+/// own libraries (`make install-files`; `install` would build a release
+/// library first). Needs `cmake` and `pkg-config`, so `cargo test` skips
+/// it; `.ci/run` installs both and runs it (`-- --ignored`).
+#[test]
+#[ignore = "needs cmake and pkg-config: .ci/run runs it"]
+fn installed_package_links_through_cmake_and_pkg_config() {
+    let lib = staticlib();
+    let shlib = lib.with_file_name("libcmlt_capi.so");
+    assert!(shlib.is_file(), "{} is missing", shlib.display());
+    let root = out_dir().join("install-check");
+    let _ = std::fs::remove_dir_all(&root);
+    let prefix = root.join("prefix");
+    let mut make = Command::new("make");
+    make.arg("-C")
+        .arg(workspace().join("examples-c"))
+        .arg("install-files")
+        .arg(format!("PREFIX={}", prefix.display()))
+        .arg(format!("LIB={}", lib.display()))
+        .arg(format!("SHLIB={}", shlib.display()));
+    checked(&mut make, "make install-files");
+    let project = root.join("project");
+    std::fs::create_dir_all(&project).unwrap();
+    std::fs::write(
+        project.join("app.c"),
+        "#include <cmlt.h>\n#include <stdio.h>\n\
+         int main(void) {\n\
+             cmlt_scene *s = NULL;\n\
+             if (cmlt_version() != CMLT_VERSION) return 1;\n\
+             if (cmlt_scene_new(&s) != CMLT_OK) return 2;\n\
+             cmlt_scene_release(s);\n\
+             puts(\"cmlt ok\");\n\
+             return 0;\n\
+         }\n",
+    )
+    .unwrap();
+    let cmake_lists = |version: &str| {
+        format!(
+            "cmake_minimum_required(VERSION 3.16)\nproject(app C)\n\
+             find_package(cmlt {version} REQUIRED)\n\
+             add_executable(app_static app.c)\n\
+             target_link_libraries(app_static PRIVATE cmlt::cmlt)\n\
+             add_executable(app_shared app.c)\n\
+             target_link_libraries(app_shared PRIVATE cmlt::shared)\n"
+        )
+    };
+    let configure = |build: &Path| {
+        let mut c = Command::new("cmake");
+        c.arg("-S")
+            .arg(&project)
+            .arg("-B")
+            .arg(build)
+            .arg(format!("-DCMAKE_PREFIX_PATH={}", prefix.display()));
+        c
+    };
+    // A version the package does not satisfy is refused at configure time.
+    std::fs::write(project.join("CMakeLists.txt"), cmake_lists("0.2")).unwrap();
+    let refused = configure(&root.join("build-0.2"))
+        .output()
+        .expect("run cmake");
+    assert!(
+        !refused.status.success(),
+        "find_package(cmlt 0.2) was accepted"
+    );
+    std::fs::write(project.join("CMakeLists.txt"), cmake_lists("0.1")).unwrap();
+    let build = root.join("build");
+    checked(&mut configure(&build), "cmake configure");
+    checked(
+        Command::new("cmake").arg("--build").arg(&build),
+        "cmake --build",
+    );
+    for exe in ["app_static", "app_shared"] {
+        let out = checked(&mut Command::new(build.join(exe)), exe);
+        assert_eq!(out, "cmlt ok\n", "{exe}");
+    }
+    // The shared one really is: it needs libcmlt.so at run time.
+    let ldd = checked(Command::new("ldd").arg(build.join("app_shared")), "ldd");
+    assert!(
+        ldd.contains("libcmlt.so"),
+        "app_shared does not load libcmlt.so:\n{ldd}"
+    );
+    // pkg-config: the static library and its system libraries.
+    let flags = checked(
+        Command::new("pkg-config")
+            .args(["--cflags", "--libs", "--static", "cmlt"])
+            .env("PKG_CONFIG_PATH", prefix.join("lib/pkgconfig")),
+        "pkg-config",
+    );
+    let exe = root.join("app_pkg_config");
+    checked(
+        Command::new("cc")
+            .arg(project.join("app.c"))
+            .arg("-o")
+            .arg(&exe)
+            .args(flags.split_whitespace()),
+        "cc with pkg-config's flags",
+    );
+    assert_eq!(
+        checked(&mut Command::new(&exe), "app_pkg_config"),
+        "cmlt ok\n"
+    );
+}

@@ -1,0 +1,13 @@
+# Version of cmlt's CMake package: a request for 0.1.0 or an older
+# version of the same minor series (0.x: each minor may break) is met.
+set(PACKAGE_VERSION "0.1.0")
+if(PACKAGE_FIND_VERSION VERSION_GREATER PACKAGE_VERSION
+   OR NOT PACKAGE_FIND_VERSION_MAJOR EQUAL "0"
+   OR NOT PACKAGE_FIND_VERSION_MINOR EQUAL "1")
+  set(PACKAGE_VERSION_COMPATIBLE FALSE)
+else()
+  set(PACKAGE_VERSION_COMPATIBLE TRUE)
+  if(PACKAGE_FIND_VERSION STREQUAL PACKAGE_VERSION)
+    set(PACKAGE_VERSION_EXACT TRUE)
+  endif()
+endif()
