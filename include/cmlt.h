@@ -904,17 +904,12 @@ uint32_t cmlt_version(void);
 // Routes every later allocation of the library through `allocator`'s
 // callbacks, or back to the system allocator when `allocator` is NULL.
 // Blocks allocated before keep being freed by the allocator that made
-// them. At most 16 host allocators can be installed per process
-// (`CMLT_ERROR_INVALID_OPERATION` after that).
-//
-// `alloc` may return NULL at any time: the call that meets it returns
-// `CMLT_ERROR_OUT_OF_MEMORY` and leaves its object as it was. Rust code
-// cannot survive a failed allocation midway, so cmlt finishes that
-// call's throw-away work with the system allocator (blocks freed before
-// the call returns, never kept in an object) and then fails it; only
-// when the system refuses too does the process abort. Renderer sizes are
-// checked first (`cmlt_renderer_new`), so an absurd configuration never
-// reaches the system.
+// them. Up to 16 host allocators can hold blocks at once: an allocator
+// that is no longer current and whose blocks are all freed gives its place
+// up, so hooks can be installed any number of times (say one arena per
+// level, each level's objects released before the next level's hooks are
+// installed); `CMLT_ERROR_INVALID_OPERATION` when 16 earlier allocators
+// still hold blocks.
 //
 // # Safety
 // `allocator` is NULL or points to a valid `cmlt_allocator` whose

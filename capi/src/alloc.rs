@@ -7,7 +7,10 @@
 //! allocation time and writes a small header in front of each block naming
 //! the hooks that made it, so a block is always freed by its own allocator
 //! even when the host switches allocators while objects are alive. Hooks
-//! live in a fixed table of [`MAX_ALLOCATORS`] slots, written once each.
+//! live in a fixed table of [`MAX_ALLOCATORS`] slots; a slot is written
+//! again once its allocator is neither current nor holding a block
+//! (`Slot` says how that stays sound against allocations racing the
+//! switch).
 //!
 //! ## Out of memory
 //!
@@ -29,7 +32,6 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ffi::c_void;
-use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::call;
@@ -54,23 +56,78 @@ pub struct cmlt_allocator {
     >,
 }
 
-/// How many times [`cmlt_set_allocator`] can install hooks in one process.
+/// How many host allocators can hold the library's blocks at once: each
+/// takes a slot while it is current or any block it made is alive, and a
+/// slot is reused once neither is true (a game that installs a new arena
+/// per level and releases the level's objects before the next can do so
+/// without end).
 pub const MAX_ALLOCATORS: usize = 16;
 
-struct Hooks {
-    user: usize,
-    alloc: unsafe extern "C" fn(*mut c_void, usize, usize) -> *mut c_void,
-    free: unsafe extern "C" fn(*mut c_void, *mut c_void, usize, usize),
+type AllocFn = unsafe extern "C" fn(*mut c_void, usize, usize) -> *mut c_void;
+type FreeFn = unsafe extern "C" fn(*mut c_void, *mut c_void, usize, usize);
+
+/// One host allocator's hooks and what says whether its slot is in use.
+///
+/// The hooks are plain words so that a slot can be written again (and so
+/// that installing hooks allocates nothing). They are written only by
+/// [`cmlt_set_allocator`], under [`SETTING`], and only while the slot is
+/// idle: not current, `live` 0 (no block of it to free) and `entering` 0
+/// (no allocation between reading [`CURRENT`] and calling the hooks). An
+/// allocation announces itself in `entering` and then checks that its slot
+/// is still current; the setter makes a slot current only after writing
+/// it, so an allocation either reads the complete new hooks or backs off
+/// without reading any (see `HostAllocator::alloc`).
+struct Slot {
+    user: AtomicUsize,
+    alloc: AtomicUsize,
+    free: AtomicUsize,
+    /// Blocks these hooks made that are not freed yet.
+    live: AtomicUsize,
+    /// Allocations that found this slot current and may be using it.
+    entering: AtomicUsize,
 }
 
-/// Slot 0 is the system allocator (never set); slots 1.. hold host hooks,
-/// stored inline so that installing hooks allocates nothing.
-static SLOTS: [OnceLock<Hooks>; MAX_ALLOCATORS + 1] =
-    [const { OnceLock::new() }; MAX_ALLOCATORS + 1];
+impl Slot {
+    /// The hooks. Only for a slot that is current with `entering` held, or
+    /// that has a live block (either keeps the setter from writing it).
+    fn hooks(&self) -> (usize, AllocFn, FreeFn) {
+        let (a, f) = (
+            self.alloc.load(Ordering::SeqCst),
+            self.free.load(Ordering::SeqCst),
+        );
+        debug_assert!(a != 0 && f != 0);
+        // SAFETY: both words were written from function pointers of these
+        // types by `cmlt_set_allocator` before the slot became current
+        // (the caller's condition), and function pointers are word-sized.
+        unsafe {
+            (
+                self.user.load(Ordering::SeqCst),
+                std::mem::transmute::<usize, AllocFn>(a),
+                std::mem::transmute::<usize, FreeFn>(f),
+            )
+        }
+    }
+
+    fn idle(&self) -> bool {
+        self.live.load(Ordering::SeqCst) == 0 && self.entering.load(Ordering::SeqCst) == 0
+    }
+}
+
+/// Slot 0 is the system allocator (never written); slots 1.. hold host
+/// hooks.
+static SLOTS: [Slot; MAX_ALLOCATORS + 1] = [const {
+    Slot {
+        user: AtomicUsize::new(0),
+        alloc: AtomicUsize::new(0),
+        free: AtomicUsize::new(0),
+        live: AtomicUsize::new(0),
+        entering: AtomicUsize::new(0),
+    }
+}; MAX_ALLOCATORS + 1];
 /// Slot new allocations use.
 static CURRENT: AtomicUsize = AtomicUsize::new(0);
-/// Slots handed out so far (slot 0 included).
-static USED: AtomicUsize = AtomicUsize::new(1);
+/// Held while hooks are installed: one writer of slots at a time.
+static SETTING: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// The library's global allocator (see the module docs).
 pub struct HostAllocator;
@@ -214,14 +271,31 @@ unsafe impl GlobalAlloc for HostAllocator {
         let Ok(outer) = Layout::from_size_align(layout.size() + h, layout.align().max(h)) else {
             return std::ptr::null_mut();
         };
-        let mut slot = CURRENT.load(Ordering::Acquire);
-        let mut base: *mut u8 = match SLOTS[slot].get() {
-            // SAFETY: `outer` has a non-zero size.
-            None => unsafe { System.alloc(outer) },
-            // SAFETY: the host's contract for `alloc`.
-            Some(hk) => {
-                unsafe { (hk.alloc)(hk.user as *mut c_void, outer.size(), outer.align()) }.cast()
+        let (mut slot, mut base) = loop {
+            let slot = CURRENT.load(Ordering::SeqCst);
+            if slot == 0 {
+                // SAFETY: `outer` has a non-zero size.
+                break (0, unsafe { System.alloc(outer) });
             }
+            let s = &SLOTS[slot];
+            s.entering.fetch_add(1, Ordering::SeqCst);
+            if CURRENT.load(Ordering::SeqCst) != slot {
+                // Switched meanwhile: the slot may be rewritten; start over.
+                s.entering.fetch_sub(1, Ordering::SeqCst);
+                continue;
+            }
+            let (user, alloc, _) = s.hooks();
+            // Counted before the call and while `entering` is held, so the
+            // slot is never idle while a block of it exists.
+            s.live.fetch_add(1, Ordering::SeqCst);
+            // SAFETY: the host's contract for `alloc`.
+            let base: *mut u8 =
+                unsafe { alloc(user as *mut c_void, outer.size(), outer.align()) }.cast();
+            if base.is_null() {
+                s.live.fetch_sub(1, Ordering::SeqCst);
+            }
+            s.entering.fetch_sub(1, Ordering::SeqCst);
+            break (slot, base);
         };
         if base.is_null() && call::in_call() {
             // Caught (see the module docs): the call will fail with
@@ -271,14 +345,20 @@ unsafe impl GlobalAlloc for HostAllocator {
                 .read();
             let outer = Layout::from_size_align_unchecked(layout.size() + h, layout.align().max(h));
             tally(outer, -1);
-            match SLOTS[slot].get() {
-                None => System.dealloc(base, outer),
-                Some(hk) => (hk.free)(
-                    hk.user as *mut c_void,
+            if slot == 0 {
+                System.dealloc(base, outer);
+            } else {
+                // This block keeps the slot's `live` above 0, so its hooks
+                // stay as they were until it is counted out, after `free`.
+                let s = &SLOTS[slot];
+                let (user, _, free) = s.hooks();
+                free(
+                    user as *mut c_void,
                     base.cast(),
                     outer.size(),
                     outer.align(),
-                ),
+                );
+                s.live.fetch_sub(1, Ordering::SeqCst);
             }
         }
     }
@@ -290,17 +370,12 @@ static GLOBAL: HostAllocator = HostAllocator;
 /// Routes every later allocation of the library through `allocator`'s
 /// callbacks, or back to the system allocator when `allocator` is NULL.
 /// Blocks allocated before keep being freed by the allocator that made
-/// them. At most 16 host allocators can be installed per process
-/// (`CMLT_ERROR_INVALID_OPERATION` after that).
-///
-/// `alloc` may return NULL at any time: the call that meets it returns
-/// `CMLT_ERROR_OUT_OF_MEMORY` and leaves its object as it was. Rust code
-/// cannot survive a failed allocation midway, so cmlt finishes that
-/// call's throw-away work with the system allocator (blocks freed before
-/// the call returns, never kept in an object) and then fails it; only
-/// when the system refuses too does the process abort. Renderer sizes are
-/// checked first (`cmlt_renderer_new`), so an absurd configuration never
-/// reaches the system.
+/// them. Up to 16 host allocators can hold blocks at once: an allocator
+/// that is no longer current and whose blocks are all freed gives its place
+/// up, so hooks can be installed any number of times (say one arena per
+/// level, each level's objects released before the next level's hooks are
+/// installed); `CMLT_ERROR_INVALID_OPERATION` when 16 earlier allocators
+/// still hold blocks.
 ///
 /// # Safety
 /// `allocator` is NULL or points to a valid `cmlt_allocator` whose
@@ -310,31 +385,30 @@ pub unsafe extern "C" fn cmlt_set_allocator(allocator: *const cmlt_allocator) ->
     guard("cmlt_set_allocator", || {
         // SAFETY: the caller's contract.
         let Some(a) = (unsafe { allocator.as_ref() }) else {
-            CURRENT.store(0, Ordering::Release);
+            CURRENT.store(0, Ordering::SeqCst);
             return Ok(());
         };
         let (Some(alloc), Some(free)) = (a.alloc, a.free) else {
             return Err(Error::null("allocator->alloc or allocator->free"));
         };
-        let slot = USED.fetch_add(1, Ordering::AcqRel);
-        if slot > MAX_ALLOCATORS {
-            USED.fetch_sub(1, Ordering::AcqRel);
+        let _setting = SETTING
+            .lock()
+            .map_err(|_| Error::new(cmlt_status::CMLT_ERROR_INTERNAL, "allocator lock poisoned"))?;
+        let current = CURRENT.load(Ordering::SeqCst);
+        // An idle slot that is not current: no block of it is alive and no
+        // allocation is reading it, and none can start reading it before
+        // CURRENT names it (`HostAllocator::alloc`).
+        let Some(slot) = (1..=MAX_ALLOCATORS).find(|&i| i != current && SLOTS[i].idle()) else {
             return Err(Error::operation(
-                "too many allocators installed in this process",
+                "16 earlier host allocators still hold cmlt's blocks: release the \
+                 objects made under one of them before installing another",
             ));
-        }
-        let hooks = Hooks {
-            user: a.user as usize,
-            alloc,
-            free,
         };
-        if SLOTS[slot].set(hooks).is_err() {
-            return Err(Error::new(
-                cmlt_status::CMLT_ERROR_INTERNAL,
-                "allocator slot reused",
-            ));
-        }
-        CURRENT.store(slot, Ordering::Release);
+        let s = &SLOTS[slot];
+        s.user.store(a.user as usize, Ordering::SeqCst);
+        s.alloc.store(alloc as usize, Ordering::SeqCst);
+        s.free.store(free as usize, Ordering::SeqCst);
+        CURRENT.store(slot, Ordering::SeqCst);
         Ok(())
     })
 }
