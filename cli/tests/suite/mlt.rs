@@ -235,7 +235,8 @@ fn cornell_box_mlt_with_pass_image_matches_reference() {
 /// and relMSE falling with 4× the mutations. (At the CLI's defaults the
 /// passes' image, weighted as 5 mutations a sample, is most of a short
 /// render's image, and the combined error falls slower than the chains':
-/// `docs/accuracy.md`, "The path-space level 1 on the twelve scenes".)
+/// `docs/accuracy.md`, "The path-space level 1 and CMLT over it", "On the
+/// twelve scenes".)
 #[test]
 fn cornell_box_path_space_mlt_matches_reference() {
     let mlt = Estimator::Mlt(MltSettings {
