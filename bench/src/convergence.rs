@@ -308,9 +308,12 @@ pub fn curves(rows: &[Row]) -> Vec<Curve> {
 /// in any order; for mlt and cmlt `passes` the normalisation passes,
 /// `level1` `primary` or `path`, `pass_records` the weight of the
 /// passes' image, `perturb` the path-space level 1's weight of each
-/// perturbation (0: off) and `psigma` their σ in pixels; the rest CMLT's level 2: `depth` the side-chain minimum
-/// depth, `sigma` the lens σ in pixels) — how the parameter study compares settings in one
-/// run. A setting the method does not read is an error.
+/// perturbation (0: off), `psigma` their σ in pixels and `pcaustic` the
+/// caustic perturbation's angle scale (the CLI's
+/// `--perturbation-caustic-scale`); the rest CMLT's level 2: `depth` the
+/// side-chain minimum depth, `sigma` the lens σ in pixels) — how the
+/// parameter study compares settings in one run. A setting the method
+/// does not read is an error.
 pub fn method_settings(spec: &str) -> Result<Estimator, String> {
     let mut parts = spec.split(':');
     let name = parts.next().unwrap_or_default();
@@ -328,7 +331,7 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
         if let Some(mlt) = estimator.mlt_mut()
             && matches!(
                 k,
-                "passes" | "level1" | "pass_records" | "perturb" | "psigma"
+                "passes" | "level1" | "pass_records" | "perturb" | "psigma" | "pcaustic"
             )
         {
             let float = || {
@@ -343,6 +346,7 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
                     (pm.lens, pm.caustic, pm.multi_chain) = (w, w, w);
                 }
                 "psigma" => mlt.path_mutations.sigma = float()?,
+                "pcaustic" => mlt.path_mutations.caustic_scale = float()?,
                 "level1" => {
                     mlt.level1 = match v {
                         "primary" => Level1::PrimarySample,
@@ -375,7 +379,7 @@ pub fn method_settings(spec: &str) -> Result<Estimator, String> {
             }
             _ => {
                 return Err(format!(
-                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma, level1, pass_records, perturb, psigma)"
+                    "'{spec}': unknown setting '{k}' (lanes, m, share, depth, k, passes, sigma, level1, pass_records, perturb, psigma, pcaustic)"
                 ));
             }
         }
@@ -608,6 +612,49 @@ mod tests {
             "cmlt:k=0",
             "cmlt:m=0",
             "foo",
+        ] {
+            assert!(method_settings(bad).is_err(), "{bad} was accepted");
+        }
+    }
+
+    /// The path-space level 1's keys set the fields they name and no
+    /// other (the defaults' values differ from the ones set here, so a key
+    /// that set nothing or the wrong field would fail), and out-of-range
+    /// values are refused by the settings' own validation.
+    #[test]
+    fn path_space_keys_set_their_fields() {
+        use cmlt::mlt::{Level1, MltSettings, PathMutations};
+        let e = method_settings("mlt:level1=path:perturb=0.5:psigma=3:pcaustic=2.5").unwrap();
+        let d = MltSettings::default();
+        assert_eq!(
+            e,
+            Estimator::Mlt(MltSettings {
+                level1: Level1::PathSpace,
+                path_mutations: PathMutations {
+                    lens: 0.5,
+                    caustic: 0.5,
+                    multi_chain: 0.5,
+                    sigma: 3.0,
+                    caustic_scale: 2.5,
+                    ..d.path_mutations
+                },
+                ..d
+            })
+        );
+        let c = method_settings("cmlt:level1=path:pcaustic=4").unwrap();
+        assert_eq!(c.mlt().unwrap().path_mutations.caustic_scale, 4.0);
+        assert_eq!(
+            method_settings("mlt:level1=primary").unwrap(),
+            Estimator::Mlt(d)
+        );
+        for bad in [
+            "mlt:level1=veach",
+            "mlt:pcaustic=0",
+            "mlt:pcaustic=-1",
+            "mlt:pcaustic=inf",
+            "mlt:pcaustic=x",
+            "bdpt:pcaustic=2",
+            "mlt:psigma=0",
         ] {
             assert!(method_settings(bad).is_err(), "{bad} was accepted");
         }
