@@ -61,8 +61,8 @@
 //! image inside the blocks (the ceiling light's, a wall's) the share of
 //! samples on either side follows the share of the area. That share's
 //! noise is much of a frame's mean's (its flicker): the trial's BDPT
-//! reset frames at a fixed 3 000 samples a worker flicker 0.0161 and
-//! 0.0152 at 320 × 180 and 640 × 360 against 0.0193 and 0.0180 with
+//! reset frames at a fixed 3 000 samples a worker flicker 0.0157 and
+//! 0.0156 at 320 × 180 and 640 × 360 against 0.0193 and 0.0180 with
 //! independent positions (`bench/README.md`, frames). Only block passes
 //! (k > 1: the frame hosts' dynamic resolution) do this; full-resolution
 //! passes, and so every offline render, keep their streams bit for bit.
