@@ -8,7 +8,7 @@
 // through cmlt_renderer_render_while, and resolves the image. Every cmlt
 // allocation goes through a counting allocator (cmlt_set_allocator).
 //
-// Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES]]]]
+// Usage: frame_trial [ESTIMATOR [WIDTH HEIGHT [BUDGET_MS [FRAMES [UNITS]]]]]
 //   ESTIMATOR: pt | bdpt | mlt | cmlt (default pt), 320 180 30 120; each
 //   takes a suffix +keep or +decay (factor 0.8) for its accumulation
 //   across frames (reset otherwise). Every estimator renders with the
@@ -18,6 +18,10 @@
 //   samples mixed with the chains' splats); a further suffix +full keeps
 //   them at full resolution (PT and BDPT frames below one pass then show
 //   only the pixels they reached, MLT and CMLT their chains alone).
+//   UNITS > 0 replaces the clock by a count: each worker renders UNITS
+//   units a frame (`render_while`'s count; the set-up still gets its 5 %
+//   of BUDGET_MS), for measurements at a fixed work per frame, whatever
+//   the machine's load.
 // MLT and CMLT keep their chains across frames (one normalisation pass
 // per bootstrap, b tracked from the large steps of the last 32 frames);
 // after the first frame
@@ -197,6 +201,7 @@ int main(int argc, char **argv) {
     const std::uint32_t height = argc > 3 ? std::uint32_t(std::atoi(argv[3])) : 180;
     const double budget_ms = argc > 4 ? std::atof(argv[4]) : 30.0;
     const int frames = argc > 5 ? std::atoi(argv[5]) : 120;
+    const std::uint64_t units = argc > 6 ? std::strtoull(argv[6], nullptr, 10) : 0;
     constexpr std::uint32_t workers = 2;
     cmlt::Estimator estimator = base == "bdpt"  ? cmlt::Estimator::Bdpt
                                 : base == "mlt"  ? cmlt::Estimator::Mlt
@@ -272,7 +277,9 @@ int main(int argc, char **argv) {
     for (int f = 0; f < frames; ++f) {
         const auto t0 = Clock::now();
         const auto deadline = t0 + std::chrono::duration<double, std::milli>(budget_ms - reserve_ms);
-        auto keep_going = [deadline](std::uint64_t) { return Clock::now() < deadline; };
+        auto keep_going = [deadline, units](std::uint64_t done) {
+            return units > 0 ? done < units : Clock::now() < deadline;
+        };
         // The dolly: 2 cm forwards a frame; the green ball slides sideways.
         camera.position[2] = -4.5f + 0.02f * float(f);
         check(renderer.set_camera(camera), "set_camera");
