@@ -2015,14 +2015,15 @@ fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
     (i * blocks / w)..((i + 1) * blocks / w)
 }
 
-/// Refuses a scene with media or null boundaries for every estimator but
-/// path tracing, the only one that renders them so far: BDPT and the
-/// Metropolis estimators would treat a null boundary as a black surface
-/// and ignore the media, a silently wrong image.
+/// Refuses a scene with media or null boundaries for the estimators that
+/// do not render them yet: the Metropolis estimators would treat a null
+/// boundary as a black surface and ignore the media, a silently wrong
+/// image. Path tracing and BDPT render them.
 fn check_media(estimator: &Estimator, scene: &Scene) -> Result<(), RenderError> {
-    if estimator.kind() != EstimatorKind::Path && scene.has_media() {
+    let renders_media = matches!(estimator.kind(), EstimatorKind::Path | EstimatorKind::Bdpt);
+    if !renders_media && scene.has_media() {
         return Err(RenderError::Config(
-            "participating media and null boundaries are rendered by path tracing (pt) only so far",
+            "participating media and null boundaries are rendered by path tracing (pt) and bdpt only so far",
         ));
     }
     Ok(())
