@@ -1,9 +1,11 @@
-//! Participating media with analytic answers, path traced: Beer–Lambert
-//! transmittance through an absorbing slab between null boundaries, and
-//! the single-scattering-albedo furnace (a closed emitting box filled with
-//! non-absorbing media keeps the furnace's radiance everywhere). Each has
-//! a negative control: the same check on a scene whose answer differs
-//! fails. And the estimators that do not render media yet refuse them.
+//! Participating media with analytic answers, path traced and by BDPT:
+//! Beer–Lambert transmittance through an absorbing slab between null
+//! boundaries, and the single-scattering-albedo furnace (a closed emitting
+//! box filled with non-absorbing media keeps the furnace's radiance
+//! everywhere). Each has a negative control: the same check on a scene
+//! whose answer differs fails. BDPT's strategies alone agree through
+//! media, and the path-space level 1, which does not render media,
+//! refuses them.
 
 use crate::common;
 
@@ -12,6 +14,7 @@ use cmlt::film::Film;
 use cmlt::integrator::bdpt::{self, PathStorage};
 use cmlt::integrator::{Settings, Tracer};
 use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
+use cmlt::mlt::Level1;
 use cmlt::renderer::{
     Estimator, EstimatorKind, RenderError, RenderWorker, Renderer, RendererConfig,
 };
@@ -244,28 +247,37 @@ fn bdpt_a_box_of_non_absorbing_media_stays_at_the_furnace_value() {
     assert!(!at_furnace_value(&bdpt(0.8), 1.0));
 }
 
-/// MLT and CMLT do not render media yet: each refuses such a scene when
-/// asked to render it, never renders it wrong.
+/// The path-space level 1 of MLT and CMLT does not render media: each
+/// refuses such a scene when asked to render it, never renders it wrong;
+/// the same estimators in primary sample space render it.
 #[test]
-fn estimators_without_media_support_refuse_media() {
+fn path_space_level1_refuses_media() {
     let scene = slab(Some(SLAB_SIGMA_T));
     let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
     for kind in [EstimatorKind::Mlt, EstimatorKind::Cmlt] {
-        let config = RendererConfig {
-            estimator: Estimator::default_for(kind),
-            ..RendererConfig::default()
-        };
-        let mut r = Renderer::new(config, scene.camera).unwrap();
-        let mut w = RenderWorker::new(&r, 0).unwrap();
-        let err = if r.begin_prepare(&scene) {
-            r.prepare_worker(&mut w, &scene, &bvh).unwrap_err()
-        } else {
-            r.render_steps(&mut w, &scene, &bvh, 1).unwrap_err()
-        };
-        let RenderError::Config(msg) = err else {
-            panic!("{kind:?}: {err:?}");
-        };
-        assert!(msg.contains("media"), "{msg}");
+        for level1 in [Level1::PathSpace, Level1::PrimarySample] {
+            let mut estimator = Estimator::default_for(kind);
+            estimator.mlt_mut().unwrap().level1 = level1;
+            let config = RendererConfig {
+                estimator,
+                ..RendererConfig::default()
+            };
+            let mut r = Renderer::new(config, scene.camera).unwrap();
+            let mut w = RenderWorker::new(&r, 0).unwrap();
+            let result = if r.begin_prepare(&scene) {
+                r.prepare_worker(&mut w, &scene, &bvh)
+            } else {
+                r.render_steps(&mut w, &scene, &bvh, 1).map(|_| ())
+            };
+            if level1 == Level1::PrimarySample {
+                assert!(result.is_ok(), "{kind:?}: {result:?}");
+                continue;
+            }
+            let Err(RenderError::Config(msg)) = result else {
+                panic!("{kind:?} {level1:?}: {result:?}");
+            };
+            assert!(msg.contains("media"), "{msg}");
+        }
     }
 }
 
