@@ -31,6 +31,11 @@
 //! pbrt-v4's `MLTIntegrator::L`). Random numbers are drawn from three
 //! streams — camera subpath, light subpath, connection — which plain random
 //! streams ignore and the Metropolis sampler keeps apart.
+//!
+//! In a scene with media or null boundaries the walks and connections are
+//! those of the `media` submodule (medium vertices, transmittance, the
+//! free-flight densities in the MIS weights); a scene without runs the
+//! code here alone, as before media existed.
 
 mod path_measure;
 

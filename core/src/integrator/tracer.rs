@@ -125,7 +125,8 @@ pub struct Tracer<'a, I: Intersector> {
     /// scene without masks keeps the plain queries and packets).
     masks: bool,
     /// The scene has media or null boundaries ([`Scene::has_media`]),
-    /// found once: only then does path tracing run its media code.
+    /// found once: only then do path tracing and BDPT run their media
+    /// code.
     #[cfg(feature = "media")]
     media: bool,
 }
