@@ -211,6 +211,9 @@ fn medium_vertex(scene: &Scene, p: Vec3, id: MediumId, beta: Rgb) -> Vertex {
 /// The camera subpath's walk from `ray` (the camera vertex is in place),
 /// starting in `start`.
 #[allow(clippy::too_many_arguments)]
+// Out of line: the surface-only code that calls it stays as small as
+// it was before media.
+#[inline(never)]
 pub(super) fn camera_walk<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     ws: &mut PathStorage,
@@ -238,6 +241,9 @@ pub(super) fn camera_walk<I: Intersector, S: Sampler>(
 /// The light subpath's walk from `ray` with throughput `beta` (the light
 /// vertex is in place), starting in `start`.
 #[allow(clippy::too_many_arguments)]
+// Out of line: the surface-only code that calls it stays as small as
+// it was before media.
+#[inline(never)]
 pub(super) fn light_walk<I: Intersector, S: Sampler>(
     t: &mut Tracer<'_, I>,
     ws: &mut PathStorage,
@@ -458,6 +464,9 @@ fn endpoint(v: &Vertex) -> Endpoint {
 /// medium vertices at either end (phase function, no cosine), each
 /// connection's contribution times the transmittance along it, and the
 /// connection's free-flight densities handed to the MIS weight.
+// Out of line: the surface-only code that calls it stays as small as
+// it was before media.
+#[inline(never)]
 pub(super) fn connect<I: Intersector>(
     tr: &mut Tracer<'_, I>,
     ws: &mut PathStorage,
