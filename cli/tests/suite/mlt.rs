@@ -875,3 +875,21 @@ fn cmlt_without_side_chains_is_mlt() {
         "CMLT without side chains differs from MLT by {worst}"
     );
 }
+
+/// Level-1 MLT through media (tests/scenes/media-fog, at 1/4 resolution):
+/// the primary-sample target is BDPT's strategy, medium vertices and
+/// transmittance included.
+#[test]
+fn media_fog_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(level1(64));
+    check_reference("media-fog", 4, &mlt, 32);
+}
+
+/// CMLT through media: level 2 leaves every path of a scene with media at
+/// its level-1 state (its perturbations know no transmittance), and with
+/// side chains on every path the image stays unbiased.
+#[test]
+fn media_fog_cmlt_matches_reference() {
+    let cmlt = cmlt_on(level1(64), 8, 4);
+    check_reference("media-fog", 4, &cmlt, 32);
+}

@@ -1,6 +1,5 @@
-//! PT and BDPT converge to Mitsuba 3's references on the shared scenes
-//! (the scenes with participating media: PT, the one estimator that
-//! renders them so far).
+//! PT and BDPT converge to Mitsuba 3's references on the shared scenes,
+//! the scenes with participating media included.
 //!
 //! At 1/4 resolution (the reference block-averaged 4×4 is the exact
 //! reference of that render, box filter), we check
@@ -222,4 +221,27 @@ fn media_fog_pt() {
 #[test]
 fn media_milk_pt() {
     check_scene("media-milk", Estimator::Path, 2048);
+}
+
+/// media-glass by BDPT: light subpaths through the dielectrics carry the
+/// caustics that PT finds only by BSDF sampling, so fewer samples do.
+#[test]
+fn media_glass_bdpt() {
+    check_scene("media-glass", Estimator::Bdpt, 256);
+}
+
+/// media-fog by BDPT: medium vertices in both subpaths, connections
+/// through the haze and the fog's null boundaries, the light subpath
+/// starting in the camera's medium (the light names none).
+#[test]
+fn media_fog_bdpt() {
+    check_scene("media-fog", Estimator::Bdpt, 64);
+}
+
+/// media-milk by BDPT: light subpaths refracted into the milk and the
+/// smoke meet camera subpaths inside them (medium vertices joined through
+/// no interface), which PT cannot do.
+#[test]
+fn media_milk_bdpt() {
+    check_scene("media-milk", Estimator::Bdpt, 256);
 }

@@ -31,6 +31,11 @@
 //! pbrt-v4's `MLTIntegrator::L`). Random numbers are drawn from three
 //! streams — camera subpath, light subpath, connection — which plain random
 //! streams ignore and the Metropolis sampler keeps apart.
+//!
+//! In a scene with media or null boundaries the walks and connections are
+//! those of the `media` submodule (medium vertices, transmittance, the
+//! free-flight densities in the MIS weights); a scene without runs the
+//! code here alone, as before media existed.
 
 mod path_measure;
 
@@ -51,7 +56,12 @@ use crate::film::Film;
 use crate::geometry::{Ray, offset};
 use crate::math::{Frame, INV_PI, Rgb, warp};
 use crate::sampler::{CAMERA_STREAM, CONNECTION_STREAM, LIGHT_STREAM, Sampler};
-use crate::scene::{Camera, EmitterSample, Light, Scene, SurfacePoint};
+use crate::scene::{Camera, EmitterSample, Light, Phase, Scene, SurfacePoint};
+
+#[cfg(feature = "media")]
+mod media;
+#[cfg(feature = "media")]
+use media::MediaInfo;
 
 /// Hard cap on subpath length when `max_depth` is unbounded; Russian
 /// roulette ends paths long before this in any scene that absorbs light.
@@ -75,6 +85,12 @@ enum Kind {
     Directional,
     /// The environment (every non-delta light at infinity).
     Environment,
+    /// A scattering point in a medium (scenes with media only): `sp.p`
+    /// the point, `sp.ng` zero, `sp.prim` the medium's index and
+    /// `sp.uv.x` its phase function's g (0 for isotropic, whose value
+    /// Henyey–Greenstein's equals at g = 0), so that evaluating the
+    /// vertex needs no scene.
+    Medium,
 }
 
 /// One vertex of a subpath.
@@ -183,11 +199,39 @@ impl Vertex {
     }
 
     /// BSDF times the shading-normal correction for adjoint transport
-    /// (Veach 1997, §5.3), from `prev` to `next` through `self`.
+    /// (Veach 1997, §5.3), from `prev` to `next` through `self`; the phase
+    /// function at a medium vertex (the same in both transport modes).
     fn f(&self, prev: Vec3, next: Vec3, mode: TransportMode) -> Rgb {
         match &self.local {
             Some(l) => scatter_at(&self.sp, &l.bsdf, &l.frame, prev, next, mode),
+            None if self.kind == Kind::Medium => {
+                let d = (self.sp.p - prev).normalize();
+                let wi = (next - self.sp.p).normalize();
+                Rgb::splat(self.phase().eval(d, wi))
+            }
             None => Rgb::ZERO,
+        }
+    }
+
+    /// The phase function of a medium vertex (see [`Kind::Medium`]).
+    #[inline]
+    fn phase(&self) -> Phase {
+        let g = self.sp.uv.x;
+        if g == 0.0 {
+            Phase::Isotropic
+        } else {
+            Phase::HenyeyGreenstein { g }
+        }
+    }
+
+    /// The geometry term's cosine at `self` for a segment along unit `w`:
+    /// |ns · w| at a surface, none (1) in a medium.
+    #[inline]
+    fn cos_towards(&self, w: Vec3) -> f32 {
+        if self.kind == Kind::Medium {
+            1.0
+        } else {
+            self.sp.ns.dot(w).abs()
         }
     }
 
@@ -215,6 +259,16 @@ impl Vertex {
                 let wp = sh.frame.to_local(self.dir_to(prev));
                 let wn = sh.frame.to_local(self.dir_to(next));
                 self.area_density_at(sh.bsdf.pdf(wp, wn), next)
+            }
+            // The phase function is sampled exactly: its value is the
+            // direction's density. The free-flight density along the
+            // segment is the caller's (`MediaInfo`, `Pieces`).
+            Kind::Medium => {
+                let Some(prev) = prev else {
+                    return 0.0;
+                };
+                let pdf = self.phase().eval(prev.dir_to(self), self.dir_to(next));
+                self.area_density_at(pdf, next)
             }
         }
     }
@@ -279,6 +333,7 @@ fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
         // An area light's point, or the emitting surface vertex a camera
         // subpath reached (s = 0): below.
         Kind::Light | Kind::Surface | Kind::Camera => {}
+        Kind::Medium => return 0.0,
         Kind::PointLight => {
             let i = light.sp.prim;
             let w = to.sp.p - light.sp.p;
@@ -324,6 +379,14 @@ fn light_emission_pdf(scene: &Scene, light: &Vertex, to: &Vertex) -> f32 {
 pub struct PathStorage {
     camera: Vec<Vertex>,
     light: Vec<Vertex>,
+    /// With media in the scene, each subpath vertex's medium and the
+    /// free-flight densities of the segment that reached it, index for
+    /// index with `camera` and `light` (empty otherwise: the vertices stay
+    /// as small as without media).
+    #[cfg(feature = "media")]
+    camera_media: Vec<MediaInfo>,
+    #[cfg(feature = "media")]
+    light_media: Vec<MediaInfo>,
     only: Option<fn(usize, usize) -> bool>,
     /// The last [`sample_strategy`] with a contribution: (s, t) and the
     /// endpoint its connection sampled (light point for s = 1, lens point
@@ -401,6 +464,10 @@ impl PathStorage {
         PathStorage {
             camera: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
+            #[cfg(feature = "media")]
+            camera_media: Vec::with_capacity(n),
+            #[cfg(feature = "media")]
+            light_media: Vec::with_capacity(n),
             ..Self::default()
         }
     }
@@ -712,6 +779,11 @@ fn camera_subpath<I: Intersector, S: Sampler>(
     let ray = t.camera_ray(raster, u_lens);
     let camera = &t.camera;
     ws.camera.push(camera_vertex(ray.o, camera.forward()));
+    #[cfg(feature = "media")]
+    if t.has_media() {
+        let start = t.scene.camera_medium();
+        return media::camera_walk(t, ws, ray, start, max_vertices, rr_depth, rng);
+    }
     random_walk(
         t,
         &mut ws.camera,
@@ -737,6 +809,8 @@ fn light_subpath<I: Intersector, S: Sampler>(
 ) {
     let scene = t.scene;
     ws.light.clear();
+    #[cfg(feature = "media")]
+    ws.light_media.clear();
     let u_sel = rng.next_f32();
     let u_pos = rng.next_2d();
     let u_dir = rng.next_2d();
@@ -770,6 +844,11 @@ fn light_subpath<I: Intersector, S: Sampler>(
     });
     let beta = le * (lp.ng.dot(w).abs() / (pdf_area * pdf_dir));
     let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
+    #[cfg(feature = "media")]
+    if t.has_media() {
+        let start = media::area_light_medium(scene, &lp, w);
+        return media::light_walk(t, ws, ray, beta, start, max_vertices, rr_depth, rng);
+    }
     random_walk(
         t,
         &mut ws.light,
@@ -818,8 +897,15 @@ fn other_light_subpath<I: Intersector, S: Sampler>(
         Kind::Environment => lights.pdf_environment(-e.dir),
         _ => 0.0,
     };
+    #[cfg(feature = "media")]
+    let start = media::other_light_medium(scene, v.is_infinite());
     ws.light.push(v);
     let beta = e.le * (1.0 / pdf);
+    #[cfg(feature = "media")]
+    if t.has_media() {
+        let ray = Ray::new(e.origin, e.dir);
+        return media::light_walk(t, ws, ray, beta, start, max_vertices, rr_depth, rng);
+    }
     random_walk(
         t,
         &mut ws.light,
@@ -924,6 +1010,11 @@ pub fn sample_strategy<I: Intersector, S: Sampler>(
         // `mis_weight` overwrites it with that point.
         ws.light.clear();
         ws.light.push(camera_vertex(Vec3::ZERO, Vec3::Z));
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            ws.light_media.clear();
+            ws.light_media.push(MediaInfo::start(None));
+        }
     } else {
         light_subpath(tr, ws, s, u32::MAX, rng);
         if ws.light.len() != s {
@@ -961,6 +1052,10 @@ fn connect<I: Intersector, S: Sampler>(
     // the stream layout does not depend on visibility results.
     let u = rng.next_2d();
     let u_sel = rng.next_f32();
+    #[cfg(feature = "media")]
+    if tr.has_media() {
+        return media::connect(tr, ws, s, t, u, u_sel);
+    }
     let l = if s == 0 {
         // The camera subpath itself hit an emitter.
         let pt = &ws.camera[t - 1];
@@ -1011,7 +1106,7 @@ fn connect<I: Intersector, S: Sampler>(
             EmitterSample::Other { index, pmf } => {
                 let (l, v) = connect_other(tr, ws, t, index, pmf, u)?;
                 sampled = Some(v);
-                return finish(scene, camera, ws, sampled, s, t, l, raster);
+                return finish(scene, camera, ws, sampled, s, t, l, raster, None);
             }
         };
         let to = lp.p - pt.sp.p;
@@ -1073,11 +1168,12 @@ fn connect<I: Intersector, S: Sampler>(
         }
         l
     };
-    finish(scene, camera, ws, sampled, s, t, l, raster)
+    finish(scene, camera, ws, sampled, s, t, l, raster, None)
 }
 
 /// The MIS-weighted result of strategy (s, t) with unweighted
-/// contribution `l` (see [`connect`]).
+/// contribution `l` (see [`connect`]); `flight` the connection's
+/// free-flight densities in a scene with media (see [`mis_weight`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn finish(
@@ -1089,6 +1185,7 @@ fn finish(
     t: usize,
     l: Rgb,
     raster: Option<Vec2>,
+    flight: Option<(f32, f32)>,
 ) -> Option<(Rgb, Option<Vec2>, Option<Vertex>)> {
     if l.is_black() {
         return None;
@@ -1096,7 +1193,7 @@ fn finish(
     let w = if ws.only.is_some() {
         1.0
     } else {
-        mis_weight(scene, camera, ws, sampled, s, t)
+        mis_weight(scene, camera, ws, sampled, s, t, flight)
     };
     Some((l * w, raster, sampled))
 }
@@ -1152,6 +1249,13 @@ fn connect_other<I: Intersector>(
 
 /// Power-heuristic weight of strategy (s, t) against every other strategy
 /// that could have produced the same path (Veach 1997, §10.2.1, with β = 2).
+///
+/// In a scene with media, `flight` holds the free-flight densities of the
+/// connecting segment (of reaching z_{t−1} from y_{s−1}, and y_{s−1} from
+/// z_{t−1}: scattering or passing, averaged over the channels), and the
+/// reverse densities recomputed along the subpaths' last segments take
+/// theirs from the subpaths' [`MediaInfo`]; every area density then has
+/// its free-flight density in it, as the walks stored them.
 fn mis_weight(
     scene: &crate::scene::Scene,
     camera: &crate::scene::Camera,
@@ -1159,6 +1263,7 @@ fn mis_weight(
     sampled: Option<Vertex>,
     s: usize,
     t: usize,
+    flight: Option<(f32, f32)>,
 ) -> f32 {
     if s + t == 2 {
         return 1.0;
@@ -1227,6 +1332,18 @@ fn mis_weight(
         };
         (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev)
     };
+    #[cfg(feature = "media")]
+    let (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev) = match flight {
+        None => (pt_rev, pt_minus_rev, qs_rev, qs_minus_rev),
+        Some((to_pt, to_qs)) => (
+            if s > 0 { pt_rev * to_pt } else { pt_rev },
+            pt_minus_rev.map(|r| r * ws.camera_media[t - 1].rev),
+            qs_rev.map(|r| r * to_qs),
+            qs_minus_rev.map(|r| r * ws.light_media[s - 1].rev),
+        ),
+    };
+    #[cfg(not(feature = "media"))]
+    let _ = flight;
     ws.camera[t - 1].pdf_rev = pt_rev;
     if let Some(r) = pt_minus_rev {
         ws.camera[t - 2].pdf_rev = r;

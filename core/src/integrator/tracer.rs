@@ -125,7 +125,8 @@ pub struct Tracer<'a, I: Intersector> {
     /// scene without masks keeps the plain queries and packets).
     masks: bool,
     /// The scene has media or null boundaries ([`Scene::has_media`]),
-    /// found once: only then does path tracing run its media code.
+    /// found once: only then do path tracing and BDPT run their media
+    /// code.
     #[cfg(feature = "media")]
     media: bool,
 }
@@ -560,6 +561,7 @@ impl<I: Intersector> Tracer<'_, I> {
     /// medium's exp(−σ_t ℓ) over the lengths ℓ the segment runs in it,
     /// the medium tracked across null boundaries as a path crosses them.
     /// Every ray it traces counts in [`Stats::shadow_rays`].
+    #[inline]
     pub fn transmittance(
         &mut self,
         p: Vec3,
@@ -567,6 +569,25 @@ impl<I: Intersector> Tracer<'_, I> {
         ng: Vec3,
         to: Endpoint,
         medium: Option<MediumId>,
+    ) -> Rgb {
+        self.transmittance_pieces(p, p_error, ng, to, medium, |_, _| {})
+    }
+
+    /// [`Tracer::transmittance`], also handing each stretch of the segment
+    /// between null boundaries to `piece(medium, length)`, in order from
+    /// the start (the stretches a free-flight sampler draws one distance
+    /// each for: BDPT's densities of a connection). Masked surfaces the
+    /// segment passes do not split a stretch, as a traced ray walks them
+    /// within one query. When the result is zero the pieces may be
+    /// incomplete.
+    pub fn transmittance_pieces(
+        &mut self,
+        p: Vec3,
+        p_error: Vec3,
+        ng: Vec3,
+        to: Endpoint,
+        medium: Option<MediumId>,
+        mut piece: impl FnMut(Option<MediumId>, f32),
     ) -> Rgb {
         let scene = self.scene;
         // The direction to the far end, that end (offset off its surface
@@ -588,6 +609,9 @@ impl<I: Intersector> Tracer<'_, I> {
         let mut o = offset::offset_ray_origin(p, p_error, ng, towards);
         let mut medium = medium;
         let mut tr = Rgb::ONE;
+        // Length of the current stretch before `o` (masked surfaces
+        // passed).
+        let mut run = 0.0f32;
         for _ in 0..MAX_NULL_CROSSINGS {
             let ray = match end {
                 Some(e) => Ray { o, d: e - o, t_max },
@@ -602,6 +626,7 @@ impl<I: Intersector> Tracer<'_, I> {
                 if let Some(m) = medium {
                     tr *= scene.medium(m).transmittance(left);
                 }
+                piece(medium, run + left);
                 return tr;
             };
             // A degenerate triangle the query reported still blocks.
@@ -617,11 +642,18 @@ impl<I: Intersector> Tracer<'_, I> {
             if !passes && !matches!(scene.material(&sp).kind, MaterialKind::Null) {
                 return Rgb::ZERO;
             }
+            let len = (sp.p - o).length();
             if let Some(m) = medium {
-                tr *= scene.medium(m).transmittance((sp.p - o).length());
+                tr *= scene.medium(m).transmittance(len);
                 if tr.is_black() {
                     return tr;
                 }
+            }
+            if passes {
+                run += len;
+            } else {
+                piece(medium, run + len);
+                run = 0.0;
             }
             let iface = scene.surface_media(sp.surface);
             if !passes && iface.is_transition() {

@@ -2015,14 +2015,23 @@ fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
     (i * blocks / w)..((i + 1) * blocks / w)
 }
 
-/// Refuses a scene with media or null boundaries for every estimator but
-/// path tracing, the only one that renders them so far: BDPT and the
-/// Metropolis estimators would treat a null boundary as a black surface
-/// and ignore the media, a silently wrong image.
+/// Refuses a scene with media or null boundaries where the estimator
+/// does not render them: the path-space level 1 of MLT and CMLT, whose
+/// path states and mutations (bidirectional and lens subpath mutations,
+/// perturbations, `bdpt::path_contribution` and `path_densities`) know
+/// neither medium vertices nor transmittance nor null boundaries, and
+/// would treat a null boundary as a black surface, a silently wrong
+/// image. PT and BDPT render media, and so do MLT and CMLT in primary
+/// sample space, whose target is BDPT's (CMLT's level 2 leaves such
+/// paths at their level-1 state: `mlt::perturbation::classify`).
 fn check_media(estimator: &Estimator, scene: &Scene) -> Result<(), RenderError> {
-    if estimator.kind() != EstimatorKind::Path && scene.has_media() {
+    let path_space = estimator
+        .mlt()
+        .is_some_and(|m| m.level1 != crate::mlt::Level1::PrimarySample);
+    if path_space && scene.has_media() {
         return Err(RenderError::Config(
-            "participating media and null boundaries are rendered by path tracing (pt) only so far",
+            "participating media and null boundaries are not rendered by the path-space level 1 \
+             (its mutations know no medium vertices or transmittance): use the primary-sample level 1 (--level1 primary)",
         ));
     }
     Ok(())

@@ -408,8 +408,9 @@ impl Material {
     #[allow(unused_variables)]
     fn bsdf_other(&self, texture: impl Fn(&Texture) -> Rgb) -> Bsdf {
         // The fallback arm: a model left out of the build, and the null
-        // material, which no estimator shades (path tracing passes it by,
-        // the others refuse scenes with media).
+        // material, which no estimator shades (the path tracer's and
+        // BDPT's walks and transmittance queries pass it by; the
+        // path-space level 1 refuses scenes with media).
         #[allow(unreachable_patterns)]
         match &self.kind {
             #[cfg(feature = "refraction")]

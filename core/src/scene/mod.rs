@@ -45,7 +45,7 @@ pub use crate::bsdf::roughplastic::RoughCoating;
 pub use material::{
     MAX_ROUGHNESS, Material, MaterialId, MaterialKind, PrincipledParams, roughness_ok,
 };
-pub use medium::{Medium, MediumError, MediumId, MediumInterface, Phase};
+pub use medium::{Flight, Medium, MediumError, MediumId, MediumInterface, Phase};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
 pub use texture::{BitmapId, Texture};

@@ -47,7 +47,7 @@ use crate::geometry::{Ray, offset};
 use crate::integrator::tracer::{Endpoint, Shading, Tracer};
 use crate::math::{Rgb, power_heuristic};
 use crate::sampler::SampleStream;
-use crate::scene::{EmitterSample, MaterialKind, MediumId, Phase};
+use crate::scene::{EmitterSample, Flight, MaterialKind, MediumId, Phase};
 
 /// Most null boundaries a path crosses in a row, without scattering,
 /// before it is ended (a bound on the work of a path through a stack of
@@ -123,53 +123,40 @@ pub(super) fn radiance<I: Intersector>(
         // Free flight through the current medium (spectral MIS).
         if let Some(id) = medium {
             let m = *scene.medium(id);
-            let sigma_t = m.sigma_t().to_array();
-            let channel = ((rng.next_f32() * 3.0) as usize).min(2);
+            let u_channel = rng.next_f32();
             let u = rng.next_f32();
-            let s = if sigma_t[channel] > 0.0 {
-                -libm::log1pf(-u) / sigma_t[channel]
-            } else {
-                f32::INFINITY
-            };
-            if s < t_surface {
-                let tr = m.transmittance(s);
-                let pdf = (m.sigma_t() * tr).average();
-                if !(pdf > 0.0) {
-                    break;
+            match m.sample_flight(t_surface, u_channel, u) {
+                Flight::Absorbed => break,
+                Flight::Pass { weight } => beta *= weight,
+                Flight::Scatter { s, weight } => {
+                    beta *= weight;
+                    depth += 1;
+                    if depth >= max_depth || beta.is_black() {
+                        break;
+                    }
+                    let p = ray.o + dir * s;
+                    let vertex = Vertex::Medium {
+                        p,
+                        d: dir,
+                        phase: m.phase(),
+                    };
+                    l += beta * direct(t, &vertex, medium, rng);
+                    let ps = m.phase().sample(dir, rng.next_2d());
+                    if !(ps.pdf > 0.0) {
+                        break;
+                    }
+                    // f / pdf = 1: the phase function is sampled exactly.
+                    prev_p = p;
+                    prev_pdf = ps.pdf;
+                    prev_delta = false;
+                    null_run = 0;
+                    ray = Ray::new(p, ps.wi);
+                    if !roulette(settings, depth, &mut beta, eta_scale, rng) {
+                        break;
+                    }
+                    continue;
                 }
-                beta *= m.sigma_s() * tr * (1.0 / pdf);
-                depth += 1;
-                if depth >= max_depth || beta.is_black() {
-                    break;
-                }
-                let p = ray.o + dir * s;
-                let vertex = Vertex::Medium {
-                    p,
-                    d: dir,
-                    phase: m.phase(),
-                };
-                l += beta * direct(t, &vertex, medium, rng);
-                let ps = m.phase().sample(dir, rng.next_2d());
-                if !(ps.pdf > 0.0) {
-                    break;
-                }
-                // f / pdf = 1: the phase function is sampled exactly.
-                prev_p = p;
-                prev_pdf = ps.pdf;
-                prev_delta = false;
-                null_run = 0;
-                ray = Ray::new(p, ps.wi);
-                if !roulette(settings, depth, &mut beta, eta_scale, rng) {
-                    break;
-                }
-                continue;
             }
-            let tr = m.transmittance(t_surface);
-            let pdf = tr.average();
-            if !(pdf > 0.0) {
-                break;
-            }
-            beta *= tr * (1.0 / pdf);
         }
 
         let Some(hit) = hit else {

@@ -291,6 +291,15 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
     if path.len() < 2 || tr.has_alpha_masks() {
         return Applicable::Neither;
     }
+    // In a scene with media or null boundaries the perturbations would
+    // retrace and re-evaluate a path's segments as surface-to-surface
+    // segments in vacuum: no transmittance, no medium vertices, a null
+    // boundary taken for a surface. Their target would then not be the
+    // level-1 contribution of the path, so every path stays at its
+    // level-1 state (the identity kernel, always correct).
+    if tr.has_media() {
+        return Applicable::Neither;
+    }
     // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
     // coating): the perturbations evaluate such a vertex with `eval`, which
     // holds only the smooth lobes, so their target would not be the level-1
