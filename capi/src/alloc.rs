@@ -32,7 +32,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ffi::c_void;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicPtr, AtomicUsize, Ordering};
 
 use crate::call;
 use crate::error::{Error, cmlt_status, guard};
@@ -78,9 +78,9 @@ type FreeFn = unsafe extern "C" fn(*mut c_void, *mut c_void, usize, usize);
 /// it, so an allocation either reads the complete new hooks or backs off
 /// without reading any (see `HostAllocator::alloc`).
 struct Slot {
-    user: AtomicUsize,
-    alloc: AtomicUsize,
-    free: AtomicUsize,
+    user: AtomicPtr<c_void>,
+    alloc: AtomicPtr<()>,
+    free: AtomicPtr<()>,
     /// Blocks these hooks made that are not freed yet.
     live: AtomicUsize,
     /// Allocations that found this slot current and may be using it.
@@ -90,20 +90,21 @@ struct Slot {
 impl Slot {
     /// The hooks. Only for a slot that is current with `entering` held, or
     /// that has a live block (either keeps the setter from writing it).
-    fn hooks(&self) -> (usize, AllocFn, FreeFn) {
+    fn hooks(&self) -> (*mut c_void, AllocFn, FreeFn) {
         let (a, f) = (
             self.alloc.load(Ordering::SeqCst),
             self.free.load(Ordering::SeqCst),
         );
-        debug_assert!(a != 0 && f != 0);
-        // SAFETY: both words were written from function pointers of these
+        debug_assert!(!a.is_null() && !f.is_null());
+        // SAFETY: both pointers were made from function pointers of these
         // types by `cmlt_set_allocator` before the slot became current
-        // (the caller's condition), and function pointers are word-sized.
+        // (the caller's condition); a pointer transmuted back keeps its
+        // provenance (an integer would not).
         unsafe {
             (
                 self.user.load(Ordering::SeqCst),
-                std::mem::transmute::<usize, AllocFn>(a),
-                std::mem::transmute::<usize, FreeFn>(f),
+                std::mem::transmute::<*mut (), AllocFn>(a),
+                std::mem::transmute::<*mut (), FreeFn>(f),
             )
         }
     }
@@ -117,9 +118,9 @@ impl Slot {
 /// hooks.
 static SLOTS: [Slot; MAX_ALLOCATORS + 1] = [const {
     Slot {
-        user: AtomicUsize::new(0),
-        alloc: AtomicUsize::new(0),
-        free: AtomicUsize::new(0),
+        user: AtomicPtr::new(std::ptr::null_mut()),
+        alloc: AtomicPtr::new(std::ptr::null_mut()),
+        free: AtomicPtr::new(std::ptr::null_mut()),
         live: AtomicUsize::new(0),
         entering: AtomicUsize::new(0),
     }
@@ -289,8 +290,7 @@ unsafe impl GlobalAlloc for HostAllocator {
             // slot is never idle while a block of it exists.
             s.live.fetch_add(1, Ordering::SeqCst);
             // SAFETY: the host's contract for `alloc`.
-            let base: *mut u8 =
-                unsafe { alloc(user as *mut c_void, outer.size(), outer.align()) }.cast();
+            let base: *mut u8 = unsafe { alloc(user, outer.size(), outer.align()) }.cast();
             if base.is_null() {
                 s.live.fetch_sub(1, Ordering::SeqCst);
             }
@@ -352,12 +352,7 @@ unsafe impl GlobalAlloc for HostAllocator {
                 // stay as they were until it is counted out, after `free`.
                 let s = &SLOTS[slot];
                 let (user, _, free) = s.hooks();
-                free(
-                    user as *mut c_void,
-                    base.cast(),
-                    outer.size(),
-                    outer.align(),
-                );
+                free(user, base.cast(), outer.size(), outer.align());
                 s.live.fetch_sub(1, Ordering::SeqCst);
             }
         }
@@ -405,9 +400,9 @@ pub unsafe extern "C" fn cmlt_set_allocator(allocator: *const cmlt_allocator) ->
             ));
         };
         let s = &SLOTS[slot];
-        s.user.store(a.user as usize, Ordering::SeqCst);
-        s.alloc.store(alloc as usize, Ordering::SeqCst);
-        s.free.store(free as usize, Ordering::SeqCst);
+        s.user.store(a.user, Ordering::SeqCst);
+        s.alloc.store(alloc as *mut (), Ordering::SeqCst);
+        s.free.store(free as *mut (), Ordering::SeqCst);
         CURRENT.store(slot, Ordering::SeqCst);
         Ok(())
     })
