@@ -226,6 +226,7 @@ impl Vertex {
 
     /// The geometry term's cosine at `self` for a segment along unit `w`:
     /// |ns · w| at a surface, none (1) in a medium.
+    #[cfg(feature = "media")]
     #[inline]
     fn cos_towards(&self, w: Vec3) -> f32 {
         if self.kind == Kind::Medium {
