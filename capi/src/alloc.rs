@@ -68,8 +68,8 @@ type FreeFn = unsafe extern "C" fn(*mut c_void, *mut c_void, usize, usize);
 
 /// One host allocator's hooks and what says whether its slot is in use.
 ///
-/// The hooks are plain words so that a slot can be written again (and so
-/// that installing hooks allocates nothing). They are written only by
+/// The hooks sit in atomics, not a write-once cell, so that a slot can be
+/// written again (and installing hooks allocates nothing). They are written only by
 /// [`cmlt_set_allocator`], under [`SETTING`], and only while the slot is
 /// idle: not current, `live` 0 (no block of it to free) and `entering` 0
 /// (no allocation between reading [`CURRENT`] and calling the hooks). An
