@@ -562,38 +562,68 @@ fn random_walk<I: Intersector, S: Sampler>(
         if path.len() >= max_vertices {
             break;
         }
-        let wo_world = (-ray.d).normalize();
-        let wo = hit.frame.to_local(wo_world);
-        let u_lobe = rng.next_f32();
-        let u = rng.next_2d();
-        let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u, mode) else {
+        let Some((wi_world, weight, delta)) = scatter_surface(t, &hit, ray.d, rng, mode) else {
             break;
         };
-        if bs.pdf <= 0.0 || bs.f.is_black() {
-            break;
-        }
-        let wi_world = hit.frame.to_world(bs.wi);
-        let mut weight = bs.f * (bs.wi.z.abs() / bs.pdf);
-        if mode == TransportMode::Importance {
-            weight *= shading_correction(&hit.sp, wo_world, wi_world);
-        }
         beta *= weight;
-        path[n].delta = bs.delta;
-
-        // Russian roulette on throughput relative to the subpath's start.
-        let depth = n as u32;
-        if depth >= rr_depth {
-            let q = (beta.max_component() / beta0).min(0.95);
-            if !(rng.next_f32() < q) {
-                break;
-            }
-            beta /= q;
-        }
-        if beta.is_black() || !beta.is_finite() {
+        path[n].delta = delta;
+        if !survives(&mut beta, beta0, n as u32, rr_depth, rng) {
             break;
         }
         ray = offset::spawn_ray(hit.sp.p, hit.sp.p_error, hit.sp.ng, wi_world);
     }
+}
+
+/// A surface vertex's scattering in a random walk that reached `hit` along
+/// `ray_d`: the BSDF sampled there, as the world direction, the throughput
+/// factor f·|cos θ|/pdf (times the shading-normal correction when
+/// importance is transported, Veach §5.3) and whether the lobe was a Dirac
+/// one. `None` ends the walk. The surface walk and the media walk share it.
+#[inline(always)]
+fn scatter_surface<I: Intersector, S: Sampler>(
+    t: &mut Tracer<'_, I>,
+    hit: &Shading,
+    ray_d: Vec3,
+    rng: &mut S,
+    mode: TransportMode,
+) -> Option<(Vec3, Rgb, bool)> {
+    let wo_world = (-ray_d).normalize();
+    let wo = hit.frame.to_local(wo_world);
+    let u_lobe = rng.next_f32();
+    let u = rng.next_2d();
+    let bs = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u, mode)?;
+    if bs.pdf <= 0.0 || bs.f.is_black() {
+        return None;
+    }
+    let wi_world = hit.frame.to_world(bs.wi);
+    let mut weight = bs.f * (bs.wi.z.abs() / bs.pdf);
+    if mode == TransportMode::Importance {
+        weight *= shading_correction(&hit.sp, wo_world, wi_world);
+    }
+    Some((wi_world, weight, bs.delta))
+}
+
+/// Russian roulette on a subpath's throughput `beta` relative to its
+/// start's largest channel `beta0`, from `rr_depth` vertices on: `false`
+/// ends the walk (also when `beta` is black or not finite); otherwise
+/// `beta` is divided by the survival probability, so the walk stays
+/// unbiased.
+#[inline(always)]
+fn survives<S: Sampler>(
+    beta: &mut Rgb,
+    beta0: f32,
+    depth: u32,
+    rr_depth: u32,
+    rng: &mut S,
+) -> bool {
+    if depth >= rr_depth {
+        let q = (beta.max_component() / beta0).min(0.95);
+        if !(rng.next_f32() < q) {
+            return false;
+        }
+        *beta /= q;
+    }
+    !beta.is_black() && beta.is_finite()
 }
 
 /// Appends the environment vertex a camera subpath reaches along unit `d`

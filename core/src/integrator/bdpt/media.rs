@@ -37,7 +37,7 @@ use glam::{Vec2, Vec3};
 
 use super::{
     Kind, Local, PathStorage, Vertex, camera_vertex, count_eval, escape, finish,
-    light_emission_pdf, other_light_vertex, shading_correction,
+    light_emission_pdf, other_light_vertex, scatter_surface, survives,
 };
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
@@ -410,23 +410,12 @@ fn walk<I: Intersector, S: Sampler>(
                 Ray::new(v.sp.p, ps.wi)
             }
             Some(hit) => {
-                let wo_world = (-ray.d).normalize();
-                let wo = hit.frame.to_local(wo_world);
-                let u_lobe = rng.next_f32();
-                let u = rng.next_2d();
-                let Some(bs) = t.sample_bsdf(&hit.bsdf, wo, u_lobe, u, mode) else {
+                let Some((wi_world, weight, delta)) = scatter_surface(t, &hit, ray.d, rng, mode)
+                else {
                     break;
                 };
-                if bs.pdf <= 0.0 || bs.f.is_black() {
-                    break;
-                }
-                let wi_world = hit.frame.to_world(bs.wi);
-                let mut weight = bs.f * (bs.wi.z.abs() / bs.pdf);
-                if mode == TransportMode::Importance {
-                    weight *= shading_correction(&hit.sp, wo_world, wi_world);
-                }
                 beta *= weight;
-                path[n].delta = bs.delta;
+                path[n].delta = delta;
                 let iface = scene.surface_media(hit.sp.surface);
                 if iface.is_transition() {
                     medium = iface.target(hit.sp.ng, wi_world);
@@ -436,15 +425,7 @@ fn walk<I: Intersector, S: Sampler>(
         };
 
         // Russian roulette as in `random_walk`.
-        let depth = n as u32;
-        if depth >= rr_depth {
-            let q = (beta.max_component() / beta0).min(0.95);
-            if !(rng.next_f32() < q) {
-                break;
-            }
-            beta /= q;
-        }
-        if beta.is_black() || !beta.is_finite() {
+        if !survives(&mut beta, beta0, n as u32, rr_depth, rng) {
             break;
         }
         ray = next;
