@@ -50,10 +50,15 @@ fn render_mean(scene: &Scene, method: Estimator, settings: Settings, passes: u64
 
 /// The mean of `passes` passes of BDPT whose samples go through `paths`
 /// (with its strategy filter), one sample per pixel and pass from the
-/// stream of (7, pass, pixel) as the renderer draws them: the renderer
-/// keeps its path storage to itself, so this test calls
-/// [`bdpt::sample`] itself.
-fn bdpt_mean_with(scene: &Scene, passes: u64, mut paths: PathStorage) -> (Rgb, Film) {
+/// stream of (`seed`, pass, pixel) as the renderer draws them: the
+/// renderer keeps its path storage to itself, so this test calls
+/// [`bdpt::sample`] itself. The furnaces here use seed 7.
+pub(crate) fn bdpt_mean_with(
+    scene: &Scene,
+    passes: u64,
+    mut paths: PathStorage,
+    seed: u64,
+) -> (Rgb, Film) {
     let tris: Vec<_> = scene.triangles().collect();
     let accel = Bvh::build(&tris);
     let mut tracer = Tracer::new(scene, &accel);
@@ -63,7 +68,7 @@ fn bdpt_mean_with(scene: &Scene, passes: u64, mut paths: PathStorage) -> (Rgb, F
     for pass in 0..passes {
         for y in 0..h {
             for x in 0..w {
-                let mut rng = SampleStream::new(7, pass, y as u64 * w as u64 + x as u64);
+                let mut rng = SampleStream::new(seed, pass, y as u64 * w as u64 + x as u64);
                 let raster = Vec2::new(x as f32, y as f32) + rng.next_2d();
                 bdpt::sample(
                     &mut tracer,
@@ -236,7 +241,7 @@ fn check_every_bdpt_strategy_alone(aperture: f32) {
     for (s, t, filter) in strategies {
         let mut paths = PathStorage::new();
         paths.set_strategy_filter(Some(filter));
-        let (mean, film) = bdpt_mean_with(&scene, 256, paths);
+        let (mean, film) = bdpt_mean_with(&scene, 256, paths, 7);
         assert_eq!(film.nonfinite(), 0);
         let expected = 0.5f32.powi((s + t) as i32 - 2);
         let rel = (mean.g - expected).abs() / expected;
