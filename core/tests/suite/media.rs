@@ -10,8 +10,8 @@
 use crate::common;
 
 use cmlt::accel::bvh::Bvh;
-use cmlt::integrator::bdpt::PathStorage;
 use cmlt::integrator::Settings;
+use cmlt::integrator::bdpt::PathStorage;
 use cmlt::math::{Mat4, Rgb, Vec2, Vec3};
 use cmlt::mlt::Level1;
 use cmlt::renderer::{
