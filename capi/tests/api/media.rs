@@ -310,10 +310,12 @@ fn slab_mean(slab: Slab) -> [f64; 3] {
 #[test]
 fn an_absorbing_slab_transmits_as_beer_lambert_says() {
     // Along the axis a ray crosses 0.4 of the slab inside the box and 0.3
-    // between the box and the light: e^{−σ_t d} per channel. Each pixel's
-    // PT estimate is 5 (passing every free-flight draw) or 0, so with
-    // 192 × 256 samples the means are within about 0.5 % (one standard
-    // error) of 5 · e^{−σ_t d}; the rays' tilt adds at most 0.6 % to d.
+    // between the box and the light: e^{−σ_t d} per channel. A PT sample
+    // is 5 · e^{−σ_t,c d} / p̄ when its free-flight draws pass the slab (p̄
+    // their probability averaged over the channels, the spectral MIS) and
+    // 0 when one stops in it (albedo 0), so with 192 × 256 samples the
+    // means are within about 0.5 % (one standard error) of 5 · e^{−σ_t d};
+    // the rays' tilt adds at most 0.6 % to d.
     let expect_mean = |d: f64| ABSORBER.sigma_t.map(|s| 5.0 * (-(s as f64) * d).exp());
     for (slab, d) in [
         (Slab::Inside, 0.4),
