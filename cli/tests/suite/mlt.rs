@@ -893,3 +893,13 @@ fn media_fog_cmlt_matches_reference() {
     let cmlt = cmlt_on(level1(64), 8, 4);
     check_reference("media-fog", 4, &cmlt, 32);
 }
+
+/// Level-1 MLT through media behind dielectrics (tests/scenes/media-glass:
+/// absorbing interiors; media-milk: scattering ones seen only through
+/// smooth and rough glass), at 1/4 resolution.
+#[test]
+fn media_behind_glass_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(level1(64));
+    check_reference("media-glass", 4, &mlt, 64);
+    check_reference("media-milk", 4, &mlt, 64);
+}
