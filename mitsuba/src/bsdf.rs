@@ -99,6 +99,20 @@ impl<'a> Loader<'a> {
     /// Adds a parsed material, moving the bitmaps it uses into the scene.
     fn add_material(&mut self, mut m: Material, origin: Option<Node<'a, 'a>>) -> MaterialId {
         let mut fix = |t: &mut Texture| {
+            if let Texture::Grid(id) = t {
+                let p = &mut self.grids[id.0 as usize];
+                let real = match p.id {
+                    Some(real) => real,
+                    None => {
+                        let real = self
+                            .builder
+                            .add_grid(p.grid.take().expect("pending grid is added once"));
+                        p.id = Some(real);
+                        real
+                    }
+                };
+                *id = real;
+            }
             if let Texture::Bitmap { id, .. } = t {
                 let p = &mut self.bitmaps[id.0 as usize];
                 let real = match p.id {
@@ -633,7 +647,8 @@ impl<'a> Loader<'a> {
             let values = match t {
                 Texture::Constant(c) => vec![c],
                 Texture::Checkerboard { color0, color1, .. } => vec![color0, color1],
-                Texture::Bitmap { .. } => vec![],
+                // A grid's voxels are checked when the scene is built.
+                Texture::Bitmap { .. } | Texture::Grid(_) => vec![],
             };
             for c in values {
                 let v = Texture::scalar(c);
@@ -899,6 +914,16 @@ impl<'a> Loader<'a> {
                 ignored = &["format", "accel"];
                 let id = self.bitmap(&filename, raw, fnode)?;
                 Texture::Bitmap { id, to_uv }
+            }
+            "volume" => {
+                // Read at the world position: no uv transform applies.
+                if props.has("to_uv") {
+                    let n = props.get("to_uv").expect("present").node;
+                    return Err(self.xml.err(n, "a 'volume' texture takes no 'to_uv'"));
+                }
+                let t = self.volume_texture(&props, node)?;
+                self.texture_memo.insert(key(node), t);
+                return Ok(t);
             }
             "checkerboard" => {
                 let x = &self.xml;

@@ -39,6 +39,10 @@ pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
 /// 8k × 4k RGBA float image is 512 MiB.
 pub const MAX_IMAGE_ALLOC: u64 = 1 << 30;
 
+/// Largest voxel grid file (`.vol`) read: 1 GiB, 256 M float voxels, as
+/// large as the largest image.
+pub const MAX_GRID_BYTES: u64 = 1 << 30;
+
 /// Opens `path` for reading if it is a regular file of at most `max_bytes`
 /// bytes; returns the file and its size. `what` names the kind of file in
 /// the message ("scene file", "mesh file").

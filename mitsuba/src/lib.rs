@@ -33,7 +33,8 @@
 //!   Mitsuba 0.6's `roughdiffuse` (Oren–Nayar; 0.6's and the upgraded
 //!   parameter names), `twosided`, and the wrappers `normalmap`,
 //!   `bumpmap`, `mask`; textures `bitmap` (JPEG/PNG, OpenEXR, Radiance
-//!   HDR and PFM) and `checkerboard`;
+//!   HDR and PFM), `checkerboard` and `volume` (`constvolume`, or a
+//!   `gridvolume` `.vol` file read at the surface's world position);
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
 //!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images).
 //!
@@ -53,6 +54,8 @@ mod pfm;
 mod serialized;
 mod shapes;
 mod transform;
+mod vol;
+mod volume;
 mod xml;
 
 use std::path::Path;

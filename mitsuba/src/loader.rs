@@ -18,6 +18,7 @@ use super::mesh_io::{self, RawMesh};
 use super::serialized;
 use super::shapes;
 use super::transform;
+use super::volume::PendingGrid;
 use super::xml::{Item, Props, Xml};
 
 /// Mitsuba's default film size (`hdrfilm`).
@@ -43,6 +44,8 @@ pub(crate) struct Loader<'a> {
     pub default_materials: [Option<MaterialId>; 2],
     pub bitmaps: Vec<PendingBitmap>,
     pub bitmap_index: HashMap<(PathBuf, bool), usize>,
+    /// Voxel grids of `volume` textures, added to the scene when used.
+    pub grids: Vec<PendingGrid>,
     /// The `<shape>` of each mesh, for mapping `SceneError`s.
     pub mesh_origin: Vec<Node<'a, 'a>>,
     /// The `<bsdf>` of each material (`None` for Mitsuba's default BSDF).
@@ -85,6 +88,7 @@ pub(crate) fn load(
         default_materials: [None, None],
         bitmaps: Vec::new(),
         bitmap_index: HashMap::new(),
+        grids: Vec::new(),
         mesh_origin: Vec::new(),
         material_origin: Vec::new(),
     };
@@ -176,10 +180,10 @@ impl<'a> Loader<'a> {
                         .xml
                         .err(child, "a <phase> must be nested inside a <medium>"));
                 }
+                // Read when a texture uses it; instantiated (and so
+                // validated) here like every top-level object.
                 "volume" => {
-                    return Err(self
-                        .xml
-                        .err(child, "<volume>: volume textures (grids) are not supported"));
+                    self.volume(child)?;
                 }
                 "include" | "path" | "alias" => {
                     return Err(self.xml.err(

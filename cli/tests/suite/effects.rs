@@ -60,7 +60,8 @@ fn shared_scenes_call_for_what_they_contain() {
             "surface-detail",
             "veach-ajar",
             "veach-bidir",
-            "veach-mis"
+            "veach-mis",
+            "volume-texture"
         ],
         "a shared scene was added: state its effects here"
     );
@@ -114,6 +115,12 @@ fn shared_scenes_call_for_what_they_contain() {
     assert_eq!(
         effects("glossy-room"),
         (set(&[Diffuse, Glossy, AreaLights, Coating]), false)
+    );
+    // Reflectances read from voxel grids (and a constvolume, which is a
+    // constant): textures, nothing else.
+    assert_eq!(
+        effects("volume-texture"),
+        (set(&[Diffuse, Textures, AreaLights]), false)
     );
     // Normal and bump maps and an alpha mask, all bitmaps.
     assert_eq!(

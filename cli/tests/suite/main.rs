@@ -34,6 +34,7 @@ mod conductor_presets;
 mod corpus;
 mod effects;
 mod frames;
+mod grid_textures;
 mod loader;
 mod media_loader;
 mod mlt;

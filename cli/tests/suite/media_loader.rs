@@ -149,7 +149,7 @@ fn malformed_media_are_refused_at_their_line() {
             "",
             r#"<volume type="gridvolume"/>"#,
             6,
-            "volume textures (grids) are not supported",
+            "gridvolume lacks the 'filename' property",
         ),
         (
             "",

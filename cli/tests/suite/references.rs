@@ -107,6 +107,18 @@ fn surface_detail_bdpt() {
     check_scene("surface-detail", Estimator::Bdpt, 32);
 }
 
+// Reflectances read from voxel grids at the surface's world position
+// (`volume` textures: trilinear/clamp, nearest/repeat, a constvolume).
+#[test]
+fn volume_texture_pt() {
+    check_scene("volume-texture", Estimator::Path, 64);
+}
+
+#[test]
+fn volume_texture_bdpt() {
+    check_scene("volume-texture", Estimator::Bdpt, 32);
+}
+
 // Plastics, rough plastics (GGX; Beckmann nonlinear), a thin glass pane
 // and a tinted glass sphere (tests/scenes/plastics).
 #[test]

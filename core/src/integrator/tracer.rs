@@ -258,7 +258,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         #[allow(unused_mut)]
         let mut sh = Shading {
             sp,
-            bsdf: material.bsdf(|t| t.eval(sp.uv, &scene.bitmaps)),
+            bsdf: material.bsdf(|t| t.eval(sp.tex_coords(), scene.texture_images())),
             frame: Frame::from_normal(sp.ns),
         };
         #[cfg(feature = "normal-mapping")]
@@ -288,7 +288,7 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         let scene = self.scene;
         let (dp_du, dp_dv) = scene.uv_tangents(sp);
         if let Some(nm) = &detail.normal_map {
-            let c = nm.eval(sp.uv, &scene.bitmaps);
+            let c = nm.eval(sp.tex_coords(), scene.texture_images());
             let base = detail::tangent_frame(sp.ns, dp_du);
             return detail::normal_mapped(&base, Vec3::new(c.r, c.g, c.b));
         }
@@ -313,7 +313,12 @@ impl<'a, I: Intersector> Tracer<'a, I> {
         let scene = self.scene;
         match &scene.material(sp).detail.opacity {
             None => false,
-            Some(o) => detail::mask_passes(o.eval_1(sp.uv, &scene.bitmaps), ray.o, ray.d, sp.prim),
+            Some(o) => detail::mask_passes(
+                o.eval_1(sp.tex_coords(), scene.texture_images()),
+                ray.o,
+                ray.d,
+                sp.prim,
+            ),
         }
     }
 

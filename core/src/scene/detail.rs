@@ -70,7 +70,14 @@ impl Detail {
             Texture::Bitmap { to_uv, .. } | Texture::Checkerboard { to_uv, .. } => {
                 to_uv.is_finite()
             }
+            Texture::Grid(_) => true,
         };
+        // A normal or bump map perturbs the frame along the surface's uv
+        // tangents; a grid read at the world position has no uv gradient.
+        let grid = |t: &Option<Texture>| matches!(t, Some(Texture::Grid(_)));
+        if grid(&self.normal_map) || grid(&self.bump_map) {
+            return Err("a volume (grid) texture cannot be a normal or bump map");
+        }
         if !self.textures().all(finite_uv) {
             return Err("surface-detail textures must be finite");
         }

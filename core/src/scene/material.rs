@@ -263,7 +263,9 @@ impl PrincipledParams {
             match t {
                 Texture::Constant(c) => (Some(c), None),
                 Texture::Checkerboard { color0, color1, .. } => (Some(color0), Some(color1)),
-                Texture::Bitmap { .. } => (None, None),
+                // A grid's range is checked against its voxels when the
+                // scene is built (`SceneBuilder::build`).
+                Texture::Bitmap { .. } | Texture::Grid(_) => (None, None),
             }
         }
         let (a, b) = colours(&self.base_color);
@@ -532,6 +534,8 @@ impl Material {
             match t {
                 Texture::Constant(c) => unit(c),
                 Texture::Bitmap { to_uv, .. } => to_uv.is_finite(),
+                // Checked against its voxels when the scene is built.
+                Texture::Grid(_) => true,
                 Texture::Checkerboard {
                     color0,
                     color1,

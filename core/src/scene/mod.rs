@@ -14,6 +14,7 @@ pub mod detail;
 pub mod effects;
 #[cfg(feature = "alloc")]
 pub mod envmap;
+pub mod grid;
 #[cfg(feature = "alloc")]
 pub mod light;
 pub mod material;
@@ -42,6 +43,9 @@ pub use light::Light;
 pub use crate::bsdf::conductor::ConductorFresnel;
 pub use crate::bsdf::microfacet::Distribution;
 pub use crate::bsdf::roughplastic::RoughCoating;
+#[cfg(feature = "alloc")]
+pub use grid::Grid;
+pub use grid::{GridFilter, GridId, GridWrap};
 pub use material::{
     MAX_ROUGHNESS, Material, MaterialId, MaterialKind, PrincipledParams, roughness_ok,
 };
@@ -49,3 +53,5 @@ pub use medium::{Flight, Medium, MediumError, MediumId, MediumInterface, Phase};
 #[cfg(feature = "alloc")]
 pub use texture::Bitmap;
 pub use texture::{BitmapId, Texture};
+#[cfg(feature = "alloc")]
+pub use texture::{TexCoords, TextureImages};

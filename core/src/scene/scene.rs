@@ -7,11 +7,12 @@ use glam::{Vec2, Vec3};
 
 use super::camera::Camera;
 use super::effects::{Analysis, Effect};
+use super::grid::{Grid, GridId};
 use super::light::{Chosen, Light, LightSet};
 use super::material::{Material, MaterialId, MaterialKind};
 use super::medium::{Medium, MediumId, MediumInterface};
 use super::shapes::{SHAPE_PRIM_BIT, ShapeGroup};
-use super::texture::{Bitmap, BitmapId, Texture};
+use super::texture::{Bitmap, BitmapId, TexCoords, Texture, TextureImages};
 use crate::geometry::Hit;
 use crate::geometry::offset::{TrianglePoint, triangle_point};
 use crate::math::Rgb;
@@ -109,6 +110,11 @@ pub enum SceneError {
     },
     /// A texture names a bitmap that was never added.
     UnknownBitmap {
+        /// Material index.
+        material: usize,
+    },
+    /// A texture names a voxel grid that was never added.
+    UnknownGrid {
         /// Material index.
         material: usize,
     },
@@ -214,6 +220,9 @@ impl fmt::Display for SceneError {
             SceneError::UnknownBitmap { material } => {
                 write!(f, "material {material}: bitmap id does not exist")
             }
+            SceneError::UnknownGrid { material } => {
+                write!(f, "material {material}: voxel grid id does not exist")
+            }
             SceneError::InvalidMaterial { material, reason } => {
                 write!(f, "material {material}: {reason}")
             }
@@ -290,6 +299,7 @@ pub struct SceneBuilder {
     meshes: Vec<Mesh>,
     materials: Vec<Material>,
     bitmaps: Vec<Bitmap>,
+    grids: Vec<Grid>,
     shapes: Vec<ShapeGroup>,
     lights: Vec<Light>,
     camera: Option<Camera>,
@@ -313,6 +323,7 @@ impl SceneBuilder {
         self.meshes.try_reserve(1)?;
         self.materials.try_reserve(1)?;
         self.bitmaps.try_reserve(1)?;
+        self.grids.try_reserve(1)?;
         self.shapes.try_reserve(1)?;
         self.media.try_reserve(1)?;
         self.mesh_media.try_reserve(1)?;
@@ -329,6 +340,12 @@ impl SceneBuilder {
     pub fn add_bitmap(&mut self, b: Bitmap) -> BitmapId {
         self.bitmaps.push(b);
         BitmapId(self.bitmaps.len() as u32 - 1)
+    }
+
+    /// Adds a voxel grid (a `volume` texture's data) and returns its id.
+    pub fn add_grid(&mut self, g: Grid) -> GridId {
+        self.grids.push(g);
+        GridId(self.grids.len() as u32 - 1)
     }
 
     /// Adds a mesh; returns its index. Validation happens in `build`.
@@ -440,6 +457,23 @@ impl SceneBuilder {
                 {
                     return Err(SceneError::UnknownBitmap { material: i });
                 }
+                if let Texture::Grid(id) = t {
+                    let Some(g) = self.grids.get(id.0 as usize) else {
+                        return Err(SceneError::UnknownGrid { material: i });
+                    };
+                    // Every material slot a texture fills (reflectances,
+                    // the principled scalars, opacity) is a fraction:
+                    // trilinear weights are convex, so voxels in [0, 1]
+                    // keep every lookup there, as `Material::validate`
+                    // asks of constants.
+                    let m = g.max();
+                    if m.r > 1.0 || m.g > 1.0 || m.b > 1.0 {
+                        return Err(SceneError::InvalidMaterial {
+                            material: i,
+                            reason: "a volume (grid) texture's voxels must lie in [0, 1]",
+                        });
+                    }
+                }
             }
         }
         let mut total: u64 = 0;
@@ -533,6 +567,7 @@ impl SceneBuilder {
             meshes: self.meshes,
             materials: self.materials,
             bitmaps: self.bitmaps,
+            grids: self.grids,
             shapes: self.shapes,
             camera,
             tri_mesh,
@@ -566,6 +601,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Bitmaps referenced by textures.
     pub bitmaps: Vec<Bitmap>,
+    /// Voxel grids referenced by textures.
+    pub grids: Vec<Grid>,
     /// Host shape groups in insertion order.
     pub shapes: Vec<ShapeGroup>,
     /// The camera.
@@ -644,7 +681,27 @@ pub struct SurfacePoint {
     pub prim: u32,
 }
 
+impl SurfacePoint {
+    /// Where textures are looked up at this point.
+    #[inline]
+    pub fn tex_coords(&self) -> TexCoords {
+        TexCoords {
+            uv: self.uv,
+            p: self.p,
+        }
+    }
+}
+
 impl Scene {
+    /// The images the scene's textures read.
+    #[inline]
+    pub fn texture_images(&self) -> TextureImages<'_> {
+        TextureImages {
+            bitmaps: &self.bitmaps,
+            grids: &self.grids,
+        }
+    }
+
     /// What the scene calls for, seen through `camera` (its aperture
     /// decides depth of field): materials of meshes with triangles, emitting
     /// meshes.

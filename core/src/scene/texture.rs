@@ -1,10 +1,36 @@
-//! Reflectance textures: constant, bitmap and checkerboard (Mitsuba semantics).
+//! Reflectance textures: constant, bitmap, checkerboard and voxel grid
+//! (Mitsuba semantics).
 
 use glam::Affine2;
 #[cfg(feature = "alloc")]
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
+#[cfg(feature = "alloc")]
+use super::grid::Grid;
+use super::grid::GridId;
 use crate::math::Rgb;
+
+/// Where a texture is looked up: the surface coordinates image textures
+/// read and the world position grid textures read.
+#[cfg(feature = "alloc")]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexCoords {
+    /// Surface (uv) coordinates.
+    pub uv: Vec2,
+    /// World-space position of the surface point.
+    pub p: Vec3,
+}
+
+/// The images a scene's textures index: [`Texture::Bitmap`] into
+/// `bitmaps`, [`Texture::Grid`] into `grids`.
+#[cfg(feature = "alloc")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TextureImages<'a> {
+    /// The scene's bitmaps.
+    pub bitmaps: &'a [Bitmap],
+    /// The scene's voxel grids.
+    pub grids: &'a [Grid],
+}
 
 /// Index of a [`Bitmap`] in [`crate::scene::Scene::bitmaps`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -135,24 +161,32 @@ pub enum Texture {
         /// Transform applied to the surface uv.
         to_uv: Affine2,
     },
+    /// Mitsuba's `volume` texture over a `gridvolume`: the grid read at the
+    /// surface point's world position (its transform, filter and wrap
+    /// mode live in the [`Grid`](super::grid::Grid)). Grids have no uv
+    /// gradient, so they are never bump or normal maps.
+    Grid(GridId),
 }
 
 impl Texture {
-    /// The texture's value at surface coordinates `uv`. Without the
-    /// `textures` feature only constants are built and every other
-    /// texture is black (scenes using one are rejected at build).
+    /// The texture's value at `at`. Without the `textures` feature only
+    /// constants are built and every other texture is black (scenes using
+    /// one are rejected at build).
     #[cfg(feature = "alloc")]
     #[inline]
     #[cfg_attr(not(feature = "textures"), allow(unused_variables))]
-    pub fn eval(&self, uv: Vec2, bitmaps: &[Bitmap]) -> Rgb {
+    pub fn eval(&self, at: TexCoords, images: TextureImages<'_>) -> Rgb {
+        let uv = at.uv;
         match *self {
             Texture::Constant(c) => c,
             #[cfg(not(feature = "textures"))]
             _ => Rgb::ZERO,
             #[cfg(feature = "textures")]
             Texture::Bitmap { id, to_uv } => {
-                bitmaps[id.0 as usize].eval(to_uv.transform_point2(uv))
+                images.bitmaps[id.0 as usize].eval(to_uv.transform_point2(uv))
             }
+            #[cfg(feature = "textures")]
+            Texture::Grid(id) => images.grids[id.0 as usize].eval(at.p),
             #[cfg(feature = "textures")]
             Texture::Checkerboard {
                 color0,
@@ -175,8 +209,8 @@ impl Texture {
     /// RGB value, which is the value itself for a grey texture.
     #[cfg(feature = "alloc")]
     #[inline]
-    pub fn eval_1(&self, uv: Vec2, bitmaps: &[Bitmap]) -> f32 {
-        Texture::scalar(self.eval(uv, bitmaps))
+    pub fn eval_1(&self, at: TexCoords, images: TextureImages<'_>) -> f32 {
+        Texture::scalar(self.eval(at, images))
     }
 
     /// The scalar an RGB texture value stands for where a material takes a
@@ -188,7 +222,8 @@ impl Texture {
     }
 
     /// The uv gradient of [`Texture::eval_1`] (Mitsuba's `eval_1_grad`):
-    /// zero for constants and for the piecewise-constant checkerboard,
+    /// zero for constants and for the piecewise-constant checkerboard
+    /// (and for grids, which materials refuse as bump maps),
     /// through the transform's transpose for a bitmap (as Mitsuba, the
     /// texel-space partials are scaled by the resolution after the
     /// transpose).
@@ -229,9 +264,14 @@ mod tests {
             color1: Rgb::ZERO,
             to_uv: Affine2::from_scale(Vec2::new(2.0, 2.0)),
         };
-        assert_eq!(t.eval(Vec2::new(0.1, 0.1), &[]), Rgb::ONE);
-        assert_eq!(t.eval(Vec2::new(0.3, 0.1), &[]), Rgb::ZERO);
-        assert_eq!(t.eval(Vec2::new(0.3, 0.3), &[]), Rgb::ONE);
+        let at = |u, v| TexCoords {
+            uv: Vec2::new(u, v),
+            p: Vec3::ZERO,
+        };
+        let none = TextureImages::default();
+        assert_eq!(t.eval(at(0.1, 0.1), none), Rgb::ONE);
+        assert_eq!(t.eval(at(0.3, 0.1), none), Rgb::ZERO);
+        assert_eq!(t.eval(at(0.3, 0.3), none), Rgb::ONE);
     }
 
     #[test]
