@@ -11,8 +11,8 @@ use std::path::PathBuf;
 
 use cmlt::math::Rgb;
 use cmlt::scene::{
-    Bitmap, BitmapId, ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId,
-    MaterialKind, PrincipledParams, RoughCoating, Texture, roughness_ok,
+    BitmapId, ConductorFresnel, Distribution, MAX_ROUGHNESS, Material, MaterialId, MaterialKind,
+    PrincipledParams, RoughCoating, Texture, roughness_ok,
 };
 use glam::Affine2;
 use roxmltree::Node;
@@ -54,10 +54,31 @@ const NAMED_IORS: &[(&str, f32)] = &[
     ("diamond", 2.419),
 ];
 
-/// A decoded image waiting to be added to the scene (only if used).
-pub(crate) struct PendingBitmap {
-    pub bitmap: Option<Bitmap>,
-    pub id: Option<BitmapId>,
+/// Decoded texture data (a bitmap, a voxel grid) waiting to be added to
+/// the scene: only a material that is used adds it, once.
+pub(crate) struct Pending<T, Id> {
+    item: Option<T>,
+    id: Option<Id>,
+}
+
+impl<T, Id: Copy> Pending<T, Id> {
+    /// Data not yet in the scene.
+    pub fn new(item: T) -> Self {
+        Pending {
+            item: Some(item),
+            id: None,
+        }
+    }
+
+    /// The scene's id of the data, handing it to `add` the first time.
+    pub fn add_once(&mut self, add: impl FnOnce(T) -> Id) -> Id {
+        if let Some(id) = self.id {
+            return id;
+        }
+        let id = add(self.item.take().expect("pending data is added once"));
+        self.id = Some(id);
+        id
+    }
 }
 
 fn rgb(c: [f64; 3]) -> Rgb {
@@ -96,37 +117,17 @@ impl<'a> Loader<'a> {
         id
     }
 
-    /// Adds a parsed material, moving the bitmaps it uses into the scene.
+    /// Adds a parsed material, moving the bitmaps and grids it uses into
+    /// the scene.
     fn add_material(&mut self, mut m: Material, origin: Option<Node<'a, 'a>>) -> MaterialId {
-        let mut fix = |t: &mut Texture| {
-            if let Texture::Grid(id) = t {
-                let p = &mut self.grids[id.0 as usize];
-                let real = match p.id {
-                    Some(real) => real,
-                    None => {
-                        let real = self
-                            .builder
-                            .add_grid(p.grid.take().expect("pending grid is added once"));
-                        p.id = Some(real);
-                        real
-                    }
-                };
-                *id = real;
+        let mut fix = |t: &mut Texture| match t {
+            Texture::Grid(id) => {
+                *id = self.grids[id.0 as usize].add_once(|g| self.builder.add_grid(g));
             }
-            if let Texture::Bitmap { id, .. } = t {
-                let p = &mut self.bitmaps[id.0 as usize];
-                let real = match p.id {
-                    Some(real) => real,
-                    None => {
-                        let real = self
-                            .builder
-                            .add_bitmap(p.bitmap.take().expect("pending bitmap is added once"));
-                        p.id = Some(real);
-                        real
-                    }
-                };
-                *id = real;
+            Texture::Bitmap { id, .. } => {
+                *id = self.bitmaps[id.0 as usize].add_once(|b| self.builder.add_bitmap(b));
             }
+            Texture::Constant(_) | Texture::Checkerboard { .. } => {}
         };
         for t in [
             &mut m.detail.normal_map,
@@ -975,10 +976,7 @@ impl<'a> Loader<'a> {
         }
         let b = super::image_io::decode_bitmap(&path, raw)
             .map_err(|e| self.xml.err(node, format!("image file '{filename}': {e}")))?;
-        self.bitmaps.push(PendingBitmap {
-            bitmap: Some(b),
-            id: None,
-        });
+        self.bitmaps.push(Pending::new(b));
         let i = self.bitmaps.len() - 1;
         self.bitmap_index.insert(cache_key, i);
         Ok(BitmapId(i as u32))

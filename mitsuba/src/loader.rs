@@ -6,19 +6,19 @@ use std::path::{Path, PathBuf};
 use cmlt::integrator::Settings;
 use cmlt::math::Rgb;
 use cmlt::scene::{
-    Camera, FovAxis, Light, Material, MaterialId, MediumId, Mesh, SceneBuilder, SceneError, Texture,
+    Bitmap, BitmapId, Camera, FovAxis, Grid, GridId, Light, Material, MaterialId, MediumId, Mesh,
+    SceneBuilder, SceneError, Texture,
 };
 use glam::{DMat4, DVec3};
 use roxmltree::{Document, Node, NodeId, ParsingOptions};
 
 use super::LoadedScene;
-use super::bsdf::PendingBitmap;
+use super::bsdf::Pending;
 use super::error::LoadError;
 use super::mesh_io::{self, RawMesh};
 use super::serialized;
 use super::shapes;
 use super::transform;
-use super::volume::PendingGrid;
 use super::xml::{Item, Props, Xml};
 
 /// Mitsuba's default film size (`hdrfilm`).
@@ -42,10 +42,10 @@ pub(crate) struct Loader<'a> {
     /// The scene's medium of each `<medium>` element used so far.
     pub used_media: HashMap<NodeId, MediumId>,
     pub default_materials: [Option<MaterialId>; 2],
-    pub bitmaps: Vec<PendingBitmap>,
+    pub bitmaps: Vec<Pending<Bitmap, BitmapId>>,
     pub bitmap_index: HashMap<(PathBuf, bool), usize>,
     /// Voxel grids of `volume` textures, added to the scene when used.
-    pub grids: Vec<PendingGrid>,
+    pub grids: Vec<Pending<Grid, GridId>>,
     /// The `<shape>` of each mesh, for mapping `SceneError`s.
     pub mesh_origin: Vec<Node<'a, 'a>>,
     /// The `<bsdf>` of each material (`None` for Mitsuba's default BSDF).

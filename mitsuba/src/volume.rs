@@ -12,18 +12,12 @@ use roxmltree::Node;
 use cmlt::math::Rgb;
 use cmlt::scene::{Grid, GridFilter, GridId, GridWrap, Texture};
 
+use super::bsdf::Pending;
 use super::error::LoadError;
 use super::input::{self, MAX_GRID_BYTES};
 use super::loader::Loader;
 use super::transform;
 use super::xml::{Item, Props, key};
-
-/// A decoded grid waiting to be added to the scene (only if a used
-/// material reads it).
-pub(crate) struct PendingGrid {
-    pub grid: Option<Grid>,
-    pub id: Option<GridId>,
-}
 
 impl<'a> Loader<'a> {
     /// The texture of a `<texture type="volume">` (its properties
@@ -156,10 +150,7 @@ impl<'a> Loader<'a> {
                 format!("volume file '{filename}': voxels must be finite and non-negative"),
             )
         })?;
-        self.grids.push(PendingGrid {
-            grid: Some(grid),
-            id: None,
-        });
+        self.grids.push(Pending::new(grid));
         Ok(GridId(self.grids.len() as u32 - 1))
     }
 }
