@@ -35,7 +35,8 @@
 //!   `bumpmap`, `mask`; textures `bitmap` (JPEG/PNG, OpenEXR, Radiance
 //!   HDR and PFM) and `checkerboard`;
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
-//!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images).
+//!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images),
+//!   `sunsky` (Hosek–Wilkie sky and sun disc; `complex_sun` refused).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
@@ -52,6 +53,7 @@ mod mesh_io;
 mod pfm;
 mod serialized;
 mod shapes;
+mod sunsky;
 mod transform;
 mod xml;
 
