@@ -822,6 +822,14 @@ impl<'a> Loader<'a> {
             super::sunsky::sun_from_time(&t)
         };
         props.finish(x, &[])?;
+        if sun_local.z < 0.0 {
+            // Mitsuba 3 warns too; a y-up 0.6 scene needs a to_world.
+            let w = x.warning(
+                node,
+                "sunsky: the sun is below the horizon of the emitter's z-up frame, so the sky and sun are black",
+            );
+            self.warnings.push(w);
+        }
         let s = SunSky {
             turbidity,
             albedo,

@@ -2034,6 +2034,15 @@ fn sunsky_loads_and_refuses_bad_parameters() {
         "<vector name=\"sun_direction\" x=\"0.5\" y=\"0.6\" z=\"-0.4\"/>",
     ));
     assert_eq!(below.scene.lights.others().count(), 0);
+    assert!(
+        below
+            .warnings
+            .iter()
+            .any(|w| w.contains("below the horizon")),
+        "{:?}",
+        below.warnings
+    );
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
     // Time and place (Mitsuba's defaults: Tokyo, 10 July 2010, 15:00).
     let timed = ok(&body(
         "<float name=\"hour\" value=\"11\"/><integer name=\"month\" value=\"3\"/>",
