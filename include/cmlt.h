@@ -239,6 +239,13 @@
 // towards +x, as in Mitsuba.
 #define CMLT_LIGHT_ENVMAP 4
 
+// A sun disc (the sun of Mitsuba's `sunsky`): `color` is the disc's
+// radiance, `direction` the direction the light travels in (the sun is
+// seen along its opposite), `cutoff_angle` the disc's angular radius in
+// degrees, in (0, 90). Rays see it, unlike `CMLT_LIGHT_DIRECTIONAL`; pair
+// it with an environment map of the sky.
+#define CMLT_LIGHT_SUN 5
+
 // Lambertian reflection (bit of `cmlt_scene_get_effects`' mask).
 #define CMLT_EFFECT_DIFFUSE 1
 
@@ -678,9 +685,11 @@ typedef struct cmlt_light {
   float color[3];
   // Point and spot: position.
   float position[3];
-  // Spot: the axis; directional: the direction of travel. Non-zero.
+  // Spot: the axis; directional and sun: the direction of travel.
+  // Non-zero.
   float direction[3];
-  // Spot: half-angle of the cone in degrees, in (0, 180].
+  // Spot: half-angle of the cone in degrees, in (0, 180]; sun: the
+  // disc's angular radius in degrees, in (0, 90).
   float cutoff_angle;
   // Spot: half-angle of the full-intensity beam in degrees, in
   // [0, `cutoff_angle`].

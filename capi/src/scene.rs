@@ -842,6 +842,12 @@ pub const CMLT_LIGHT_CONSTANT: u32 = 3;
 /// map's frame), texel column x lies at φ = 2π (x + ½)/width from −z
 /// towards +x, as in Mitsuba.
 pub const CMLT_LIGHT_ENVMAP: u32 = 4;
+/// A sun disc (the sun of Mitsuba's `sunsky`): `color` is the disc's
+/// radiance, `direction` the direction the light travels in (the sun is
+/// seen along its opposite), `cutoff_angle` the disc's angular radius in
+/// degrees, in (0, 90). Rays see it, unlike `CMLT_LIGHT_DIRECTIONAL`; pair
+/// it with an environment map of the sky.
+pub const CMLT_LIGHT_SUN: u32 = 5;
 
 /// A light that is not an emitting mesh. Fields a type does not use are
 /// ignored (but must be finite).
@@ -856,9 +862,11 @@ pub struct cmlt_light {
     pub color: [f32; 3],
     /// Point and spot: position.
     pub position: [f32; 3],
-    /// Spot: the axis; directional: the direction of travel. Non-zero.
+    /// Spot: the axis; directional and sun: the direction of travel.
+    /// Non-zero.
     pub direction: [f32; 3],
-    /// Spot: half-angle of the cone in degrees, in (0, 180].
+    /// Spot: half-angle of the cone in degrees, in (0, 180]; sun: the
+    /// disc's angular radius in degrees, in (0, 90).
     pub cutoff_angle: f32,
     /// Spot: half-angle of the full-intensity beam in degrees, in
     /// [0, `cutoff_angle`].
@@ -976,6 +984,11 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
             irradiance: color,
         },
         CMLT_LIGHT_CONSTANT => Light::Constant { radiance: color },
+        CMLT_LIGHT_SUN => Light::Sun {
+            direction,
+            radiance: color,
+            half_aperture: l.cutoff_angle,
+        },
         // The bitmap is copied and the id set by cmlt_scene_add_light.
         CMLT_LIGHT_ENVMAP => Light::Envmap {
             bitmap: BitmapId(u32::MAX),

@@ -36,7 +36,8 @@
 //!   HDR and PFM), `checkerboard` and `volume` (`constvolume`, or a
 //!   `gridvolume` `.vol` file read at the surface's world position);
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
-//!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images).
+//!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images),
+//!   `sunsky` (Hosek–Wilkie sky and sun disc; `complex_sun` refused).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are
@@ -53,6 +54,7 @@ mod mesh_io;
 mod pfm;
 mod serialized;
 mod shapes;
+mod sunsky;
 mod transform;
 mod vol;
 mod volume;

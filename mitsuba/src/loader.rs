@@ -167,8 +167,14 @@ impl<'a> Loader<'a> {
                             .xml
                             .err(child, "an 'area' emitter must be nested inside a <shape>"));
                     }
-                    let light = self.scene_emitter(child)?;
-                    self.builder.add_light(light);
+                    if ty == "sunsky" {
+                        for light in self.sunsky(child)? {
+                            self.builder.add_light(light);
+                        }
+                    } else {
+                        let light = self.scene_emitter(child)?;
+                        self.builder.add_light(light);
+                    }
                 }
                 // Mitsuba instantiates every top-level object: an unused
                 // medium must be valid too (it changes no image).
@@ -683,7 +689,7 @@ impl<'a> Loader<'a> {
                 return Err(x.err(
                     node,
                     format!(
-                        "unsupported emitter plugin '{other}' (cmlt supports point, spot, directional, constant and envmap, and area emitters on shapes)"
+                        "unsupported emitter plugin '{other}' (cmlt supports point, spot, directional, constant, envmap and sunsky, and area emitters on shapes)"
                     ),
                 ));
             }
@@ -692,6 +698,156 @@ impl<'a> Loader<'a> {
         // MIS compensation changes how an envmap is sampled, not the image.
         props.finish(x, &["mis_compensation"])?;
         Ok(light)
+    }
+
+    /// `<emitter type="sunsky">` (Mitsuba 3's parameters and defaults, see
+    /// [`super::sunsky`]): the sky baked into an environment map and the
+    /// sun's disc; none when the sun is below the horizon.
+    fn sunsky(&mut self, node: Node<'a, 'a>) -> Result<Vec<Light>, LoadError> {
+        use super::sunsky::{SunSky, TimePlace};
+        let props = Props::read(&self.xml, node)?;
+        let x = &self.xml;
+        let float_in = |name: &str, default: f64, ok: &dyn Fn(f64) -> bool, range: &str| match props
+            .float(x, name)?
+        {
+            None => Ok(default),
+            Some((v, n)) if !(v.is_finite() && ok(v)) => {
+                Err(x.err(n, format!("sunsky: '{name}' must be {range}, got {v}")))
+            }
+            Some((v, _)) => Ok(v),
+        };
+        let turbidity = float_in(
+            "turbidity",
+            3.0,
+            &|v| (1.0..=10.0).contains(&v),
+            "in [1, 10]",
+        )?;
+        let sun_scale = float_in("sun_scale", 1.0, &|v| v >= 0.0, "non-negative")?;
+        let sky_scale = float_in("sky_scale", 1.0, &|v| v >= 0.0, "non-negative")?;
+        let sun_aperture = float_in(
+            "sun_aperture",
+            0.5358,
+            &|v| v > 0.0 && v < 180.0,
+            "in (0, 180) degrees",
+        )?;
+        let albedo = match props.get("albedo") {
+            Some(e) if matches!(e.item, Item::Object(_)) => {
+                return Err(x.err(
+                    e.node,
+                    "sunsky: the albedo cannot be a texture (give an <rgb> or <float> value)",
+                ));
+            }
+            _ => match props.color(x, "albedo")? {
+                None => [0.3; 3],
+                Some((c, n)) => {
+                    if !c.iter().all(|v| (0.0..=1.0).contains(v)) {
+                        return Err(x.err(
+                            n,
+                            format!("sunsky: 'albedo' must be in [0, 1] per channel, got {c:?}"),
+                        ));
+                    }
+                    c
+                }
+            },
+        };
+        if let Some(true) = props.boolean(x, "complex_sun")? {
+            let n = props.get("complex_sun").map_or(node, |e| e.node);
+            return Err(x.err(
+                n,
+                "sunsky: complex_sun (the limb-darkened sun disc) is not supported; cmlt renders Mitsuba's default uniform disc",
+            ));
+        }
+        let to_world = match props.transform(x, "to_world")? {
+            None => glam::DMat3::IDENTITY,
+            Some((m, n)) => {
+                let r = glam::DMat3::from_mat4(m);
+                if !(r.is_finite() && (r.transpose() * r).abs_diff_eq(glam::DMat3::IDENTITY, 1e-3))
+                {
+                    return Err(x.err(
+                        n,
+                        "sunsky: to_world must be a rotation (orthonormal, no scaling or shear)",
+                    ));
+                }
+                r
+            }
+        };
+        const TIME: [&str; 9] = [
+            "latitude",
+            "longitude",
+            "timezone",
+            "year",
+            "month",
+            "day",
+            "hour",
+            "minute",
+            "second",
+        ];
+        let sun_local = if props.has("sun_direction") {
+            if let Some(t) = TIME.iter().find(|t| props.has(t)) {
+                let n = props.get(t).map_or(node, |e| e.node);
+                return Err(x.err(
+                    n,
+                    format!("sunsky: give either 'sun_direction' or the time and place ('{t}'), not both"),
+                ));
+            }
+            let d = glam::DVec3::from(props.vector(x, "sun_direction")?.unwrap_or_default());
+            if !(d.is_finite() && d.length_squared() > 0.0) {
+                let n = props.get("sun_direction").map_or(node, |e| e.node);
+                return Err(x.err(n, "sunsky: 'sun_direction' must be finite and non-zero"));
+            }
+            (to_world.transpose() * d).normalize()
+        } else {
+            let dflt = TimePlace::default();
+            let f = |name: &str, default: f64| float_in(name, default, &|_| true, "finite");
+            let int = |name: &str, default: i64, lo: i64, hi: i64| match props.integer(x, name)? {
+                None => Ok(default),
+                Some((v, n)) if !(lo..=hi).contains(&v) => Err(x.err(
+                    n,
+                    format!("sunsky: '{name}' must be in [{lo}, {hi}], got {v}"),
+                )),
+                Some((v, _)) => Ok(v),
+            };
+            let t = TimePlace {
+                latitude: float_in(
+                    "latitude",
+                    dflt.latitude,
+                    &|v| v.abs() <= 90.0,
+                    "in [-90, 90]",
+                )?,
+                longitude: f("longitude", dflt.longitude)?,
+                timezone: f("timezone", dflt.timezone)?,
+                year: int("year", dflt.year, -4000, 10000)?,
+                month: int("month", dflt.month, 1, 12)?,
+                day: int("day", dflt.day, 1, 31)?,
+                hour: f("hour", dflt.hour)?,
+                minute: f("minute", dflt.minute)?,
+                second: f("second", dflt.second)?,
+            };
+            super::sunsky::sun_from_time(&t)
+        };
+        props.finish(x, &[])?;
+        if sun_local.z < 0.0 {
+            // Mitsuba 3 warns too; a y-up 0.6 scene needs a to_world.
+            let w = x.warning(
+                node,
+                "sunsky: the sun is below the horizon of the emitter's z-up frame, so the sky and sun are black",
+            );
+            self.warnings.push(w);
+        }
+        let s = SunSky {
+            turbidity,
+            albedo,
+            sun_local,
+            sun_scale,
+            sky_scale,
+            sun_aperture,
+            to_world,
+        };
+        let lights = super::sunsky::lights(&s, &mut |b| self.builder.add_bitmap(b));
+        for l in &lights {
+            l.validate().map_err(|reason| self.xml.err(node, reason))?;
+        }
+        Ok(lights)
     }
 
     /// `<emitter type="area">` inside a shape: its radiance, `None` if black.

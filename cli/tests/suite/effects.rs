@@ -57,6 +57,7 @@ fn shared_scenes_call_for_what_they_contain() {
             "plastics",
             "principled",
             "rough-glass",
+            "sunsky",
             "surface-detail",
             "veach-ajar",
             "veach-bidir",
@@ -70,6 +71,9 @@ fn shared_scenes_call_for_what_they_contain() {
         effects("envmap"),
         (set(&[Diffuse, Glossy, Environment]), false)
     );
+    // The sunsky's baked sky and sun disc over diffuse objects: both are
+    // environments, so nothing but diffuse and the environment.
+    assert_eq!(effects("sunsky"), (set(&[Diffuse, Environment]), false));
     // Point, spot, sun and sky over diffuse and rough-metal objects.
     assert_eq!(
         effects("lights-punctual"),

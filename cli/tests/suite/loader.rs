@@ -1984,3 +1984,124 @@ fn envmap_emitter_loads_float_images() {
     );
     assert!((le.b - 50.0).abs() < 1e-3, "{le:?}");
 }
+
+/// Mitsuba 3's `sunsky`: a valid one becomes the baked sky (an envmap whose
+/// zenith is the emitter's +z turned by `to_world`) and the sun disc
+/// (direction, aperture, the sun's radiance scaled by `sun_scale`); a sun
+/// below the horizon gives no light (Mitsuba's emitter is black); and each
+/// bad parameter is refused at its own line with what is wrong.
+#[test]
+fn sunsky_loads_and_refuses_bad_parameters() {
+    use cmlt::scene::Light;
+    let body = |params: &str| {
+        format!("<shape type=\"rectangle\"/>\n<emitter type=\"sunsky\">\n{params}\n</emitter>")
+    };
+    let rot = "<transform name=\"to_world\"><rotate x=\"1\" angle=\"-90\"/></transform>";
+    let l = ok(&body(&format!(
+        "<vector name=\"sun_direction\" x=\"0.5\" y=\"0.6\" z=\"-0.4\"/><float name=\"sun_scale\" value=\"2\"/>{rot}"
+    )));
+    let lights: Vec<Light> = l.scene.lights.others().copied().collect();
+    assert_eq!(lights.len(), 2, "{lights:?}");
+    let Light::Envmap { to_world, .. } = lights[0] else {
+        panic!("{:?}", lights[0])
+    };
+    // The map's zenith (+y) is the emitter's +z, which to_world takes to +y.
+    assert!(close(to_world * Vec3::Y, Vec3::Y, 1e-6));
+    let Light::Sun {
+        direction,
+        radiance,
+        half_aperture,
+    } = lights[1]
+    else {
+        panic!("{:?}", lights[1])
+    };
+    assert!(close(
+        -direction,
+        Vec3::new(0.5, 0.6, -0.4).normalize(),
+        1e-6
+    ));
+    assert!((half_aperture - 0.2679).abs() < 1e-6);
+    let unscaled = ok(&body(&format!(
+        "<vector name=\"sun_direction\" x=\"0.5\" y=\"0.6\" z=\"-0.4\"/>{rot}"
+    )));
+    let Some(Light::Sun { radiance: r1, .. }) = unscaled.scene.lights.others().nth(1).copied()
+    else {
+        panic!("no sun")
+    };
+    assert!((radiance.g / r1.g - 2.0).abs() < 1e-5);
+    // Without to_world the same direction is below the z-up horizon.
+    let below = ok(&body(
+        "<vector name=\"sun_direction\" x=\"0.5\" y=\"0.6\" z=\"-0.4\"/>",
+    ));
+    assert_eq!(below.scene.lights.others().count(), 0);
+    assert!(
+        below
+            .warnings
+            .iter()
+            .any(|w| w.contains("below the horizon")),
+        "{:?}",
+        below.warnings
+    );
+    assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    // Time and place (Mitsuba's defaults: Tokyo, 10 July 2010, 15:00).
+    let timed = ok(&body(
+        "<float name=\"hour\" value=\"11\"/><integer name=\"month\" value=\"3\"/>",
+    ));
+    assert_eq!(timed.scene.lights.others().count(), 2);
+    let bad = [
+        (
+            "<float name=\"turbidity\" value=\"11\"/>",
+            "'turbidity' must be in [1, 10]",
+        ),
+        (
+            "<float name=\"sun_scale\" value=\"-1\"/>",
+            "'sun_scale' must be non-negative",
+        ),
+        (
+            "<float name=\"sun_aperture\" value=\"180\"/>",
+            "'sun_aperture' must be in (0, 180)",
+        ),
+        (
+            "<rgb name=\"albedo\" value=\"0.5, 1.5, 0\"/>",
+            "'albedo' must be in [0, 1]",
+        ),
+        (
+            "<texture type=\"checkerboard\" name=\"albedo\"/>",
+            "albedo cannot be a texture",
+        ),
+        (
+            "<boolean name=\"complex_sun\" value=\"true\"/>",
+            "complex_sun",
+        ),
+        (
+            "<vector name=\"sun_direction\" x=\"0\" y=\"1\" z=\"0\"/>\n<float name=\"hour\" value=\"3\"/>",
+            "either 'sun_direction' or the time and place ('hour')",
+        ),
+        (
+            "<vector name=\"sun_direction\" x=\"0\" y=\"0\" z=\"0\"/>",
+            "finite and non-zero",
+        ),
+        (
+            "<integer name=\"month\" value=\"13\"/>",
+            "'month' must be in [1, 12]",
+        ),
+        (
+            "<vector name=\"sun_color\" x=\"1\" y=\"1\" z=\"1\"/>",
+            "unsupported property 'sun_color'",
+        ),
+        (
+            "<transform name=\"to_world\"><scale value=\"2\"/></transform>",
+            "to_world must be a rotation",
+        ),
+    ];
+    for (params, phrase) in bad {
+        let e = match load_body(&body(params)) {
+            Ok(_) => panic!("{params}: loaded"),
+            Err(e) => e,
+        };
+        // The scene's line 7 opens the emitter; its parameters start on 8
+        // (the last one on 9 where there are two).
+        assert!(e.message.contains(phrase), "{params}: {e}");
+        assert!(matches!(e.line, Some(8 | 9)), "{params}: {e}");
+    }
+}

@@ -903,3 +903,14 @@ fn media_behind_glass_mlt_matches_reference() {
     check_reference("media-glass", 4, &mlt, 64);
     check_reference("media-milk", 4, &mlt, 64);
 }
+
+/// Level-1 MLT and CMLT (level 2 with real multiple tries) converge to the
+/// sunsky scene's reference: paths ending on the baked sky or on the sun
+/// disc, an environment a fraction of a degree wide that only light
+/// sampling finds.
+#[test]
+fn sunsky_mlt_and_cmlt_match_reference() {
+    let mlt = Estimator::Mlt(level1(64));
+    check_reference("sunsky", 4, &mlt, 32);
+    check_reference("sunsky", 4, &cmlt_k8_m4(), 16);
+}

@@ -168,6 +168,19 @@ fn envmap_bdpt() {
     check_scene("envmap", Estimator::Bdpt, 32);
 }
 
+/// Mitsuba 3's `sunsky` (tests/scenes/sunsky): the Hosek–Wilkie sky baked
+/// into an environment map and the sun as a disc light, turned by
+/// `to_world`, with non-default turbidity, albedo, scales and aperture.
+#[test]
+fn sunsky_pt() {
+    check_scene("sunsky", Estimator::Path, 64);
+}
+
+#[test]
+fn sunsky_bdpt() {
+    check_scene("sunsky", Estimator::Bdpt, 16);
+}
+
 /// Point, spot, directional and constant lights (tests/scenes/lights-punctual).
 #[test]
 fn lights_punctual_pt() {

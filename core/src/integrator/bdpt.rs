@@ -683,7 +683,7 @@ fn other_light_vertex(scene: &Scene, index: usize, p: Vec3, from: Vec3, d: Vec3)
             v.sp.prim = index as u32;
             v
         }
-        Some(Light::Constant { .. } | Light::Envmap { .. }) => {
+        Some(Light::Constant { .. } | Light::Envmap { .. } | Light::Sun { .. }) => {
             at_infinity(Kind::Environment, from, d, center, r)
         }
         _ => {

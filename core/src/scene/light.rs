@@ -16,7 +16,8 @@
 //! - infinite lights use the scene's bounding sphere of radius r, as
 //!   pbrt-v4 does: a directional light π r² · Y(E), a constant environment
 //!   π r² · 4π · Y(L), an environment map π r² · ∫ Y(L) dω (its mean
-//!   radiance weighted by solid angle, [`EnvMap::luminance_integral`]).
+//!   radiance weighted by solid angle, [`EnvMap::luminance_integral`]), a
+//!   sun disc π r² · Y(L) · Ω with Ω = 2π (1 − cos α) its solid angle.
 //!
 //! Area lights come first in the distribution, so a scene of area lights
 //! only chooses exactly as it always did.
@@ -84,6 +85,21 @@ pub enum Light {
         /// Emitter-to-world rotation (Mitsuba's `to_world` without its
         /// translation, which does not move a light at infinity).
         to_world: Mat3,
+    },
+    /// The sun of Mitsuba 3's `sunsky`: a disc of uniform radiance
+    /// `radiance` at infinity, every direction within `half_aperture`
+    /// degrees of the one it shines from, light travelling along
+    /// `direction`. Rays can hit it (it is an environment, unlike
+    /// [`Light::Directional`]), and it is sampled uniformly in solid angle
+    /// over its cone. The sky around it is a separate [`Light::Envmap`].
+    Sun {
+        /// Direction the light travels in (any length but zero): the
+        /// sun's centre is seen along −`direction`.
+        direction: Vec3,
+        /// Radiance of the disc.
+        radiance: Rgb,
+        /// Angular radius of the disc in degrees, in (0, 90).
+        half_aperture: f32,
     },
 }
 
@@ -163,6 +179,21 @@ impl Light {
                     return Err("constant environment: radiance must be finite and non-negative");
                 }
             }
+            Light::Sun {
+                direction,
+                radiance,
+                half_aperture,
+            } => {
+                if !valid_dir(direction) {
+                    return Err("sun: direction must be finite and non-zero");
+                }
+                if !valid_rgb(radiance) {
+                    return Err("sun: radiance must be finite and non-negative");
+                }
+                if !(half_aperture > 0.0 && half_aperture < 90.0) {
+                    return Err("sun: half_aperture must be in (0, 90) degrees");
+                }
+            }
             Light::Envmap {
                 scale, to_world, ..
             } => {
@@ -187,9 +218,12 @@ impl Light {
     }
 
     /// True for environments: non-delta lights at infinity (constant,
-    /// environment map), which rays escaping the scene see.
+    /// environment map, sun disc), which rays escaping the scene see.
     pub fn is_environment(&self) -> bool {
-        matches!(self, Light::Constant { .. } | Light::Envmap { .. })
+        matches!(
+            self,
+            Light::Constant { .. } | Light::Envmap { .. } | Light::Sun { .. }
+        )
     }
 
     /// True for lights at infinity (directional, constant).
@@ -200,7 +234,9 @@ impl Light {
     /// The effect the light calls for.
     pub fn effect(&self) -> Effect {
         match self {
-            Light::Constant { .. } | Light::Envmap { .. } => Effect::Environment,
+            Light::Constant { .. } | Light::Envmap { .. } | Light::Sun { .. } => {
+                Effect::Environment
+            }
             _ => Effect::PointLights,
         }
     }
@@ -223,6 +259,12 @@ struct Prepared {
     inv_transition: f32,
     /// An environment map's index in [`LightSet::envmaps`].
     env: u32,
+    /// The sun's 1 − cos α and 2 (1 − cos α), the squared chord between
+    /// its centre and its rim on the unit sphere (f64-accurate: at α ≈
+    /// 0.27°, 1 − cos α ≈ 1.1e-5 is far below f32's resolution of cos α
+    /// near 1).
+    sun_one_minus_cos: f32,
+    sun_chord2: f32,
 }
 
 impl Prepared {
@@ -235,6 +277,8 @@ impl Prepared {
             cutoff: PI,
             inv_transition: 0.0,
             env: u32::MAX,
+            sun_one_minus_cos: 0.0,
+            sun_chord2: 0.0,
         };
         match light {
             Light::Spot {
@@ -253,9 +297,33 @@ impl Prepared {
             Light::Directional { direction, .. } => {
                 p.frame = Frame::from_normal(-direction.normalize());
             }
+            Light::Sun {
+                direction,
+                half_aperture,
+                ..
+            } => {
+                p.frame = Frame::from_normal(-direction.normalize());
+                // 1 − cos α = 2 sin²(α/2), exact for small α.
+                let s = libm::sin((half_aperture as f64).to_radians() * 0.5);
+                p.sun_one_minus_cos = (2.0 * s * s) as f32;
+                p.sun_chord2 = (4.0 * s * s) as f32;
+            }
             _ => {}
         }
         p
+    }
+
+    /// Solid angle of the sun's disc, 2π (1 − cos α).
+    fn sun_solid_angle(&self) -> f32 {
+        2.0 * PI * self.sun_one_minus_cos
+    }
+
+    /// True when the unit direction `w` (towards the light) lies in the
+    /// sun's disc: by the squared chord |w − c|² ≤ 2 (1 − cos α), which,
+    /// unlike w · c ≥ cos α, keeps its precision for a disc a fraction of
+    /// a degree wide.
+    fn in_sun(&self, w: Vec3) -> bool {
+        (w - self.frame.n).length_squared() <= self.sun_chord2
     }
 
     /// Luminance power, with the infinite lights' through a disk of radius
@@ -285,6 +353,9 @@ impl Prepared {
             }
             Light::Directional { irradiance, .. } => disk * irradiance.luminance() as f64,
             Light::Constant { radiance } => disk * 4.0 * PI as f64 * radiance.luminance() as f64,
+            Light::Sun { radiance, .. } => {
+                disk * self.sun_solid_angle() as f64 * radiance.luminance() as f64
+            }
             // Needs the map: LightSet::with_bitmaps computes it.
             Light::Envmap { .. } => 0.0,
         }
@@ -308,6 +379,18 @@ impl Prepared {
             }
             _ => Rgb::ZERO,
         }
+    }
+
+    /// A direction towards the sun, uniform in solid angle over its disc:
+    /// 1 − cos θ = u.x (1 − cos α) (the cone's cos θ is uniform), sin θ =
+    /// √(h (2 − h)) from h = 1 − cos θ so that it stays accurate for a
+    /// fraction of a degree.
+    fn sample_sun(&self, u: Vec2) -> Vec3 {
+        let h = u.x * self.sun_one_minus_cos;
+        let sin = crate::math::safe_sqrt(h * (2.0 - h));
+        let phi = 2.0 * PI * u.y;
+        let local = Vec3::new(sin * libm::cosf(phi), sin * libm::sinf(phi), 1.0 - h);
+        self.frame.to_world(local).normalize()
     }
 
     /// Solid-angle density of the direction `w` (unit) a point or spot
@@ -789,6 +872,20 @@ impl LightSet {
                     delta: false,
                 })
             }
+            Light::Sun { radiance, .. } => {
+                let wi = l.sample_sun(u);
+                let pdf = self.pdf_incident(index, wi);
+                if radiance.is_black() || !(pdf > 0.0) {
+                    return None;
+                }
+                Some(Incident {
+                    wi,
+                    position: None,
+                    li: radiance,
+                    pdf,
+                    delta: false,
+                })
+            }
             Light::Envmap { .. } => {
                 let env = &self.envmaps[l.env as usize];
                 let (wi, pdf) = env.sample(u);
@@ -816,6 +913,7 @@ impl LightSet {
         match l.light {
             Light::Constant { .. } => 1.0 / (4.0 * PI),
             Light::Envmap { .. } => self.envmaps[l.env as usize].pdf(wi),
+            Light::Sun { .. } if l.in_sun(wi) => 1.0 / l.sun_solid_angle(),
             _ => 0.0,
         }
     }
@@ -828,6 +926,7 @@ impl LightSet {
         match l.light {
             Light::Constant { radiance } => radiance,
             Light::Envmap { .. } => self.envmaps[l.env as usize].eval(wi),
+            Light::Sun { radiance, .. } if l.in_sun(wi) => radiance,
             _ => Rgb::ZERO,
         }
     }
@@ -883,10 +982,17 @@ impl LightSet {
                     l.pdf_emit_dir(l.frame.n),
                 )
             }
-            Light::Directional { .. } | Light::Constant { .. } | Light::Envmap { .. } => {
+            Light::Directional { .. }
+            | Light::Constant { .. }
+            | Light::Envmap { .. }
+            | Light::Sun { .. } => {
                 let (wi, pdf_dir) = match l.light {
                     Light::Directional { .. } => (l.frame.n, 1.0),
                     Light::Envmap { .. } => self.envmaps[l.env as usize].sample(u_dir),
+                    Light::Sun { .. } => {
+                        let wi = l.sample_sun(u_dir);
+                        (wi, self.pdf_incident(index, wi))
+                    }
                     _ => (warp::square_to_uniform_sphere(u_dir), 1.0 / (4.0 * PI)),
                 };
                 let origin = self.disk_origin(wi, u_pos);
@@ -898,6 +1004,7 @@ impl LightSet {
             Light::Directional { irradiance, .. } => irradiance,
             Light::Constant { radiance } => radiance,
             Light::Envmap { .. } => self.envmaps[l.env as usize].eval(-dir),
+            Light::Sun { .. } => self.radiance(index, -dir),
         };
         if le.is_black() || !(pdf_dir > 0.0) {
             return None;
@@ -1081,5 +1188,83 @@ mod tests {
         // pdf_environment is the selection times the uniform sphere.
         let pdf = set.pdf_environment(Vec3::Z);
         assert!((pdf - (1.0 - want) / (4.0 * PI)).abs() < 1e-7);
+    }
+
+    /// The sun disc at its real size (α = 0.2679°): the directions its
+    /// sampler draws lie in the disc and report the density `pdf_incident`
+    /// gives, that density integrates to one over the disc (a fine grid on
+    /// the tangent plane, so the disc's rim as `in_sun` draws it must hold
+    /// the solid angle 2π (1 − cos α) the density assumes: a rim test in
+    /// f32 cosines would be off by percents), nothing is seen or sampled
+    /// outside it, and its power is π r² · Y(L) · Ω.
+    #[test]
+    fn sun_disc_sampling_and_density() {
+        let alpha = 0.2679f32;
+        let dir = Vec3::new(-0.3, -0.8, 0.2);
+        let radiance = Rgb::new(3.0e4, 2.5e4, 2.0e4);
+        let set = LightSet::new(
+            &[],
+            &[Light::Sun {
+                direction: dir,
+                radiance,
+                half_aperture: alpha,
+            }],
+        );
+        assert!(set.has_environment());
+        let omega = 2.0 * core::f64::consts::PI * (1.0 - libm::cos((alpha as f64).to_radians()));
+        let centre = -dir.normalize();
+        let cos_alpha = libm::cos((alpha as f64).to_radians());
+        for k in 0..500 {
+            let u = Vec2::new((k as f32 + 0.5) / 500.0, (k as f32 * 0.618_034).fract());
+            let inc = set
+                .sample_incident(0, Vec3::ZERO, u)
+                .expect("inside the disc");
+            assert!(!inc.delta && inc.position.is_none());
+            assert_eq!(inc.li, radiance);
+            assert!((inc.pdf as f64 * omega - 1.0).abs() < 1e-3, "{}", inc.pdf);
+            assert!((inc.wi.dot(centre) as f64) >= cos_alpha - 1e-7);
+            let e = set.sample_emission(0, u, u).expect("emits");
+            assert_eq!((e.le, e.pdf_dir), (radiance, inc.pdf));
+            assert!(set.radiance(0, -e.dir) == radiance);
+        }
+        // ∫ pdf dω over the tangent plane: dω = dx dy / (1 + x² + y²)^{3/2}.
+        let f = Frame::from_normal(centre);
+        let half = 1.3 * (alpha as f64).to_radians();
+        let n = 600;
+        let h = 2.0 * half / n as f64;
+        let (mut integral, mut seen) = (0.0f64, 0.0f64);
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = (-half + (i as f64 + 0.5) * h, -half + (j as f64 + 0.5) * h);
+                let w = (f.n + f.s * x as f32 + f.t * y as f32).normalize();
+                let dw = h * h / libm::pow(1.0 + x * x + y * y, 1.5);
+                integral += set.pdf_incident(0, w) as f64 * dw;
+                seen += set.radiance(0, w).r as f64 * dw;
+            }
+        }
+        assert!((integral - 1.0).abs() < 5e-3, "{integral}");
+        assert!(
+            (seen / (radiance.r as f64 * omega) - 1.0).abs() < 5e-3,
+            "{seen}"
+        );
+        // Twice the radius off the centre: neither seen nor sampled.
+        let off = (f.n + f.s * 2.0 * alpha.to_radians()).normalize();
+        assert_eq!(
+            (set.radiance(0, off), set.pdf_incident(0, off)),
+            (Rgb::ZERO, 0.0)
+        );
+        let (_, r) = set.bounding_sphere();
+        let power = PI as f64 * (r as f64).powi(2) * omega * radiance.luminance() as f64;
+        let p = Prepared::new(set.others[0].light);
+        assert!((p.power(r) / power - 1.0).abs() < 1e-3);
+        assert!(
+            Light::Sun {
+                direction: dir,
+                radiance,
+                half_aperture: 90.0
+            }
+            .validate()
+            .is_err()
+        );
     }
 }
