@@ -418,6 +418,16 @@ impl PathVertex {
     pub fn is_specular(&self) -> bool {
         self.shading.is_some_and(|s| s.bsdf.is_delta())
     }
+
+    /// True for a scattering point in a medium (scenes with media only):
+    /// the one kind of vertex on no surface (`sp.surface` is `u32::MAX`)
+    /// with a zero normal and no shading, its medium's index in
+    /// `sp.prim` (the lens point has the viewing direction as normal, a
+    /// point or spot light the direction it is seen in).
+    #[inline]
+    pub fn is_medium(&self) -> bool {
+        self.shading.is_none() && self.sp.surface == u32::MAX && self.sp.ng == Vec3::ZERO
+    }
 }
 
 /// Writes the complete path x₀ … x_k of the last [`sample_strategy`] call

@@ -60,12 +60,19 @@
 
 mod caustic;
 mod lens;
+#[cfg(feature = "media")]
+mod media;
+#[cfg(all(test, feature = "std", feature = "media", feature = "specular"))]
+mod media_tests;
 mod multi_chain;
 mod retrace;
 
 pub(crate) use caustic::{CausticProposal, CausticState, CausticTarget};
 pub(crate) use lens::{LensProposal, LensState, LensTarget};
 pub(crate) use multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
+
+#[cfg(feature = "media")]
+pub(crate) use media::LensMedia;
 
 use glam::Vec3;
 
@@ -215,6 +222,52 @@ pub(crate) struct LensAnchor {
     pub chain: SpecularChain,
     /// How the new x′_t is completed.
     pub end: LensEnd,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`LensAnchor::complete_media`] sets it; `None` until then, and
+    /// always in a scene without media).
+    #[cfg(feature = "media")]
+    pub media: Option<LensMedia>,
+}
+
+impl LensAnchor {
+    /// In a scene with media, measures the media along the level-1 path
+    /// `path` this anchor was classified from (with rays: the
+    /// transmittance of each segment) and completes the anchor with them,
+    /// the tail's colour included (see `media`'s module docs). False when
+    /// the path's own segments cannot be measured (a zero transmittance by
+    /// rounding): the side chain must then stay at its start. A scene
+    /// without media needs nothing: true.
+    pub(crate) fn complete_media<I: Intersector>(
+        &mut self,
+        tr: &mut Tracer<'_, I>,
+        path: &[PathVertex],
+    ) -> bool {
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            let t = self.chain.len() + 1;
+            let Some((m, tail)) = media::lens_media(tr, path, t) else {
+                return false;
+            };
+            if let LensEnd::Connect { tail: old, .. } = &mut self.end {
+                *old = tail;
+            }
+            self.media = Some(m);
+        }
+        let _ = (tr, path);
+        true
+    }
+
+    /// Whether the anchor can be evaluated: a scene without media, or one
+    /// with media whose anchor [`LensAnchor::complete_media`] completed.
+    #[inline]
+    pub(crate) fn is_complete<I: Intersector>(&self, tr: &Tracer<'_, I>) -> bool {
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            return self.media.is_some();
+        }
+        let _ = tr;
+        true
+    }
 }
 
 /// The far end of a lens perturbation.
@@ -291,15 +344,6 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
     if path.len() < 2 || tr.has_alpha_masks() {
         return Applicable::Neither;
     }
-    // In a scene with media or null boundaries the perturbations would
-    // retrace and re-evaluate a path's segments as surface-to-surface
-    // segments in vacuum: no transmittance, no medium vertices, a null
-    // boundary taken for a surface. Their target would then not be the
-    // level-1 contribution of the path, so every path stays at its
-    // level-1 state (the identity kernel, always correct).
-    if tr.has_media() {
-        return Applicable::Neither;
-    }
     // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
     // coating): the perturbations evaluate such a vertex with `eval`, which
     // holds only the smooth lobes, so their target would not be the level-1
@@ -318,6 +362,10 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
         return Applicable::Neither;
     }
     let p_lens = path[0].sp.p;
+    // A medium vertex (no shading, `PathVertex::is_medium`) is a
+    // non-specular vertex: it ends a specular chain as a diffuse surface
+    // does, and the lens perturbation moves it at its free-flight distance
+    // (`media`).
     // A vertex without shading (a sampled light point) is never specular,
     // and without specular chains in the scene none is: no vertex is
     // inspected, the caustic branch is never reached and every path gets
@@ -335,6 +383,8 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
                 p_lens,
                 chain,
                 end: LensEnd::Emitter,
+                #[cfg(feature = "media")]
+                media: None,
             }),
             None => Applicable::Neither,
         };
@@ -357,7 +407,18 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
                 after,
                 tail,
             },
+            #[cfg(feature = "media")]
+            media: None,
         });
+    }
+    // Through media only the lens perturbation is implemented (`media`):
+    // a caustic or multi-chain path of a scene with media or null
+    // boundaries would be retraced as surface-to-surface segments in
+    // vacuum (no transmittance, no medium vertex, a null boundary taken
+    // for a surface), a target that is not the path's contribution, so it
+    // stays at its level-1 state (the identity kernel, always correct).
+    if tr.has_media() {
+        return Applicable::Neither;
     }
     // t + 1 is specular: a caustic if t = 1 and the chain ends on a
     // non-specular vertex or the emitter, else a multi-chain path.
