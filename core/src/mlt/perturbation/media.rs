@@ -1,6 +1,7 @@
-//! The lens perturbation through media and null boundaries (scenes with
+//! Level 2's perturbations through media and null boundaries (scenes with
 //! media only; a scene without runs none of this, and its side chains are
-//! those of [`super::lens`] bit for bit).
+//! those of [`super::lens`], [`super::caustic`] and [`super::multi_chain`]
+//! bit for bit).
 //!
 //! ## The path's contribution with media
 //!
@@ -17,52 +18,56 @@
 //! A medium vertex is a non-specular vertex: it ends a specular chain as a
 //! diffuse surface does ([`crate::integrator::bdpt::PathVertex::is_medium`],
 //! never [`crate::integrator::bdpt::PathVertex::is_specular`]), so
-//! [`super::classify`] finds the same classes. Only the lens perturbation
-//! is implemented through media; a caustic or multi-chain path of a scene
-//! with media stays at its level-1 state (the identity kernel).
+//! [`super::classify`] finds the same classes, and each perturbation moves
+//! the same coordinates as without media. Null boundaries are crossed
+//! without a vertex, switching the medium, as BDPT's walks cross them.
 //!
 //! ## The free-flight distance is kept
 //!
-//! When x_t is a medium vertex the perturbation keeps its distance
-//! s = |x_t − x_{t−1}| along the last segment of the retraced camera chain
-//! (Veach's, and Mitsuba 0.6's, choice): the new x′_t is x′_{t−1} + s ω′,
-//! ω′ the retraced direction. The state is then (raster position, s), the
-//! proposal moves the raster position by the symmetric clamped Gaussian of
-//! [`super::lens::LensProposal`] and leaves s alone: a block update of the
-//! raster coordinates given s, which leaves any distribution over
-//! (raster, s) invariant when its acceptance uses that distribution's
-//! density as a function of the raster position at that s. No density of
-//! s enters the ratio (T(x→y) is the same symmetric Gaussian; s is not
-//! drawn).
+//! When the vertex that ends a retraced chain — x_t for the lens
+//! perturbation, x₁ for the caustic one, x_t and x_u for the multi-chain
+//! one — is a medium vertex, the perturbation keeps its distance s from
+//! its predecessor along the retraced ray (Veach's, and Mitsuba 0.6's,
+//! choice): the new vertex is x′ + s ω′, x′ the retraced predecessor and ω′
+//! the retraced direction. The state is then (raster position or
+//! direction, s), the proposal moves the first coordinates by its
+//! symmetric clamped Gaussian and leaves s alone: a block update of those
+//! coordinates given s, which leaves any distribution over the state
+//! invariant when its acceptance uses that distribution's density as a
+//! function of the moved coordinates at that s. No density of s enters the
+//! ratio (T(x→y) is the same symmetric Gaussian; s is not drawn).
 //!
-//! That density is f(x̄) times the Jacobian from (raster, s) to the moving
-//! vertices' measure. The specular chain maps the raster position to the
-//! direction ω′ of its last segment exactly as it does without media, and
-//! a point at distance s along ω′ has volume element s² ds dω′; f's
-//! geometry term of that segment is |cos at x′_{t−1}| / s² (no cosine at a
-//! medium vertex), so s² cancels as d²/cos_t cancels against a surface
-//! x_t's geometry term. What is left is the camera-side throughput per unit
-//! raster area through the chain (1 for our camera, times the specular
-//! lobes) times the transmittance of every segment up to x′_t, σ_s(x′_t),
-//! then the connection to the fixed x_{t+1} (phase function at x′_t, the
-//! geometry term without the medium ends' cosines, its transmittance) and
-//! the fixed rest: a path tracer's estimate of the path with every
-//! coordinate density (raster, direction, free-flight distance) set to 1.
-//! A candidate whose retraced segment meets a surface before s, or whose
+//! That density is f(x̄) times the Jacobian from the state to the moving
+//! vertices' measure. The specular chain maps the raster position (or the
+//! direction at x_j) to the direction ω′ of its last segment exactly as it
+//! does without media, and a point at distance s along ω′ has volume
+//! element s² ds dω′; f's geometry term of that segment is |cos at x′| / s²
+//! (no cosine at a medium vertex), so s² cancels as d²/cos cancels against
+//! a surface vertex's geometry term. What is left is the perturbation's
+//! target without media — a path tracer's (or light tracer's) estimate of
+//! the path with every coordinate density (raster, direction, free-flight
+//! distance) set to 1 — with the transmittance of every segment, σ_s at
+//! each medium vertex and its phase function in place of BSDF × cosine. A
+//! candidate whose retraced segment meets a surface before s, or whose
 //! point at s lies in vacuum, is no path of the class: zero.
 //!
 //! The fixed part's colour (the tail, [`super::tail_colour`]) gains the
-//! transmittance of the segments from x_{t+1} on and σ_s × phase at its
-//! medium vertices; x_{t+1}'s own factor is evaluated with the end.
+//! transmittance of its segments and σ_s × phase at its medium vertices,
+//! measured once per side chain along the level-1 path
+//! ([`super::Applicable::complete_media`]); the fixed vertex joined to the
+//! moving end is evaluated with the end.
+//!
+//! Candidates are traced one lane at a time, not as packets: only scenes
+//! with media take this code.
 
 use glam::{Vec2, Vec3};
 
-use super::{LensAnchor, LensEnd, is_reflection};
+use super::{CausticAnchor, LensAnchor, LensEnd, MultiChainAnchor, SpecularChain, is_reflection};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::{PathVertex, scatter};
+use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
 use crate::integrator::tracer::{Endpoint, MAX_NULL_CROSSINGS, Shading};
 use crate::math::Rgb;
 use crate::scene::{MaterialKind, MediumId, Phase, SurfacePoint};
@@ -130,32 +135,35 @@ fn medium_leaving<I: Intersector>(
 
 /// σ_s × phase at medium vertex `v` for light between `a` and `b` (the
 /// phase function depends only on the angle, so the order does not matter).
-fn medium_factor<I: Intersector>(tr: &Tracer<'_, I>, v: &PathVertex, a: Vec3, b: Vec3) -> Rgb {
+pub(super) fn medium_factor<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    v: &PathVertex,
+    a: Vec3,
+    b: Vec3,
+) -> Rgb {
     let m = tr.scene.medium(medium_of(v));
     let d = (v.sp.p - a).normalize();
     let wi = (b - v.sp.p).normalize();
     m.sigma_s() * m.phase().eval(d, wi)
 }
 
-/// The lens perturbation's media facts of the level-1 path `path` whose
-/// first non-specular vertex is x_t, and the colour of its fixed part from
-/// x_{t+2} on (`None` when x_t is the emitter): [`super::tail_colour`] with
-/// medium vertices' σ_s × phase and the transmittance of the segments
-/// x_{t+1} → … → x_k. The media along the path are tracked from the
-/// camera's, segment by segment, with the transmittance queries BDPT
-/// connects with. `None` when a segment's transmittance is zero (a
-/// segment the query finds blocked, by rounding): no perturbation then.
-pub(super) fn lens_media<I: Intersector>(
+/// Walks the level-1 path's segments x_i → x_{i+1} from the camera's
+/// medium, handing each to `seg(i, transmittance)`, and returns the medium
+/// each vertex lies in through `around(i, medium)` (the one its incoming
+/// segment arrives in); media are tracked as BDPT's walks track them
+/// (a surface naming media decides, null boundaries switch), with the
+/// transmittance queries BDPT connects with. False when a segment's
+/// transmittance is zero (found blocked, by rounding): no perturbation
+/// then.
+pub(super) fn walk_media<I: Intersector>(
     tr: &mut Tracer<'_, I>,
     path: &[PathVertex],
-    t: usize,
-) -> Option<(LensMedia, Rgb)> {
+    mut seg: impl FnMut(usize, Rgb),
+    mut around: impl FnMut(usize, Option<MediumId>),
+) -> bool {
     let k = path.len() - 1;
-    let camera = tr.scene.camera_medium();
-    let mut medium = camera;
-    let mut camera_part = Rgb::ONE;
-    let mut tail_trans = Rgb::ONE;
-    let mut toward_next = None;
+    let mut medium = tr.scene.camera_medium();
+    around(0, medium);
     for i in 0..k {
         let (a, b) = (&path[i], &path[i + 1]);
         let start = if i > 0 && !a.is_medium() {
@@ -173,38 +181,178 @@ pub(super) fn lens_media<I: Intersector>(
             |m, _| arrival = m,
         );
         if tr_i.is_black() || !tr_i.is_finite() {
-            return None;
+            return false;
         }
-        if i < t {
-            camera_part *= tr_i;
-        } else if i == t {
-            toward_next = start;
-        } else {
-            tail_trans *= tr_i;
-        }
+        seg(i, tr_i);
         medium = arrival;
+        around(i + 1, medium);
     }
-    let x_t = &path[t];
-    let scatter_at = if x_t.is_medium() {
-        camera_part *= tr.scene.medium(medium_of(x_t)).sigma_s();
-        Some((x_t.sp.p - path[t - 1].sp.p).length())
-    } else {
-        None
-    };
-    let tail = if t + 1 < k {
-        tail_colour(tr, path, t + 2) * tail_trans
+    true
+}
+
+/// The free-flight distance a perturbation keeps at `path[i]` (from
+/// `path[from]`, its predecessor in tracing order) when it is a medium
+/// vertex.
+fn kept_distance(path: &[PathVertex], i: usize, from: usize) -> Option<f32> {
+    path[i]
+        .is_medium()
+        .then(|| (path[i].sp.p - path[from].sp.p).length())
+}
+
+/// The colour of the fixed part of `path` from x_{from} on through media:
+/// [`tail_colour`] times `trans`, the transmittance of its segments; 1
+/// when `from` is past the emitter (nothing fixed beyond the end).
+fn fixed_tail<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    path: &[PathVertex],
+    from: usize,
+    trans: Rgb,
+) -> Rgb {
+    if from < path.len() {
+        tail_colour(tr, path, from) * trans
     } else {
         Rgb::ONE
-    };
+    }
+}
+
+/// The lens perturbation's media facts of the level-1 path `path` whose
+/// first non-specular vertex is x_t, and the colour of its fixed part from
+/// x_{t+2} on (1 when there is none): [`tail_colour`] with medium vertices'
+/// σ_s × phase, times the transmittance of the segments x_{t+1} → … → x_k.
+/// `None` when [`walk_media`] fails.
+pub(super) fn lens_media<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    path: &[PathVertex],
+    t: usize,
+) -> Option<(LensMedia, Rgb)> {
+    let (mut camera_part, mut tail, mut toward_next) = (Rgb::ONE, Rgb::ONE, None);
+    let mut at_t = None;
+    let camera = tr.scene.camera_medium();
+    let ok = walk_media(
+        tr,
+        path,
+        |i, tr_i| {
+            if i < t {
+                camera_part *= tr_i;
+            } else if i > t {
+                tail *= tr_i;
+            }
+        },
+        |i, m| {
+            if i == t {
+                at_t = m;
+            }
+        },
+    );
+    if !ok {
+        return None;
+    }
+    let x_t = &path[t];
+    if x_t.is_medium() {
+        camera_part *= tr.scene.medium(medium_of(x_t)).sigma_s();
+        toward_next = at_t;
+    } else if t + 1 < path.len() {
+        toward_next = medium_leaving(tr, &x_t.sp, at_t, path[t + 1].sp.p - x_t.sp.p);
+    }
     Some((
         LensMedia {
             camera,
-            scatter_at,
+            scatter_at: kept_distance(path, t, t - 1),
             camera_part,
             toward_next,
         },
-        tail,
+        fixed_tail(tr, path, t + 2, tail),
     ))
+}
+
+/// What the caustic perturbation through media needs beyond
+/// [`CausticAnchor`]'s surface fields.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CausticMedia {
+    /// The medium x_j lies in (the rays leaving it start there unless its
+    /// surface names media).
+    pub origin: Option<MediumId>,
+    /// |x₁ − x₂| when x₁ is a medium vertex (kept by the perturbation).
+    pub scatter_at: Option<f32>,
+}
+
+/// The caustic perturbation's media facts of `path` (x_j the far end of
+/// its chain) and the colour of its fixed part from x_{j+1} on, with the
+/// transmittance of the segments x_j → … → x_k.
+pub(super) fn caustic_media<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    path: &[PathVertex],
+    j: usize,
+) -> Option<(CausticMedia, Rgb)> {
+    let (mut tail, mut origin) = (Rgb::ONE, None);
+    let ok = walk_media(
+        tr,
+        path,
+        |i, tr_i| {
+            if i >= j {
+                tail *= tr_i;
+            }
+        },
+        |i, m| {
+            if i == j {
+                origin = m;
+            }
+        },
+    );
+    ok.then(|| {
+        (
+            CausticMedia {
+                origin,
+                scatter_at: kept_distance(path, 1, 2),
+            },
+            fixed_tail(tr, path, j + 1, tail),
+        )
+    })
+}
+
+/// What the multi-chain perturbation through media needs beyond
+/// [`MultiChainAnchor`]'s surface fields.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MultiChainMedia {
+    /// The medium the camera rays start in.
+    pub camera: Option<MediumId>,
+    /// |x_t − x_{t−1}| when x_t is a medium vertex.
+    pub scatter_t: Option<f32>,
+    /// |x_u − x_{u−1}| when x_u is a medium vertex.
+    pub scatter_u: Option<f32>,
+}
+
+/// The multi-chain perturbation's media facts of `path` (x_t, x_u the ends
+/// of its two chains) and the colour of its fixed part from x_{u+2} on,
+/// with the transmittance of the segments x_{u+1} → … → x_k.
+pub(super) fn multi_chain_media<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    path: &[PathVertex],
+    t: usize,
+    u: usize,
+) -> Option<(MultiChainMedia, Rgb)> {
+    let mut tail = Rgb::ONE;
+    let camera = tr.scene.camera_medium();
+    let ok = walk_media(
+        tr,
+        path,
+        |i, tr_i| {
+            if i > u {
+                tail *= tr_i;
+            }
+        },
+        |_, _| {},
+    );
+    ok.then(|| {
+        (
+            MultiChainMedia {
+                camera,
+                scatter_t: kept_distance(path, t, t - 1),
+                scatter_u: kept_distance(path, u, u - 1),
+            },
+            fixed_tail(tr, path, u + 2, tail),
+        )
+    })
 }
 
 /// [`super::tail_colour`] through media: a medium vertex weighs σ_s ×
@@ -291,6 +439,107 @@ fn trace_through<I: Intersector>(
     None
 }
 
+/// Where a retrace through media ends ([`retrace`]).
+struct Reached {
+    /// x′: a surface point or a point in a medium.
+    here: Here,
+    /// The vertex before it (for its incoming direction).
+    prev: Vec3,
+    /// Specular lobes crossed, the transmittance of every segment and σ_s
+    /// at a medium end.
+    beta: Rgb,
+    /// The medium x′ lies in (or a surface x′ was reached through).
+    around: Option<MediumId>,
+}
+
+/// Retraces one ray from the start point (`p`, error bound `p_err`,
+/// normal `ng`, zero off surfaces) along unit `d` in `medium` through the
+/// specular `chain` (each link the recorded lobe, in transport `mode`, null
+/// boundaries crossed), to its end: the point at distance `scatter_at`
+/// along the last segment (a medium vertex, which must lie in a medium
+/// and before any surface) or the next non-specular surface. `None` when
+/// the ray leaves the class.
+#[allow(clippy::too_many_arguments)]
+fn retrace<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    (mut p, mut p_err, mut ng): (Vec3, Vec3, Vec3),
+    mut d: Vec3,
+    mut medium: Option<MediumId>,
+    chain: &SpecularChain,
+    mode: TransportMode,
+    scatter_at: Option<f32>,
+) -> Option<Reached> {
+    let scene = tr.scene;
+    let mut beta = Rgb::ONE;
+    for link in 0..chain.len() {
+        let o = offset::offset_ray_origin(p, p_err, ng, d);
+        let (h, trans, arrival) = trace_through(tr, Ray::new(o, d), medium)?;
+        tr.stats.bsdf_samples.add(h.bsdf.lobe());
+        let (wi, w) = h
+            .bsdf
+            .specular(h.frame.to_local(-d), chain.reflects(link), mode)?;
+        let wi = h.frame.to_world(wi);
+        let mut w = w;
+        if mode == TransportMode::Importance {
+            w *= shading_correction(&h.sp, -d, wi);
+        }
+        beta *= trans * w;
+        if beta.is_black() || !beta.is_finite() {
+            return None;
+        }
+        medium = medium_leaving(tr, &h.sp, arrival, wi);
+        (p, p_err, ng, d) = (h.sp.p, h.sp.p_error, h.sp.ng, wi);
+    }
+    let prev = p;
+    match scatter_at {
+        Some(s) => {
+            // x′ at the kept distance: the query is zero when a surface
+            // other than a null boundary comes first; the last stretch's
+            // medium is the one x′ lies in.
+            let x = p + d * s;
+            let mut at = medium;
+            let trans =
+                tr.transmittance_pieces(p, p_err, ng, Endpoint::Point(x), medium, |m, _| at = m);
+            let id = at?;
+            beta *= trans * scene.medium(id).sigma_s();
+            (!beta.is_black()).then_some(Reached {
+                here: Here::Medium(x, id),
+                prev,
+                beta,
+                around: Some(id),
+            })
+        }
+        None => {
+            let o = offset::offset_ray_origin(p, p_err, ng, d);
+            let (h, trans, arrival) = trace_through(tr, Ray::new(o, d), medium)?;
+            if h.bsdf.is_delta() {
+                return None;
+            }
+            beta *= trans;
+            (!beta.is_black()).then_some(Reached {
+                here: Here::Surface(h.sp, Some(h)),
+                prev,
+                beta,
+                around: arrival,
+            })
+        }
+    }
+}
+
+/// The medium the connection from `here` (in `around`) towards `to`
+/// starts in.
+fn medium_towards<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    here: &Here,
+    around: Option<MediumId>,
+    to: Vec3,
+) -> Option<MediumId> {
+    match here {
+        Here::Surface(sp, _) => medium_leaving(tr, sp, around, to - sp.p),
+        Here::Medium(..) => around,
+    }
+}
+
 /// The lens target through media of the path crossing the image at
 /// `raster` ([`super::lens::LensTarget`]'s, per lane: the module docs
 /// derive it). Zero when the retrace leaves the class.
@@ -300,73 +549,23 @@ pub(super) fn lens_value<I: Intersector>(
     media: &LensMedia,
     raster: Vec2,
 ) -> Rgb {
-    let scene = tr.scene;
     let ray = tr.camera.ray_from_lens(raster, anchor.p_lens);
-    // The segment's start: point, error bound, normal (zero off surfaces).
-    let (mut p, mut p_err, mut ng) = (ray.o, Vec3::ZERO, Vec3::ZERO);
-    let mut d = ray.d.normalize();
-    let mut medium = media.camera;
-    let mut beta = Rgb::ONE;
-    for link in 0..anchor.chain.len() {
-        let o = offset::offset_ray_origin(p, p_err, ng, d);
-        let Some((h, trans, arrival)) = trace_through(tr, Ray::new(o, d), medium) else {
-            return Rgb::ZERO;
-        };
-        tr.stats.bsdf_samples.add(h.bsdf.lobe());
-        let Some((wi, w)) = h.bsdf.specular(
-            h.frame.to_local(-d),
-            anchor.chain.reflects(link),
-            TransportMode::Radiance,
-        ) else {
-            return Rgb::ZERO;
-        };
-        let wi = h.frame.to_world(wi);
-        beta *= trans * w;
-        if beta.is_black() || !beta.is_finite() {
-            return Rgb::ZERO;
-        }
-        medium = medium_leaving(tr, &h.sp, arrival, wi);
-        (p, p_err, ng, d) = (h.sp.p, h.sp.p_error, h.sp.ng, wi);
-    }
-    let prev = p;
-    let here = match media.scatter_at {
-        Some(s) => {
-            // x′_t at the kept distance: the query is zero when a surface
-            // other than a null boundary comes first; the last stretch's
-            // medium is the one x′_t lies in.
-            let x = p + d * s;
-            let mut at = medium;
-            let trans =
-                tr.transmittance_pieces(p, p_err, ng, Endpoint::Point(x), medium, |m, _| at = m);
-            let Some(id) = at else {
-                return Rgb::ZERO;
-            };
-            beta *= trans * scene.medium(id).sigma_s();
-            (Here::Medium(x, id), Some(id))
-        }
-        None => {
-            let o = offset::offset_ray_origin(p, p_err, ng, d);
-            let Some((h, trans, arrival)) = trace_through(tr, Ray::new(o, d), medium) else {
-                return Rgb::ZERO;
-            };
-            if h.bsdf.is_delta() {
-                return Rgb::ZERO;
-            }
-            beta *= trans;
-            (Here::Surface(h.sp, Some(h)), arrival)
-        }
-    };
-    if beta.is_black() {
+    let Some(r) = retrace(
+        tr,
+        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        ray.d.normalize(),
+        media.camera,
+        &anchor.chain,
+        TransportMode::Radiance,
+        media.scatter_at,
+    ) else {
         return Rgb::ZERO;
-    }
-    let (here, around) = here;
-    let toward = match (&here, &anchor.end) {
-        (Here::Surface(sp, _), LensEnd::Connect { next, .. }) => {
-            medium_leaving(tr, sp, around, next.sp.p - sp.p)
-        }
-        _ => around,
     };
-    end_value(tr, &anchor.end, &here, prev, beta, toward)
+    let toward = match &anchor.end {
+        LensEnd::Connect { next, .. } => medium_towards(tr, &r.here, r.around, next.sp.p),
+        LensEnd::Emitter => r.around,
+    };
+    end_value(tr, &anchor.end, &r.here, r.prev, r.beta, toward)
 }
 
 /// The value of a path whose camera part ends at `here`, reached from
@@ -472,4 +671,155 @@ pub(super) fn lens_value_of_path<I: Intersector>(
         beta,
         media.toward_next,
     ))
+}
+
+/// The caustic target through media for the direction `dir` leaving x_j
+/// ([`super::caustic::CausticTarget`]'s, per lane): x_j's factor per unit
+/// solid angle (σ_s × phase at a medium vertex, no cosine), the retrace
+/// through the chain towards the camera (x′₁ at the kept distance when it
+/// is a medium vertex, with its σ_s), and BDPT's t = 1 lens connection with
+/// its transmittance. With the value, where it lands on the image; `None`
+/// when the retrace leaves the class or the camera cannot see x′₁.
+pub(super) fn caustic_value<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &CausticAnchor,
+    media: &CausticMedia,
+    dir: Vec3,
+) -> Option<(Rgb, Vec2)> {
+    let scene = tr.scene;
+    let o = &a.origin;
+    let (f, start, medium) = if o.is_medium() {
+        // A medium vertex is never the emitter: `before` is set.
+        let before = a.before?;
+        (
+            medium_factor(tr, o, before, o.sp.p + dir),
+            (o.sp.p, Vec3::ZERO, Vec3::ZERO),
+            media.origin,
+        )
+    } else {
+        let f = match (&a.before, &o.shading) {
+            (None, _) => scene.emitted(&o.sp, dir) * o.sp.ng.dot(dir).abs(),
+            (Some(before), Some(sh)) => {
+                tr.stats.bsdf_evals.add(sh.bsdf.lobe());
+                scatter(sh, *before, o.sp.p + dir, TransportMode::Importance)
+                    * o.sp.ns.dot(dir).abs()
+            }
+            (Some(_), None) => return None,
+        };
+        (
+            f,
+            (o.sp.p, o.sp.p_error, o.sp.ng),
+            medium_leaving(tr, &o.sp, media.origin, dir),
+        )
+    };
+    if f.is_black() || !f.is_finite() {
+        return None;
+    }
+    let r = retrace(
+        tr,
+        start,
+        dir,
+        medium,
+        &a.chain,
+        TransportMode::Importance,
+        media.scatter_at,
+    )?;
+    let x = r.here.p();
+    let conn = tr.camera.connect_at(x, a.p_lens)?;
+    let to_cam = conn.p_lens - x;
+    let d2 = to_cam.length_squared();
+    let w = to_cam / libm::sqrtf(d2);
+    let (f1, cos1, (p, p_err, ng)) = match &r.here {
+        Here::Surface(_, Some(h)) => {
+            tr.stats.bsdf_evals.add(h.bsdf.lobe());
+            (
+                scatter(h, r.prev, conn.p_lens, TransportMode::Importance),
+                h.sp.ns.dot(w).abs(),
+                (h.sp.p, h.sp.p_error, h.sp.ng),
+            )
+        }
+        Here::Surface(_, None) => return None,
+        Here::Medium(p, id) => (
+            Rgb::splat(scene.medium(*id).phase().eval((*p - r.prev).normalize(), w)),
+            1.0,
+            (*p, Vec3::ZERO, Vec3::ZERO),
+        ),
+    };
+    let v =
+        f * a.tail * r.beta * f1 * (cos1 * conn.we * conn.cos_theta / (d2 * conn.pdf_lens_area));
+    if v.is_black() || !v.is_finite() {
+        return None;
+    }
+    let toward = medium_towards(tr, &r.here, r.around, conn.p_lens);
+    let trans = tr.transmittance(p, p_err, ng, Endpoint::Point(conn.p_lens), toward);
+    Some((v * trans, conn.raster))
+}
+
+/// The multi-chain target through media at raster position `raster` and
+/// direction `dir` leaving x′_t ([`super::multi_chain::MultiChainTarget`]'s,
+/// per lane): the camera chain to x′_t (at its kept distance when a medium
+/// vertex), x′_t's factor per unit solid angle of `dir` (phase function
+/// at a medium vertex, no cosine), the second chain to x′_u (likewise) and
+/// the lens perturbation's end value from there.
+pub(super) fn multi_chain_value<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &MultiChainAnchor,
+    media: &MultiChainMedia,
+    raster: Vec2,
+    dir: Vec3,
+) -> Rgb {
+    let scene = tr.scene;
+    let ray = tr.camera.ray_from_lens(raster, a.p_lens);
+    let Some(r1) = retrace(
+        tr,
+        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        ray.d.normalize(),
+        media.camera,
+        &a.first,
+        TransportMode::Radiance,
+        media.scatter_t,
+    ) else {
+        return Rgb::ZERO;
+    };
+    let (f, start, medium) = match &r1.here {
+        Here::Surface(_, Some(h)) => {
+            tr.stats.bsdf_evals.add(h.bsdf.lobe());
+            (
+                scatter(h, r1.prev, h.sp.p + dir, TransportMode::Radiance) * h.sp.ns.dot(dir).abs(),
+                (h.sp.p, h.sp.p_error, h.sp.ng),
+                medium_leaving(tr, &h.sp, r1.around, dir),
+            )
+        }
+        Here::Surface(_, None) => return Rgb::ZERO,
+        Here::Medium(p, id) => (
+            Rgb::splat(
+                scene
+                    .medium(*id)
+                    .phase()
+                    .eval((*p - r1.prev).normalize(), dir),
+            ),
+            (*p, Vec3::ZERO, Vec3::ZERO),
+            Some(*id),
+        ),
+    };
+    let beta = r1.beta * f;
+    if beta.is_black() || !beta.is_finite() {
+        return Rgb::ZERO;
+    }
+    let Some(r2) = retrace(
+        tr,
+        start,
+        dir,
+        medium,
+        &a.second,
+        TransportMode::Radiance,
+        media.scatter_u,
+    ) else {
+        return Rgb::ZERO;
+    };
+    let toward = match &a.end {
+        LensEnd::Connect { next, .. } => medium_towards(tr, &r2.here, r2.around, next.sp.p),
+        LensEnd::Emitter => r2.around,
+    };
+    end_value(tr, &a.end, &r2.here, r2.prev, beta * r2.beta, toward)
 }

@@ -72,7 +72,7 @@ pub(crate) use lens::{LensProposal, LensState, LensTarget};
 pub(crate) use multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
 
 #[cfg(feature = "media")]
-pub(crate) use media::LensMedia;
+pub(crate) use media::{CausticMedia, LensMedia, MultiChainMedia};
 
 use glam::Vec3;
 
@@ -229,47 +229,6 @@ pub(crate) struct LensAnchor {
     pub media: Option<LensMedia>,
 }
 
-impl LensAnchor {
-    /// In a scene with media, measures the media along the level-1 path
-    /// `path` this anchor was classified from (with rays: the
-    /// transmittance of each segment) and completes the anchor with them,
-    /// the tail's colour included (see `media`'s module docs). False when
-    /// the path's own segments cannot be measured (a zero transmittance by
-    /// rounding): the side chain must then stay at its start. A scene
-    /// without media needs nothing: true.
-    pub(crate) fn complete_media<I: Intersector>(
-        &mut self,
-        tr: &mut Tracer<'_, I>,
-        path: &[PathVertex],
-    ) -> bool {
-        #[cfg(feature = "media")]
-        if tr.has_media() {
-            let t = self.chain.len() + 1;
-            let Some((m, tail)) = media::lens_media(tr, path, t) else {
-                return false;
-            };
-            if let LensEnd::Connect { tail: old, .. } = &mut self.end {
-                *old = tail;
-            }
-            self.media = Some(m);
-        }
-        let _ = (tr, path);
-        true
-    }
-
-    /// Whether the anchor can be evaluated: a scene without media, or one
-    /// with media whose anchor [`LensAnchor::complete_media`] completed.
-    #[inline]
-    pub(crate) fn is_complete<I: Intersector>(&self, tr: &Tracer<'_, I>) -> bool {
-        #[cfg(feature = "media")]
-        if tr.has_media() {
-            return self.media.is_some();
-        }
-        let _ = tr;
-        true
-    }
-}
-
 /// The far end of a lens perturbation.
 // Held by value on the stack for one side chain; boxing it would allocate.
 #[allow(clippy::large_enum_variant)]
@@ -303,6 +262,10 @@ pub(crate) struct CausticAnchor {
     pub chain: SpecularChain,
     /// [`tail_colour`] from x_{j+1} on (1 when x_j is the emitter).
     pub tail: Rgb,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`Applicable::complete_media`]).
+    #[cfg(feature = "media")]
+    pub media: Option<CausticMedia>,
 }
 
 /// What the multi-chain perturbation keeps fixed.
@@ -316,6 +279,10 @@ pub(crate) struct MultiChainAnchor {
     pub second: SpecularChain,
     /// How the new x′_u is completed.
     pub end: LensEnd,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`Applicable::complete_media`]).
+    #[cfg(feature = "media")]
+    pub media: Option<MultiChainMedia>,
 }
 
 /// The perturbation that applies to a path, with what it keeps fixed.
@@ -331,6 +298,84 @@ pub(crate) enum Applicable {
     /// Neither: the side chain stays at the level-1 state.
     Neither,
 }
+
+impl Applicable {
+    /// In a scene with media, measures the media along the level-1 path
+    /// `path` this class was found for (with rays: the transmittance of
+    /// each segment) and completes the anchor with them, the tail's colour
+    /// included (see `media`'s module docs). False when the path's own
+    /// segments cannot be measured (a zero transmittance by rounding): the
+    /// side chain must then stay at its start. A scene without media needs
+    /// nothing: true, the anchor untouched.
+    pub(crate) fn complete_media<I: Intersector>(
+        &mut self,
+        tr: &mut Tracer<'_, I>,
+        path: &[PathVertex],
+    ) -> bool {
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            let set_tail = |end: &mut LensEnd, tail: Rgb| {
+                if let LensEnd::Connect { tail: old, .. } = end {
+                    *old = tail;
+                }
+            };
+            match self {
+                Applicable::Lens(a) => {
+                    let t = a.chain.len() + 1;
+                    let Some((m, tail)) = media::lens_media(tr, path, t) else {
+                        return false;
+                    };
+                    set_tail(&mut a.end, tail);
+                    a.media = Some(m);
+                }
+                Applicable::Caustic(a) => {
+                    let j = a.chain.len() + 2;
+                    let Some((m, tail)) = media::caustic_media(tr, path, j) else {
+                        return false;
+                    };
+                    a.tail = tail;
+                    a.media = Some(m);
+                }
+                Applicable::MultiChain(a) => {
+                    let t = a.first.len() + 1;
+                    let u = t + 1 + a.second.len();
+                    let Some((m, tail)) = media::multi_chain_media(tr, path, t, u) else {
+                        return false;
+                    };
+                    set_tail(&mut a.end, tail);
+                    a.media = Some(m);
+                }
+                Applicable::Neither => {}
+            }
+        }
+        let _ = (tr, path);
+        true
+    }
+}
+
+/// `is_complete` for the anchors: whether the anchor can be evaluated —
+/// in a scene without media always, in one with media once
+/// [`Applicable::complete_media`] completed it.
+macro_rules! is_complete {
+    ($($anchor:ty),*) => {$(
+        impl $anchor {
+            /// Whether the anchor can be evaluated: in a scene without
+            /// media always, in one with media once
+            /// [`Applicable::complete_media`] completed it.
+            #[inline]
+            pub(crate) fn is_complete<I: Intersector>(&self, tr: &Tracer<'_, I>) -> bool {
+                #[cfg(feature = "media")]
+                if tr.has_media() {
+                    return self.media.is_some();
+                }
+                let _ = tr;
+                true
+            }
+        }
+    )*};
+}
+
+is_complete!(LensAnchor, CausticAnchor, MultiChainAnchor);
 
 /// Classifies a complete path x₀ … x_k (see the module docs).
 pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
@@ -411,15 +456,6 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
             media: None,
         });
     }
-    // Through media only the lens perturbation is implemented (`media`):
-    // a caustic or multi-chain path of a scene with media or null
-    // boundaries would be retraced as surface-to-surface segments in
-    // vacuum (no transmittance, no medium vertex, a null boundary taken
-    // for a surface), a target that is not the path's contribution, so it
-    // stays at its level-1 state (the identity kernel, always correct).
-    if tr.has_media() {
-        return Applicable::Neither;
-    }
     // t + 1 is specular: a caustic if t = 1 and the chain ends on a
     // non-specular vertex or the emitter, else a multi-chain path.
     if t != 1 {
@@ -443,6 +479,8 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
         before: (j < k).then(|| path[j + 1].sp.p),
         chain,
         tail,
+        #[cfg(feature = "media")]
+        media: None,
     })
 }
 
@@ -486,5 +524,7 @@ fn multi_chain<I: Intersector>(
         first,
         second,
         end,
+        #[cfg(feature = "media")]
+        media: None,
     })
 }
