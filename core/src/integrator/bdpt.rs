@@ -887,7 +887,7 @@ fn light_subpath<I: Intersector, S: Sampler>(
     let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
     #[cfg(feature = "media")]
     if t.has_media() {
-        let start = media::area_light_medium(scene, &lp, w);
+        let start = media::area_light_medium(t, &lp, w);
         return media::light_walk(t, ws, ray, beta, start, max_vertices, rr_depth, rng);
     }
     random_walk(
@@ -939,7 +939,11 @@ fn other_light_subpath<I: Intersector, S: Sampler>(
         _ => 0.0,
     };
     #[cfg(feature = "media")]
-    let start = media::other_light_medium(scene, v.is_infinite());
+    let start = if t.has_media() {
+        media::other_light_medium(t, v.is_infinite(), e.origin, e.dir)
+    } else {
+        None
+    };
     ws.light.push(v);
     let beta = e.le * (1.0 / pdf);
     #[cfg(feature = "media")]
