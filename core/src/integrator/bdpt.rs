@@ -418,6 +418,16 @@ impl PathVertex {
     pub fn is_specular(&self) -> bool {
         self.shading.is_some_and(|s| s.bsdf.is_delta())
     }
+
+    /// True for a scattering point in a medium (scenes with media only):
+    /// the one kind of vertex on no surface (`sp.surface` is `u32::MAX`)
+    /// with a zero normal and no shading, its medium's index in
+    /// `sp.prim` (the lens point has the viewing direction as normal, a
+    /// point or spot light the direction it is seen in).
+    #[inline]
+    pub fn is_medium(&self) -> bool {
+        self.shading.is_none() && self.sp.surface == u32::MAX && self.sp.ng == Vec3::ZERO
+    }
 }
 
 /// Writes the complete path x₀ … x_k of the last [`sample_strategy`] call
@@ -877,7 +887,7 @@ fn light_subpath<I: Intersector, S: Sampler>(
     let ray = offset::spawn_ray(lp.p, lp.p_error, lp.ng, w);
     #[cfg(feature = "media")]
     if t.has_media() {
-        let start = media::area_light_medium(scene, &lp, w);
+        let start = media::area_light_medium(t, &lp, w);
         return media::light_walk(t, ws, ray, beta, start, max_vertices, rr_depth, rng);
     }
     random_walk(
@@ -929,7 +939,11 @@ fn other_light_subpath<I: Intersector, S: Sampler>(
         _ => 0.0,
     };
     #[cfg(feature = "media")]
-    let start = media::other_light_medium(scene, v.is_infinite());
+    let start = if t.has_media() {
+        media::other_light_medium(t, v.is_infinite(), e.origin, e.dir)
+    } else {
+        None
+    };
     ws.light.push(v);
     let beta = e.le * (1.0 / pdf);
     #[cfg(feature = "media")]

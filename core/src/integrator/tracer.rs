@@ -668,6 +668,40 @@ impl<I: Intersector> Tracer<'_, I> {
         }
         Rgb::ZERO
     }
+
+    /// The medium a point lies in that no surface's media name (a point
+    /// on an emitter whose mesh names none, a point or spot light): the
+    /// one on the near side of the first surface naming media that a ray
+    /// from it along `d` meets (surfaces naming none passed, as they change
+    /// no medium); `None` when the ray meets none (leaves the scene, or
+    /// passes [`MAX_NULL_CROSSINGS`] surfaces). `p` has error bound
+    /// `p_error` on a surface of geometric normal `ng` (zero off
+    /// surfaces). In a scene whose media are consistent — every ray
+    /// between two points crosses the same boundaries — any direction
+    /// gives the same answer. Every ray it traces counts in
+    /// [`Stats::shadow_rays`].
+    pub fn enclosing_medium(
+        &mut self,
+        p: Vec3,
+        p_error: Vec3,
+        ng: Vec3,
+        d: Vec3,
+    ) -> Option<Option<MediumId>> {
+        let scene = self.scene;
+        let mut o = offset::offset_ray_origin(p, p_error, ng, d);
+        for _ in 0..MAX_NULL_CROSSINGS {
+            self.stats.shadow_rays += 1;
+            let hit = self.accel.intersect(&Ray::new(o, d))?;
+            let sp = scene.hit_point(&hit)?;
+            let iface = scene.surface_media(sp.surface);
+            if iface.is_transition() {
+                // The side the ray arrives from.
+                return Some(iface.target(sp.ng, -d));
+            }
+            o = offset::offset_ray_origin(sp.p, sp.p_error, sp.ng, d);
+        }
+        None
+    }
 }
 
 /// Most masked surfaces one ray walks through before the next surface

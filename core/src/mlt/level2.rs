@@ -198,7 +198,13 @@ impl Level2 {
         if length == 0 {
             return identity(stats, splat);
         }
-        match class {
+        // Through media the anchor needs the media along the path (rays;
+        // nothing in a scene without media, where it stays as classified).
+        let mut class = *class;
+        if !class.complete_media(tracer, path) {
+            return identity(stats, splat);
+        }
+        match &class {
             Applicable::Neither => identity(stats, splat),
             Applicable::Lens(anchor) => {
                 let Some(raster) = start_raster(tracer, anchor.p_lens, path) else {

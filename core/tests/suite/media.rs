@@ -381,3 +381,53 @@ fn bdpt_every_strategy_alone_agrees_through_media() {
         }
     }
 }
+
+/// A small emitting sphere (Le = 4, its mesh naming no media) at the
+/// centre of a null-bounded ball of an absorbing medium (σ_t = 2, albedo
+/// 0: no medium vertices), in a closed diffuse box in vacuum that the
+/// camera is in. The emitter's light leaves through the medium, which the
+/// scene says only through the ball's boundary.
+fn lamp_in_fog() -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let lamp = b.add_material(Material::diffuse(Rgb::ZERO));
+    let boundary = b.add_material(null());
+    let fog = b.add_medium(
+        Medium::homogeneous(Rgb::new(2.0, 1.5, 1.0), Rgb::ZERO, 1.0, Phase::Isotropic).unwrap(),
+    );
+    b.add_mesh(common::inward_box(wall, 0.0));
+    let mut bulb = common::sphere(Vec3::new(0.0, 0.1, 0.4), 0.15, lamp);
+    bulb.emission = Some(Rgb::splat(4.0));
+    b.add_mesh(bulb);
+    let ball = b.add_mesh(common::sphere(Vec3::new(0.0, 0.1, 0.4), 0.45, boundary));
+    b.set_mesh_media(
+        ball,
+        MediumInterface {
+            interior: Some(fog),
+            exterior: None,
+        },
+    );
+    b.set_camera(common::furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    b.build().unwrap()
+}
+
+/// A light subpath starts in the medium around its emitter even when the
+/// emitter's mesh names none: the walls lit through the absorbing ball,
+/// by light tracing (s = 2, t = 1; its light subpath leaves the lamp in
+/// the fog) and by the camera's walk alone (s = 0, t = 3; the camera's
+/// subpath enters the fog through the null boundary), agree (0.4 % apart
+/// at 1 024 passes). Started in the camera's medium (vacuum), as the rule
+/// before `Tracer::enclosing_medium` had it, the light tracing paths miss
+/// the fog on the way out: this test measured them 1.5–2× brighter
+/// (0.0193 against 0.0094 in red at 256 passes).
+#[test]
+fn a_light_subpath_starts_in_the_medium_around_its_emitter() {
+    type Filter = fn(usize, usize) -> bool;
+    let scene = lamp_in_fog();
+    let camera_only: Filter = |s, t| s == 0 && t == 3;
+    let light_tracing: Filter = |s, t| s == 2 && t == 1;
+    let want = bdpt_strategy_mean(&scene, 1024, camera_only);
+    let got = bdpt_strategy_mean(&scene, 1024, light_tracing);
+    eprintln!("light tracing {got:?} vs the camera's walk {want:?}");
+    assert!(close(got, want, 0.04), "{got:?} vs {want:?}");
+}

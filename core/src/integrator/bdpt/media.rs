@@ -24,12 +24,17 @@
 //!
 //! **Where the light subpath starts.** A path reaching a surface that names
 //! no media stays in the medium it was in, so the medium around an
-//! emitter is not written in the scene: an area light whose mesh names
-//! media starts its subpath in the one on the side it emits to (Mitsuba's
-//! convention for emitters in media); otherwise, and for point and spot
-//! lights, in the camera's medium (an emitter in the medium the camera is
-//! in, as in a scene in an enclosing haze; an emitter inside a bounded
-//! medium must name it). Lights at infinity start in vacuum.
+//! emitter is not always written in the scene: an area light whose mesh
+//! names media starts its subpath in the one on the side it emits to
+//! (Mitsuba's convention for emitters in media); otherwise, and for point
+//! and spot lights, in the medium of the nearest boundary around it, found
+//! by a ray along the emitted direction ([`Tracer::enclosing_medium`]: the
+//! medium on the near side of the first surface naming media, one more
+//! ray per light subpath), and when that ray meets none, in the camera's
+//! (an emitter in the medium the camera is in, as in a scene in a haze no
+//! shape bounds). The camera's subpath tracks media the same way from the
+//! camera, so in a scene whose media are consistent both subpaths agree
+//! on the medium around every vertex. Lights at infinity start in vacuum.
 
 use alloc::vec::Vec;
 
@@ -146,22 +151,34 @@ impl<'s> Pieces<'s> {
 
 /// The medium an area light at `lp` emitting along `w` starts its subpath
 /// in (see the module's description).
-pub(super) fn area_light_medium(scene: &Scene, lp: &SurfacePoint, w: Vec3) -> Option<MediumId> {
-    let iface = scene.surface_media(lp.surface);
+pub(super) fn area_light_medium<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    lp: &SurfacePoint,
+    w: Vec3,
+) -> Option<MediumId> {
+    let iface = t.scene.surface_media(lp.surface);
     if iface.is_transition() {
         iface.target(lp.ng, w)
     } else {
-        scene.camera_medium()
+        t.enclosing_medium(lp.p, lp.p_error, lp.ng, w)
+            .unwrap_or(t.scene.camera_medium())
     }
 }
 
-/// The medium a point, spot or infinite light (`infinite`) starts its
-/// subpath in (see the module's description).
-pub(super) fn other_light_medium(scene: &Scene, infinite: bool) -> Option<MediumId> {
+/// The medium a point or spot light at `p` emitting along `w`, or a light
+/// at infinity (`infinite`), starts its subpath in (see the module's
+/// description).
+pub(super) fn other_light_medium<I: Intersector>(
+    t: &mut Tracer<'_, I>,
+    infinite: bool,
+    p: Vec3,
+    w: Vec3,
+) -> Option<MediumId> {
     if infinite {
         None
     } else {
-        scene.camera_medium()
+        t.enclosing_medium(p, Vec3::ZERO, Vec3::ZERO, w)
+            .unwrap_or(t.scene.camera_medium())
     }
 }
 

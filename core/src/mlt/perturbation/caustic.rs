@@ -140,6 +140,31 @@ impl<I: Intersector> Bundled<CausticState> for CausticTarget<'_, '_, I> {
         let scene = self.tracer.scene;
         let camera = self.tracer.camera;
         let a = self.anchor;
+        // An anchor of a scene with media that was never completed has no
+        // target it could evaluate: every candidate fails.
+        if !a.is_complete(self.tracer) {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    s.value = Rgb::ZERO;
+                    *p = 0.0;
+                }
+            }
+            return;
+        }
+        // Through media: one lane at a time (`super::media`).
+        #[cfg(feature = "media")]
+        if let Some(media) = &a.media {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    let (v, raster) = super::media::caustic_value(self.tracer, a, media, s.dir)
+                        .unwrap_or((Rgb::ZERO, Vec2::ZERO));
+                    s.value = if v.is_finite() { v } else { Rgb::ZERO };
+                    s.raster = raster;
+                    *p = s.value.luminance();
+                }
+            }
+            return;
+        }
         let o = &a.origin;
         // x_j's factor per unit solid angle: emission (with the emitter's
         // geometric cosine, as light subpaths start) or BSDF × shading

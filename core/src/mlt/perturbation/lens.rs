@@ -230,6 +230,17 @@ impl<I: Intersector> LensTarget<'_, '_, I> {
     /// `None` when the path does not fit the anchor (it always does for
     /// the anchor [`super::classify`] made of it).
     pub fn evaluate_path(&mut self, path: &[PathVertex], raster: Vec2) -> Option<LensState> {
+        if !self.anchor.is_complete(self.tracer) {
+            return None;
+        }
+        #[cfg(feature = "media")]
+        if let Some(media) = &self.anchor.media {
+            let v = super::media::lens_value_of_path(self.tracer, self.anchor, media, path)?;
+            return Some(LensState {
+                raster,
+                value: if v.is_finite() { v } else { Rgb::ZERO },
+            });
+        }
         let t = self.anchor.chain.len() + 1;
         let x_t = path.get(t)?;
         let mut beta = Rgb::ONE;
@@ -263,6 +274,30 @@ impl<I: Intersector> Bundled<LensState> for LensTarget<'_, '_, I> {
         let n = states.len();
         let camera = self.tracer.camera;
         let a = self.anchor;
+        // An anchor of a scene with media that was never completed has no
+        // target it could evaluate: every candidate fails.
+        if !a.is_complete(self.tracer) {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    s.value = Rgb::ZERO;
+                    *p = 0.0;
+                }
+            }
+            return;
+        }
+        // Through media: one lane at a time (`media`), with the
+        // transmittance queries BDPT connects with.
+        #[cfg(feature = "media")]
+        if let Some(media) = &a.media {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    let v = super::media::lens_value(self.tracer, a, media, s.raster);
+                    s.value = if v.is_finite() { v } else { Rgb::ZERO };
+                    *p = s.value.luminance();
+                }
+            }
+            return;
+        }
         let mut rays: [Option<Ray>; N] = [None; N];
         for (r, s) in rays.iter_mut().zip(states.iter()) {
             *r = s.map(|s| camera.ray_from_lens(s.raster, a.p_lens));

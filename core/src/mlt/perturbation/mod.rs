@@ -60,12 +60,19 @@
 
 mod caustic;
 mod lens;
+#[cfg(feature = "media")]
+mod media;
+#[cfg(all(test, feature = "std", feature = "media", feature = "specular"))]
+mod media_tests;
 mod multi_chain;
 mod retrace;
 
 pub(crate) use caustic::{CausticProposal, CausticState, CausticTarget};
 pub(crate) use lens::{LensProposal, LensState, LensTarget};
 pub(crate) use multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
+
+#[cfg(feature = "media")]
+pub(crate) use media::{CausticMedia, LensMedia, MultiChainMedia};
 
 use glam::Vec3;
 
@@ -215,6 +222,11 @@ pub(crate) struct LensAnchor {
     pub chain: SpecularChain,
     /// How the new x′_t is completed.
     pub end: LensEnd,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`LensAnchor::complete_media`] sets it; `None` until then, and
+    /// always in a scene without media).
+    #[cfg(feature = "media")]
+    pub media: Option<LensMedia>,
 }
 
 /// The far end of a lens perturbation.
@@ -250,6 +262,10 @@ pub(crate) struct CausticAnchor {
     pub chain: SpecularChain,
     /// [`tail_colour`] from x_{j+1} on (1 when x_j is the emitter).
     pub tail: Rgb,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`Applicable::complete_media`]).
+    #[cfg(feature = "media")]
+    pub media: Option<CausticMedia>,
 }
 
 /// What the multi-chain perturbation keeps fixed.
@@ -263,6 +279,10 @@ pub(crate) struct MultiChainAnchor {
     pub second: SpecularChain,
     /// How the new x′_u is completed.
     pub end: LensEnd,
+    /// In a scene with media, what the perturbation through media needs
+    /// ([`Applicable::complete_media`]).
+    #[cfg(feature = "media")]
+    pub media: Option<MultiChainMedia>,
 }
 
 /// The perturbation that applies to a path, with what it keeps fixed.
@@ -279,6 +299,84 @@ pub(crate) enum Applicable {
     Neither,
 }
 
+impl Applicable {
+    /// In a scene with media, measures the media along the level-1 path
+    /// `path` this class was found for (with rays: the transmittance of
+    /// each segment) and completes the anchor with them, the tail's colour
+    /// included (see `media`'s module docs). False when the path's own
+    /// segments cannot be measured (a zero transmittance by rounding): the
+    /// side chain must then stay at its start. A scene without media needs
+    /// nothing: true, the anchor untouched.
+    pub(crate) fn complete_media<I: Intersector>(
+        &mut self,
+        tr: &mut Tracer<'_, I>,
+        path: &[PathVertex],
+    ) -> bool {
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            let set_tail = |end: &mut LensEnd, tail: Rgb| {
+                if let LensEnd::Connect { tail: old, .. } = end {
+                    *old = tail;
+                }
+            };
+            match self {
+                Applicable::Lens(a) => {
+                    let t = a.chain.len() + 1;
+                    let Some((m, tail)) = media::lens_media(tr, path, t) else {
+                        return false;
+                    };
+                    set_tail(&mut a.end, tail);
+                    a.media = Some(m);
+                }
+                Applicable::Caustic(a) => {
+                    let j = a.chain.len() + 2;
+                    let Some((m, tail)) = media::caustic_media(tr, path, j) else {
+                        return false;
+                    };
+                    a.tail = tail;
+                    a.media = Some(m);
+                }
+                Applicable::MultiChain(a) => {
+                    let t = a.first.len() + 1;
+                    let u = t + 1 + a.second.len();
+                    let Some((m, tail)) = media::multi_chain_media(tr, path, t, u) else {
+                        return false;
+                    };
+                    set_tail(&mut a.end, tail);
+                    a.media = Some(m);
+                }
+                Applicable::Neither => {}
+            }
+        }
+        let _ = (tr, path);
+        true
+    }
+}
+
+/// `is_complete` for the anchors: whether the anchor can be evaluated —
+/// in a scene without media always, in one with media once
+/// [`Applicable::complete_media`] completed it.
+macro_rules! is_complete {
+    ($($anchor:ty),*) => {$(
+        impl $anchor {
+            /// Whether the anchor can be evaluated: in a scene without
+            /// media always, in one with media once
+            /// [`Applicable::complete_media`] completed it.
+            #[inline]
+            pub(crate) fn is_complete<I: Intersector>(&self, tr: &Tracer<'_, I>) -> bool {
+                #[cfg(feature = "media")]
+                if tr.has_media() {
+                    return self.media.is_some();
+                }
+                let _ = tr;
+                true
+            }
+        }
+    )*};
+}
+
+is_complete!(LensAnchor, CausticAnchor, MultiChainAnchor);
+
 /// Classifies a complete path x₀ … x_k (see the module docs).
 pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) -> Applicable {
     // With alpha masks a segment's visibility is a stochastic test
@@ -289,15 +387,6 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
     // cut-out). No perturbation is then known to keep the chain unbiased:
     // every path of such a scene stays at its level-1 state.
     if path.len() < 2 || tr.has_alpha_masks() {
-        return Applicable::Neither;
-    }
-    // In a scene with media or null boundaries the perturbations would
-    // retrace and re-evaluate a path's segments as surface-to-surface
-    // segments in vacuum: no transmittance, no medium vertices, a null
-    // boundary taken for a surface. Their target would then not be the
-    // level-1 contribution of the path, so every path stays at its
-    // level-1 state (the identity kernel, always correct).
-    if tr.has_media() {
         return Applicable::Neither;
     }
     // A path through the Dirac lobe of a mixed BSDF (smooth plastic's
@@ -318,6 +407,10 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
         return Applicable::Neither;
     }
     let p_lens = path[0].sp.p;
+    // A medium vertex (no shading, `PathVertex::is_medium`) is a
+    // non-specular vertex: it ends a specular chain as a diffuse surface
+    // does, and the lens perturbation moves it at its free-flight distance
+    // (`media`).
     // A vertex without shading (a sampled light point) is never specular,
     // and without specular chains in the scene none is: no vertex is
     // inspected, the caustic branch is never reached and every path gets
@@ -335,6 +428,8 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
                 p_lens,
                 chain,
                 end: LensEnd::Emitter,
+                #[cfg(feature = "media")]
+                media: None,
             }),
             None => Applicable::Neither,
         };
@@ -357,6 +452,8 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
                 after,
                 tail,
             },
+            #[cfg(feature = "media")]
+            media: None,
         });
     }
     // t + 1 is specular: a caustic if t = 1 and the chain ends on a
@@ -382,6 +479,8 @@ pub(crate) fn classify<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex]) 
         before: (j < k).then(|| path[j + 1].sp.p),
         chain,
         tail,
+        #[cfg(feature = "media")]
+        media: None,
     })
 }
 
@@ -425,5 +524,7 @@ fn multi_chain<I: Intersector>(
         first,
         second,
         end,
+        #[cfg(feature = "media")]
+        media: None,
     })
 }

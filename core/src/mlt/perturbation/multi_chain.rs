@@ -153,6 +153,29 @@ impl<I: Intersector> Bundled<MultiChainState> for MultiChainTarget<'_, '_, I> {
         let n = states.len();
         let camera = self.tracer.camera;
         let a = self.anchor;
+        // An anchor of a scene with media that was never completed has no
+        // target it could evaluate: every candidate fails.
+        if !a.is_complete(self.tracer) {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    s.value = Rgb::ZERO;
+                    *p = 0.0;
+                }
+            }
+            return;
+        }
+        // Through media: one lane at a time (`super::media`).
+        #[cfg(feature = "media")]
+        if let Some(media) = &a.media {
+            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+                if let Some(s) = s {
+                    let v = super::media::multi_chain_value(self.tracer, a, media, s.raster, s.dir);
+                    s.value = if v.is_finite() { v } else { Rgb::ZERO };
+                    *p = s.value.luminance();
+                }
+            }
+            return;
+        }
         let mut rays: [Option<Ray>; N] = [None; N];
         for (r, s) in rays.iter_mut().zip(states.iter()) {
             *r = s.map(|s| camera.ray_from_lens(s.raster, a.p_lens));
