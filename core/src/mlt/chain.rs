@@ -48,6 +48,10 @@ pub(crate) struct PathSample {
     pub l: Rgb,
     /// Continuous raster position of the contribution.
     pub raster: Vec2,
+    /// The strategy's light-subpath vertex count s (0 where the target
+    /// has no strategies): what tells a small step that changed the
+    /// technique ([`Step::technique_change`]).
+    pub strategy: u32,
 }
 
 impl PathSample {
@@ -89,6 +93,9 @@ pub(crate) struct Step {
     pub accepted: bool,
     /// Whether the proposal was a large step.
     pub large: bool,
+    /// Whether the proposal was a small step to another strategy (s, t)
+    /// than the current state's.
+    pub technique_change: bool,
     /// Whether the proposal had zero (or non-finite) contribution.
     pub zero: bool,
     /// The proposal's target value Y (0 when `zero`): for a large step,
@@ -196,6 +203,7 @@ impl Chain {
         let large = self.sampler.is_large_step();
         let proposal = eval(&mut self.sampler);
         let y_new = proposal.target();
+        let technique_change = !large && proposal.strategy != self.current.strategy;
         let a = if y_new <= 0.0 {
             0.0
         } else if self.current_y <= 0.0 {
@@ -238,6 +246,7 @@ impl Chain {
             acceptance: a,
             accepted,
             large,
+            technique_change,
             zero: y_new <= 0.0,
             proposal_target: y_new,
         }
@@ -262,6 +271,7 @@ pub(super) mod tests {
         PathSample {
             l: l * (y / l.luminance()),
             raster: u * 4.0,
+            strategy: 0,
         }
     }
 
@@ -363,6 +373,7 @@ pub(super) mod tests {
             |_| PathSample {
                 l: Rgb::splat(f32::NAN),
                 raster: Vec2::ZERO,
+                strategy: 0,
             },
             None,
         );

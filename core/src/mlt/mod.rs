@@ -150,6 +150,13 @@ pub struct MltSettings {
     /// the camera and scene it ran under. Ignored without passes. At most
     /// [`MAX_PASS_RECORDS`]; default [`DEFAULT_PASS_RECORDS`].
     pub pass_records: f32,
+    /// Probability that a small step also proposes a neighbouring
+    /// strategy: the strategy coordinate moved by ±1/n besides its small
+    /// step (`mlt/primary.rs`, `PrimarySampler::set_technique_jump`);
+    /// 0 = only the small step itself changes the strategy, when the
+    /// coordinate crosses into a neighbouring interval. In [0, 1].
+    /// Primary-sample level 1 only.
+    pub technique_jump: f32,
     /// The path-space level 1's mutations: how often each is chosen and
     /// how far the perturbations move. Ignored by the primary-sample level
     /// 1.
@@ -290,6 +297,7 @@ impl Default for MltSettings {
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
             large_step_mis: true,
             pass_records: DEFAULT_PASS_RECORDS,
+            technique_jump: 0.0,
             path_mutations: PathMutations::default(),
         }
     }
@@ -319,6 +327,9 @@ impl MltSettings {
 
     /// Checks every parameter's range; the message names the first bad one.
     pub fn validate(&self) -> Result<(), &'static str> {
+        if !(self.technique_jump >= 0.0 && self.technique_jump <= 1.0) {
+            return Err("technique jump probability must be in [0, 1]");
+        }
         if !(self.large_step_prob >= 0.0 && self.large_step_prob <= 1.0) {
             return Err("large-step probability must be in [0, 1]");
         }
@@ -530,6 +541,11 @@ pub struct MltStats {
     pub small_proposed: u64,
     /// Small-step proposals accepted.
     pub small_accepted: u64,
+    /// Small-step proposals whose strategy (s, t) differs from the current
+    /// state's (part of `small_proposed`; primary-sample level 1).
+    pub technique_proposed: u64,
+    /// Technique-changing small steps accepted.
+    pub technique_accepted: u64,
     /// Large-step proposals.
     pub large_proposed: u64,
     /// Large-step proposals accepted.
@@ -591,6 +607,8 @@ impl MltStats {
         self.pass_records += o.pass_records;
         self.small_proposed += o.small_proposed;
         self.small_accepted += o.small_accepted;
+        self.technique_proposed += o.technique_proposed;
+        self.technique_accepted += o.technique_accepted;
         self.large_proposed += o.large_proposed;
         self.large_accepted += o.large_accepted;
         self.zero_proposals += o.zero_proposals;
@@ -644,6 +662,17 @@ impl MltStats {
         ratio(self.small_accepted, self.small_proposed)
     }
 
+    /// Fraction of small steps that proposed another strategy (s, t)
+    /// (0 when none).
+    pub fn technique_fraction(&self) -> f64 {
+        ratio(self.technique_proposed, self.small_proposed)
+    }
+
+    /// Fraction of technique-changing small steps accepted (0 when none).
+    pub fn technique_acceptance(&self) -> f64 {
+        ratio(self.technique_accepted, self.technique_proposed)
+    }
+
     /// Fraction of bidirectional mutations accepted (0 when none).
     pub fn bidirectional_acceptance(&self) -> f64 {
         ratio(self.bidirectional_accepted, self.bidirectional_proposed)
@@ -679,6 +708,10 @@ impl MltStats {
         } else {
             self.small_proposed += 1;
             self.small_accepted += st.accepted as u64;
+            if st.technique_change {
+                self.technique_proposed += 1;
+                self.technique_accepted += st.accepted as u64;
+            }
         }
         self.zero_proposals += st.zero as u64;
     }
@@ -933,6 +966,7 @@ impl WorkerChains {
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
+            sampler.set_technique_jump(mlt.technique_jump, bdpt::strategy_count(depth as usize));
             chains.push((Chain::new(sampler, initial, cs), depth));
             seeds.push(cs);
             stats.chains += 1;
