@@ -530,8 +530,6 @@ pub(crate) fn core_config(c: &cmlt_renderer_config, scene: &Committed) -> Result
         direct_allocation: c.direct_allocation,
         large_step_mis: c.large_step_mis != 0,
         pass_records: c.pass_records,
-        // Not in the C configuration: the library's default.
-        technique_jump: MltSettings::default().technique_jump,
         level1,
         path_mutations: PathMutations::new(
             c.path_mutations,

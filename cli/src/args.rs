@@ -207,13 +207,6 @@ pub struct MltArgs {
     /// [0, 1024]. Not used with --keep-chains.
     #[arg(long, default_value_t = MltSettings::default().pass_records)]
     pub pass_records: f32,
-    /// Probability that a small step also proposes a neighbouring BDPT
-    /// strategy (s ± 1): the strategy coordinate moved by ±1/n besides its
-    /// small step (a symmetric proposal: same target, same expectation);
-    /// 0 = the strategy changes only when the small step crosses into a
-    /// neighbouring interval. In [0, 1]; primary-sample level 1.
-    #[arg(long, default_value_t = MltSettings::default().technique_jump)]
-    pub technique_jump: f32,
     /// With --level1 path: the weights of the bidirectional mutation, the
     /// lens subpath mutation and the lens, caustic and multi-chain
     /// perturbations, five comma-separated numbers; at a path each
@@ -264,7 +257,6 @@ impl MltArgs {
             direct_allocation: self.direct_allocation,
             large_step_mis: self.large_step_mis,
             pass_records: self.pass_records,
-            technique_jump: self.technique_jump,
             path_mutations: PathMutations::new(
                 self.path_mutations,
                 self.perturbation_sigma,

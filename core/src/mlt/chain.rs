@@ -359,6 +359,44 @@ pub(super) mod tests {
     }
 
     #[test]
+    fn technique_changes_are_small_steps_to_another_strategy() {
+        // The toy with four "strategies" across x: a small step changes
+        // the strategy when it crosses one of the four quarter boundaries
+        // of the circle, each with probability ≈ E|Δ| = σ·√(2/π) ≈ 0.04
+        // times the density there (≈ 1): about 16 % of small steps; a
+        // large step never counts. A flag never set (rate 0) or set for
+        // large steps fails.
+        let with_strategy = |s: &mut PrimarySampler| {
+            let p = toy(s);
+            PathSample {
+                strategy: (p.raster.x as u32).min(3),
+                ..p
+            }
+        };
+        let mut s = PrimarySampler::new(3, 0.05, TOY_LARGE);
+        let init = with_strategy(&mut s);
+        let mut chain = Chain::new(s, init, 77);
+        let (mut changes, mut small) = (0, 0);
+        for _ in 0..20_000 {
+            let before = chain.current().strategy;
+            let mut proposed = 0;
+            let st = chain.step(
+                |s| {
+                    let p = with_strategy(s);
+                    proposed = p.strategy;
+                    p
+                },
+                None,
+            );
+            assert_eq!(st.technique_change, !st.large && proposed != before);
+            small += !st.large as u32;
+            changes += st.technique_change as u32;
+        }
+        let rate = changes as f64 / small as f64;
+        assert!(rate > 0.05 && rate < 0.3, "technique change rate {rate}");
+    }
+
+    #[test]
     fn zero_start_moves_on_and_never_divides_by_zero() {
         let s = PrimarySampler::new(1, 0.01, 0.3);
         let mut chain = Chain::new(s, PathSample::default(), 5);

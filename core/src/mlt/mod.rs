@@ -150,13 +150,6 @@ pub struct MltSettings {
     /// the camera and scene it ran under. Ignored without passes. At most
     /// [`MAX_PASS_RECORDS`]; default [`DEFAULT_PASS_RECORDS`].
     pub pass_records: f32,
-    /// Probability that a small step also proposes a neighbouring
-    /// strategy: the strategy coordinate moved by ±1/n besides its small
-    /// step (`mlt/primary.rs`, `PrimarySampler::set_technique_jump`);
-    /// 0 = only the small step itself changes the strategy, when the
-    /// coordinate crosses into a neighbouring interval. In [0, 1].
-    /// Primary-sample level 1 only.
-    pub technique_jump: f32,
     /// The path-space level 1's mutations: how often each is chosen and
     /// how far the perturbations move. Ignored by the primary-sample level
     /// 1.
@@ -297,7 +290,6 @@ impl Default for MltSettings {
             direct_allocation: DEFAULT_DIRECT_ALLOCATION,
             large_step_mis: true,
             pass_records: DEFAULT_PASS_RECORDS,
-            technique_jump: 0.0,
             path_mutations: PathMutations::default(),
         }
     }
@@ -327,9 +319,6 @@ impl MltSettings {
 
     /// Checks every parameter's range; the message names the first bad one.
     pub fn validate(&self) -> Result<(), &'static str> {
-        if !(self.technique_jump >= 0.0 && self.technique_jump <= 1.0) {
-            return Err("technique jump probability must be in [0, 1]");
-        }
         if !(self.large_step_prob >= 0.0 && self.large_step_prob <= 1.0) {
             return Err("large-step probability must be in [0, 1]");
         }
@@ -966,7 +955,6 @@ impl WorkerChains {
             }
             // Chains replaying the same sample diverge from here on.
             sampler.reseed(mix64(cs ^ 2));
-            sampler.set_technique_jump(mlt.technique_jump, bdpt::strategy_count(depth as usize));
             chains.push((Chain::new(sampler, initial, cs), depth));
             seeds.push(cs);
             stats.chains += 1;

@@ -83,19 +83,7 @@ pub(crate) struct PrimarySampler {
     /// Between `begin_replay` and `end_replay`: reads return the current
     /// state instead of mutating it.
     replaying: bool,
-    /// Probability that a small step also shifts the strategy coordinate
-    /// ([`STRATEGY_COORDINATE`]) by ±`jump_width` ([`PrimarySampler::set_technique_jump`]).
-    jump_prob: f32,
-    /// 1/n for a chain of n > 1 strategies; 0: no technique jumps.
-    jump_width: f32,
-    /// This iteration's shift of the strategy coordinate (0, ±1/n).
-    jump: f32,
 }
-
-/// The index in X of the coordinate `bdpt::sample_strategy` chooses the
-/// strategy (s, t) from: dimension 2 of the camera stream (stream 0),
-/// interleaved over [`STREAM_COUNT`] streams.
-pub(crate) const STRATEGY_COORDINATE: usize = 2 * STREAM_COUNT as usize;
 
 impl PrimarySampler {
     /// A sampler whose X and mutations come from the PCG stream of `seed`,
@@ -126,33 +114,7 @@ impl PrimarySampler {
             stream_index: 0,
             spare_normal: None,
             replaying: false,
-            jump_prob: 0.0,
-            jump_width: 0.0,
-            jump: 0.0,
         }
-    }
-
-    /// Technique-change proposals: with probability `prob`, a small step
-    /// also moves the strategy coordinate ([`STRATEGY_COORDINATE`]) by
-    /// +1/n or −1/n (each half the time, wrapped), n the strategy count of
-    /// the chain's depth, so that it proposes the neighbouring strategy
-    /// (s ± 1) at the same relative place in its interval, the other
-    /// coordinates small-stepped as usual. The kernel of that coordinate
-    /// is then a mixture of wrapped displacements N(0, σ²) + J with J ∈
-    /// {0, ±1/n} symmetric about 0: still symmetric and translation
-    /// invariant on the circle, so the acceptance min(1, Y′/Y) is
-    /// unchanged. The coordinate is read by every evaluation (never
-    /// caught up lazily over skipped iterations, which would have to sum
-    /// their jumps). `prob` = 0 or n ≤ 1: no jumps, and no random number
-    /// is drawn for them (the stream is the same as without).
-    pub fn set_technique_jump(&mut self, prob: f32, strategies: usize) {
-        self.jump_prob = if prob > 0.0 { prob.min(1.0) } else { 0.0 };
-        self.jump_width = if strategies > 1 {
-            1.0 / strategies as f32
-        } else {
-            0.0
-        };
-        self.jump = 0.0;
     }
 
     /// [`PrimarySampler::new`] with room for every coordinate a BDPT
@@ -235,17 +197,6 @@ impl PrimarySampler {
     pub fn start_iteration(&mut self) {
         let large_step = self.uniform() < self.large_step_prob;
         self.start_iteration_with(large_step);
-        if !large_step && self.jump_prob > 0.0 && self.jump_width > 0.0 {
-            let u = self.uniform();
-            if u < self.jump_prob {
-                // The sign from the same number: u / p is uniform on [0, 1).
-                self.jump = if u < 0.5 * self.jump_prob {
-                    self.jump_width
-                } else {
-                    -self.jump_width
-                };
-            }
-        }
     }
 
     /// Begins a mutation of the given kind (what the tests schedule).
@@ -253,7 +204,6 @@ impl PrimarySampler {
         self.iteration += 1;
         self.touched.clear();
         self.large_step = large_step;
-        self.jump = 0.0;
     }
 
     /// Keeps the proposal as the current state.
@@ -353,10 +303,7 @@ impl PrimarySampler {
             // The small steps of all accepted iterations since the last
             // update, at once: N(0, σ²·n), wrapped into [0, 1).
             let n = self.iteration - c.modified;
-            let mut v = c.value + self.normal() * self.width(n);
-            if index == STRATEGY_COORDINATE {
-                v += self.jump;
-            }
+            let v = c.value + self.normal() * self.width(n);
             c.value = wrap01(v);
         }
         c.modified = self.iteration;
@@ -606,71 +553,6 @@ mod tests {
         let after = read(&mut s, 7);
         for (k, (&b, &a)) in before.iter().zip(&after).enumerate() {
             assert!(delta(b, a).abs() < 0.01, "camera {k} moved");
-        }
-    }
-
-    /// One small step of the strategy coordinate from `x0` with technique
-    /// jumps of probability `prob` among `n` strategies: the wrapped
-    /// displacement of the strategy coordinate and of the coordinate after
-    /// it (camera dimension 3).
-    fn jump_from(x0: f32, seed: u64, prob: f32, n: usize) -> (f32, f32) {
-        let mut s = PrimarySampler::new(seed, 0.01, 0.0);
-        s.set_technique_jump(prob, n);
-        s.start_stream(CAMERA_STREAM);
-        let mut x = [0.0; 4];
-        for v in &mut x {
-            *v = s.next_f32();
-        }
-        s.x[STRATEGY_COORDINATE].value = x0;
-        s.accept();
-        s.start_iteration();
-        s.start_stream(CAMERA_STREAM);
-        let mut y = [0.0; 4];
-        for v in &mut y {
-            *v = s.next_f32();
-        }
-        (delta(x0, y[2]), delta(x[3], y[3]))
-    }
-
-    #[test]
-    fn technique_jumps_are_symmetric_and_reach_the_neighbours() {
-        let n = 20_000;
-        let crit = ks_crit(n as usize, n as usize);
-        let mid: Vec<(f32, f32)> = (0..n).map(|i| jump_from(0.5, i, 0.5, 4)).collect();
-        let edge: Vec<f32> = (0..n)
-            .map(|i| jump_from(0.01, 700_000 + i, 0.5, 4).0)
-            .collect();
-        let d: Vec<f32> = mid.iter().map(|m| m.0).collect();
-        let neg: Vec<f32> = d.iter().map(|v| -v).collect();
-        // Symmetric kernel: the displacement is even and the same at the
-        // boundary as in the middle (wrapped, not clamped).
-        assert!(ks(d.clone(), neg) < crit, "jump not even");
-        assert!(ks(d.clone(), edge) < crit, "jump not translation invariant");
-        // Half the small steps jump by ±1/4 (σ = 0.01 around it), half by
-        // their small step alone; the next coordinate never jumps.
-        let far = d.iter().filter(|v| v.abs() > 0.125).count() as f64 / n as f64;
-        assert!((far - 0.5).abs() < 0.02, "jump rate {far}");
-        assert!(mid.iter().all(|m| m.1.abs() < 0.1), "a jump off the strategy");
-        // Power: a one-sided jump (always +1/4) is not even.
-        let one_sided: Vec<f32> = d.iter().map(|v| v.abs()).collect();
-        let neg: Vec<f32> = one_sided.iter().map(|v| -v).collect();
-        assert!(ks(one_sided, neg) > crit, "the test cannot see a one-sided jump");
-        // Off (p = 0 or one strategy): the plain small step, bit for bit.
-        for (p, k) in [(0.0, 4), (0.5, 1)] {
-            for i in 0..50 {
-                let plain = small_step_from(0.5, i, 0.01);
-                let mut s = PrimarySampler::new(i, 0.01, 0.0);
-                s.set_technique_jump(p, k);
-                s.x.push(Coord {
-                    value: 0.5,
-                    modified: 1,
-                    ..Coord::default()
-                });
-                s.accept();
-                s.start_iteration_with(false);
-                s.start_stream(CAMERA_STREAM);
-                assert_eq!(delta(0.5, s.next_f32()).to_bits(), plain.to_bits());
-            }
         }
     }
 
