@@ -104,13 +104,6 @@ pub(crate) struct Step {
     pub proposal_target: f32,
 }
 
-impl Step {
-    /// The records of this step, proposal first.
-    pub fn splats(&self) -> impl Iterator<Item = Splat> {
-        self.proposal.into_iter().chain(self.current)
-    }
-}
-
 /// One Metropolis–Hastings chain: its primary-sample state, the current
 /// path and the random stream of its accept/reject decisions.
 ///

@@ -76,7 +76,7 @@ pub use large_steps::LargeStepTally;
 pub use multiple_try::{Candidates, Splatting};
 pub(crate) use primary::PrimarySampler;
 
-use chain::{Chain, Step};
+use chain::{Chain, Splat, Step};
 use level2::Level2;
 use path_space::worker::PathChains;
 use perturbation::Applicable;
@@ -1185,6 +1185,13 @@ impl WorkerChains {
             proposal_path,
             ..
         } = self;
+        // Level 1 alone: each mutation's records are splatted after the
+        // next mutation's evaluation, their pixels prefetched meanwhile (a
+        // large step's proposal lands on a random pixel, a cache miss that
+        // cost about 6 % of a mutation's CPU on Tungsten's box). The film
+        // receives the same additions in the same order, so the image is
+        // bit for bit the same.
+        let mut pending: [Option<Splat>; 2] = [None, None];
         for k in self.next..end {
             let ci = k * stride % n;
             let (chain, depth) = &mut chains[ci];
@@ -1197,8 +1204,17 @@ impl WorkerChains {
                 large_steps.add(depth, st.proposal_target);
             }
             let Some(l2) = level2 else {
-                for sp in st.splats() {
-                    film.add_splat(sp.raster, sp.value * w);
+                for (slot, sp) in pending.iter_mut().zip([st.proposal, st.current]) {
+                    if let Some(sp) = slot.take() {
+                        film.add_splat(sp.raster, sp.value);
+                    }
+                    *slot = sp.map(|sp| {
+                        film.prefetch_splat(sp.raster);
+                        Splat {
+                            raster: sp.raster,
+                            value: sp.value * w,
+                        }
+                    });
                 }
                 continue;
             };
@@ -1241,6 +1257,9 @@ impl WorkerChains {
                 stats.identity_steps += l2.share() as u64;
             }
             stats.records += l2.share() as u64;
+        }
+        for sp in pending.into_iter().flatten() {
+            film.add_splat(sp.raster, sp.value);
         }
         let done = end - self.next;
         self.next = if end == n { 0 } else { end };
