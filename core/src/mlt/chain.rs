@@ -181,6 +181,13 @@ impl Chain {
         &self.sampler
     }
 
+    /// The accept/reject stream, from which every step draws once
+    /// (accepted or not): how tests tell a chain that was stepped.
+    #[cfg(test)]
+    pub fn decision_stream(&self) -> &Pcg32 {
+        &self.rng
+    }
+
     /// One mutation: proposes (large or small step), evaluates the proposal
     /// with `eval`, accepts it with probability a = min(1, Y′/Y) and
     /// returns both weighted records (expected-value splatting). With
