@@ -92,6 +92,13 @@ pub fn print_metropolis(out: &RenderOutput, output: &Path, level2: bool) {
         mean.b,
         output.display()
     );
+    if m.technique_proposed > 0 {
+        println!(
+            "technique changes: {:.2}% of small steps proposed another strategy (s, t), {:.1}% of those accepted",
+            100.0 * m.technique_fraction(),
+            100.0 * m.technique_acceptance(),
+        );
+    }
     if m.bidirectional_proposed + m.lens_subpath_proposed > 0 {
         println!(
             "path space: {} bidirectional mutations ({:.1}% accepted), {} lens subpath mutations ({:.1}% accepted); {:.1}% made no path",

@@ -183,6 +183,38 @@ impl Film {
         s[2] += l.b as f64;
     }
 
+    /// Asks the cache for the splat pixel of `raster` ahead of an
+    /// [`Film::add_splat`] there (a hint: no effect on any value; nothing
+    /// outside the image, nothing on targets without a prefetch). A large
+    /// step lands on a random pixel of a film larger than the L2 cache, so
+    /// its splat otherwise waits for memory.
+    #[inline]
+    pub fn prefetch_splat(&self, raster: Vec2) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use core::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            if !(raster.x >= 0.0 && raster.y >= 0.0) {
+                return;
+            }
+            let (x, y) = (raster.x as u32, raster.y as u32);
+            if x >= self.width || y >= self.height {
+                return;
+            }
+            let p = self.splat[y as usize * self.width as usize + x as usize]
+                .as_ptr()
+                .cast::<i8>();
+            // SAFETY: SSE is part of the x86_64 baseline; a prefetch reads
+            // nothing the program can observe and never faults. The pixel's
+            // 24 bytes may straddle two cache lines: ask for both ends.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(23));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = raster;
+    }
+
     /// Splats a contribution at continuous raster position `raster`; points
     /// outside the image are ignored.
     #[inline]

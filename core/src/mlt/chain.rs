@@ -48,6 +48,10 @@ pub(crate) struct PathSample {
     pub l: Rgb,
     /// Continuous raster position of the contribution.
     pub raster: Vec2,
+    /// The strategy's light-subpath vertex count s (0 where the target
+    /// has no strategies): what tells a small step that changed the
+    /// technique ([`Step::technique_change`]).
+    pub strategy: u32,
 }
 
 impl PathSample {
@@ -89,19 +93,15 @@ pub(crate) struct Step {
     pub accepted: bool,
     /// Whether the proposal was a large step.
     pub large: bool,
+    /// Whether the proposal was a small step to another strategy (s, t)
+    /// than the current state's.
+    pub technique_change: bool,
     /// Whether the proposal had zero (or non-finite) contribution.
     pub zero: bool,
     /// The proposal's target value Y (0 when `zero`): for a large step,
     /// an independent sample of the chain's normalisation
     /// (`mlt/large_steps.rs`).
     pub proposal_target: f32,
-}
-
-impl Step {
-    /// The records of this step, proposal first.
-    pub fn splats(&self) -> impl Iterator<Item = Splat> {
-        self.proposal.into_iter().chain(self.current)
-    }
 }
 
 /// One Metropolis–Hastings chain: its primary-sample state, the current
@@ -181,6 +181,13 @@ impl Chain {
         &self.sampler
     }
 
+    /// The accept/reject stream, from which every step draws once
+    /// (accepted or not): how tests tell a chain that was stepped.
+    #[cfg(test)]
+    pub fn decision_stream(&self) -> &Pcg32 {
+        &self.rng
+    }
+
     /// One mutation: proposes (large or small step), evaluates the proposal
     /// with `eval`, accepts it with probability a = min(1, Y′/Y) and
     /// returns both weighted records (expected-value splatting). With
@@ -196,6 +203,7 @@ impl Chain {
         let large = self.sampler.is_large_step();
         let proposal = eval(&mut self.sampler);
         let y_new = proposal.target();
+        let technique_change = !large && proposal.strategy != self.current.strategy;
         let a = if y_new <= 0.0 {
             0.0
         } else if self.current_y <= 0.0 {
@@ -238,6 +246,7 @@ impl Chain {
             acceptance: a,
             accepted,
             large,
+            technique_change,
             zero: y_new <= 0.0,
             proposal_target: y_new,
         }
@@ -262,6 +271,7 @@ pub(super) mod tests {
         PathSample {
             l: l * (y / l.luminance()),
             raster: u * 4.0,
+            strategy: 0,
         }
     }
 
@@ -349,6 +359,44 @@ pub(super) mod tests {
     }
 
     #[test]
+    fn technique_changes_are_small_steps_to_another_strategy() {
+        // The toy with four "strategies" across x: a small step changes
+        // the strategy when it crosses one of the four quarter boundaries
+        // of the circle, each with probability ≈ E|Δ| = σ·√(2/π) ≈ 0.04
+        // times the density there (≈ 1): about 16 % of small steps; a
+        // large step never counts. A flag never set (rate 0) or set for
+        // large steps fails.
+        let with_strategy = |s: &mut PrimarySampler| {
+            let p = toy(s);
+            PathSample {
+                strategy: (p.raster.x as u32).min(3),
+                ..p
+            }
+        };
+        let mut s = PrimarySampler::new(3, 0.05, TOY_LARGE);
+        let init = with_strategy(&mut s);
+        let mut chain = Chain::new(s, init, 77);
+        let (mut changes, mut small) = (0, 0);
+        for _ in 0..20_000 {
+            let before = chain.current().strategy;
+            let mut proposed = 0;
+            let st = chain.step(
+                |s| {
+                    let p = with_strategy(s);
+                    proposed = p.strategy;
+                    p
+                },
+                None,
+            );
+            assert_eq!(st.technique_change, !st.large && proposed != before);
+            small += !st.large as u32;
+            changes += st.technique_change as u32;
+        }
+        let rate = changes as f64 / small as f64;
+        assert!(rate > 0.05 && rate < 0.3, "technique change rate {rate}");
+    }
+
+    #[test]
     fn zero_start_moves_on_and_never_divides_by_zero() {
         let s = PrimarySampler::new(1, 0.01, 0.3);
         let mut chain = Chain::new(s, PathSample::default(), 5);
@@ -363,6 +411,7 @@ pub(super) mod tests {
             |_| PathSample {
                 l: Rgb::splat(f32::NAN),
                 raster: Vec2::ZERO,
+                strategy: 0,
             },
             None,
         );

@@ -24,5 +24,6 @@ pub(crate) fn evaluate<I: Intersector>(
     PathSample {
         l: r.l,
         raster: r.raster,
+        strategy: r.s,
     }
 }

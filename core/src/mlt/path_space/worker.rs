@@ -268,6 +268,7 @@ impl PathChains {
             let current = PathSample {
                 l: x.f,
                 raster: x.raster,
+                strategy: 0,
             };
             let (seed, iteration) = chain.stream_key();
             let mut rng = SampleStream::new(seed, iteration, LEVEL2_STREAM);
