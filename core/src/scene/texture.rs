@@ -163,7 +163,7 @@ pub enum Texture {
     },
     /// Mitsuba's `volume` texture over a `gridvolume`: the grid read at the
     /// surface point's world position (its transform, filter and wrap
-    /// mode live in the [`Grid`](super::grid::Grid)). Grids have no uv
+    /// mode live in the [`Grid`]). Grids have no uv
     /// gradient, so they are never bump or normal maps.
     Grid(GridId),
 }
