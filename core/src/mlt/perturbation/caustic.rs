@@ -41,6 +41,12 @@ pub(crate) struct CausticState {
     pub value: Rgb,
 }
 
+impl super::Candidate for CausticState {
+    fn value_mut(&mut self) -> &mut Rgb {
+        &mut self.value
+    }
+}
+
 /// T(ω→·): a clamped Gaussian offset of the direction by the exponential
 /// map.
 #[derive(Clone, Copy, Debug)]
@@ -143,12 +149,7 @@ impl<I: Intersector> Bundled<CausticState> for CausticTarget<'_, '_, I> {
         // An anchor of a scene with media that was never completed has no
         // target it could evaluate: every candidate fails.
         if !a.is_complete(self.tracer) {
-            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
-                if let Some(s) = s {
-                    s.value = Rgb::ZERO;
-                    *p = 0.0;
-                }
-            }
+            super::fail_all(states, p);
             return;
         }
         // Through media: one lane at a time (`super::media`).

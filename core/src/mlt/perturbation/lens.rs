@@ -55,6 +55,12 @@ pub(crate) struct LensState {
     pub value: Rgb,
 }
 
+impl super::Candidate for LensState {
+    fn value_mut(&mut self) -> &mut Rgb {
+        &mut self.value
+    }
+}
+
 /// T(x→·): a clamped Gaussian offset of the raster position.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LensProposal {
@@ -277,12 +283,7 @@ impl<I: Intersector> Bundled<LensState> for LensTarget<'_, '_, I> {
         // An anchor of a scene with media that was never completed has no
         // target it could evaluate: every candidate fails.
         if !a.is_complete(self.tracer) {
-            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
-                if let Some(s) = s {
-                    s.value = Rgb::ZERO;
-                    *p = 0.0;
-                }
-            }
+            super::fail_all(states, p);
             return;
         }
         // Through media: one lane at a time (`media`), with the

@@ -86,6 +86,24 @@ use crate::math::Rgb;
 /// the disk holds 1 − e^{−8} of the Gaussian.
 const R_MAX_SIGMAS: f32 = 4.0;
 
+/// A perturbation's candidate state, whose value its target sets.
+trait Candidate {
+    /// The path contribution the target evaluated for this candidate.
+    fn value_mut(&mut self) -> &mut Rgb;
+}
+
+/// Fails every candidate of a bundle: zero value and zero target. What
+/// a target does when its anchor cannot be evaluated (an anchor of a
+/// scene with media that was never completed), so the chain stays put.
+fn fail_all<S: Candidate>(states: &mut [Option<S>], p: &mut [f32]) {
+    for (s, p) in states.iter_mut().zip(p.iter_mut()) {
+        if let Some(s) = s {
+            *s.value_mut() = Rgb::ZERO;
+            *p = 0.0;
+        }
+    }
+}
+
 /// The three perturbations' proposals, as level 2 and the path-space
 /// level 1 both draw them.
 #[derive(Clone, Copy, Debug)]

@@ -67,6 +67,12 @@ pub(crate) struct MultiChainState {
     pub value: Rgb,
 }
 
+impl super::Candidate for MultiChainState {
+    fn value_mut(&mut self) -> &mut Rgb {
+        &mut self.value
+    }
+}
+
 /// T(x→·): the lens perturbation's raster offset and the caustic
 /// perturbation's angular offset of ω, independently.
 #[derive(Clone, Copy, Debug)]
@@ -156,12 +162,7 @@ impl<I: Intersector> Bundled<MultiChainState> for MultiChainTarget<'_, '_, I> {
         // An anchor of a scene with media that was never completed has no
         // target it could evaluate: every candidate fails.
         if !a.is_complete(self.tracer) {
-            for (s, p) in states.iter_mut().zip(p.iter_mut()) {
-                if let Some(s) = s {
-                    s.value = Rgb::ZERO;
-                    *p = 0.0;
-                }
-            }
+            super::fail_all(states, p);
             return;
         }
         // Through media: one lane at a time (`super::media`).
