@@ -62,7 +62,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{CausticAnchor, LensAnchor, LensEnd, MultiChainAnchor, SpecularChain, is_reflection};
+use super::{CausticAnchor, LensAnchor, LensEnd, MultiChainAnchor, SpecularChain};
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
@@ -370,21 +370,10 @@ fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: us
             c *= medium_factor(tr, v, prev, next);
             continue;
         }
-        let Some(sh) = &v.shading else {
-            return Rgb::ZERO;
-        };
-        c *= if sh.bsdf.is_delta() {
-            let wo = sh.frame.to_local((prev - v.sp.p).normalize());
-            match sh
-                .bsdf
-                .specular(wo, is_reflection(path, i), TransportMode::Importance)
-            {
-                Some((_, w)) => w,
-                None => return Rgb::ZERO,
-            }
-        } else {
-            scatter(sh, prev, next, TransportMode::Importance)
-        };
+        match super::surface_colour(path, i) {
+            Some(f) => c *= f,
+            None => return Rgb::ZERO,
+        }
     }
     c
 }

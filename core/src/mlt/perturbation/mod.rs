@@ -210,25 +210,30 @@ fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: us
         .scene
         .emitted(&light.sp, (path[k - 1].sp.p - light.sp.p).normalize());
     for i in (from.max(1)..k).rev() {
-        let v = &path[i];
-        let Some(sh) = &v.shading else {
-            return Rgb::ZERO;
-        };
-        let (prev, next) = (path[i + 1].sp.p, path[i - 1].sp.p);
-        c *= if sh.bsdf.is_delta() {
-            let wo = sh.frame.to_local((prev - v.sp.p).normalize());
-            match sh
-                .bsdf
-                .specular(wo, is_reflection(path, i), TransportMode::Importance)
-            {
-                Some((_, w)) => w,
-                None => return Rgb::ZERO,
-            }
-        } else {
-            scatter(sh, prev, next, TransportMode::Importance)
-        };
+        match surface_colour(path, i) {
+            Some(f) => c *= f,
+            None => return Rgb::ZERO,
+        }
     }
     c
+}
+
+/// The colour surface vertex x_i (0 < i < k) gives a fixed tail: its
+/// BSDF in light-transport direction, or its specular lobe's throughput;
+/// `None` when it has no shading or its lobe does not connect x_{i+1}
+/// to x_{i−1}.
+fn surface_colour(path: &[PathVertex], i: usize) -> Option<Rgb> {
+    let v = &path[i];
+    let sh = v.shading.as_ref()?;
+    let (prev, next) = (path[i + 1].sp.p, path[i - 1].sp.p);
+    Some(if sh.bsdf.is_delta() {
+        let wo = sh.frame.to_local((prev - v.sp.p).normalize());
+        sh.bsdf
+            .specular(wo, is_reflection(path, i), TransportMode::Importance)?
+            .1
+    } else {
+        scatter(sh, prev, next, TransportMode::Importance)
+    })
 }
 
 /// What the lens perturbation keeps fixed.
