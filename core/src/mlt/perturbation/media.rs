@@ -200,7 +200,7 @@ fn kept_distance(path: &[PathVertex], i: usize, from: usize) -> Option<f32> {
 }
 
 /// The colour of the fixed part of `path` from x_{from} on through media:
-/// [`tail_colour`] times `trans`, the transmittance of its segments; 1
+/// [`super::tail_colour`] times `trans`, the transmittance of its segments; 1
 /// when `from` is past the emitter (nothing fixed beyond the end).
 fn fixed_tail<I: Intersector>(
     tr: &Tracer<'_, I>,
@@ -209,7 +209,7 @@ fn fixed_tail<I: Intersector>(
     trans: Rgb,
 ) -> Rgb {
     if from < path.len() {
-        tail_colour(tr, path, from) * trans
+        super::tail_colour(tr, path, from) * trans
     } else {
         Rgb::ONE
     }
@@ -217,7 +217,7 @@ fn fixed_tail<I: Intersector>(
 
 /// The lens perturbation's media facts of the level-1 path `path` whose
 /// first non-specular vertex is x_t, and the colour of its fixed part from
-/// x_{t+2} on (1 when there is none): [`tail_colour`] with medium vertices'
+/// x_{t+2} on (1 when there is none): [`super::tail_colour`] with medium vertices'
 /// σ_s × phase, times the transmittance of the segments x_{t+1} → … → x_k.
 /// `None` when [`walk_media`] fails.
 pub(super) fn lens_media<I: Intersector>(
@@ -353,29 +353,6 @@ pub(super) fn multi_chain_media<I: Intersector>(
             fixed_tail(tr, path, u + 2, tail),
         )
     })
-}
-
-/// [`super::tail_colour`] through media: a medium vertex weighs σ_s ×
-/// phase (transmittances are the caller's).
-fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: usize) -> Rgb {
-    let k = path.len() - 1;
-    let light = &path[k];
-    let mut c = tr
-        .scene
-        .emitted(&light.sp, (path[k - 1].sp.p - light.sp.p).normalize());
-    for i in (from.max(1)..k).rev() {
-        let v = &path[i];
-        let (prev, next) = (path[i + 1].sp.p, path[i - 1].sp.p);
-        if v.is_medium() {
-            c *= medium_factor(tr, v, prev, next);
-            continue;
-        }
-        match super::surface_colour(path, i) {
-            Some(f) => c *= f,
-            None => return Rgb::ZERO,
-        }
-    }
-    c
 }
 
 /// The far end x′_t of the camera part: a surface point with its shading,

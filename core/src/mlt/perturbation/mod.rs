@@ -202,7 +202,8 @@ fn is_reflection(path: &[PathVertex], i: usize) -> bool {
 /// its BSDF in light-transport direction (importance, with the shading
 /// correction) or its specular lobe's throughput. Geometry terms are
 /// scalars constant along a side chain and are left out: only the colour
-/// matters (see the module docs).
+/// matters (see the module docs). A medium vertex weighs σ_s × phase
+/// (`media::medium_factor`); the segments' transmittance is the caller's.
 fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: usize) -> Rgb {
     let k = path.len() - 1;
     let light = &path[k];
@@ -210,6 +211,11 @@ fn tail_colour<I: Intersector>(tr: &Tracer<'_, I>, path: &[PathVertex], from: us
         .scene
         .emitted(&light.sp, (path[k - 1].sp.p - light.sp.p).normalize());
     for i in (from.max(1)..k).rev() {
+        #[cfg(feature = "media")]
+        if path[i].is_medium() {
+            c *= media::medium_factor(tr, &path[i], path[i + 1].sp.p, path[i - 1].sp.p);
+            continue;
+        }
         match surface_colour(path, i) {
             Some(f) => c *= f,
             None => return Rgb::ZERO,
