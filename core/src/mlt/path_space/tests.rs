@@ -374,7 +374,7 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
 /// error), within 4 of them of the furnace's (`docs/accuracy.md`, the
 /// path-space section, has the figures).
 #[test]
-#[ignore]
+#[ignore = "a 2½-minute measurement, not a check: run with --ignored"]
 fn mirror_furnace_depth_shares_long_run() {
     let mirror = scenes::mirror_sphere_furnace();
     for (name, weights) in [
