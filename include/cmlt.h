@@ -296,6 +296,24 @@
 // `CMLT_MATERIAL_NULL`).
 #define CMLT_EFFECT_MEDIA 32768
 
+// Trilinear interpolation between the eight voxel centres around the
+// point (Mitsuba's `filter_type = "trilinear"`, its default).
+#define CMLT_GRID_TRILINEAR 0
+
+// The voxel the point lies in (Mitsuba's `filter_type = "nearest"`).
+#define CMLT_GRID_NEAREST 1
+
+// Outside the grid, the nearest voxel on its boundary (Mitsuba's
+// `wrap_mode = "clamp"`, its default).
+#define CMLT_GRID_CLAMP 0
+
+// The grid tiled (Mitsuba's `wrap_mode = "repeat"`).
+#define CMLT_GRID_REPEAT 1
+
+// The grid tiled with every other copy mirrored (Mitsuba's
+// `wrap_mode = "mirror"`).
+#define CMLT_GRID_MIRROR 2
+
 // Isotropic scattering, 1/(4π) over the sphere (`cmlt_medium.g` ignored).
 #define CMLT_PHASE_ISOTROPIC 0
 
@@ -622,16 +640,18 @@ typedef struct cmlt_material {
   // Non-zero: both sides scatter alike (otherwise the back side is
   // black, as Mitsuba's one-sided BSDFs).
   uint32_t two_sided;
-  // A texture (`cmlt_scene_add_texture`) replacing `color` (diffuse
-  // albedo, metal reflectance), looked up at the mesh's uvs; or
-  // `CMLT_NO_TEXTURE`.
+  // A texture replacing `color` (diffuse albedo, metal reflectance):
+  // an image (`cmlt_scene_add_texture`) looked up at the mesh's uvs, or
+  // a grid (`cmlt_scene_add_grid_texture`) looked up at the hit's
+  // world position; or `CMLT_NO_TEXTURE`.
   uint32_t color_texture;
   // A tangent-space normal map (RGB in [0, 1] → n = 2c − 1, relative to
   // the frame whose first tangent is ∂p/∂u; add it with `srgb` = 0), or
-  // `CMLT_NO_TEXTURE`. Not together with `bump_map`.
+  // `CMLT_NO_TEXTURE`. Not together with `bump_map`; not a grid.
   uint32_t normal_map;
   // A height texture (its luminance) whose uv gradient times
-  // `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`.
+  // `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`; not a
+  // grid (it has no uv gradient).
   uint32_t bump_map;
   // Scale of `bump_map`'s height (finite; Mitsuba's default is 1).
   float bump_scale;
@@ -884,6 +904,29 @@ typedef struct cmlt_intersector {
   // Packet occlusion (optional).
   cmlt_occluded_packet_fn occluded_packet;
 } cmlt_intersector;
+
+// A grid of voxels spanning the unit cube [0, 1]³ of its own frame,
+// placed in the world by `to_world` (Mitsuba's `gridvolume`; a voxel's
+// value sits at its centre, (i + ½)/resolution in that frame).
+typedef struct cmlt_grid {
+  // Voxels along x, y and z, each > 0.
+  uint32_t resolution[3];
+  // Values per voxel: 1 (grey) or 3 (linear RGB).
+  uint32_t channels;
+  // resolution[0] · resolution[1] · resolution[2] · `channels` floats,
+  // x fastest, then y, then z (the layout of Mitsuba's `.vol` files),
+  // each finite and in [0, 1]; 4-byte aligned, read during the call.
+  const float *voxels;
+  // The grid-to-world transform, a row-major 3×4 affine matrix (the
+  // first three columns the linear part, the fourth the translation)
+  // mapping the unit cube to where the grid lies; invertible. All zeros
+  // means the identity.
+  float to_world[12];
+  // `CMLT_GRID_TRILINEAR` or `CMLT_GRID_NEAREST`.
+  uint32_t filter;
+  // `CMLT_GRID_CLAMP`, `CMLT_GRID_REPEAT` or `CMLT_GRID_MIRROR`.
+  uint32_t wrap;
+} cmlt_grid;
 
 // A homogeneous participating medium (Mitsuba 3's `homogeneous` with
 // its `scale` folded into `sigma_t`).
@@ -1283,8 +1326,9 @@ enum cmlt_status cmlt_scene_add_material(struct cmlt_scene *scene,
 // `srgb` non-zero the values are sRGB-encoded and decoded to linear (a
 // colour texture); with 0 they are used as they are, /255 (normal, bump
 // and opacity maps). Sampled bilinearly with repeat wrapping. Its id, for
-// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1;
-// `CMLT_NO_TEXTURE` is 0). On failure the scene is unchanged.
+// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1 and
+// are shared with `cmlt_scene_add_grid_texture`; `CMLT_NO_TEXTURE` is 0).
+// On failure the scene is unchanged.
 //
 // # Safety
 // `scene` is a valid handle; `texels` is NULL or points to `height` rows
@@ -1484,6 +1528,20 @@ enum cmlt_status cmlt_scene_triangle_count(const struct cmlt_scene *scene, uint3
 // # Safety
 // `scene` is NULL or a valid handle; `out` is NULL or valid.
 enum cmlt_status cmlt_scene_light_count(const struct cmlt_scene *scene, uint32_t *out);
+
+// Adds a voxel-grid texture (see `cmlt_grid`), copied from host memory.
+// Its id goes to `*out_id`: ids are shared with `cmlt_scene_add_texture`
+// (they start at 1 and count the textures of both kinds in the order
+// added), for `cmlt_material`'s `color_texture`, `principled_textures`
+// and `opacity_texture`; a material naming it as `normal_map` or
+// `bump_map` is refused. On failure the scene is unchanged.
+//
+// # Safety
+// `scene` is a valid handle; `grid` is NULL or valid, its `voxels` NULL
+// or pointing to as many floats as it says; `out_id` is NULL or valid.
+enum cmlt_status cmlt_scene_add_grid_texture(struct cmlt_scene *scene,
+                                             const struct cmlt_grid *grid,
+                                             uint32_t *out_id);
 
 // Adds a homogeneous medium; its id (for `cmlt_scene_set_mesh_media` and
 // `cmlt_scene_set_camera_medium`; ids count from 0 in the order added)

@@ -108,6 +108,20 @@ class Scene {
     [[nodiscard]] Status add_mesh(const cmlt_mesh &m, std::uint32_t *first_triangle = nullptr) {
         return detail::status(cmlt_scene_add_mesh(p_, &m, first_triangle));
     }
+    /// An image texture from host memory (`cmlt_scene_add_texture`); its id
+    /// into `id`.
+    [[nodiscard]] Status add_texture(std::uint32_t width, std::uint32_t height, std::uint32_t channels,
+                                     const std::uint8_t *texels, std::size_t stride, bool srgb,
+                                     std::uint32_t &id) {
+        return detail::status(
+            cmlt_scene_add_texture(p_, width, height, channels, texels, stride, srgb ? 1u : 0u, &id));
+    }
+    /// A voxel-grid texture read at world positions
+    /// (`cmlt_scene_add_grid_texture`); its id, shared with image textures,
+    /// into `id`.
+    [[nodiscard]] Status add_grid_texture(const cmlt_grid &g, std::uint32_t &id) {
+        return detail::status(cmlt_scene_add_grid_texture(p_, &g, &id));
+    }
     /// A homogeneous medium; its id into `id`.
     [[nodiscard]] Status add_medium(const cmlt_medium &m, std::uint32_t &id) {
         return detail::status(cmlt_scene_add_medium(p_, &m, &id));

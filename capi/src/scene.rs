@@ -25,7 +25,9 @@ use crate::error::{Error, Result, cmlt_status, guard, read, write};
 use crate::host::{HostIntersector, HostShapes, cmlt_intersector, cmlt_shapes};
 use crate::loader::{self, Loaded};
 
+mod grid;
 mod media;
+pub use grid::*;
 pub use media::*;
 
 /// Lambertian diffuse: `color` is the albedo.
@@ -141,16 +143,18 @@ pub struct cmlt_material {
     /// Non-zero: both sides scatter alike (otherwise the back side is
     /// black, as Mitsuba's one-sided BSDFs).
     pub two_sided: u32,
-    /// A texture (`cmlt_scene_add_texture`) replacing `color` (diffuse
-    /// albedo, metal reflectance), looked up at the mesh's uvs; or
-    /// `CMLT_NO_TEXTURE`.
+    /// A texture replacing `color` (diffuse albedo, metal reflectance):
+    /// an image (`cmlt_scene_add_texture`) looked up at the mesh's uvs, or
+    /// a grid (`cmlt_scene_add_grid_texture`) looked up at the hit's
+    /// world position; or `CMLT_NO_TEXTURE`.
     pub color_texture: u32,
     /// A tangent-space normal map (RGB in [0, 1] → n = 2c − 1, relative to
     /// the frame whose first tangent is ∂p/∂u; add it with `srgb` = 0), or
-    /// `CMLT_NO_TEXTURE`. Not together with `bump_map`.
+    /// `CMLT_NO_TEXTURE`. Not together with `bump_map`; not a grid.
     pub normal_map: u32,
     /// A height texture (its luminance) whose uv gradient times
-    /// `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`.
+    /// `bump_scale` tilts the shading normal, or `CMLT_NO_TEXTURE`; not a
+    /// grid (it has no uv gradient).
     pub bump_map: u32,
     /// Scale of `bump_map`'s height (finite; Mitsuba's default is 1).
     pub bump_scale: f32,
@@ -428,9 +432,11 @@ fn room(b: &mut Building) -> Result<()> {
 struct Building {
     builder: SceneBuilder,
     materials: usize,
-    /// The bitmap of each texture id − 1 (environment maps' bitmaps are
-    /// among the scene's bitmaps too, so ids and bitmaps differ).
-    textures: Vec<BitmapId>,
+    /// The texture of each texture id − 1: an image
+    /// (`cmlt_scene_add_texture`; environment maps' bitmaps are among the
+    /// scene's bitmaps too, so ids and bitmaps differ) or a grid
+    /// (`grid::cmlt_scene_add_grid_texture`).
+    textures: Vec<Texture>,
     meshes: usize,
     /// Media added so far (`media::cmlt_scene_add_medium`).
     media: u32,
@@ -538,19 +544,16 @@ pub unsafe extern "C" fn cmlt_scene_release(scene: *mut cmlt_scene) {
 
 /// The texture of id `id` (`CMLT_NO_TEXTURE`: none) among `textures`
 /// added so far.
-fn texture_from_c(id: u32, textures: &[BitmapId], what: &str) -> Result<Option<Texture>> {
+fn texture_from_c(id: u32, textures: &[Texture], what: &str) -> Result<Option<Texture>> {
     if id == CMLT_NO_TEXTURE {
         return Ok(None);
     }
-    let Some(&bitmap) = textures.get(id as usize - 1) else {
+    let Some(t) = textures.get(id as usize - 1) else {
         return Err(Error::invalid(format!(
             "material: {what} {id} is not a texture of this scene"
         )));
     };
-    Ok(Some(Texture::Bitmap {
-        id: bitmap,
-        to_uv: Affine2::IDENTITY,
-    }))
+    Ok(Some(*t))
 }
 
 /// The principled parameters of `m` (see `CMLT_MATERIAL_PRINCIPLED`);
@@ -558,7 +561,7 @@ fn texture_from_c(id: u32, textures: &[BitmapId], what: &str) -> Result<Option<T
 fn principled_from_c(
     m: &cmlt_material,
     base_color: Texture,
-    textures: &[BitmapId],
+    textures: &[Texture],
 ) -> Result<PrincipledParams> {
     let scalar = |index: u32, value: f32| -> Result<Texture> {
         let id = m.principled_textures[index as usize];
@@ -591,7 +594,7 @@ fn principled_from_c(
     })
 }
 
-pub(crate) fn material_from_c(m: &cmlt_material, textures: &[BitmapId]) -> Result<Material> {
+pub(crate) fn material_from_c(m: &cmlt_material, textures: &[Texture]) -> Result<Material> {
     let color = Rgb::new(m.color[0], m.color[1], m.color[2]);
     let tex = texture_from_c(m.color_texture, textures, "color_texture")?;
     let colour = tex.unwrap_or(Texture::Constant(color));
@@ -744,8 +747,9 @@ pub unsafe extern "C" fn cmlt_scene_add_material(
 /// `srgb` non-zero the values are sRGB-encoded and decoded to linear (a
 /// colour texture); with 0 they are used as they are, /255 (normal, bump
 /// and opacity maps). Sampled bilinearly with repeat wrapping. Its id, for
-/// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1;
-/// `CMLT_NO_TEXTURE` is 0). On failure the scene is unchanged.
+/// `cmlt_material`'s texture fields, goes to `*out_id` (ids start at 1 and
+/// are shared with `cmlt_scene_add_grid_texture`; `CMLT_NO_TEXTURE` is 0).
+/// On failure the scene is unchanged.
 ///
 /// # Safety
 /// `scene` is a valid handle; `texels` is NULL or points to `height` rows
@@ -814,7 +818,10 @@ pub unsafe extern "C" fn cmlt_scene_add_texture(
             }
             room(b)?;
             let id = b.builder.add_bitmap(bitmap);
-            b.textures.push(id);
+            b.textures.push(Texture::Bitmap {
+                id,
+                to_uv: Affine2::IDENTITY,
+            });
             *out = b.textures.len() as u32;
             Ok(())
         })

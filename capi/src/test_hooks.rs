@@ -10,7 +10,7 @@
 
 use cmlt_core::integrator::Settings;
 use cmlt_core::renderer::RendererConfig;
-use cmlt_core::scene::{BitmapId, Material};
+use cmlt_core::scene::{Material, Texture};
 
 use crate::renderer::cmlt_renderer_config;
 use crate::scene::cmlt_scene;
@@ -52,7 +52,7 @@ pub unsafe fn core_config(
 /// through `textures`.
 pub fn material_from_c(
     m: &crate::scene::cmlt_material,
-    textures: &[BitmapId],
+    textures: &[Texture],
 ) -> Result<Material, String> {
     crate::scene::material_from_c(m, textures).map_err(|e| e.message.into_owned())
 }

@@ -65,13 +65,26 @@ fn host_input_paths_under_miri() {
         let mut s = null_mut();
         assert_eq!(cmlt_scene_new(&mut s), CMLT_OK);
         let mut id = 0;
+        // A 2×1×1 grey grid read by the material: its voxels are read
+        // through the raw pointer during the call and copied.
+        let voxels = [0.25f32, 0.75];
+        let grid = cmlt_grid {
+            resolution: [2, 1, 1],
+            channels: 1,
+            voxels: voxels.as_ptr(),
+            to_world: [0.0; 12],
+            filter: CMLT_GRID_TRILINEAR,
+            wrap: CMLT_GRID_REPEAT,
+        };
+        let mut grid_id = 0;
+        assert_eq!(cmlt_scene_add_grid_texture(s, &grid, &mut grid_id), CMLT_OK);
         let white = cmlt_material {
             type_: CMLT_MATERIAL_DIFFUSE,
             color: [0.5; 3],
             ior: 1.0,
             roughness: 0.0,
             two_sided: 1,
-            color_texture: CMLT_NO_TEXTURE,
+            color_texture: grid_id,
             normal_map: CMLT_NO_TEXTURE,
             bump_map: CMLT_NO_TEXTURE,
             bump_scale: 1.0,

@@ -127,7 +127,17 @@ fn session() -> Outcome {
     config.m = 2;
     let mut pixels = [0.0f32; 16 * 12 * 3];
     let moved = POSITIONS.map(|v| v + 0.01);
-    let (mut tex, mut mat, mut bytes) = (0u32, 0u32, 0usize);
+    let (mut tex, mut grid, mut mat, mut bytes) = (0u32, 0u32, 0u32, 0usize);
+    // An opaque grid (every voxel 1) read as the floor's opacity.
+    let voxels = [1.0f32; 2];
+    let grid_desc = cmlt_grid {
+        resolution: [2, 1, 1],
+        channels: 1,
+        voxels: voxels.as_ptr(),
+        to_world: [0.0; 12],
+        filter: CMLT_GRID_TRILINEAR,
+        wrap: CMLT_GRID_CLAMP,
+    };
     let point = cmlt_light {
         type_: CMLT_LIGHT_POINT,
         color: [1.0; 3],
@@ -148,9 +158,13 @@ fn session() -> Outcome {
             && call("add_texture", &mut || {
                 cmlt_scene_add_texture(scene, 2, 2, 3, TEXELS.as_ptr(), 0, 1, &mut tex)
             })
+            && call("add_grid_texture", &mut || {
+                cmlt_scene_add_grid_texture(scene, &grid_desc, &mut grid)
+            })
             && call("add_material", &mut || {
                 let m = cmlt_material {
                     color_texture: tex,
+                    opacity_texture: grid,
                     ..WHITE
                 };
                 cmlt_scene_add_material(scene, &m, &mut mat)

@@ -318,10 +318,15 @@ fn principled_materials_are_checked_and_rendered() {
     assert_eq!((g.eta, g.spec_trans), (1.45, c(1.0)));
     let mut textured = p;
     textured.principled_textures[CMLT_PRINCIPLED_METALLIC as usize] = 1;
-    let MaterialKind::Principled(t) =
-        cmlt_capi::test_hooks::material_from_c(&textured, &[cmlt_core::scene::BitmapId(0)])
-            .unwrap()
-            .kind
+    let MaterialKind::Principled(t) = cmlt_capi::test_hooks::material_from_c(
+        &textured,
+        &[Texture::Bitmap {
+            id: cmlt_core::scene::BitmapId(0),
+            to_uv: cmlt_core::math::Affine2::IDENTITY,
+        }],
+    )
+    .unwrap()
+    .kind
     else {
         panic!("not principled");
     };
