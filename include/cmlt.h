@@ -913,7 +913,7 @@ typedef struct cmlt_grid {
   uint32_t resolution[3];
   // Values per voxel: 1 (grey) or 3 (linear RGB).
   uint32_t channels;
-  // resolution[0] · resolution[1] · resolution[2] · `channels` floats,
+  // `resolution[0] · resolution[1] · resolution[2] · channels` floats,
   // x fastest, then y, then z (the layout of Mitsuba's `.vol` files),
   // each finite and in [0, 1]; 4-byte aligned, read during the call.
   const float *voxels;

@@ -21,7 +21,7 @@
 //! instead: the allocator notes it (per thread, in the `call` module), serves that block and the
 //! call's later ones from the system allocator when the host refuses them
 //! too, and the call then throws its work away and returns
-//! `CMLT_ERROR_OUT_OF_MEMORY` ([`check_oom`] before anything is published),
+//! `CMLT_ERROR_OUT_OF_MEMORY` (`check_oom` before anything is published),
 //! so nothing the host refused outlives the call. A block from the system
 //! is marked as such in its header and freed there. Sizes from input are
 //! bounded and checked before they are allocated (`try_reserve`, checked

@@ -4,7 +4,7 @@
 //! Every `cmlt_*` function returns a [`cmlt_status`]. On failure the message
 //! is kept per thread ([`cmlt_last_error`]) and handed to the error
 //! callback, if one is set (like Embree's `rtcSetDeviceErrorFunction`).
-//! [`guard`] catches panics, so none ever unwinds into C: a panic is a bug
+//! `guard` catches panics, so none ever unwinds into C: a panic is a bug
 //! and is reported as [`cmlt_status::CMLT_ERROR_INTERNAL`].
 
 use std::borrow::Cow;

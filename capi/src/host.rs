@@ -9,8 +9,8 @@
 //! Hits the host reports are checked before the core sees them — a
 //! primitive index past the scene's triangles or shapes, a non-finite or
 //! out-of-interval distance or barycentric, is counted
-//! ([`HostIntersector::rejected_hits`]) and treated as a miss; an invalid
-//! surface point is counted ([`HostShapes`]) and scatters nothing. A buggy
+//! (`HostIntersector::rejected_hits`) and treated as a miss; an invalid
+//! surface point is counted (`HostShapes`) and scatters nothing. A buggy
 //! callback can cost image quality but never memory safety or a panic.
 
 use std::ffi::c_void;

@@ -45,7 +45,7 @@ pub struct cmlt_grid {
     pub resolution: [u32; 3],
     /// Values per voxel: 1 (grey) or 3 (linear RGB).
     pub channels: u32,
-    /// resolution[0] · resolution[1] · resolution[2] · `channels` floats,
+    /// `resolution[0] · resolution[1] · resolution[2] · channels` floats,
     /// x fastest, then y, then z (the layout of Mitsuba's `.vol` files),
     /// each finite and in [0, 1]; 4-byte aligned, read during the call.
     pub voxels: *const f32,
