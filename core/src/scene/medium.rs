@@ -248,7 +248,8 @@ pub enum Flight {
         /// The throughput's factor.
         weight: Rgb,
     },
-    /// The ray reaches the end of its extent; `weight` is e^{−σ_t t} / P.
+    /// The ray reaches the end of its extent; `weight` is e^{−σ_t t} / P,
+    /// P the probability of passing ([`Medium::pass_density`]).
     Pass {
         /// The throughput's factor.
         weight: Rgb,
@@ -266,8 +267,26 @@ impl Medium {
     /// averaged over the channels ([`Medium::scatter_density`],
     /// [`Medium::pass_density`]). The one implementation that path tracing
     /// and both BDPT subpaths draw their medium vertices with.
+    ///
+    /// A medium that only absorbs (σ_s = 0 in every channel: a tinted
+    /// glass's or liquid's interior) has no vertex to sample: the ray
+    /// always passes, weighted by the transmittance itself (probability
+    /// 1, which `pass_density` and `scatter_density` report too). Sampling
+    /// a distance there would only turn the transmittance into a coin
+    /// flip, a sample passing with weight T/P or ending, with variance
+    /// (1 − P)/P times the square of the mean where passing has zero.
+    /// `u_channel` and `u` are still taken, so the sample streams of the
+    /// other dimensions stay where they are.
     #[inline]
     pub fn sample_flight(&self, t_max: f32, u_channel: f32, u: f32) -> Flight {
+        if !self.scatters() {
+            let tr = self.transmittance(t_max);
+            return if tr.is_black() {
+                Flight::Absorbed
+            } else {
+                Flight::Pass { weight: tr }
+            };
+        }
         let sigma_t = self.sigma_t.to_array();
         let channel = ((u_channel * 3.0) as usize).min(2);
         let s = if sigma_t[channel] > 0.0 {
@@ -298,16 +317,23 @@ impl Medium {
     }
 
     /// Density (per unit length) with which [`Medium::sample_flight`]
-    /// scatters at distance `s`: (1/3) Σ_c σ_t,c e^{−σ_t,c s}.
+    /// scatters at distance `s`: (1/3) Σ_c σ_t,c e^{−σ_t,c s}, and 0 in a
+    /// medium that only absorbs.
     #[inline]
     pub fn scatter_density(&self, s: f32) -> f32 {
+        if !self.scatters() {
+            return 0.0;
+        }
         (self.sigma_t * self.transmittance(s)).average()
     }
 
     /// Probability that [`Medium::sample_flight`] passes a distance `t`:
-    /// (1/3) Σ_c e^{−σ_t,c t}.
+    /// (1/3) Σ_c e^{−σ_t,c t}, and 1 in a medium that only absorbs.
     #[inline]
     pub fn pass_density(&self, t: f32) -> f32 {
+        if !self.scatters() {
+            return 1.0;
+        }
         self.transmittance(t).average()
     }
 }
@@ -353,6 +379,41 @@ mod tests {
     /// Each phase function integrates to 1 over the sphere, its mean cosine
     /// is g, and its samples have the density it reports (checked through
     /// E[1/pdf] = 4π over the sampled directions).
+    /// A medium that only absorbs is passed with its transmittance as the
+    /// weight, whatever the random numbers, with the densities saying so;
+    /// one that scatters at all still samples distances (its mean weight
+    /// is the transmittance, each sample's is not).
+    #[test]
+    fn absorbers_are_passed_with_their_transmittance() {
+        let sigma_t = Rgb::new(0.5, 1.0, 2.0);
+        let absorber = Medium::homogeneous(sigma_t, Rgb::ZERO, 1.0, Phase::Isotropic).unwrap();
+        let tr = absorber.transmittance(1.0);
+        for (uc, u) in [(0.1, 0.9), (0.5, 0.01), (0.99, 0.5)] {
+            assert_eq!(
+                absorber.sample_flight(1.0, uc, u),
+                Flight::Pass { weight: tr }
+            );
+        }
+        assert_eq!(
+            absorber.sample_flight(f32::INFINITY, 0.5, 0.5),
+            Flight::Absorbed
+        );
+        assert_eq!(absorber.pass_density(1.0), 1.0);
+        assert_eq!(absorber.scatter_density(0.5), 0.0);
+        let faint = Rgb::new(0.0, 0.01, 0.0);
+        let scatterer = Medium::homogeneous(sigma_t, faint, 1.0, Phase::Isotropic).unwrap();
+        assert!(matches!(
+            scatterer.sample_flight(1.0, 0.5, 0.3),
+            Flight::Scatter { .. }
+        ));
+        let Flight::Pass { weight } = scatterer.sample_flight(1.0, 0.5, 0.9) else {
+            panic!("a short flight passes");
+        };
+        let want = tr * (1.0 / tr.average());
+        assert!((weight.r - want.r).abs() + (weight.b - want.b).abs() < 1e-6);
+        assert!((scatterer.pass_density(1.0) - tr.average()).abs() < 1e-7);
+    }
+
     #[test]
     fn phase_functions_are_normalised_and_sampled_exactly() {
         let d = Vec3::new(0.3, -0.4, 0.866).normalize();

@@ -8,7 +8,10 @@
 //! boundaries are passed without a vertex, each starting a new stretch
 //! (the walk draws a new distance behind it); the medium is tracked along
 //! both subpaths. A medium vertex scatters by its phase function, sampled
-//! exactly, and is never specular.
+//! exactly, and is never specular. A medium that only absorbs holds no
+//! vertices: the walks pass it with probability 1 and its transmittance
+//! as the weight, and its stretches' densities are 1 (`Medium::
+//! sample_flight`, `pass_density`).
 //!
 //! **Densities.** The area density of a vertex generated from its
 //! neighbour is the direction density (phase or BSDF) over d², times the

@@ -27,6 +27,12 @@
 //! channels carried by their ratios is this same estimator without the
 //! balance heuristic, and has exactly that variance problem.
 //!
+//! A medium that only absorbs (σ_s = 0 in every channel, the interior of
+//! a tinted glass or liquid) is not sampled at all: the path passes it
+//! with the transmittance as its weight, since there is no vertex to find
+//! and a sampled distance would only make the transmittance a coin flip
+//! (`Medium::sample_flight`).
+//!
 //! At a medium vertex the path scatters with probability σ_s/σ_t per
 //! channel, folded into the weight σ_s e^{−σ_t s} / p(s); the phase
 //! function is sampled exactly (weight 1). Next-event estimation at
