@@ -70,6 +70,7 @@ pub(crate) fn decode_bitmap(path: &Path, raw: bool) -> Result<Bitmap, String> {
         return Bitmap::new(w, texels.len() as u32 / w, texels)
             .ok_or_else(|| "the image is empty".to_string());
     }
+    let bytes = radiance_magic(bytes);
     let mut reader = image::ImageReader::new(Cursor::new(bytes.as_slice()))
         .with_guessed_format()
         .map_err(|e| format!("cannot read: {e}"))?;
@@ -114,6 +115,24 @@ pub(crate) fn decode_bitmap(path: &Path, raw: bool) -> Result<Bitmap, String> {
     };
     check_texels(w, &texels)?;
     Bitmap::new(w, h, texels).ok_or_else(|| "the image is empty".to_string())
+}
+
+/// A Radiance HDR file starts with `#?` and the name of the program
+/// that wrote it: `#?RADIANCE` by convention, but Mitsuba (and others)
+/// write `#?RGBE`. The `image` crate recognises only the first, so any
+/// other first line of that form is read as it.
+fn radiance_magic(mut bytes: Vec<u8>) -> Vec<u8> {
+    const MAGIC: &[u8] = b"#?RADIANCE";
+    let Some(end) = bytes.iter().take(64).position(|&b| b == b'\n') else {
+        return bytes;
+    };
+    let line = &bytes[..end];
+    let program = line.strip_prefix(b"#?").unwrap_or(&[]);
+    if line == MAGIC || program.is_empty() || !program.iter().all(u8::is_ascii_alphanumeric) {
+        return bytes;
+    }
+    bytes.splice(..end, MAGIC.iter().copied());
+    bytes
 }
 
 /// Refuses the first negative or non-finite texel, naming its column and
@@ -166,6 +185,26 @@ mod tests {
             .encode(&pixels, w as usize, h as usize)
             .unwrap();
         out
+    }
+
+    /// A Radiance file whose first line names another program than
+    /// RADIANCE (`#?RGBE`, as Mitsuba 3 writes it: this pixel is the
+    /// first of a 2×2 image Mitsuba 3.9.1 wrote, value (0.1, 0.2, 0.3))
+    /// reads like one that says `#?RADIANCE`.
+    #[test]
+    fn radiance_files_from_other_programs_are_read() {
+        let body = b"FORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 1\n\x33\x66\x99\x7f";
+        for first in [&b"#?RGBE\n"[..], b"#?RADIANCE\n"] {
+            let p = write("rgbe.hdr", &[first, &body[..]].concat());
+            let b = decode_bitmap(&p, false).unwrap();
+            let t = b.texels()[0];
+            for (got, want) in [(t.r, 0.1), (t.g, 0.2), (t.b, 0.3)] {
+                assert!((got / want - 1.0).abs() < 0.02, "{t:?}");
+            }
+        }
+        // Not a program name: left alone, and refused as no known format.
+        let p = write("odd.hdr", &[&b"#?R GBE\n"[..], &body[..]].concat());
+        assert!(decode_bitmap(&p, false).is_err());
     }
 
     fn exr(w: usize, h: usize, f: impl Fn(usize, usize) -> (f32, f32, f32) + Sync) -> Vec<u8> {
