@@ -78,11 +78,6 @@ pub struct PhaseSample {
 
 const INV_4PI: f32 = 1.0 / (4.0 * core::f32::consts::PI);
 
-/// Below this |g| the Henyey–Greenstein inversion loses precision (its
-/// 1/(2g)) and the isotropic sample, whose density differs by O(g), is
-/// used with the function's own density.
-const HG_ISOTROPIC_BELOW: f32 = 1e-3;
-
 impl Phase {
     /// Checks g: finite, |g| < 1 (at ±1 the function is a Dirac delta).
     pub fn validate(&self) -> Result<(), MediumError> {
@@ -108,14 +103,29 @@ impl Phase {
     #[inline]
     pub fn sample(&self, d: Vec3, u: glam::Vec2) -> PhaseSample {
         let cos = match *self {
-            Phase::HenyeyGreenstein { g } if g.abs() >= HG_ISOTROPIC_BELOW => {
+            Phase::HenyeyGreenstein { g } => {
                 // Inverting the CDF of μ = cos θ (θ from d), whose density is
-                // (1 − g²) / (2 (1 + g² − 2gμ)^{3/2}):
-                // μ = (1 + g² − ((1 − g²) / (1 − g + 2gu))²) / (2g).
-                let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u.x);
-                ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+                // (1 − g²) / (2 (1 + g² − 2gμ)^{3/2}), gives
+                // μ = (1 + g² − ((1 − g²) / a)²) / (2g), a = 1 − g + 2gu.
+                // Its numerator (1 + g²)a² − (1 − g²)² is a difference of two
+                // numbers near 1 that vanishes with g. Written as
+                // (a − 1)(a + 1) + g²(a² + 2 − g²) with a − 1 = g(2u − 1),
+                // the factor g cancels exactly and the expression holds from
+                // g = 0 (μ = 2u − 1) up; it cancels in turn as g → 1 (at
+                // u = 0 its two terms sum to −2(1 − g)²), where the first
+                // form is exact. Either is the same inverse; each is used
+                // where it keeps its precision.
+                let v = 2.0 * u.x - 1.0;
+                let a = 1.0 + g * v;
+                let mu = if g.abs() < 0.5 {
+                    (v * (a + 1.0) + g * (a * a + 2.0 - g * g)) / (2.0 * a * a)
+                } else {
+                    let s = (1.0 - g * g) / a;
+                    (1.0 + g * g - s * s) / (2.0 * g)
+                };
+                mu.clamp(-1.0, 1.0)
             }
-            _ => 1.0 - 2.0 * u.x,
+            Phase::Isotropic => 1.0 - 2.0 * u.x,
         };
         let sin = libm::sqrtf((1.0 - cos * cos).max(0.0));
         let phi = 2.0 * core::f32::consts::PI * u.y;
@@ -412,6 +422,31 @@ mod tests {
         let want = tr * (1.0 / tr.average());
         assert!((weight.r - want.r).abs() + (weight.b - want.b).abs() < 1e-6);
         assert!((scatterer.pass_density(1.0) - tr.average()).abs() < 1e-7);
+    }
+
+    /// Henyey–Greenstein sampling inverts the CDF exactly at every g, the
+    /// tiny ones included: the sampled cosine equals the inverse CDF's,
+    /// evaluated in f64 (where 1/(2g) loses nothing at these g). An
+    /// isotropic sample for small |g| (what this replaced) puts μ = 1 − 2u
+    /// there, off by up to 2.
+    #[test]
+    fn henyey_greenstein_is_inverted_exactly_at_every_g() {
+        let d = Vec3::new(0.3, -0.4, 0.866).normalize();
+        for g in [1e-6f32, -2e-5, 5e-4, -9e-4, 0.3, -0.49, 0.51, -0.6, 0.95] {
+            let phase = Phase::HenyeyGreenstein { g };
+            for i in 0..=64 {
+                let u = Vec2::new(i as f32 / 64.0, 0.3);
+                let (g64, u64) = (g as f64, u.x as f64);
+                let s = (1.0 - g64 * g64) / (1.0 - g64 + 2.0 * g64 * u64);
+                let want = ((1.0 + g64 * g64 - s * s) / (2.0 * g64)).clamp(-1.0, 1.0);
+                let got = d.dot(phase.sample(d, u).wi) as f64;
+                assert!(
+                    (got - want).abs() < 2e-5,
+                    "g {g}, u {}: {got} against {want}",
+                    u.x
+                );
+            }
+        }
     }
 
     #[test]
