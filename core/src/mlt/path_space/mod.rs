@@ -27,6 +27,7 @@ pub(crate) mod bidirectional;
 pub(crate) mod chain;
 mod emitters;
 pub(crate) mod lens_subpath;
+mod media;
 pub(crate) mod perturbations;
 pub(crate) mod selection;
 pub(crate) mod state;
