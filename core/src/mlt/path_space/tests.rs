@@ -262,6 +262,30 @@ fn bidirectional_density_is_the_proposal_density() {
     );
 }
 
+/// [`bidirectional_density_is_the_proposal_density`] through media
+/// (`fog_box`: the haze, the null-bounded ball, the mirror): the walks
+/// sample free flights and cross null boundaries, so the mean of
+/// Y(f(ȳ))/T(x̄→ȳ) over the proposals that replace a whole path is b_d
+/// only if T has each segment's free-flight density exactly as the walks
+/// sample it and f(ȳ) the transmittance and σ_s × phase BDPT's target has.
+/// Negative control: T without the free-flight densities.
+#[cfg(all(feature = "media", feature = "specular"))]
+#[test]
+fn bidirectional_density_through_media_is_the_proposal_density() {
+    let scene = crate::mlt::perturbation::media_tests::fog_box();
+    let b = depth_b(&scene, 2, 400_000);
+    let (est, se) = mutation_estimate(&scene, 2, 400_000, None);
+    let (wrong, _) = mutation_estimate(&scene, 2, 100_000, Some(Broken::NoFlights));
+    eprintln!(
+        "fog box, depth 2: b_d {b:.5}, from the density {est:.5} ± {se:.5}, without the flights {wrong:.5}"
+    );
+    assert!((est - b).abs() < 0.03 * b, "{est} vs b_d {b}");
+    assert!(
+        (wrong - b).abs() > 0.2 * b,
+        "the free-flight densities went unnoticed: {wrong} vs {b}"
+    );
+}
+
 /// The bidirectional and lens subpath mutations alone, equally likely.
 fn without_perturbations() -> PathMutations {
     PathMutations {
@@ -424,6 +448,45 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
         wrong.depths,
         wrong.blocks
     );
+}
+
+/// The chain through media: on `fog_box` (the haze, the null-bounded
+/// ball, the mirror) path-space chains with the bidirectional and lens
+/// subpath mutations (partial moves, walks sampling free flights, edges
+/// joined through the haze and the ball's boundary) spread their records
+/// over the depths as b_d, each depth's ∫Y(f) from BDPT's own target
+/// ([`depth_b`]: its strategies through media, checked against f/p above),
+/// each share within 4 standard errors of the chains' spread (or 1.5 %).
+/// Negative control: T without the free-flight densities (a proposal's
+/// walk samples them, so its density has them) shifts the shares.
+#[cfg(all(feature = "media", feature = "specular"))]
+#[test]
+fn chain_through_media_samples_depths_in_proportion_to_their_contribution() {
+    let scene = crate::mlt::perturbation::media_tests::fog_box();
+    let b: [f64; 4] = core::array::from_fn(|d| depth_b(&scene, d + 1, 100_000));
+    let total: f64 = b.iter().sum();
+    let want = b.map(|x| x / total);
+    let ok = |shares: &Shares| {
+        (0..4).all(|d| (shares.depths[d] - want[d]).abs() <= (4.0 * shares.errors[d]).max(0.015))
+    };
+    let got = furnace_chains(&scene, &without_perturbations(), None, 32, 5_000);
+    eprintln!(
+        "fog box: depth shares {:?} ± {:?}, from b_d {want:?}",
+        got.depths, got.errors
+    );
+    assert!(ok(&got));
+    let wrong = furnace_chains(
+        &scene,
+        &without_perturbations(),
+        Some(Broken::NoFlights),
+        32,
+        5_000,
+    );
+    eprintln!(
+        "without the flights: {:?} ± {:?}",
+        wrong.depths, wrong.errors
+    );
+    assert!(!ok(&wrong), "the free-flight densities went unnoticed");
 }
 
 /// A measurement of the depth shares' bias (about 2½ minutes of one core:
