@@ -41,7 +41,7 @@ mod path_measure;
 
 pub use path_measure::{
     PathEnd, emission_vertex, environment_vertex, path_contribution, path_densities,
-    strategy_density,
+    strategy_density, with_flights,
 };
 
 use alloc::vec::Vec;
@@ -59,7 +59,7 @@ use crate::sampler::{CAMERA_STREAM, CONNECTION_STREAM, LIGHT_STREAM, Sampler};
 use crate::scene::{Camera, EmitterSample, Light, Phase, Scene, SurfacePoint};
 
 #[cfg(feature = "media")]
-mod media;
+pub(crate) mod media;
 #[cfg(feature = "media")]
 use media::MediaInfo;
 

@@ -1018,7 +1018,6 @@ impl Renderer {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
-        check_media(&self.config.estimator, scene)?;
         let Some(epoch) = self.pending else {
             return Ok(true);
         };
@@ -1329,7 +1328,6 @@ impl Renderer {
         if self.prepared != Some(self.generation) || self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
         }
-        check_media(&self.config.estimator, scene)?;
         let c = &self.config;
         let settings = &self.settings;
         let mut tracer = self.tracer(scene, accel);
@@ -2013,28 +2011,6 @@ fn render_samples<I: Intersector>(
 fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
     let w = w.max(1);
     (i * blocks / w)..((i + 1) * blocks / w)
-}
-
-/// Refuses a scene with media or null boundaries where the estimator
-/// does not render them: the path-space level 1 of MLT and CMLT, whose
-/// path states and mutations (bidirectional and lens subpath mutations,
-/// perturbations, `bdpt::path_contribution` and `path_densities`) know
-/// neither medium vertices nor transmittance nor null boundaries, and
-/// would treat a null boundary as a black surface, a silently wrong
-/// image. PT and BDPT render media, and so do MLT and CMLT in primary
-/// sample space, whose target is BDPT's (CMLT's level 2 leaves such
-/// paths at their level-1 state: `mlt::perturbation::classify`).
-fn check_media(estimator: &Estimator, scene: &Scene) -> Result<(), RenderError> {
-    let path_space = estimator
-        .mlt()
-        .is_some_and(|m| m.level1 != crate::mlt::Level1::PrimarySample);
-    if path_space && scene.has_media() {
-        return Err(RenderError::Config(
-            "participating media and null boundaries are not rendered by the path-space level 1 \
-             (its mutations know no medium vertices or transmittance): use the primary-sample level 1 (--level1 primary)",
-        ));
-    }
-    Ok(())
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's

@@ -44,8 +44,8 @@ use alloc::vec::Vec;
 use glam::{Vec2, Vec3};
 
 use super::{
-    Kind, Local, PathStorage, Vertex, camera_vertex, count_eval, escape, finish,
-    light_emission_pdf, other_light_vertex, scatter_surface, survives,
+    Kind, Local, PathEnd, PathStorage, PathVertex, Vertex, camera_vertex, count_eval, escape,
+    finish, light_emission_pdf, other_light_vertex, scatter_surface, survives,
 };
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
@@ -154,7 +154,7 @@ impl<'s> Pieces<'s> {
 
 /// The medium an area light at `lp` emitting along `w` starts its subpath
 /// in (see the module's description).
-pub(super) fn area_light_medium<I: Intersector>(
+pub(crate) fn area_light_medium<I: Intersector>(
     t: &mut Tracer<'_, I>,
     lp: &SurfacePoint,
     w: Vec3,
@@ -171,7 +171,7 @@ pub(super) fn area_light_medium<I: Intersector>(
 /// The medium a point or spot light at `p` emitting along `w`, or a light
 /// at infinity (`infinite`), starts its subpath in (see the module's
 /// description).
-pub(super) fn other_light_medium<I: Intersector>(
+pub(crate) fn other_light_medium<I: Intersector>(
     t: &mut Tracer<'_, I>,
     infinite: bool,
     p: Vec3,
@@ -686,4 +686,102 @@ fn connect_other<I: Intersector>(
         _ => 0.0,
     };
     Some((l * trans, v, (to_pt, to_light)))
+}
+
+/// The far end of a path's segment towards `b`, its last vertex when
+/// `last` (module docs of `path_measure`: a point light's position, a light
+/// at infinity's direction), as the transmittance query wants it.
+fn path_endpoint(scene: &Scene, b: &PathVertex, last: bool) -> Endpoint {
+    if b.is_medium() {
+        return Endpoint::Point(b.sp.p);
+    }
+    if last && b.sp.surface == u32::MAX {
+        let end = PathEnd::of(scene, b);
+        if end.is_infinite() {
+            return Endpoint::Direction(b.sp.ng);
+        }
+        if end.is_delta() {
+            return Endpoint::Point(b.sp.p);
+        }
+    }
+    Endpoint::Surface(b.sp)
+}
+
+/// Walks the complete path x₀ … x_k's segments x_i → x_{i+1} from the
+/// camera's medium, handing each to `seg(i, transmittance, flight)` —
+/// `flight` the free-flight densities (of reaching x_{i+1} from x_i, of
+/// reaching x_i from x_{i+1}) that BDPT's walks and connections give the
+/// segment ([`Pieces`]: per stretch between null boundaries, a medium
+/// vertex's stretch the scattering density) — and the medium each vertex
+/// lies in to `around(i, medium)` (the one its incoming segment arrives
+/// in; the camera's for x₀). Media are tracked as BDPT's walks track them
+/// (a surface naming media decides, null boundaries switch), with the
+/// transmittance queries BDPT connects with. The path's last vertex may be
+/// an emitter of any kind (`path_measure`'s [`PathEnd`]). False when a
+/// segment's transmittance is zero (blocked, or by rounding).
+pub(crate) fn walk_path<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    path: &[PathVertex],
+    mut seg: impl FnMut(usize, Rgb, (f32, f32)),
+    mut around: impl FnMut(usize, Option<MediumId>),
+) -> bool {
+    let scene = tr.scene;
+    let k = path.len() - 1;
+    let mut medium = scene.camera_medium();
+    around(0, medium);
+    for i in 0..k {
+        let (a, b) = (&path[i], &path[i + 1]);
+        let end = path_endpoint(scene, b, i + 1 == k);
+        let w = match end {
+            Endpoint::Direction(d) => d,
+            _ => b.sp.p - a.sp.p,
+        };
+        // The lens point and a medium vertex have no surface to offset
+        // from (and the lens point's normal is the viewing direction).
+        let (start, ng) = if i > 0 && !a.is_medium() {
+            let iface = scene.surface_media(a.sp.surface);
+            let start = if iface.is_transition() {
+                iface.target(a.sp.ng, w)
+            } else {
+                medium
+            };
+            (start, a.sp.ng)
+        } else {
+            (medium, Vec3::ZERO)
+        };
+        let mut arrival = start;
+        let mut pieces = Pieces::new(scene);
+        let tr_i = tr.transmittance_pieces(a.sp.p, a.sp.p_error, ng, end, start, |m, len| {
+            arrival = m;
+            pieces.push(m, len);
+        });
+        if tr_i.is_black() || !tr_i.is_finite() {
+            return false;
+        }
+        seg(i, tr_i, pieces.densities(a.is_medium(), b.is_medium()));
+        medium = arrival;
+        around(i + 1, medium);
+    }
+    true
+}
+
+/// σ_s × phase at medium vertex `v` for light between `a` and `b` (the
+/// phase function depends only on the angle, so the order does not
+/// matter): the medium vertex's factor in f(x̄) in place of a surface's
+/// BSDF × cosine.
+pub(crate) fn medium_factor(scene: &Scene, v: &PathVertex, a: Vec3, b: Vec3) -> Rgb {
+    let m = scene.medium(MediumId(v.sp.prim));
+    let d = (v.sp.p - a).normalize();
+    let wi = (b - v.sp.p).normalize();
+    m.sigma_s() * m.phase().eval(d, wi)
+}
+
+/// A medium vertex of a complete path ([`PathVertex::is_medium`]) at `p`
+/// in medium `id`, as BDPT's walks make it.
+pub(crate) fn medium_path_vertex(scene: &Scene, p: Vec3, id: MediumId) -> PathVertex {
+    PathVertex {
+        sp: medium_vertex(scene, p, id, Rgb::ONE).sp,
+        shading: None,
+        mixed_delta: false,
+    }
 }

@@ -58,6 +58,17 @@
 //! emitted ray's origin on the bounding sphere's disk, 1/(π r²)·|n_g·ω|.
 //! Every strategy's estimate is then f/p as above (the
 //! `strategy_estimates_are_contribution_over_density` tests check it).
+//!
+//! **Media** (the `media` feature, scenes with media or null boundaries):
+//! a medium vertex ([`PathVertex::is_medium`]) contributes σ_s times its
+//! phase function in place of f_s|n_s·ω_i|, and no segment has a cosine
+//! at it; the densities take the phase function's density there (it is
+//! sampled exactly) and no cosine (the `media` module's docs). What needs
+//! rays — every segment's transmittance through the media and null
+//! boundaries, and its free-flight densities as BDPT's walks sample them —
+//! is `media::walk_path`'s: f(x̄) is [`path_contribution`] times the
+//! transmittances, and `fwd[i+1]`, `rev[i]` are [`path_densities`]' times
+//! the segment x_i → x_{i+1}'s free-flight densities ([`with_flights`]).
 
 use glam::{Vec2, Vec3};
 
@@ -164,6 +175,10 @@ fn vertex(camera: &Camera, path: &[PathVertex], end: PathEnd, i: usize) -> Verte
     }
     let kind = if i + 1 == path.len() {
         end.kind()
+    } else if v.is_medium() {
+        // `Vertex::pdf` then takes the phase function's density and
+        // `area_density_at` no cosine at it (media module docs).
+        Kind::Medium
     } else {
         Kind::Surface
     };
@@ -187,7 +202,9 @@ fn vertex(camera: &Camera, path: &[PathVertex], end: PathEnd, i: usize) -> Verte
 /// fewer than two vertices. Visibility is not tested: the path's segments
 /// were traced when it was made. A specular vertex contributes its Dirac
 /// lobe's weight (the factor BSDF sampling gives it), the Dirac measure
-/// itself left symbolic.
+/// itself left symbolic. A medium vertex contributes σ_s × phase (module
+/// docs); the segments' transmittance is not in the value (the caller's:
+/// `media::walk_path`).
 pub fn path_contribution(
     scene: &Scene,
     camera: &Camera,
@@ -213,8 +230,9 @@ pub fn path_contribution(
                 return Some((Rgb::ZERO, raster));
             }
             let w = d / libm::sqrtf(d2);
-            // A point light has no surface: no cosine at it.
-            let cos = if last && end.is_delta() {
+            // A point light has no surface, a medium vertex neither: no
+            // cosine at it.
+            let cos = if (last && end.is_delta()) || b.is_medium() {
                 1.0
             } else {
                 b.sp.ng.dot(w).abs()
@@ -222,10 +240,23 @@ pub fn path_contribution(
             (w, cos / d2)
         };
         if i > 0 {
+            let prev = path[i - 1].sp.p;
             let Some(sh) = &a.shading else {
+                // A medium vertex: σ_s × phase, no cosine (the media's
+                // f(x̄), `media` module docs); the segments' transmittance
+                // is the caller's (`media::walk_path`).
+                #[cfg(feature = "media")]
+                if a.is_medium() {
+                    let next = if last && end.is_infinite() {
+                        a.sp.p + w
+                    } else {
+                        b.sp.p
+                    };
+                    f *= super::media::medium_factor(scene, a, prev, next) * g;
+                    continue;
+                }
                 return Some((Rgb::ZERO, raster));
             };
-            let prev = path[i - 1].sp.p;
             let fs = if sh.bsdf.is_delta() {
                 // The lobe's weight f·|cos|/p of sampling it, without the
                 // Dirac measure; the cosine is in it already.
@@ -318,6 +349,18 @@ pub fn path_densities(
     }
     if end.is_delta() {
         fwd[n - 1] = 0.0;
+    }
+}
+
+/// Multiplies [`path_densities`]' `fwd` and `rev` by the free-flight
+/// densities of each segment, `flights[i]` = (of reaching x_{i+1} from x_i,
+/// of reaching x_i from x_{i+1}) (module docs: media; none without).
+/// Through a specular vertex too: the walk samples the segment's flight
+/// either way, and the Dirac factors alone are symbolic.
+pub fn with_flights(fwd: &mut [f32], rev: &mut [f32], flights: &[(f32, f32)]) {
+    for (i, &(to_next, to_prev)) in flights.iter().enumerate() {
+        fwd[i + 1] *= to_next;
+        rev[i] *= to_prev;
     }
 }
 

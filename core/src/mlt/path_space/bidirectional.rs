@@ -55,6 +55,7 @@ use alloc::vec::Vec;
 use glam::Vec2;
 
 use super::emitters::{edge_visible, emission_ray, new_emitter};
+use super::media::Walk;
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
@@ -125,6 +126,9 @@ pub(crate) enum Broken {
     /// Without the density of the emitter vertex (its `rev[k]`: light
     /// selection, and the direction's density on the environment).
     NoEmitterDensity,
+    /// Without the free-flight densities of the segments through media
+    /// (the walks sample them: `media.rs`).
+    NoFlights,
 }
 
 /// Veach's deletion weight p_d(k_d).
@@ -232,14 +236,19 @@ impl Bidirectional {
         scene: &Scene,
         camera: &Camera,
         from: &[PathVertex],
-        to: &[PathVertex],
+        to: &PathState,
         mv: Move,
         only: Option<usize>,
     ) -> f32 {
-        let (k, k2) = (from.len() - 1, to.len() - 1);
+        let (k, k2) = (from.len() - 1, to.depth());
         let lens = camera.has_lens();
         let choice = self.choice_probability(k, mv, lens);
-        bdpt::path_densities(scene, camera, to, &mut self.fwd, &mut self.rev);
+        to.densities(scene, camera, &mut self.fwd, &mut self.rev);
+        #[cfg(test)]
+        if self.broken == Some(Broken::NoFlights) {
+            bdpt::path_densities(scene, camera, &to.path, &mut self.fwd, &mut self.rev);
+        }
+        let to = &to.path;
         #[cfg(test)]
         if self.broken == Some(Broken::NoEmitterDensity) {
             self.rev[k2] = 1.0;
@@ -329,11 +338,13 @@ impl Bidirectional {
         if self.make(tr, x, y, l, m, m2, t, rng).is_none() || !joinable(&y.path, t) {
             return (mv, Proposal::Failed);
         }
-        if k2 + 1 != t && !edge_visible(tr, &y.path, t - 1) {
+        // With media the joining edge's transmittance, in f(ȳ), is its
+        // visibility through null boundaries (`PathState::evaluate`).
+        if k2 + 1 != t && !tr.has_media() && !edge_visible(tr, &y.path, t - 1) {
             return (mv, Proposal::Failed);
         }
+        y.evaluate(tr);
         let (scene, camera) = (tr.scene, tr.camera);
-        y.evaluate(scene, &camera);
         if y.target() <= 0.0 {
             return (mv, Proposal::Failed);
         }
@@ -347,14 +358,14 @@ impl Bidirectional {
         };
         #[cfg(not(test))]
         let (only, only_back) = (None, None);
-        let t_xy = self.density(scene, &camera, &x.path, &y.path, mv, only);
+        let t_xy = self.density(scene, &camera, &x.path, y, mv, only);
         let back = Move {
             l,
             kd: ka,
             ka: kd,
             t: 0,
         };
-        let t_yx = self.density(scene, &camera, &y.path, &x.path, back, only_back);
+        let t_yx = self.density(scene, &camera, &y.path, x, back, only_back);
         if !(t_xy > 0.0) {
             return (mv, Proposal::Failed);
         }
@@ -383,6 +394,7 @@ impl Bidirectional {
         if l >= 0 {
             y.path.extend_from_slice(&x.path[..=l as usize]);
         }
+        let mut walk = Walk::new(tr, x, (l >= 0).then_some(l as usize));
         while y.path.len() < t {
             let n = y.path.len();
             let u_lobe = rng.next_f32();
@@ -396,7 +408,7 @@ impl Bidirectional {
                 let raster = Vec2::new(u.x * camera.width() as f32, u.y * camera.height() as f32);
                 camera.ray_from_lens(raster, y.path[0].sp.p)
             } else {
-                scatter_ray(
+                walk.scatter(
                     tr,
                     &y.path[n - 1],
                     &y.path[n - 2],
@@ -405,8 +417,8 @@ impl Bidirectional {
                     TransportMode::Radiance,
                 )?
             };
-            match tr.trace(&ray) {
-                Some(sh) => y.path.push(surface_vertex(sh)),
+            match walk.trace(tr, &ray, rng)? {
+                Some(v) => y.path.push(v),
                 // The camera side's last vertex is the path's emitter
                 // (s = 0, the emitter deleted): leaving the scene, it is
                 // the environment, as BDPT's escaped camera subpath.
@@ -423,6 +435,7 @@ impl Bidirectional {
         if m <= k {
             self.light.extend(x.path[m..].iter().rev());
         }
+        let mut walk = Walk::new(tr, x, Some(m));
         let new_light = m2 - t;
         // The ray a new light that is not a mesh emits with its vertex.
         let mut emitted = None;
@@ -437,7 +450,7 @@ impl Bidirectional {
                 continue;
             }
             let ray = if n == 1 {
-                match emitted.take() {
+                let ray = match emitted.take() {
                     Some(ray) => ray,
                     None => {
                         let ray = emission_ray(tr.scene, &self.light[0], u)?;
@@ -449,9 +462,12 @@ impl Bidirectional {
                         }
                         ray
                     }
-                }
+                };
+                let kept = (m <= k).then_some((x, k));
+                walk.emitted(tr, &self.light[0], &ray, kept);
+                ray
             } else {
-                scatter_ray(
+                walk.scatter(
                     tr,
                     &self.light[n - 1],
                     &self.light[n - 2],
@@ -460,8 +476,7 @@ impl Bidirectional {
                     TransportMode::Importance,
                 )?
             };
-            let sh = tr.trace(&ray)?;
-            self.light.push(surface_vertex(sh));
+            self.light.push(walk.trace(tr, &ray, rng)??);
         }
         y.path.extend(self.light.iter().rev());
         Some(())

@@ -99,13 +99,19 @@ impl Mutations {
     }
 
     /// The class of `path` when a perturbation can be chosen, else
-    /// `Neither` (no look at the path).
+    /// `Neither` (no look at the path). In a scene with media no
+    /// perturbation is chosen as a level-1 mutation: their ratio through
+    /// media (level 2's targets with the kept free-flight distance,
+    /// `perturbation/media.rs`) is not checked against the path measure's
+    /// densities, so every path of such a scene is left to the
+    /// bidirectional and lens subpath mutations. That depends on the scene
+    /// alone, so the selection stays symmetric (`selection.rs`).
     fn class<I: Intersector>(
         &self,
         tr: &Tracer<'_, I>,
         path: &[crate::integrator::bdpt::PathVertex],
     ) -> Applicable {
-        if self.perturbing() {
+        if self.perturbing() && !tr.has_media() {
             classify(tr, path)
         } else {
             Applicable::Neither

@@ -24,13 +24,14 @@ use alloc::vec::Vec;
 
 use glam::Vec2;
 
-use super::bidirectional::{Proposal, scatter_ray, surface_vertex};
+use super::bidirectional::Proposal;
 use super::emitters::edge_visible;
+use super::media::Walk;
 use super::state::PathState;
 use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::{self, PathVertex};
+use crate::integrator::bdpt::PathVertex;
 use crate::sampler::Sampler;
 use crate::scene::{Camera, Scene};
 
@@ -65,15 +66,10 @@ impl LensSubpath {
     }
 
     /// The density ∏_{i=1}^{t} fwd[i] of the lens subpath x₀ … x_t of
-    /// `path`.
-    pub fn density(
-        &mut self,
-        scene: &Scene,
-        camera: &Camera,
-        path: &[PathVertex],
-        t: usize,
-    ) -> f32 {
-        bdpt::path_densities(scene, camera, path, &mut self.fwd, &mut self.rev);
+    /// `x` (with the free-flight densities through media:
+    /// [`PathState::densities`]).
+    pub fn density(&mut self, scene: &Scene, camera: &Camera, x: &PathState, t: usize) -> f32 {
+        x.densities(scene, camera, &mut self.fwd, &mut self.rev);
         self.fwd[1..=t].iter().product()
     }
 
@@ -96,11 +92,12 @@ impl LensSubpath {
         let u = rng.next_2d();
         let raster = Vec2::new(u.x * camera.width() as f32, u.y * camera.height() as f32);
         let mut ray = camera.ray_from_lens(raster, x.path[0].sp.p);
+        let mut walk = Walk::new(tr, x, Some(0));
         loop {
-            let Some(sh) = tr.trace(&ray) else {
+            let Some(Some(v)) = walk.trace(tr, &ray, rng) else {
                 return Proposal::Failed;
             };
-            y.path.push(surface_vertex(sh));
+            y.path.push(v);
             let n = y.path.len();
             if !y.path[n - 1].is_specular() {
                 break;
@@ -110,7 +107,7 @@ impl LensSubpath {
             if n > room {
                 return Proposal::Failed;
             }
-            match scatter_ray(
+            match walk.scatter(
                 tr,
                 &y.path[n - 1],
                 &y.path[n - 2],
@@ -127,16 +124,18 @@ impl LensSubpath {
             return Proposal::Failed;
         }
         y.path.extend_from_slice(&x.path[t + 1..]);
-        if !edge_visible(tr, &y.path, j) {
+        // With media the joining edge's transmittance, in f(ȳ), is its
+        // visibility through null boundaries (`PathState::evaluate`).
+        if !tr.has_media() && !edge_visible(tr, &y.path, j) {
             return Proposal::Failed;
         }
+        y.evaluate(tr);
         let scene = tr.scene;
-        y.evaluate(scene, &camera);
         if y.target() <= 0.0 {
             return Proposal::Failed;
         }
-        let t_xy = self.density(scene, &camera, &y.path, j);
-        let t_yx = self.density(scene, &camera, &x.path, t);
+        let t_xy = self.density(scene, &camera, y, j);
+        let t_yx = self.density(scene, &camera, x, t);
         if !(t_xy > 0.0) {
             return Proposal::Failed;
         }

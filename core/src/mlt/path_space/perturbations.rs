@@ -141,8 +141,7 @@ impl Perturbations {
         {
             return Proposal::Failed;
         }
-        let (scene, camera) = (tr.scene, tr.camera);
-        y.evaluate(scene, &camera);
+        y.evaluate(tr);
         let (y_x, y_y) = (x.target(), y.target());
         if !(y_y > 0.0) {
             return Proposal::Failed;

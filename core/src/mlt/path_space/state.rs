@@ -35,6 +35,16 @@ pub(crate) struct PathState {
     pub f: Rgb,
     /// Where x₀ → x₁ lands on the image.
     pub raster: Vec2,
+    /// In a scene with media, each segment x_i → x_{i+1}'s free-flight
+    /// densities ([`bdpt::with_flights`]), set by [`PathState::evaluate`];
+    /// empty otherwise.
+    #[cfg(feature = "media")]
+    pub flights: Vec<(f32, f32)>,
+    /// In a scene with media, the medium each vertex lies in (the one its
+    /// incoming segment arrives in, the camera's for x₀), set by
+    /// [`PathState::evaluate`]; empty otherwise.
+    #[cfg(feature = "media")]
+    pub media: Vec<Option<crate::scene::MediumId>>,
 }
 
 impl PathState {
@@ -44,6 +54,10 @@ impl PathState {
             path: Vec::with_capacity(depth as usize + 1),
             f: Rgb::ZERO,
             raster: Vec2::ZERO,
+            #[cfg(feature = "media")]
+            flights: Vec::with_capacity(depth as usize),
+            #[cfg(feature = "media")]
+            media: Vec::with_capacity(depth as usize + 1),
         }
     }
 
@@ -66,8 +80,46 @@ impl PathState {
     /// Sets f and the raster position from the path (see the module docs).
     /// A light at infinity ending the path is moved to lie along its
     /// direction from x_{k−1} (a mutation may have replaced x_{k−1}), where
-    /// the mutations' BSDF sampling at x_{k−1} looks for it.
-    pub fn evaluate(&mut self, scene: &Scene, camera: &Camera) {
+    /// the mutations' BSDF sampling at x_{k−1} looks for it. In a scene
+    /// with media f has every segment's transmittance (a segment found
+    /// blocked makes it zero: the mutations do not test the visibility of
+    /// their joining edges there), and the segments' free-flight densities
+    /// and the vertices' media are kept ([`PathState::densities`]).
+    pub fn evaluate<I: Intersector>(&mut self, tr: &mut Tracer<'_, I>) {
+        let (scene, camera) = (tr.scene, tr.camera);
+        self.evaluate_surfaces(scene, &camera);
+        #[cfg(feature = "media")]
+        {
+            self.flights.clear();
+            self.media.clear();
+            if tr.has_media() && self.path.len() >= 2 {
+                let (mut trans, flights, media) = (Rgb::ONE, &mut self.flights, &mut self.media);
+                let ok = bdpt::media::walk_path(
+                    tr,
+                    &self.path,
+                    |_, t, flight| {
+                        trans *= t;
+                        flights.push(flight);
+                    },
+                    |_, m| media.push(m),
+                );
+                self.f = if ok { self.f * trans } else { Rgb::ZERO };
+            }
+        }
+    }
+
+    /// The area densities `fwd`, `rev` of every vertex of the path
+    /// ([`bdpt::path_densities`]), with the free-flight densities of its
+    /// segments in a scene with media (as [`PathState::evaluate`] found
+    /// them).
+    pub fn densities(&self, scene: &Scene, camera: &Camera, fwd: &mut [f32], rev: &mut [f32]) {
+        bdpt::path_densities(scene, camera, &self.path, fwd, rev);
+        #[cfg(feature = "media")]
+        bdpt::with_flights(fwd, rev, &self.flights);
+    }
+
+    /// [`PathState::evaluate`] without the media: f from the vertices.
+    fn evaluate_surfaces(&mut self, scene: &Scene, camera: &Camera) {
         if let [.., before, end] = &mut self.path[..]
             && end.sp.surface == u32::MAX
             && PathEnd::of(scene, end).is_infinite()
@@ -104,8 +156,7 @@ impl PathState {
             self.path.clear();
             return false;
         }
-        let (scene, camera) = (tracer.scene, tracer.camera);
-        self.evaluate(scene, &camera);
+        self.evaluate(tracer);
         self.target() > 0.0
     }
 }

@@ -78,7 +78,7 @@ fn random_walk<I: Intersector>(
         let (v, from) = (&x.path[n - 1], &x.path[n - 2]);
         ray = scatter_ray(tr, v, from, u_lobe, u, TransportMode::Radiance)?;
     }
-    x.evaluate(tr.scene, &camera);
+    x.evaluate(tr);
     let (mut fwd, mut rev) = ([0.0f32; DEPTH + 1], [0.0f32; DEPTH + 1]);
     path_densities(tr.scene, &camera, &x.path, &mut fwd, &mut rev);
     let p: f64 = fwd[1..=depth].iter().map(|&v| v as f64).product();

@@ -67,7 +67,7 @@ use crate::accel::Intersector;
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset};
 use crate::integrator::Tracer;
-use crate::integrator::bdpt::{PathVertex, scatter, shading_correction};
+use crate::integrator::bdpt::{self, PathVertex, scatter, shading_correction};
 use crate::integrator::tracer::{Endpoint, MAX_NULL_CROSSINGS, Shading};
 use crate::math::Rgb;
 use crate::scene::{MaterialKind, MediumId, Phase, SurfacePoint};
@@ -93,17 +93,6 @@ pub(crate) struct LensMedia {
 #[inline]
 fn medium_of(v: &PathVertex) -> MediumId {
     MediumId(v.sp.prim)
-}
-
-/// The normal to offset a segment's start by: none (zero) at the lens and
-/// at a medium vertex, the geometric normal on a surface.
-#[inline]
-fn start_normal(v: &PathVertex, i: usize) -> Vec3 {
-    if i == 0 || v.is_medium() {
-        Vec3::ZERO
-    } else {
-        v.sp.ng
-    }
 }
 
 /// The far end of a segment towards `v`, as the transmittance query wants it.
@@ -133,61 +122,32 @@ fn medium_leaving<I: Intersector>(
     }
 }
 
-/// σ_s × phase at medium vertex `v` for light between `a` and `b` (the
-/// phase function depends only on the angle, so the order does not matter).
+/// σ_s × phase at medium vertex `v` for light between `a` and `b`
+/// ([`bdpt::media::medium_factor`]).
+#[inline]
 pub(super) fn medium_factor<I: Intersector>(
     tr: &Tracer<'_, I>,
     v: &PathVertex,
     a: Vec3,
     b: Vec3,
 ) -> Rgb {
-    let m = tr.scene.medium(medium_of(v));
-    let d = (v.sp.p - a).normalize();
-    let wi = (b - v.sp.p).normalize();
-    m.sigma_s() * m.phase().eval(d, wi)
+    bdpt::media::medium_factor(tr.scene, v, a, b)
 }
 
 /// Walks the level-1 path's segments x_i → x_{i+1} from the camera's
 /// medium, handing each to `seg(i, transmittance)`, and returns the medium
 /// each vertex lies in through `around(i, medium)` (the one its incoming
-/// segment arrives in); media are tracked as BDPT's walks track them
-/// (a surface naming media decides, null boundaries switch), with the
-/// transmittance queries BDPT connects with. False when a segment's
-/// transmittance is zero (found blocked, by rounding): no perturbation
-/// then.
+/// segment arrives in): [`bdpt::media::walk_path`], which tracks media as
+/// BDPT's walks track them with the transmittance queries BDPT connects
+/// with. False when a segment's transmittance is zero (found blocked, by
+/// rounding): no perturbation then.
 pub(super) fn walk_media<I: Intersector>(
     tr: &mut Tracer<'_, I>,
     path: &[PathVertex],
     mut seg: impl FnMut(usize, Rgb),
-    mut around: impl FnMut(usize, Option<MediumId>),
+    around: impl FnMut(usize, Option<MediumId>),
 ) -> bool {
-    let k = path.len() - 1;
-    let mut medium = tr.scene.camera_medium();
-    around(0, medium);
-    for i in 0..k {
-        let (a, b) = (&path[i], &path[i + 1]);
-        let start = if i > 0 && !a.is_medium() {
-            medium_leaving(tr, &a.sp, medium, b.sp.p - a.sp.p)
-        } else {
-            medium
-        };
-        let mut arrival = start;
-        let tr_i = tr.transmittance_pieces(
-            a.sp.p,
-            a.sp.p_error,
-            start_normal(a, i),
-            endpoint(b),
-            start,
-            |m, _| arrival = m,
-        );
-        if tr_i.is_black() || !tr_i.is_finite() {
-            return false;
-        }
-        seg(i, tr_i);
-        medium = arrival;
-        around(i + 1, medium);
-    }
-    true
+    bdpt::media::walk_path(tr, path, |i, t, _| seg(i, t), around)
 }
 
 /// The free-flight distance a perturbation keeps at `path[i]` (from

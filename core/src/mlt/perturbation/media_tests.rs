@@ -27,7 +27,7 @@ use crate::scene::{Material, MaterialKind, Medium, MediumInterface, Phase, Scene
 /// isotropic medium and a mirror sphere: paths with medium vertices at
 /// either end of the lens connection, through null boundaries, and
 /// through the mirror.
-fn fog_box() -> Scene {
+pub(crate) fn fog_box() -> Scene {
     let mut b = SceneBuilder::new();
     let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
     let boundary = b.add_material(Material {

@@ -63,7 +63,7 @@ mod lens;
 #[cfg(feature = "media")]
 mod media;
 #[cfg(all(test, feature = "std", feature = "media", feature = "specular"))]
-mod media_tests;
+pub(crate) mod media_tests;
 mod multi_chain;
 mod retrace;
 
