@@ -995,6 +995,7 @@ fn light_from_c(l: &cmlt_light) -> Result<Light> {
             direction,
             radiance: color,
             half_aperture: l.cutoff_angle,
+            profile: None,
         },
         // The bitmap is copied and the id set by cmlt_scene_add_light.
         CMLT_LIGHT_ENVMAP => Light::Envmap {

@@ -7,7 +7,7 @@ here is that licence).
 Usage: python3 make_sunsky_rgb.py [OUT]   (default: sunsky_rgb.bin beside it)
 
 Layout (little-endian; see mitsuba/src/sunsky.rs, which reads it):
-  8 bytes  magic b"CMLTSKY1"
+  8 bytes  magic b"CMLTSKY2"
   f32 sky_params[10 turbidity][2 albedo][6 control points][3 RGB][9]
       the sky model's A B C D E F G I H per channel (the paper's order)
   f32 sky_radiance[10][2][6][3]  the channels' mean radiance
@@ -18,6 +18,12 @@ Layout (little-endian; see mitsuba/src/sunsky.rs, which reads it):
       the CIE-based linear sRGB response times the irradiance), times its
       spectral-to-RGB sun constant 467.069280386 and MI_CIE_Y_NORMALIZATION.
       The disc's radiance is this over its solid angle 2π (1 − cos α).
+  f32 sun_radiance[10 turbidity][45 segments][3 RGB][4 k][6 j]
+      the complex sun (`complex_sun`, Hosek & Wilkie 2013 with its limb
+      darkening baked in, as Mitsuba's RGB mode reads it): Mitsuba's
+      `sun_rad_rgb` as it is, the coefficients of x^k cos(psi)^j, x the
+      view direction's elevation above the start of its segment; before
+      Mitsuba's 467.069280386 and MI_CIE_Y_NORMALIZATION.
 """
 import os
 import re
@@ -62,6 +68,7 @@ def main():
     params = flat(ds, "sky_params_rgb", [10, 2, 6, 3, 9])
     rad = flat(ds, "sky_rad_rgb", [10, 2, 6, 3])
     sun_spec = flat(smp, "sun_irradiance", [10, 30, 11])
+    sun_rad = flat(ds, "sun_rad_rgb", [10, 45, 3, 4, 6])
     # Linear sRGB response at the 11 wavelengths.
     rec = np.array([list(mi.linear_rgb_rec(mi.ScalarFloat(w))) for w in WAVELENGTHS])
     rec = rec.reshape(11, 3)
@@ -70,8 +77,8 @@ def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "sunsky_rgb.bin")
     with open(out, "wb") as f:
-        f.write(b"CMLTSKY1")
-        for a in (params, rad, sun_rgb):
+        f.write(b"CMLTSKY2")
+        for a in (params, rad, sun_rgb, sun_rad):
             f.write(struct.pack("<%df" % a.size, *a.ravel()))
     print(out, os.path.getsize(out), "bytes")
 

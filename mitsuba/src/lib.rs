@@ -37,7 +37,7 @@
 //!   `gridvolume` `.vol` file read at the surface's world position);
 //! - scene-level emitters `point`, `spot`, `directional`, `constant`,
 //!   `envmap` (JPEG/PNG, OpenEXR, Radiance HDR or PFM lat-long images),
-//!   `sunsky` (Hosek–Wilkie sky and sun disc; `complex_sun` refused).
+//!   `sunsky` (Hosek–Wilkie sky and sun disc, `complex_sun` included).
 //!
 //! Anything else is an error that names the file, line and column and the
 //! unsupported plugin or property; nothing is dropped silently. Meshes are

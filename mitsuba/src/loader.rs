@@ -750,13 +750,7 @@ impl<'a> Loader<'a> {
                 }
             },
         };
-        if let Some(true) = props.boolean(x, "complex_sun")? {
-            let n = props.get("complex_sun").map_or(node, |e| e.node);
-            return Err(x.err(
-                n,
-                "sunsky: complex_sun (the limb-darkened sun disc) is not supported; cmlt renders Mitsuba's default uniform disc",
-            ));
-        }
+        let complex_sun = props.boolean(x, "complex_sun")?.unwrap_or(false);
         let to_world = match props.transform(x, "to_world")? {
             None => glam::DMat3::IDENTITY,
             Some((m, n)) => {
@@ -841,6 +835,7 @@ impl<'a> Loader<'a> {
             sun_scale,
             sky_scale,
             sun_aperture,
+            complex_sun,
             to_world,
         };
         let lights = super::sunsky::lights(&s, &mut |b| self.builder.add_bitmap(b));

@@ -38,6 +38,28 @@
 //! clamped to zero (Mitsuba leaves them, cmlt's lights must be
 //! non-negative).
 //!
+//! **Complex sun** (`complex_sun = true`): Hosek & Wilkie 2013's solar
+//! radiance, a piecewise polynomial in the elevation of the *view
+//! direction* (45 segments, cubic in each) times a quintic in the limb
+//! parameter μ = cos ψ = √(1 − sin²γ / sin²α) (γ from the disc's centre),
+//! which Mitsuba's RGB mode reads with the limb darkening baked into its
+//! `sun_rad_rgb` table; scaled by the aperture's area ratio to the data's
+//! 0.5358° so that the irradiance does not depend on the aperture; clipped
+//! by the horizon ([`complex_sun_radiance`] says exactly what Mitsuba
+//! 3.9.1's `BaseSunskyEmitter::eval_sun` does). Mitsuba's docs say both
+//! suns "integrate to the same total power", but they come from different
+//! tables: their irradiances agree within 0.3 % for a sun 59° up and part
+//! at a low one (blue −13 % at 6°, red −40 % at 1°; figures in
+//! `complex_sun_irradiance_matches_mitsuba`). The complex disc's centre is
+//! about 20 % brighter than its mean, its rim darker, and a low sun is
+//! redder at its bottom than at its top. In cmlt it is a
+//! [`Light::Sun`] whose radiance is the disc's mean and whose
+//! [`SunProfile`] carries Mitsuba's μ polynomial and, per power of μ, one
+//! cubic in the elevation offset fitted across the disc
+//! ([`complex_sun_profile`]); it is sampled uniformly in solid angle over
+//! the disc, as Mitsuba samples it, the varying radiance being in the
+//! estimate (li / pdf) and not in the density.
+//!
 //! **In cmlt** the sky becomes a [`Light::Envmap`] baked at
 //! [`SKY_WIDTH`] × [`SKY_HEIGHT`] texels, its poles on the sky's zenith
 //! and nadir so that a row lies on the horizon, and the sun a
@@ -48,19 +70,33 @@
 use glam::{DMat3, DVec3, Mat3, Vec3};
 
 use cmlt::math::Rgb;
-use cmlt::scene::{Bitmap, Light};
+use cmlt::scene::{Bitmap, Light, SUN_PROFILE_MU, SUN_PROFILE_S, SunProfile};
 
 /// The packed RGB model data (see the module docs).
 static DATA: &[u8] = include_bytes!("../data/sunsky_rgb.bin");
-const MAGIC: &[u8; 8] = b"CMLTSKY1";
+const MAGIC: &[u8; 8] = b"CMLTSKY2";
 const TURBIDITIES: usize = 10;
 const CTRL: usize = 6;
 const PARAMS: usize = 9;
 const SUN_ELEVATIONS: usize = 30;
+/// Segments of the complex sun's piecewise polynomial in elevation.
+const SUN_SEGMENTS: usize = 45;
+/// Its degree + 1 in the elevation x within a segment.
+const SUN_CTRL: usize = 4;
+/// Its degree + 1 in cos ψ (the baked-in limb darkening).
+const SUN_LD: usize = 6;
 const SKY_PARAMS_OFFSET: usize = 0;
 const SKY_RAD_OFFSET: usize = TURBIDITIES * 2 * CTRL * 3 * PARAMS;
 const SUN_OFFSET: usize = SKY_RAD_OFFSET + TURBIDITIES * 2 * CTRL * 3;
-const VALUES: usize = SUN_OFFSET + TURBIDITIES * SUN_ELEVATIONS * 3;
+const SUN_RAD_OFFSET: usize = SUN_OFFSET + TURBIDITIES * SUN_ELEVATIONS * 3;
+const VALUES: usize = SUN_RAD_OFFSET + TURBIDITIES * SUN_SEGMENTS * 3 * SUN_CTRL * SUN_LD;
+// The profile's μ polynomial is the data's.
+const _: () = assert!(SUN_LD == SUN_PROFILE_MU);
+/// Mitsuba's `SPEC_TO_RGB_SUN_CONV`, the factor on the RGB sun tables.
+const SPEC_TO_RGB_SUN_CONV: f64 = 467.069280386;
+/// Mitsuba's `SUN_HALF_APERTURE` (0.5358° / 2) in radians, the aperture
+/// the complex sun's data describe.
+const DEFAULT_SUN_HALF_APERTURE: f64 = std::f64::consts::PI * (0.5 * 0.5358) / 180.0;
 /// Mitsuba 3.9's `MI_CIE_Y_NORMALIZATION`, 1 / ∫ ȳ(λ) dλ over its CIE
 /// table (1 / 106.750 26, as the package reports it).
 const CIE_Y_NORMALIZATION: f64 = 0.009_367_658_735_689_113;
@@ -92,6 +128,9 @@ pub struct SunSky {
     pub sky_scale: f64,
     /// Full apparent diameter of the sun in degrees, in (0, 180).
     pub sun_aperture: f64,
+    /// Mitsuba's `complex_sun`: the disc limb-darkened and varying with
+    /// elevation (see [`complex_sun_radiance`]) instead of uniform.
+    pub complex_sun: bool,
     /// Emitter-to-world rotation.
     pub to_world: DMat3,
 }
@@ -339,17 +378,234 @@ pub fn bake_sky(s: &SunSky, w: u32, h: u32) -> (Bitmap, Mat3) {
     (bitmap, (s.to_world * envmap_to_sky()).as_mat3())
 }
 
+/// The complex sun's radiance (Mitsuba 3.9.1's `complex_sun`, RGB) along
+/// the unit local direction `w`, before `sun_scale`: zero outside the disc
+/// (γ > α, α half of `sun_aperture`) and below the horizon; else, per
+/// channel c, Hosek & Wilkie 2013's piecewise polynomial with the limb
+/// darkening baked in,
+///
+/// L_c = r · K · N · Σ_k Σ_j x^k μ^j D[t][p][c][k][j],
+///
+/// where e = π/2 − acos(w.z) is the elevation *of the view direction*,
+/// p = min(⌊∛(2e/π) · 45⌋, 44) its segment, x = e − (π/2)(p/45)³ its
+/// offset in it, μ = √(1 − sin²γ / sin²α), D the table interpolated
+/// linearly in turbidity, r = (1 − cos α₀)/(1 − cos α) the aperture's
+/// area ratio to the data's α₀ = 0.2679° (so the irradiance does not
+/// depend on the aperture), K = 467.069280386 and N =
+/// `MI_CIE_Y_NORMALIZATION` (Mitsuba's `BaseSunskyEmitter::eval_sun`
+/// and `eval`, include/mitsuba/render/sunsky.h). Mitsuba computes r in
+/// f32; this is the exact value.
+// The model the tests hold Mitsuba's values and the fitted light to.
+#[cfg_attr(not(test), allow(dead_code))]
+pub fn complex_sun_radiance(s: &SunSky, w: DVec3) -> [f64; 3] {
+    let half = (s.sun_aperture * 0.5).to_radians();
+    let cos_gamma = w.dot(s.sun_local);
+    if w.z < 0.0 || s.sun_local.z < 0.0 || cos_gamma < half.cos() {
+        return [0.0; 3];
+    }
+    let sin2_gamma = w.cross(s.sun_local).length_squared();
+    let mu = (1.0 - sin2_gamma / half.sin().powi(2)).max(0.0).sqrt();
+    let e = std::f64::consts::FRAC_PI_2 - w.z.clamp(-1.0, 1.0).acos();
+    let scale = area_ratio(half) * SPEC_TO_RGB_SUN_CONV * CIE_Y_NORMALIZATION;
+    let poly = sun_polynomial(s.turbidity, e);
+    let mut out = [0.0; 3];
+    for (c, o) in out.iter_mut().enumerate() {
+        let mut v = 0.0;
+        for j in (0..SUN_LD).rev() {
+            v = v * mu + poly[c][j];
+        }
+        *o = scale * v;
+    }
+    out
+}
+
+/// (1 − cos α₀)/(1 − cos α) for the half aperture α (radians), α₀ the
+/// data's (1 − cos α = 2 sin²(α/2), exact for small α).
+fn area_ratio(half: f64) -> f64 {
+    (DEFAULT_SUN_HALF_APERTURE * 0.5).sin().powi(2) / (half * 0.5).sin().powi(2)
+}
+
+/// The complex sun's coefficients of μ^j per channel at elevation `e`
+/// (radians, ≥ 0): Σ_k x^k D[t][p][c][k][j] of [`complex_sun_radiance`].
+fn sun_polynomial(turbidity: f64, e: f64) -> [[f64; SUN_LD]; 3] {
+    use std::f64::consts::FRAC_PI_2;
+    let segment = ((e.max(0.0) / FRAC_PI_2).cbrt() * SUN_SEGMENTS as f64).floor() as usize;
+    let p = segment.min(SUN_SEGMENTS - 1);
+    let x = e - FRAC_PI_2 * (p as f64 / SUN_SEGMENTS as f64).powi(3);
+    let (t0, t1, ft) = lerp_index(turbidity - 1.0, TURBIDITIES);
+    let at = |t: usize, c: usize, k: usize, j: usize| {
+        value(SUN_RAD_OFFSET + (((t * SUN_SEGMENTS + p) * 3 + c) * SUN_CTRL + k) * SUN_LD + j)
+    };
+    let mut out = [[0.0; SUN_LD]; 3];
+    for (c, row) in out.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            for k in (0..SUN_CTRL).rev() {
+                let d = at(t0, c, k, j) * (1.0 - ft) + at(t1, c, k, j) * ft;
+                *v = *v * x + d;
+            }
+        }
+    }
+    out
+}
+
+/// The complex sun as cmlt's [`SunProfile`] and the disc's mean radiance
+/// (before `sun_scale`). The profile's μ polynomial is Mitsuba's; its
+/// dependence on the view direction's elevation e, a cubic in x within
+/// each segment, becomes one cubic in s = (e − e₀)/α over the disc (e₀ the
+/// centre's elevation): a least-squares fit on Chebyshev nodes over the
+/// disc's range of s above the horizon, exact (to rounding) where the disc
+/// lies in one segment, an approximation where it straddles a segment
+/// boundary (measured in `complex_sun_profile_matches_mitsuba`). The
+/// mean is ∫ L dω / Ω over the disc (clipped by the horizon), so that the
+/// profile averages 1.
+pub fn complex_sun_profile(s: &SunSky) -> ([f64; 3], [[[f64; SUN_PROFILE_MU]; SUN_PROFILE_S]; 3]) {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let half = (s.sun_aperture * 0.5).to_radians();
+    let c = s.sun_local;
+    let e0 = c.z.clamp(-1.0, 1.0).asin();
+    let scale = area_ratio(half) * SPEC_TO_RGB_SUN_CONV * CIE_Y_NORMALIZATION;
+    // The range of s over the disc: no lower than the horizon, no higher
+    // than the zenith.
+    let lo = (-e0 / half).max(-1.0);
+    let hi = ((FRAC_PI_2 - e0) / half).min(1.0);
+    // Least squares for a cubic in s: normal equations on Chebyshev nodes
+    // (well conditioned for s in [−1, 1]).
+    const NODES: usize = 48;
+    let mut ata = [[0.0f64; SUN_PROFILE_S]; SUN_PROFILE_S];
+    let mut atb = [[[0.0f64; SUN_PROFILE_S]; SUN_LD]; 3];
+    for n in 0..NODES {
+        let t = (PI * (n as f64 + 0.5) / NODES as f64).cos();
+        let sv = lo + (hi - lo) * 0.5 * (t + 1.0);
+        let poly = sun_polynomial(s.turbidity, (e0 + half * sv).max(0.0));
+        let basis: [f64; SUN_PROFILE_S] = std::array::from_fn(|k| sv.powi(k as i32));
+        for a in 0..SUN_PROFILE_S {
+            for b in 0..SUN_PROFILE_S {
+                ata[a][b] += basis[a] * basis[b];
+            }
+            for ch in 0..3 {
+                for j in 0..SUN_LD {
+                    atb[ch][j][a] += basis[a] * poly[ch][j] * scale;
+                }
+            }
+        }
+    }
+    let mut coeffs = [[[0.0f64; SUN_PROFILE_MU]; SUN_PROFILE_S]; 3];
+    for ch in 0..3 {
+        for j in 0..SUN_LD {
+            let sol = solve4(ata, atb[ch][j]);
+            for k in 0..SUN_PROFILE_S {
+                coeffs[ch][k][j] = sol[k];
+            }
+        }
+    }
+    // The mean over the disc: dω = sin γ dγ dφ = sin²α μ dμ dφ / cos γ
+    // (sin²γ = sin²α (1 − μ²)), smooth in μ, so a midpoint rule in (μ, φ).
+    let (v, h) = disc_axes(c);
+    const M: usize = 64;
+    let (mut sum, mut weight) = ([0.0f64; 3], 0.0f64);
+    for i in 0..M {
+        let mu = (i as f64 + 0.5) / M as f64;
+        let sin_g = half.sin() * (1.0 - mu * mu).sqrt();
+        let cos_g = (1.0 - sin_g * sin_g).sqrt();
+        let wt = mu / cos_g;
+        for k in 0..2 * M {
+            let phi = PI * (k as f64 + 0.5) / M as f64;
+            weight += wt;
+            let w = c * cos_g + (v * phi.cos() + h * phi.sin()) * sin_g;
+            if w.z < 0.0 {
+                continue;
+            }
+            let sv = (w.z.clamp(-1.0, 1.0).asin() - e0) / half;
+            for (ch, acc) in sum.iter_mut().enumerate() {
+                *acc += wt * eval_profile(&coeffs[ch], sv, mu).max(0.0);
+            }
+        }
+    }
+    let mean: [f64; 3] = std::array::from_fn(|ch| sum[ch] / weight);
+    for (ch, m) in mean.iter().enumerate() {
+        for row in coeffs[ch].iter_mut() {
+            for a in row.iter_mut() {
+                *a = if *m > 0.0 { *a / m } else { 0.0 };
+            }
+        }
+    }
+    (mean.map(|m| m.max(0.0)), coeffs)
+}
+
+/// Σ_k Σ_j coeffs[k][j] s^k μ^j.
+fn eval_profile(coeffs: &[[f64; SUN_PROFILE_MU]; SUN_PROFILE_S], s: f64, mu: f64) -> f64 {
+    let mut v = 0.0;
+    for row in coeffs.iter().rev() {
+        let mut r = 0.0;
+        for &a in row.iter().rev() {
+            r = r * mu + a;
+        }
+        v = v * s + r;
+    }
+    v
+}
+
+/// Two unit vectors completing the unit `c` to a right-handed frame, the
+/// first towards the zenith (+z) where `c` is not vertical.
+fn disc_axes(c: DVec3) -> (DVec3, DVec3) {
+    let toward_up = DVec3::Z - c * c.z;
+    let v = if toward_up.length_squared() > 1e-20 {
+        toward_up.normalize()
+    } else {
+        c.any_orthonormal_vector()
+    };
+    (v, c.cross(v))
+}
+
+/// Solves the 4 × 4 system `a x = b` (symmetric positive definite: the
+/// normal equations) by Gaussian elimination with partial pivoting.
+fn solve4(mut a: [[f64; 4]; 4], mut b: [f64; 4]) -> [f64; 4] {
+    for col in 0..4 {
+        let piv = (col..4)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap_or(col);
+        a.swap(col, piv);
+        b.swap(col, piv);
+        for r in col + 1..4 {
+            let f = a[r][col] / a[col][col];
+            let pivot = a[col];
+            for (x, p) in a[r].iter_mut().zip(pivot).skip(col) {
+                *x -= f * p;
+            }
+            b[r] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 4];
+    for r in (0..4).rev() {
+        let mut v = b[r];
+        for k in r + 1..4 {
+            v -= a[r][k] * x[k];
+        }
+        x[r] = v / a[r][r];
+    }
+    x
+}
+
 /// The sun as a [`Light::Sun`], `None` when it is black or below the
-/// horizon.
+/// horizon: a uniform disc, or with `complex_sun` one whose radiance is the
+/// disc's mean and whose [`SunProfile`] is [`complex_sun_profile`].
 pub fn sun_light(s: &SunSky) -> Option<Light> {
     if s.sun_local.z < 0.0 || s.sun_scale == 0.0 {
         return None;
     }
     let half = (s.sun_aperture * 0.5).to_radians();
-    // 1 − cos α = 2 sin²(α/2).
-    let omega = std::f64::consts::TAU * 2.0 * (half * 0.5).sin().powi(2);
-    let e = sun_irradiance(s.turbidity, s.sun_local);
-    let l = |c: usize| (s.sun_scale * e[c] / omega).max(0.0) as f32;
+    let (mean, profile) = if s.complex_sun {
+        let (mean, coeffs) = complex_sun_profile(s);
+        let up = (s.to_world * DVec3::Z).normalize().as_vec3();
+        let coeffs = coeffs.map(|ch| ch.map(|row| row.map(|a| a as f32)));
+        (mean, Some(SunProfile { up, coeffs }))
+    } else {
+        // 1 − cos α = 2 sin²(α/2).
+        let omega = std::f64::consts::TAU * 2.0 * (half * 0.5).sin().powi(2);
+        let e = sun_irradiance(s.turbidity, s.sun_local);
+        (e.map(|v| v / omega), None)
+    };
+    let l = |c: usize| (s.sun_scale * mean[c]).max(0.0) as f32;
     let radiance = Rgb::new(l(0), l(1), l(2));
     if radiance.is_black() {
         return None;
@@ -359,6 +615,7 @@ pub fn sun_light(s: &SunSky) -> Option<Light> {
         direction: -world,
         radiance,
         half_aperture: (s.sun_aperture * 0.5) as f32,
+        profile,
     })
 }
 
@@ -397,6 +654,7 @@ mod tests {
             sun_scale: 1.0,
             sky_scale: 1.0,
             sun_aperture: 0.5358,
+            complex_sun: false,
             to_world: DMat3::IDENTITY,
         }
     }
@@ -473,6 +731,7 @@ mod tests {
                 radiance,
                 half_aperture,
                 direction,
+                profile: None,
             }) = sun_light(&s)
             else {
                 panic!("no sun");
@@ -563,6 +822,263 @@ mod tests {
                 power.abs() < 2e-3 && irr.abs() < 2e-3 && mae < 2e-2,
                 "{power} {irr} {mae}"
             );
+        }
+    }
+
+    /// A direction `f` radii from the sun's centre (`f` < 0: the other
+    /// way), towards the zenith or (`side`) horizontally: the points the
+    /// Mitsuba values below were taken at.
+    fn across_disc(s: &SunSky, f: f64, side: bool) -> DVec3 {
+        let (v, h) = disc_axes(s.sun_local);
+        let a = f * (s.sun_aperture * 0.5).to_radians();
+        s.sun_local * a.cos() + if side { h } else { v } * a.sin()
+    }
+
+    /// Sun-only `sunsky`s with `complex_sun` as Mitsuba 3.9.1 was given
+    /// them, and its `emitter.eval` (scalar_rgb, sky_scale 0) at the
+    /// centre, half a radius up and down, 0.9 radii up, down and sideways
+    /// ([`across_disc`]): a high sun, a low one at another turbidity,
+    /// a 1° aperture and a sun 1° up whose disc spans two segments of the
+    /// model (and whose blue is negative there).
+    #[allow(clippy::type_complexity)]
+    fn mitsuba_complex_suns() -> Vec<(SunSky, Vec<(f64, bool, [f64; 3])>)> {
+        let sun = |turbidity: f64, dir: [f64; 3], aperture: f64| SunSky {
+            sun_aperture: aperture,
+            complex_sun: true,
+            sky_scale: 0.0,
+            ..sunsky(turbidity, 0.3, dir)
+        };
+        let e1 = 1f64.to_radians();
+        vec![
+            (
+                sun(2.0, [e1.cos(), 0.0, e1.sin()], 0.5358),
+                vec![
+                    (0.0, false, [4037.5847, 846.72443, -107.29343]),
+                    (0.5, false, [4128.0688, 901.0058, -105.99438]),
+                    (-0.5, false, [3440.802, 676.4068, -94.795242]),
+                    (0.9, false, [3299.7537, 710.21478, -84.496849]),
+                    (-0.9, false, [2374.1538, 422.74966, -67.354385]),
+                    (0.9, true, [2831.8914, 557.04736, -77.092056]),
+                ],
+            ),
+            (
+                sun(3.0, [0.3, 0.2, 0.6], 0.5358),
+                vec![
+                    (0.0, false, [26340.289, 22867.713, 18595.379]),
+                    (0.5, false, [24739.492, 21205.197, 16905.375]),
+                    (-0.5, false, [24732.205, 21193.748, 16886.859]),
+                    (0.9, false, [18733.473, 15105.847, 10906.834]),
+                    (-0.9, false, [18723.199, 15090.872, 10885.013]),
+                    (0.9, true, [18727.633, 15097.654, 10895.267]),
+                ],
+            ),
+            (
+                sun(6.5, [-0.8, 0.1, 0.087], 0.5358),
+                vec![
+                    (0.0, false, [5883.3867, 2797.4807, 618.83417]),
+                    (0.5, false, [5695.2656, 2707.9329, 601.74567]),
+                    (-0.5, false, [5337.1729, 2477.5769, 515.80505]),
+                    (0.9, false, [4389.6162, 1991.0175, 395.63571]),
+                    (-0.9, false, [3903.9736, 1696.609, 297.37982]),
+                    (0.9, true, [4147.8667, 1842.6071, 344.79065]),
+                ],
+            ),
+            (
+                sun(3.0, [0.2, -0.9, 0.35], 1.0),
+                vec![
+                    (0.0, false, [6516.1865, 5010.6787, 3076.2085]),
+                    (0.5, false, [6134.6621, 4668.0562, 2822.9641]),
+                    (-0.5, false, [6099.501, 4619.9282, 2763.4517]),
+                    (0.9, false, [4648.1372, 3335.1689, 1829.6898]),
+                    (-0.9, false, [4599.7866, 3273.3652, 1760.3129]),
+                    (0.9, true, [4624.3467, 3304.6995, 1795.3394]),
+                ],
+            ),
+        ]
+    }
+
+    /// The complex sun's model ([`complex_sun_radiance`], f64) against
+    /// Mitsuba's values, negative blue included: 3e-4 at the default
+    /// aperture (Mitsuba's f32 γ near the rim), 1 % at 1° (Mitsuba's f32
+    /// 1 − cos α, as for the uniform sun). A wrong segment, power of x or
+    /// of μ, or turbidity level moves them by percents.
+    #[test]
+    fn complex_sun_model_matches_mitsuba() {
+        for (s, points) in mitsuba_complex_suns() {
+            let tol = if s.sun_aperture == 0.5358 { 3e-4 } else { 1e-2 };
+
+            for (f, side, want) in points {
+                let got = complex_sun_radiance(&s, across_disc(&s, f, side));
+                assert!(
+                    close(got, want, tol),
+                    "sun {:?} at {f} {side}: {got:?} vs Mitsuba {want:?}",
+                    s.sun_local
+                );
+            }
+        }
+    }
+
+    /// The light cmlt renders (the core's [`Light::Sun`] with the fitted
+    /// profile, evaluated as a path would see it) against Mitsuba's values,
+    /// with channels below zero (Mitsuba's, cmlt clamps) compared as zero.
+    /// Tolerance 1e-3 at the default aperture (measured: 2e-4 at worst,
+    /// the sun 1° up whose fit spans two segments), 1 % at 1° (Mitsuba's
+    /// f32 1 − cos α; measured 2.5e-3). Negative control: the uniform disc of the same sun is
+    /// 10–40 % off at these points and fails.
+    #[test]
+    fn complex_sun_light_matches_mitsuba() {
+        use cmlt::scene::light::LightSet;
+        for (s, points) in mitsuba_complex_suns() {
+            let light = sun_light(&s).expect("a sun");
+            assert!(light.validate().is_ok());
+            let set = LightSet::new(&[], &[light]);
+            let uniform = LightSet::new(
+                &[],
+                &[sun_light(&SunSky {
+                    complex_sun: false,
+                    ..s
+                })
+                .expect("a sun")],
+            );
+            let (mut worst, mut uniform_worst) = (0.0f64, 0.0f64);
+            for (f, side, want) in points {
+                let w = across_disc(&s, f, side).as_vec3();
+                let want = want.map(|v| v.max(0.0));
+                // Relative error per channel, a clamped (zero) channel
+                // against 1 % of red, the largest.
+                let err = |l: Rgb| {
+                    (0..3)
+                        .map(|c| (l[c] as f64 - want[c]).abs() / want[c].max(0.01 * want[0]))
+                        .fold(0.0, f64::max)
+                };
+                worst = worst.max(err(set.radiance(0, w)));
+                uniform_worst = uniform_worst.max(err(uniform.radiance(0, w)));
+            }
+            eprintln!(
+                "complex sun {:?}, turbidity {}, aperture {}: worst error vs Mitsuba {worst:.2e} (uniform disc {uniform_worst:.2e})",
+                s.sun_local, s.turbidity, s.sun_aperture
+            );
+            let tol = if s.sun_aperture == 0.5358 { 1e-3 } else { 1e-2 };
+            assert!(worst < tol, "{worst}");
+            assert!(
+                uniform_worst > 0.1,
+                "the uniform disc passes: {uniform_worst}"
+            );
+        }
+    }
+
+    /// The fitted profile as the core evaluates it against the model
+    /// ([`complex_sun_radiance`], negatives clamped) over a 41 × 41 grid
+    /// across the disc, for suns from 0.1° (half the disc below the
+    /// horizon) to 89.9° and two apertures: the worst error relative to
+    /// the disc's brightest channel at its centre, and ∫ L dω against the
+    /// model's. Low suns whose disc spans several of the model's segments
+    /// are where a single cubic in elevation is least exact; the figures
+    /// are printed and the bounds are what they reach with margin.
+    #[test]
+    fn complex_sun_profile_matches_the_model() {
+        use cmlt::scene::light::LightSet;
+        for aperture in [0.5358, 2.0] {
+            for elevation in [0.1, 0.3, 1.0, 2.0, 5.76, 10.0, 30.0, 60.0, 89.9f64] {
+                let e = elevation.to_radians();
+                let s = SunSky {
+                    sun_aperture: aperture,
+                    complex_sun: true,
+                    sky_scale: 0.0,
+                    ..sunsky(4.0, 0.3, [e.cos() * 0.6, e.cos() * 0.8, e.sin()])
+                };
+                let set = LightSet::new(&[], &[sun_light(&s).expect("a sun")]);
+                let peak = complex_sun_radiance(&s, s.sun_local)
+                    .into_iter()
+                    .fold(0.0, f64::max);
+                let (v, h) = disc_axes(s.sun_local);
+                let half = (aperture * 0.5).to_radians();
+                let n = 41;
+                let (mut worst, mut p_model, mut p_light) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
+                for i in 0..n {
+                    for j in 0..n {
+                        let x = half * (2.0 * (i as f64 + 0.5) / n as f64 - 1.0);
+                        let y = half * (2.0 * (j as f64 + 0.5) / n as f64 - 1.0);
+                        let w = (s.sun_local + v * x + h * y).normalize();
+                        let want = complex_sun_radiance(&s, w).map(|c| c.max(0.0));
+                        let got = set.radiance(0, w.as_vec3());
+                        for c in 0..3 {
+                            worst = worst.max((got[c] as f64 - want[c]).abs() / peak);
+                            p_model[c] += want[c];
+                            p_light[c] += got[c] as f64;
+                        }
+                    }
+                }
+                let power = (0..3)
+                    .map(|c| (p_light[c] / p_model[c] - 1.0).abs())
+                    .fold(0.0, f64::max);
+                eprintln!(
+                    "aperture {aperture}°, sun {elevation}° up: worst |ΔL| / peak {worst:.2e}, power error {power:.2e}"
+                );
+                assert!(worst < 2e-2 && power < 5e-3, "{worst} {power}");
+            }
+        }
+    }
+
+    /// The complex sun's irradiance on a surface facing it, ∫ L dω over
+    /// the disc, against Mitsuba's: the mean of `sample_direction`'s
+    /// weights (L / pdf, the sky off so every sample is on the sun) over a
+    /// 300 × 300 grid of samples, for the suns of
+    /// [`mitsuba_complex_suns`]. cmlt's is the light's radiance (the
+    /// disc's mean) times the disc's solid angle; Mitsuba's negative blue
+    /// of the sun 1° up is 0 here. Tolerance 3e-3 (measured 8.5e-4 at
+    /// worst): Mitsuba's sampling density takes 1 − cos α in f32, whose
+    /// cos α near 1 resolves 0.5 % of 1 − cos α at 0.27°; 1 % at the 1°
+    /// aperture, as elsewhere. It is not the uniform disc's
+    /// (Mitsuba's second figure, taken the same way): the two come from
+    /// different tables and part at a low sun (−40 % red at 1°, +15 %
+    /// blue at 6°), so an implementation that scaled the profile to the
+    /// uniform disc's irradiance fails here.
+    #[test]
+    fn complex_sun_irradiance_matches_mitsuba() {
+        let want: [([f64; 3], [f64; 3]); 4] = [
+            (
+                [0.22860521, 0.04664766, -0.00611662],
+                [0.38366103, 0.10707566, -0.00594049],
+            ),
+            (
+                [1.50079194, 1.25609672, 0.96598965],
+                [1.4975456, 1.25292945, 0.9630667],
+            ),
+            (
+                [0.33377656, 0.15350816, 0.03147397],
+                [0.32853374, 0.15544155, 0.03619415],
+            ),
+            (
+                [1.2934818, 0.95907649, 0.55599015],
+                [1.2913059, 0.95689386, 0.55423653],
+            ),
+        ];
+        for ((s, _), (complex, uniform)) in mitsuba_complex_suns().into_iter().zip(want) {
+            let Some(Light::Sun {
+                radiance,
+                profile: Some(_),
+                ..
+            }) = sun_light(&s)
+            else {
+                panic!("no complex sun");
+            };
+            let half = (s.sun_aperture * 0.5).to_radians();
+            let omega = std::f64::consts::TAU * 2.0 * (half * 0.5).sin().powi(2);
+            let got = [0, 1, 2].map(|c| radiance[c] as f64 * omega);
+            let tol = if s.sun_aperture == 0.5358 { 3e-3 } else { 1e-2 };
+            let complex = complex.map(|v| v.max(0.0));
+            eprintln!(
+                "complex sun {:?}: irradiance {got:?}, Mitsuba {complex:?} (uniform disc {uniform:?})",
+                s.sun_local
+            );
+            for c in 0..3 {
+                let scale = complex[c].max(0.01 * complex[0]);
+                assert!(
+                    (got[c] - complex[c]).abs() < tol * scale,
+                    "channel {c}: {got:?} vs Mitsuba {complex:?}"
+                );
+            }
         }
     }
 }

@@ -58,6 +58,7 @@ fn shared_scenes_call_for_what_they_contain() {
             "principled",
             "rough-glass",
             "sunsky",
+            "sunsky-complex",
             "surface-detail",
             "veach-ajar",
             "veach-bidir",
@@ -74,6 +75,11 @@ fn shared_scenes_call_for_what_they_contain() {
     // The sunsky's baked sky and sun disc over diffuse objects: both are
     // environments, so nothing but diffuse and the environment.
     assert_eq!(effects("sunsky"), (set(&[Diffuse, Environment]), false));
+    // The complex sun over a diffuse slope: the same.
+    assert_eq!(
+        effects("sunsky-complex"),
+        (set(&[Diffuse, Environment]), false)
+    );
     // Point, spot, sun and sky over diffuse and rough-metal objects.
     assert_eq!(
         effects("lights-punctual"),

@@ -1987,9 +1987,10 @@ fn envmap_emitter_loads_float_images() {
 
 /// Mitsuba 3's `sunsky`: a valid one becomes the baked sky (an envmap whose
 /// zenith is the emitter's +z turned by `to_world`) and the sun disc
-/// (direction, aperture, the sun's radiance scaled by `sun_scale`); a sun
-/// below the horizon gives no light (Mitsuba's emitter is black); and each
-/// bad parameter is refused at its own line with what is wrong.
+/// (direction, aperture, the sun's radiance scaled by `sun_scale`; with
+/// `complex_sun` a profile over the disc); a sun below the horizon gives
+/// no light (Mitsuba's emitter is black); and each bad parameter is
+/// refused at its own line with what is wrong.
 #[test]
 fn sunsky_loads_and_refuses_bad_parameters() {
     use cmlt::scene::Light;
@@ -2011,6 +2012,7 @@ fn sunsky_loads_and_refuses_bad_parameters() {
         direction,
         radiance,
         half_aperture,
+        profile: None,
     } = lights[1]
     else {
         panic!("{:?}", lights[1])
@@ -2043,6 +2045,20 @@ fn sunsky_loads_and_refuses_bad_parameters() {
         below.warnings
     );
     assert!(l.warnings.is_empty(), "{:?}", l.warnings);
+    // complex_sun: the same sun with a profile over its disc whose zenith
+    // is the emitter's +z turned by to_world (world +y).
+    let complex = ok(&body(&format!(
+        "<vector name=\"sun_direction\" x=\"0.5\" y=\"0.6\" z=\"-0.4\"/><boolean name=\"complex_sun\" value=\"true\"/>{rot}"
+    )));
+    let Some(Light::Sun {
+        profile: Some(p),
+        direction: d2,
+        ..
+    }) = complex.scene.lights.others().nth(1).copied()
+    else {
+        panic!("no complex sun")
+    };
+    assert!(close(p.up, Vec3::Y, 1e-6) && close(d2, direction, 1e-6));
     // Time and place (Mitsuba's defaults: Tokyo, 10 July 2010, 15:00).
     let timed = ok(&body(
         "<float name=\"hour\" value=\"11\"/><integer name=\"month\" value=\"3\"/>",
@@ -2068,10 +2084,6 @@ fn sunsky_loads_and_refuses_bad_parameters() {
         (
             "<texture type=\"checkerboard\" name=\"albedo\"/>",
             "albedo cannot be a texture",
-        ),
-        (
-            "<boolean name=\"complex_sun\" value=\"true\"/>",
-            "complex_sun",
         ),
         (
             "<vector name=\"sun_direction\" x=\"0\" y=\"1\" z=\"0\"/>\n<float name=\"hour\" value=\"3\"/>",

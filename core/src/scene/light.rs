@@ -33,6 +33,10 @@ use super::texture::{Bitmap, BitmapId};
 use crate::math::{Frame, PI, Rgb, warp};
 
 /// A light that is not an emissive mesh, with Mitsuba 3's semantics.
+// The sun's profile (288 bytes) is held inline: lights are built once per
+// scene and read by reference, and inline keeps `Light` `Copy` and the
+// core free of allocation.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Mitsuba's `point`: radiant intensity `intensity` (W/sr) in every
@@ -86,21 +90,55 @@ pub enum Light {
         /// translation, which does not move a light at infinity).
         to_world: Mat3,
     },
-    /// The sun of Mitsuba 3's `sunsky`: a disc of uniform radiance
-    /// `radiance` at infinity, every direction within `half_aperture`
-    /// degrees of the one it shines from, light travelling along
-    /// `direction`. Rays can hit it (it is an environment, unlike
-    /// [`Light::Directional`]), and it is sampled uniformly in solid angle
-    /// over its cone. The sky around it is a separate [`Light::Envmap`].
+    /// The sun of Mitsuba 3's `sunsky`: a disc of radiance `radiance` at
+    /// infinity (uniform, or times `profile` where one is given), every
+    /// direction within `half_aperture` degrees of the one it shines
+    /// from, light travelling along `direction`. Rays can hit it (it is an
+    /// environment, unlike [`Light::Directional`]), and it is sampled
+    /// uniformly in solid angle over its cone whatever its profile. The
+    /// sky around it is a separate [`Light::Envmap`].
     Sun {
         /// Direction the light travels in (any length but zero): the
         /// sun's centre is seen along −`direction`.
         direction: Vec3,
-        /// Radiance of the disc.
+        /// Radiance of the disc; with a `profile`, the disc's mean
+        /// radiance (the light's power, which sets how often it is
+        /// chosen, takes it so).
         radiance: Rgb,
         /// Angular radius of the disc in degrees, in (0, 90).
         half_aperture: f32,
+        /// Relative radiance across the disc (limb darkening and a
+        /// gradient in elevation, Mitsuba's `complex_sun`), or `None` for
+        /// a uniform disc.
+        profile: Option<SunProfile>,
     },
+}
+
+/// Degree + 1 of a [`SunProfile`] in the elevation offset `s`.
+pub const SUN_PROFILE_S: usize = 4;
+/// Degree + 1 of a [`SunProfile`] in μ = cos ψ.
+pub const SUN_PROFILE_MU: usize = 6;
+
+/// A radiance profile across the sun's disc, after Hosek & Wilkie 2013
+/// ("Adding a Solar-Radiance Function to the Hosek–Wilkie Skylight
+/// Model") as Mitsuba 3's `complex_sun` evaluates it: per channel c the
+/// factor on the light's `radiance` seen along a direction w in the disc is
+///
+/// P_c(w) = max(0, Σ_k Σ_j `coeffs`[c][k][j] · s^k · μ^j),
+///
+/// with s = (e(w) − e(centre)) / α the elevation offset (e the elevation
+/// above the plane normal to `up`, α the disc's angular radius; s ∈ [−1, 1]
+/// across the disc) and μ = cos ψ = √(1 − sin²γ / sin²α) the limb
+/// parameter (γ the angle from the disc's centre: 1 at the centre, 0 on
+/// the rim). Directions below that plane (e(w) < 0) see nothing, as in
+/// Mitsuba, whose sun is clipped by the horizon. A profile whose mean over
+/// the disc is 1 keeps the light's power right.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunProfile {
+    /// The zenith (any length but zero) elevations are measured from.
+    pub up: Vec3,
+    /// Polynomial coefficients, `coeffs[channel][k][j]` on s^k μ^j.
+    pub coeffs: [[[f32; SUN_PROFILE_MU]; SUN_PROFILE_S]; 3],
 }
 
 fn valid_rgb(c: Rgb) -> bool {
@@ -183,6 +221,7 @@ impl Light {
                 direction,
                 radiance,
                 half_aperture,
+                profile,
             } => {
                 if !valid_dir(direction) {
                     return Err("sun: direction must be finite and non-zero");
@@ -192,6 +231,14 @@ impl Light {
                 }
                 if !(half_aperture > 0.0 && half_aperture < 90.0) {
                     return Err("sun: half_aperture must be in (0, 90) degrees");
+                }
+                if let Some(p) = profile {
+                    if !valid_dir(p.up) {
+                        return Err("sun: the profile's up must be finite and non-zero");
+                    }
+                    if !p.coeffs.iter().flatten().flatten().all(|c| c.is_finite()) {
+                        return Err("sun: the profile's coefficients must be finite");
+                    }
                 }
             }
             Light::Envmap {
@@ -265,6 +312,14 @@ struct Prepared {
     /// near 1).
     sun_one_minus_cos: f32,
     sun_chord2: f32,
+    /// For a sun with a [`SunProfile`]: its unit `up`, the centre's
+    /// sin and cos of elevation (c · up and |c × up|), 1/α (α in
+    /// radians) and 1 / sin² α.
+    sun_up: Vec3,
+    sun_sin_e0: f32,
+    sun_cos_e0: f32,
+    sun_inv_alpha: f32,
+    sun_inv_sin2_alpha: f32,
 }
 
 impl Prepared {
@@ -279,6 +334,11 @@ impl Prepared {
             env: u32::MAX,
             sun_one_minus_cos: 0.0,
             sun_chord2: 0.0,
+            sun_up: Vec3::Z,
+            sun_sin_e0: 0.0,
+            sun_cos_e0: 0.0,
+            sun_inv_alpha: 0.0,
+            sun_inv_sin2_alpha: 0.0,
         };
         match light {
             Light::Spot {
@@ -300,13 +360,22 @@ impl Prepared {
             Light::Sun {
                 direction,
                 half_aperture,
+                profile,
                 ..
             } => {
                 p.frame = Frame::from_normal(-direction.normalize());
                 // 1 − cos α = 2 sin²(α/2), exact for small α.
-                let s = libm::sin((half_aperture as f64).to_radians() * 0.5);
+                let alpha = (half_aperture as f64).to_radians();
+                let s = libm::sin(alpha * 0.5);
                 p.sun_one_minus_cos = (2.0 * s * s) as f32;
                 p.sun_chord2 = (4.0 * s * s) as f32;
+                if let Some(profile) = profile {
+                    p.sun_up = profile.up.normalize();
+                    p.sun_sin_e0 = p.frame.n.dot(p.sun_up);
+                    p.sun_cos_e0 = p.frame.n.cross(p.sun_up).length();
+                    p.sun_inv_alpha = (1.0 / alpha) as f32;
+                    p.sun_inv_sin2_alpha = (1.0 / (libm::sin(alpha) * libm::sin(alpha))) as f32;
+                }
             }
             _ => {}
         }
@@ -324,6 +393,59 @@ impl Prepared {
     /// a degree wide.
     fn in_sun(&self, w: Vec3) -> bool {
         (w - self.frame.n).length_squared() <= self.sun_chord2
+    }
+
+    /// The sun's radiance along the unit direction `w` (towards it): zero
+    /// outside the disc, `radiance` on a uniform disc, times the
+    /// profile's factor on one with a [`SunProfile`].
+    fn sun_radiance(&self, w: Vec3) -> Rgb {
+        let Light::Sun {
+            radiance,
+            ref profile,
+            ..
+        } = self.light
+        else {
+            return Rgb::ZERO;
+        };
+        if !self.in_sun(w) {
+            return Rgb::ZERO;
+        }
+        match profile {
+            None => radiance,
+            Some(p) => radiance * self.sun_profile(p, w),
+        }
+    }
+
+    /// [`SunProfile`]'s factor along the unit direction `w` in the disc.
+    fn sun_profile(&self, p: &SunProfile, w: Vec3) -> Rgb {
+        let sin_e = w.dot(self.sun_up);
+        if sin_e < 0.0 {
+            // Below the horizon: Mitsuba's sun is clipped there.
+            return Rgb::ZERO;
+        }
+        // Elevation offset from the centre's: sin(e − e0) = sin e cos e0 −
+        // cos e sin e0, the cosines as cross-product lengths, so that it
+        // keeps its precision for a disc a fraction of a degree wide and
+        // for a sun at the zenith (where it is −sin γ).
+        let cos_e = w.cross(self.sun_up).length();
+        let sin_de = sin_e * self.sun_cos_e0 - cos_e * self.sun_sin_e0;
+        let s = libm::asinf(sin_de.clamp(-1.0, 1.0)) * self.sun_inv_alpha;
+        // μ = cos ψ = √(1 − sin²γ / sin²α), sin γ = |w × c|.
+        let sin2_gamma = w.cross(self.frame.n).length_squared();
+        let mu = crate::math::safe_sqrt(1.0 - sin2_gamma * self.sun_inv_sin2_alpha);
+        let channel = |c: usize| {
+            // Horner in s over Horner in μ.
+            let mut v = 0.0f32;
+            for row in p.coeffs[c].iter().rev() {
+                let mut r = 0.0f32;
+                for &a in row.iter().rev() {
+                    r = r * mu + a;
+                }
+                v = v * s + r;
+            }
+            v.max(0.0)
+        };
+        Rgb::new(channel(0), channel(1), channel(2))
     }
 
     /// Luminance power, with the infinite lights' through a disk of radius
@@ -872,16 +994,17 @@ impl LightSet {
                     delta: false,
                 })
             }
-            Light::Sun { radiance, .. } => {
+            Light::Sun { .. } => {
                 let wi = l.sample_sun(u);
                 let pdf = self.pdf_incident(index, wi);
-                if radiance.is_black() || !(pdf > 0.0) {
+                let li = l.sun_radiance(wi);
+                if li.is_black() || !(pdf > 0.0) {
                     return None;
                 }
                 Some(Incident {
                     wi,
                     position: None,
-                    li: radiance,
+                    li,
                     pdf,
                     delta: false,
                 })
@@ -926,7 +1049,7 @@ impl LightSet {
         match l.light {
             Light::Constant { radiance } => radiance,
             Light::Envmap { .. } => self.envmaps[l.env as usize].eval(wi),
-            Light::Sun { radiance, .. } if l.in_sun(wi) => radiance,
+            Light::Sun { .. } => l.sun_radiance(wi),
             _ => Rgb::ZERO,
         }
     }
@@ -1208,6 +1331,7 @@ mod tests {
                 direction: dir,
                 radiance,
                 half_aperture: alpha,
+                profile: None,
             }],
         );
         assert!(set.has_environment());
@@ -1261,10 +1385,133 @@ mod tests {
             Light::Sun {
                 direction: dir,
                 radiance,
-                half_aperture: 90.0
+                half_aperture: 90.0,
+                profile: None,
             }
             .validate()
             .is_err()
         );
+    }
+
+    /// A sun with a [`SunProfile`]: the factor at directions whose s and μ
+    /// are known in closed form (the centre; half the radius straight up
+    /// from it, where the elevation offset is exactly α/2; the same at the
+    /// zenith, where it is −γ), zero below the horizon, and sampling that
+    /// stays unbiased: the mean of li / pdf over stratified samples is the
+    /// disc's ∫ L dω on a fine grid. Were `sample_incident` to return the
+    /// plain `radiance`, red's mean would be 25 % high (its profile
+    /// 0.4 + 0.6 μ averages 0.8 over the disc, μ's mean being 2/3).
+    #[test]
+    fn sun_profile_values_and_sampling() {
+        let alpha_deg = 0.5f32;
+        let alpha = (alpha_deg as f64).to_radians();
+        let mut coeffs = [[[0.0f32; SUN_PROFILE_MU]; SUN_PROFILE_S]; 3];
+        // r: 0.4 + 0.6 μ; g: 1 + 0.3 s; b: 0.5 + 0.2 s² + 0.1 s μ².
+        coeffs[0][0][0] = 0.4;
+        coeffs[0][0][1] = 0.6;
+        coeffs[1][0][0] = 1.0;
+        coeffs[1][1][0] = 0.3;
+        coeffs[2][0][0] = 0.5;
+        coeffs[2][2][0] = 0.2;
+        coeffs[2][1][2] = 0.1;
+        let want = |s: f64, mu: f64| {
+            [
+                0.4 + 0.6 * mu,
+                1.0 + 0.3 * s,
+                0.5 + 0.2 * s * s + 0.1 * s * mu * mu,
+            ]
+        };
+        let up = Vec3::Y;
+        let radiance = Rgb::new(2.0, 3.0, 4.0);
+        let sun_at = |elevation_deg: f32| {
+            let e = elevation_deg.to_radians();
+            let centre = Vec3::new(libm::cosf(e), libm::sinf(e), 0.0);
+            let set = LightSet::new(
+                &[],
+                &[Light::Sun {
+                    direction: -centre,
+                    radiance,
+                    half_aperture: alpha_deg,
+                    profile: Some(SunProfile { up, coeffs }),
+                }],
+            );
+            (set, centre)
+        };
+        let check = |set: &LightSet, w: Vec3, s: f64, mu: f64| {
+            let got = set.radiance(0, w);
+            let w_ = want(s, mu);
+            for c in 0..3 {
+                let expect = w_[c] * radiance[c] as f64;
+                assert!(
+                    (got[c] as f64 - expect).abs() < 2e-3 * expect,
+                    "channel {c}: {got:?} vs {expect} (s {s}, μ {mu})"
+                );
+            }
+        };
+        let (set, centre) = sun_at(20.0);
+        check(&set, centre, 0.0, 1.0);
+        // Half the radius straight up: s = 1/2, μ = √(1 − sin²(α/2)/sin²α).
+        let half = alpha * 0.5;
+        let mu_half = (1.0 - (half.sin() / alpha.sin()).powi(2)).sqrt();
+        let e = 20f64.to_radians() + half;
+        let w = Vec3::new(e.cos() as f32, e.sin() as f32, 0.0);
+        check(&set, w, 0.5, mu_half);
+        // The same below the centre: s = −1/2.
+        let e = 20f64.to_radians() - half;
+        check(
+            &set,
+            Vec3::new(e.cos() as f32, e.sin() as f32, 0.0),
+            -0.5,
+            mu_half,
+        );
+        // At the zenith every offset lowers the elevation: s = −γ/α.
+        let (zenith, _) = sun_at(90.0);
+        let w = Vec3::new(half.sin() as f32, half.cos() as f32, 0.0);
+        check(&zenith, w, -0.5, mu_half);
+        // A sun 0.1° up: the part of its disc below the horizon is black.
+        let (low, centre) = sun_at(0.1);
+        let below = Vec3::new(1.0, -(0.2f32.to_radians()), 0.0).normalize();
+        assert!(low.pdf_incident(0, below) > 0.0, "inside the disc");
+        assert_eq!(low.radiance(0, below), Rgb::ZERO);
+        assert!(!low.radiance(0, centre).is_black());
+        // Unbiased sampling: mean li / pdf against ∫ L dω, high and low sun.
+        for (set, centre) in [sun_at(20.0), sun_at(0.1)] {
+            let n = 256;
+            let mut mc = [0.0f64; 3];
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                    if let Some(inc) = set.sample_incident(0, Vec3::ZERO, u) {
+                        for (c, m) in mc.iter_mut().enumerate() {
+                            *m += (inc.li[c] / inc.pdf) as f64 / (n * n) as f64;
+                        }
+                    }
+                }
+            }
+            let f = Frame::from_normal(centre);
+            let h_max = 1.05 * alpha;
+            let m = 600;
+            let h = 2.0 * h_max / m as f64;
+            let mut grid = [0.0f64; 3];
+            for i in 0..m {
+                for j in 0..m {
+                    let (x, y) = (-h_max + (i as f64 + 0.5) * h, -h_max + (j as f64 + 0.5) * h);
+                    let w = (f.n + f.s * x as f32 + f.t * y as f32).normalize();
+                    let dw = h * h / libm::pow(1.0 + x * x + y * y, 1.5);
+                    let l = set.radiance(0, w);
+                    for (c, g) in grid.iter_mut().enumerate() {
+                        *g += l[c] as f64 * dw;
+                    }
+                }
+            }
+            for c in 0..3 {
+                assert!(
+                    (mc[c] / grid[c] - 1.0).abs() < 5e-3,
+                    "channel {c}: sampled {} vs grid {}",
+                    mc[c],
+                    grid[c]
+                );
+            }
+        }
     }
 }

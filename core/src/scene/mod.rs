@@ -37,7 +37,7 @@ pub use camera::{Camera, CameraError, FovAxis};
 pub use detail::Detail;
 pub use effects::{Analysis, Effect, EffectSet};
 #[cfg(feature = "alloc")]
-pub use light::Light;
+pub use light::{Light, SUN_PROFILE_MU, SUN_PROFILE_S, SunProfile};
 // The parameter types of the BSDF models that materials hold: declared by
 // the models (in `bsdf`), public here, where the materials naming them are.
 pub use crate::bsdf::conductor::ConductorFresnel;
