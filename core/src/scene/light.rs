@@ -124,7 +124,7 @@ pub const SUN_PROFILE_MU: usize = 6;
 /// Model") as Mitsuba 3's `complex_sun` evaluates it: per channel c the
 /// factor on the light's `radiance` seen along a direction w in the disc is
 ///
-/// P_c(w) = max(0, Σ_k Σ_j `coeffs`[c][k][j] · s^k · μ^j),
+/// P_c(w) = max(0, Σ_k Σ_j `coeffs[c][k][j]` · s^k · μ^j),
 ///
 /// with s = (e(w) − e(centre)) / α the elevation offset (e the elevation
 /// above the plane normal to `up`, α the disc's angular radius; s ∈ [−1, 1]
