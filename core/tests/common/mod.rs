@@ -216,6 +216,25 @@ pub fn mirror_sphere_furnace() -> Scene {
     b.build().unwrap()
 }
 
+/// The diffuse furnace (walls emitting 1, albedo ½) with a large sphere of
+/// clear glass of relative index `eta` before the camera, covering much of
+/// its image: paths reflected and refracted by a dielectric (Dirac lobes
+/// chosen with probability F and 1 − F), refracted radiance scaled by 1/η²
+/// and back. Lossless, the sphere leaves the untruncated radiance at 2.
+pub fn glass_sphere_furnace(eta: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let wall = b.add_material(Material::diffuse(Rgb::splat(0.5)));
+    let glass = b.add_material(Material {
+        kind: MaterialKind::Dielectric { eta },
+        two_sided: false,
+        detail: Default::default(),
+    });
+    b.add_mesh(inward_box(wall, 1.0));
+    b.add_mesh(sphere(Vec3::new(0.1, -0.1, 0.3), 0.45, glass));
+    b.set_camera(furnace_camera(Vec3::new(0.1, -0.2, -0.6), 0.0));
+    b.build().unwrap()
+}
+
 /// Indices of the pixels of `camera` lying entirely on what `on_object`
 /// accepts: the pinhole rays through all four of a pixel's corners do.
 /// Pixels straddling an edge mix two radiances and are left out.

@@ -30,13 +30,22 @@
 //!
 //! p_{s,t}(x̄) = ∏_{i<t} fwd[i] · ∏_{i≥t} rev[i].
 //!
-//! Specular vertices are kept symbolic, as in BDPT's estimates: f(x̄)
-//! takes a Dirac lobe's sampling weight f·|cos|/p (the throughput BSDF
-//! sampling gives it) in place of f_s|cos|, and the density of the vertex
-//! sampled through it is that of a unit solid-angle density, the area
-//! conversion |n_g·ω|/d² alone. Every strategy that does not connect at a
-//! specular vertex walks through it from one side, so the Dirac factors
-//! f and p leave out are the same and cancel in f/p and in every ratio.
+//! Specular vertices are kept symbolic: f(x̄) takes a Dirac lobe's
+//! throughput f·|cos| in radiance (F, or (1 − F)/η² for refracted
+//! radiance; [`crate::bsdf::Bsdf::specular`]) in place of f_s|cos|, the
+//! Dirac measure left out, and the density of the vertex sampled through
+//! it is the probability with which BSDF sampling chooses that lobe (1 at
+//! a mirror, F or 1 − F at a dielectric) in the same measure, times the
+//! area conversion |n_g·ω|/d². A light subpath walks through the vertex
+//! the other way, in importance, whose Dirac measure differs by the
+//! Jacobian of the lobe's mapping (η² across a refraction): its density
+//! takes the ratio of the lobe's throughputs in the two modes as well
+//! (`dirac_density`). Every strategy that does not connect at a specular
+//! vertex walks through it from one side, so f/p is BDPT's estimate and
+//! the Dirac measure cancels in every ratio; the path-space mutations'
+//! walks choose lobes by BSDF sampling, so their densities need the lobe
+//! probabilities too (without them a chain weighed paths through glass by
+//! F or 1 − F per vertex).
 //! Strategies that connect at a specular vertex (x_{t−1} or x_t specular)
 //! cannot sample the path; [`strategy_density`] does not know the path
 //! and the caller must leave them out. A mixed BSDF's Dirac lobe (smooth
@@ -328,7 +337,8 @@ pub fn path_densities(
     for i in 1..n {
         // fwd[i]: from a = x_{i−1}, reached from x_{i−2}.
         fwd[i] = if is_specular(&a) {
-            a.area_density_at(1.0, &b)
+            let from = before.as_ref().map_or(a.sp.p, |v| v.sp.p);
+            a.area_density_at(dirac_density(&a, from, b.sp.p, TransportMode::Radiance), &b)
         } else {
             a.pdf(camera, lights_pdf, before.as_ref(), &b)
         };
@@ -336,7 +346,11 @@ pub fn path_densities(
         let c = (i + 1 < n).then(|| vertex(camera, path, end, i + 1));
         if i > 1 {
             rev[i - 1] = if is_specular(&b) {
-                b.area_density_at(1.0, &a)
+                let from = c.as_ref().map_or(b.sp.p, |v| v.sp.p);
+                b.area_density_at(
+                    dirac_density(&b, from, a.sp.p, TransportMode::Importance),
+                    &a,
+                )
             } else {
                 b.pdf(camera, lights_pdf, c.as_ref(), &a)
             };
@@ -361,6 +375,51 @@ pub fn with_flights(fwd: &mut [f32], rev: &mut [f32], flights: &[(f32, f32)]) {
     for (i, &(to_next, to_prev)) in flights.iter().enumerate() {
         fwd[i + 1] *= to_next;
         rev[i] *= to_prev;
+    }
+}
+
+/// The symbolic solid-angle density with which a walk in `mode` arriving
+/// at the specular vertex `v` from `from` leaves it towards `to`, in the
+/// Dirac measure f(x̄) takes its lobe in (module docs): BSDF sampling's
+/// probability of choosing that lobe (F or 1 − F at a dielectric, 1 at a
+/// mirror), times, for the light side's walk, the lobe's weight in
+/// radiance over its weight in importance — the Jacobian between the Dirac
+/// measures of the two directions, which the adjoint BSDF leaves out
+/// (1/η² across a refraction: `bsdf::dielectric`). With these, every
+/// strategy's f/p_{s,t} is BDPT's estimate through dielectrics too, and
+/// the path-space mutations' densities are those of their walks, which
+/// choose lobes by sampling. 0 where the lobe carries nothing.
+fn dirac_density(v: &Vertex, from: Vec3, to: Vec3, mode: TransportMode) -> f32 {
+    let Some(l) = &v.local else {
+        return 0.0;
+    };
+    let (back, ahead) = (from - v.sp.p, to - v.sp.p);
+    // As `path_contribution` tells the lobes apart: by the geometric normal.
+    let reflect = back.dot(v.sp.ng) * ahead.dot(v.sp.ng) > 0.0;
+    let wo = l.frame.to_local(back.normalize());
+    let u_lobe = if reflect { 0.0 } else { 1.0 };
+    let Some(s) = l.bsdf.sample(wo, u_lobe, Vec2::ZERO, mode) else {
+        return 0.0;
+    };
+    if ((s.wi.z > 0.0) == (wo.z > 0.0)) != reflect {
+        return 0.0;
+    }
+    match mode {
+        TransportMode::Radiance => s.pdf,
+        TransportMode::Importance => {
+            let radiance = l.bsdf.specular(
+                l.frame.to_local(ahead.normalize()),
+                reflect,
+                TransportMode::Radiance,
+            );
+            let importance = s.f * s.wi.z.abs();
+            match radiance {
+                Some((_, w)) if importance.luminance() > 0.0 => {
+                    s.pdf * (w.luminance() / importance.luminance())
+                }
+                _ => 0.0,
+            }
+        }
     }
 }
 
