@@ -6,11 +6,9 @@
 //!
 //! Each call checks its ids against what the scene holds so far, so a bad
 //! id is refused when it is passed (with the scene unchanged), not at
-//! commit. PT, BDPT, MLT and CMLT render media; MLT and CMLT over the
-//! path-space level 1 refuse such a scene when they prepare
-//! (`CMLT_ERROR_INVALID_ARGUMENT`, with the message saying so), and a
-//! library built without the `media` feature refuses it at commit
-//! (`CMLT_EFFECT_MEDIA` not built).
+//! commit. PT, BDPT, MLT and CMLT render media, over either level 1; a
+//! library built without the `media` feature refuses such a scene at
+//! commit (`CMLT_EFFECT_MEDIA` not built).
 
 use cmlt_core::math::Rgb;
 use cmlt_core::scene::{Medium, MediumId, MediumInterface, Phase};

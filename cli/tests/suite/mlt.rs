@@ -885,6 +885,51 @@ fn media_fog_mlt_matches_reference() {
     check_reference("media-fog", 4, &mlt, 32);
 }
 
+/// The path-space level 1 through media (tests/scenes/media-fog, at 1/4
+/// resolution): the bidirectional and lens subpath mutations' walks sample
+/// free flights and cross the null boundaries, f(x̄) has every segment's
+/// transmittance and σ_s × phase at medium vertices, T(x̄→ȳ) the
+/// free-flight densities (`mlt::path_space::media`). Channel means within
+/// 2 % of the reference and the relMSE falling like 1/N; a missing
+/// free-flight density in T or transmittance in f biases the means by far
+/// more (`mlt::path_space` unit tests hold those negative controls).
+#[test]
+fn media_fog_path_space_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(64)
+    });
+    check_reference("media-fog", 4, &mlt, 32);
+}
+
+/// The path-space level 1 through media behind dielectrics
+/// (tests/scenes/media-glass: absorbing interiors; media-milk: scattering
+/// ones seen only through smooth and rough glass), at 1/4 resolution: the
+/// walks take the glass's Dirac lobes and the media's free flights.
+#[test]
+fn media_behind_glass_path_space_mlt_matches_reference() {
+    let mlt = Estimator::Mlt(MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(64)
+    });
+    check_reference("media-glass", 4, &mlt, 64);
+    check_reference("media-milk", 4, &mlt, 64);
+}
+
+/// CMLT over the path-space level 1 through media: level 2's media-aware
+/// side chains run from the path-space states of media-fog; channel means
+/// within 2 % of the reference.
+#[test]
+fn media_fog_path_space_cmlt_means_match_reference() {
+    let mlt = MltSettings {
+        level1: Level1::PathSpace,
+        ..level1(64)
+    };
+    let (_, _, out) = check_means("media-fog", 4, &cmlt_on(mlt, 8, 4), 32);
+    let s = out.stats.mlt;
+    assert!(s.lens_steps > 0 && s.lens_accepted > 0, "{s:?}");
+}
+
 /// CMLT through media: every path of the fog (diffuse surfaces, medium
 /// vertices, null boundaries) gets the lens perturbation, which keeps a
 /// medium vertex's free-flight distance and weighs transmittance, σ_s and

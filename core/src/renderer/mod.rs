@@ -1018,7 +1018,6 @@ impl Renderer {
         if worker.renderer != self.id {
             return Err(RenderError::Worker);
         }
-        check_media(&self.config.estimator, scene)?;
         let Some(epoch) = self.pending else {
             return Ok(true);
         };
@@ -1329,7 +1328,6 @@ impl Renderer {
         if self.prepared != Some(self.generation) || self.scene_revision != Some(scene.revision()) {
             return Err(RenderError::NotPrepared);
         }
-        check_media(&self.config.estimator, scene)?;
         let c = &self.config;
         let settings = &self.settings;
         let mut tracer = self.tracer(scene, accel);
@@ -2013,34 +2011,6 @@ fn render_samples<I: Intersector>(
 fn block_share(i: u64, w: u64, blocks: u64) -> core::ops::Range<u64> {
     let w = w.max(1);
     (i * blocks / w)..((i + 1) * blocks / w)
-}
-
-/// Refuses a scene with media or null boundaries where the estimator
-/// does not render them right: the path-space level 1 of MLT and CMLT.
-/// Its path measure and its bidirectional and lens subpath walks through
-/// media exist (`mlt::path_space::media`, checked by its unit tests: every
-/// strategy's f/p, the proposals' mean, the chains' depth shares), but its
-/// images of `tests/scenes/media-glass` (absorbing interiors behind
-/// dielectrics) keep a red deficit that more mutations do not remove: r/g
-/// 0.985 ± 0.003 of the reference at 4 096 mutations per pixel over 12
-/// seeds, where the primary-sample level 1 gives 0.997 ± 0.006 and the
-/// same scene without its media shows no difference between the two
-/// (`docs/accuracy.md`, "The path-space level 1 and CMLT over it").
-/// Until that is found, such a scene is refused rather than rendered
-/// wrong. PT and BDPT render media, and so do MLT and CMLT in primary
-/// sample space, whose target is BDPT's, with CMLT's level 2 through
-/// them (`mlt::perturbation::media`).
-fn check_media(estimator: &Estimator, scene: &Scene) -> Result<(), RenderError> {
-    let path_space = estimator
-        .mlt()
-        .is_some_and(|m| m.level1 != crate::mlt::Level1::PrimarySample);
-    if path_space && scene.has_media() {
-        return Err(RenderError::Config(
-            "participating media and null boundaries are not rendered by the path-space level 1 \
-             (its images through media are not yet unbiased): use the primary-sample level 1 (--level1 primary)",
-        ));
-    }
-    Ok(())
 }
 
 /// Refuses a thin-lens camera when the lens code is not built (a scene's

@@ -411,8 +411,8 @@ impl Material {
     fn bsdf_other(&self, texture: impl Fn(&Texture) -> Rgb) -> Bsdf {
         // The fallback arm: a model left out of the build, and the null
         // material, which no estimator shades (the path tracer's and
-        // BDPT's walks and transmittance queries pass it by; the
-        // path-space level 1 refuses scenes with media).
+        // BDPT's walks and transmittance queries pass it by, and so do
+        // the path-space mutations' walks).
         #[allow(unreachable_patterns)]
         match &self.kind {
             #[cfg(feature = "refraction")]

@@ -20,16 +20,13 @@
 //! why one level 2 serves both level 1s); paths ending on every kind of
 //! emitter — area, point, spot, directional and environment lights
 //! (`emitters`; the perturbations leave paths ending on the lights that
-//! are not meshes alone, `mlt::perturbation::classify`). Participating
+//! are not meshes alone, `mlt::perturbation::classify`); participating
 //! media and null boundaries (`media`: the walks sample free flights and
 //! cross null boundaries, f(x̄) has each segment's transmittance and the
 //! densities BDPT's free-flight densities, `PathState::evaluate`; the
-//! perturbations are not chosen in a scene with media, `chain.rs`) are
-//! built and unit-tested, but the renderer refuses a scene with media
-//! here: on media-glass the images keep a 1.5 % red deficit that was not
-//! found (`renderer::check_media`). Not yet: stratified raster positions
-//! for the lens subpath mutation; the perturbations as level-1 mutations
-//! through media.
+//! perturbations are not chosen in a scene with media, `chain.rs`). Not
+//! yet: stratified raster positions for the lens subpath mutation; the
+//! perturbations as level-1 mutations through media.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
