@@ -21,8 +21,9 @@ use crate::scene::{Camera, Scene};
 /// |∂u/∂A| of path `y` for the perturbation of `class`, up to factors of
 /// the fixed vertices: the density in the moving vertices' area measure
 /// of a unit density in the perturbation's coordinates u, from
-/// [`path_densities`] (Veach's symbolic densities: a specular vertex
-/// scatters with solid-angle density 1). Lens: the camera side's
+/// [`path_densities`] (a specular vertex's symbolic density is its lobe's
+/// selection probability, 1 at the mirror furnace's mirrors: the solid-angle
+/// density 1 of a perturbation, which keeps the lobes). Lens: the camera side's
 /// ∏_{i=1}^{t} fwd[i] (a uniform raster position's area density at x₁,
 /// then the specular vertices'), times the image area. Caustic: the
 /// direction leaving x_j carried to x₁, ∏_{i=1}^{j−1} |n_i·ω|/d². Multi-
