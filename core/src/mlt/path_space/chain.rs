@@ -99,23 +99,28 @@ impl Mutations {
     }
 
     /// The class of `path` when a perturbation can be chosen, else
-    /// `Neither` (no look at the path). In a scene with media no
-    /// perturbation is chosen as a level-1 mutation: their ratio through
-    /// media (level 2's targets with the kept free-flight distance,
-    /// `perturbation/media.rs`) is not checked against the path measure's
-    /// densities, so every path of such a scene is left to the
-    /// bidirectional and lens subpath mutations. That depends on the scene
-    /// alone, so the selection stays symmetric (`selection.rs`).
-    fn class<I: Intersector>(
+    /// `Neither` (no look at the path). In a scene with media the class is
+    /// completed with what its perturbation keeps through them (the
+    /// free-flight distance of a medium vertex it moves, the media its
+    /// rays start in: [`Applicable::complete_media`], as level 2 does);
+    /// a path whose own segments cannot be measured is `Neither`. Both
+    /// are functions of the path alone, so the selection stays symmetric
+    /// (`selection.rs`).
+    pub(crate) fn class<I: Intersector>(
         &self,
-        tr: &Tracer<'_, I>,
+        tr: &mut Tracer<'_, I>,
         path: &[crate::integrator::bdpt::PathVertex],
     ) -> Applicable {
-        if self.perturbing() && !tr.has_media() {
-            classify(tr, path)
-        } else {
-            Applicable::Neither
+        if !self.perturbing() {
+            return Applicable::Neither;
         }
+        #[allow(unused_mut)]
+        let mut class = classify(tr, path);
+        #[cfg(feature = "media")]
+        if tr.has_media() && !class.complete_media(tr, path) {
+            class = Applicable::Neither;
+        }
+        class
     }
 }
 

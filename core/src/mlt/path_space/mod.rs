@@ -24,9 +24,10 @@
 //! media and null boundaries (`media`: the walks sample free flights and
 //! cross null boundaries, f(x̄) has each segment's transmittance and the
 //! densities BDPT's free-flight densities, `PathState::evaluate`; the
-//! perturbations are not chosen in a scene with media, `chain.rs`). Not
-//! yet: stratified raster positions for the lens subpath mutation; the
-//! perturbations as level-1 mutations through media.
+//! perturbations retrace their rays through media as level 2 does,
+//! keeping a moving medium vertex's free-flight distance,
+//! `perturbations.rs`). Not yet: stratified raster positions for the lens
+//! subpath mutation.
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;

@@ -172,6 +172,10 @@ impl Perturbations {
         let camera = tr.camera;
         y.clear();
         y.push(x[0]);
+        #[cfg(feature = "media")]
+        if tr.has_media() {
+            return self.build_through_media(tr, x, class, to, y);
+        }
         match (class, to) {
             (Applicable::Lens(a), Coordinates::Lens(s)) => {
                 let t = a.chain.len() + 1;
@@ -201,6 +205,44 @@ impl Perturbations {
                 let xt = &y[y.len() - 1].sp;
                 let ray = offset::spawn_ray(xt.p, xt.p_error, xt.ng, s.dir);
                 follow(tr, ray, &a.second, TransportMode::Radiance, y)?;
+                y.extend_from_slice(x.get(u + 1..)?);
+            }
+            _ => return None,
+        }
+        Some(())
+    }
+}
+
+impl Perturbations {
+    /// [`Perturbations::build`] in a scene with media: the moving vertices
+    /// as level 2's targets retrace them through media and null
+    /// boundaries, a medium vertex at the distance the perturbation keeps
+    /// (`perturbation/media.rs`), so that ȳ is the path whose value the
+    /// ratio's p(u_y) is.
+    #[cfg(feature = "media")]
+    fn build_through_media<I: Intersector>(
+        &mut self,
+        tr: &mut Tracer<'_, I>,
+        x: &[PathVertex],
+        class: &Applicable,
+        to: &Coordinates,
+        y: &mut Vec<PathVertex>,
+    ) -> Option<()> {
+        use crate::mlt::perturbation::{caustic_vertices, lens_vertices, multi_chain_vertices};
+        match (class, to) {
+            (Applicable::Lens(a), Coordinates::Lens(s)) => {
+                lens_vertices(tr, a, a.media.as_ref()?, s.raster, y)?;
+                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
+            }
+            (Applicable::Caustic(a), Coordinates::Caustic(s)) => {
+                self.scratch.clear();
+                caustic_vertices(tr, a, a.media.as_ref()?, s.dir, &mut self.scratch)?;
+                y.extend(self.scratch.iter().rev());
+                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
+            }
+            (Applicable::MultiChain(a), Coordinates::MultiChain(s)) => {
+                let u = a.first.len() + a.second.len() + 2;
+                multi_chain_vertices(tr, a, a.media.as_ref()?, s.raster, s.dir, y)?;
                 y.extend_from_slice(x.get(u + 1..)?);
             }
             _ => return None,

@@ -488,7 +488,7 @@ fn bidirectional_chain_samples_paths_in_proportion_to_their_contribution() {
 
 /// Each depth's share b_d / Σ b of ∫Y(f) over paths of 1 … 4 segments in
 /// `scene`, from BDPT's own target ([`depth_b`]).
-fn depth_shares(scene: &Scene) -> [f64; 4] {
+pub(super) fn depth_shares(scene: &Scene) -> [f64; 4] {
     let b: [f64; 4] = core::array::from_fn(|d| depth_b(scene, d + 1, 100_000));
     let total: f64 = b.iter().sum();
     b.map(|x| x / total)
@@ -496,7 +496,7 @@ fn depth_shares(scene: &Scene) -> [f64; 4] {
 
 /// Whether the chains' depth shares are `want`'s, each within 4 standard
 /// errors of the chains' spread (or 1.5 %).
-fn shares_agree(shares: &Shares, want: &[f64; 4]) -> bool {
+pub(super) fn shares_agree(shares: &Shares, want: &[f64; 4]) -> bool {
     (0..4).all(|d| (shares.depths[d] - want[d]).abs() <= (4.0 * shares.errors[d]).max(0.015))
 }
 

@@ -385,6 +385,8 @@ struct Reached {
 /// along the last segment (a medium vertex, which must lie in a medium
 /// and before any surface) or the next non-specular surface. `None` when
 /// the ray leaves the class.
+/// `visit` sees each specular vertex the retrace passes, in order (the
+/// path-space perturbations build their proposals' vertices from them).
 #[allow(clippy::too_many_arguments)]
 fn retrace<I: Intersector>(
     tr: &mut Tracer<'_, I>,
@@ -394,6 +396,7 @@ fn retrace<I: Intersector>(
     chain: &SpecularChain,
     mode: TransportMode,
     scatter_at: Option<f32>,
+    mut visit: impl FnMut(&Shading),
 ) -> Option<Reached> {
     let scene = tr.scene;
     let mut beta = Rgb::ONE;
@@ -413,6 +416,7 @@ fn retrace<I: Intersector>(
         if beta.is_black() || !beta.is_finite() {
             return None;
         }
+        visit(&h);
         medium = medium_leaving(tr, &h.sp, arrival, wi);
         (p, p_err, ng, d) = (h.sp.p, h.sp.p_error, h.sp.ng, wi);
     }
@@ -484,6 +488,7 @@ pub(super) fn lens_value<I: Intersector>(
         &anchor.chain,
         TransportMode::Radiance,
         media.scatter_at,
+        |_| {},
     ) else {
         return Rgb::ZERO;
     };
@@ -614,16 +619,11 @@ pub(super) fn caustic_value<I: Intersector>(
 ) -> Option<(Rgb, Vec2)> {
     let scene = tr.scene;
     let o = &a.origin;
-    let (f, start, medium) = if o.is_medium() {
+    let f = if o.is_medium() {
         // A medium vertex is never the emitter: `before` is set.
-        let before = a.before?;
-        (
-            medium_factor(tr, o, before, o.sp.p + dir),
-            (o.sp.p, Vec3::ZERO, Vec3::ZERO),
-            media.origin,
-        )
+        medium_factor(tr, o, a.before?, o.sp.p + dir)
     } else {
-        let f = match (&a.before, &o.shading) {
+        match (&a.before, &o.shading) {
             (None, _) => scene.emitted(&o.sp, dir) * o.sp.ng.dot(dir).abs(),
             (Some(before), Some(sh)) => {
                 tr.stats.bsdf_evals.add(sh.bsdf.lobe());
@@ -631,13 +631,9 @@ pub(super) fn caustic_value<I: Intersector>(
                     * o.sp.ns.dot(dir).abs()
             }
             (Some(_), None) => return None,
-        };
-        (
-            f,
-            (o.sp.p, o.sp.p_error, o.sp.ng),
-            medium_leaving(tr, &o.sp, media.origin, dir),
-        )
+        }
     };
+    let (start, medium) = caustic_start(tr, a, media, dir);
     if f.is_black() || !f.is_finite() {
         return None;
     }
@@ -649,6 +645,7 @@ pub(super) fn caustic_value<I: Intersector>(
         &a.chain,
         TransportMode::Importance,
         media.scatter_at,
+        |_| {},
     )?;
     let x = r.here.p();
     let conn = tr.camera.connect_at(x, a.p_lens)?;
@@ -704,29 +701,25 @@ pub(super) fn multi_chain_value<I: Intersector>(
         &a.first,
         TransportMode::Radiance,
         media.scatter_t,
+        |_| {},
     ) else {
         return Rgb::ZERO;
     };
-    let (f, start, medium) = match &r1.here {
+    let f = match &r1.here {
         Here::Surface(_, Some(h)) => {
             tr.stats.bsdf_evals.add(h.bsdf.lobe());
-            (
-                scatter(h, r1.prev, h.sp.p + dir, TransportMode::Radiance) * h.sp.ns.dot(dir).abs(),
-                (h.sp.p, h.sp.p_error, h.sp.ng),
-                medium_leaving(tr, &h.sp, r1.around, dir),
-            )
+            scatter(h, r1.prev, h.sp.p + dir, TransportMode::Radiance) * h.sp.ns.dot(dir).abs()
         }
         Here::Surface(_, None) => return Rgb::ZERO,
-        Here::Medium(p, id) => (
-            Rgb::splat(
-                scene
-                    .medium(*id)
-                    .phase()
-                    .eval((*p - r1.prev).normalize(), dir),
-            ),
-            (*p, Vec3::ZERO, Vec3::ZERO),
-            Some(*id),
+        Here::Medium(p, id) => Rgb::splat(
+            scene
+                .medium(*id)
+                .phase()
+                .eval((*p - r1.prev).normalize(), dir),
         ),
+    };
+    let Some((start, medium)) = chain_start(tr, &r1.here, r1.around, dir) else {
+        return Rgb::ZERO;
     };
     let beta = r1.beta * f;
     if beta.is_black() || !beta.is_finite() {
@@ -740,6 +733,7 @@ pub(super) fn multi_chain_value<I: Intersector>(
         &a.second,
         TransportMode::Radiance,
         media.scatter_u,
+        |_| {},
     ) else {
         return Rgb::ZERO;
     };
@@ -748,4 +742,151 @@ pub(super) fn multi_chain_value<I: Intersector>(
         LensEnd::Emitter => r2.around,
     };
     end_value(tr, &a.end, &r2.here, r2.prev, beta * r2.beta, toward)
+}
+
+/// Where a retrace from the caustic perturbation's origin x_j along `dir`
+/// starts: the point with its error bound and normal (zero off surfaces),
+/// and the medium the ray leaves in.
+fn caustic_start<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    a: &CausticAnchor,
+    media: &CausticMedia,
+    dir: Vec3,
+) -> ((Vec3, Vec3, Vec3), Option<MediumId>) {
+    let o = &a.origin;
+    if o.is_medium() {
+        ((o.sp.p, Vec3::ZERO, Vec3::ZERO), media.origin)
+    } else {
+        (
+            (o.sp.p, o.sp.p_error, o.sp.ng),
+            medium_leaving(tr, &o.sp, media.origin, dir),
+        )
+    }
+}
+
+/// Where the multi-chain perturbation's second retrace starts from the
+/// first one's end `here` (reached in `around`) along `dir`, as
+/// [`caustic_start`]; `None` at a light point.
+fn chain_start<I: Intersector>(
+    tr: &Tracer<'_, I>,
+    here: &Here,
+    around: Option<MediumId>,
+    dir: Vec3,
+) -> Option<((Vec3, Vec3, Vec3), Option<MediumId>)> {
+    match here {
+        Here::Surface(_, Some(h)) => Some((
+            (h.sp.p, h.sp.p_error, h.sp.ng),
+            medium_leaving(tr, &h.sp, around, dir),
+        )),
+        Here::Surface(_, None) => None,
+        Here::Medium(p, id) => Some(((*p, Vec3::ZERO, Vec3::ZERO), Some(*id))),
+    }
+}
+
+/// The path vertex of a retrace's end; `None` at a light point.
+fn end_vertex<I: Intersector>(tr: &Tracer<'_, I>, here: &Here) -> Option<PathVertex> {
+    match here {
+        Here::Surface(_, Some(h)) => Some(specular_vertex(h)),
+        Here::Surface(_, None) => None,
+        Here::Medium(p, id) => Some(bdpt::media::medium_path_vertex(tr.scene, *p, *id)),
+    }
+}
+
+/// The path vertex of a surface hit.
+fn specular_vertex(h: &Shading) -> PathVertex {
+    PathVertex {
+        sp: h.sp,
+        shading: Some(*h),
+        mixed_delta: false,
+    }
+}
+
+/// The moving vertices of the path-space lens perturbation's proposal at
+/// `raster` through media (`mlt::path_space::perturbations`): the ones
+/// [`lens_value`] retraces, x′₁ … x′_t, pushed onto `out`, x′_t at the
+/// kept distance when it is a medium vertex. `None` when the retrace
+/// leaves the class.
+pub(crate) fn lens_vertices<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    anchor: &LensAnchor,
+    media: &LensMedia,
+    raster: Vec2,
+    out: &mut alloc::vec::Vec<PathVertex>,
+) -> Option<()> {
+    let ray = tr.camera.ray_from_lens(raster, anchor.p_lens);
+    let r = retrace(
+        tr,
+        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        ray.d.normalize(),
+        media.camera,
+        &anchor.chain,
+        TransportMode::Radiance,
+        media.scatter_at,
+        |h| out.push(specular_vertex(h)),
+    )?;
+    out.push(end_vertex(tr, &r.here)?);
+    Some(())
+}
+
+/// The caustic perturbation's moving vertices along `dir` through media,
+/// as [`caustic_value`] retraces them: x′_{j−1} … x′₁ in tracing order
+/// (from x_j towards the camera), pushed onto `out`.
+pub(crate) fn caustic_vertices<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &CausticAnchor,
+    media: &CausticMedia,
+    dir: Vec3,
+    out: &mut alloc::vec::Vec<PathVertex>,
+) -> Option<()> {
+    let (start, medium) = caustic_start(tr, a, media, dir);
+    let r = retrace(
+        tr,
+        start,
+        dir,
+        medium,
+        &a.chain,
+        TransportMode::Importance,
+        media.scatter_at,
+        |h| out.push(specular_vertex(h)),
+    )?;
+    out.push(end_vertex(tr, &r.here)?);
+    Some(())
+}
+
+/// The multi-chain perturbation's moving vertices at `raster` and `dir`
+/// through media, as [`multi_chain_value`] retraces them: x′₁ … x′_u
+/// pushed onto `out`.
+pub(crate) fn multi_chain_vertices<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &MultiChainAnchor,
+    media: &MultiChainMedia,
+    raster: Vec2,
+    dir: Vec3,
+    out: &mut alloc::vec::Vec<PathVertex>,
+) -> Option<()> {
+    let ray = tr.camera.ray_from_lens(raster, a.p_lens);
+    let r1 = retrace(
+        tr,
+        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        ray.d.normalize(),
+        media.camera,
+        &a.first,
+        TransportMode::Radiance,
+        media.scatter_t,
+        |h| out.push(specular_vertex(h)),
+    )?;
+    out.push(end_vertex(tr, &r1.here)?);
+    let (start, medium) = chain_start(tr, &r1.here, r1.around, dir)?;
+    let r2 = retrace(
+        tr,
+        start,
+        dir,
+        medium,
+        &a.second,
+        TransportMode::Radiance,
+        media.scatter_u,
+        |h| out.push(specular_vertex(h)),
+    )?;
+    out.push(end_vertex(tr, &r2.here)?);
+    Some(())
 }

@@ -72,7 +72,9 @@ pub(crate) use lens::{LensProposal, LensState, LensTarget};
 pub(crate) use multi_chain::{MultiChainProposal, MultiChainState, MultiChainTarget};
 
 #[cfg(feature = "media")]
-pub(crate) use media::{CausticMedia, LensMedia, MultiChainMedia};
+pub(crate) use media::{
+    CausticMedia, LensMedia, MultiChainMedia, caustic_vertices, lens_vertices, multi_chain_vertices,
+};
 
 use glam::Vec3;
 
