@@ -801,6 +801,26 @@ fn specular_vertex(h: &Shading) -> PathVertex {
     }
 }
 
+/// [`retrace`] that pushes the vertices it reaches onto `out`: each
+/// specular one, then the end (`None` at a light point). Returns the end.
+#[allow(clippy::too_many_arguments)]
+fn retrace_vertices<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    start: (Vec3, Vec3, Vec3),
+    d: Vec3,
+    medium: Option<MediumId>,
+    chain: &SpecularChain,
+    mode: TransportMode,
+    scatter_at: Option<f32>,
+    out: &mut alloc::vec::Vec<PathVertex>,
+) -> Option<Reached> {
+    let r = retrace(tr, start, d, medium, chain, mode, scatter_at, |h| {
+        out.push(specular_vertex(h))
+    })?;
+    out.push(end_vertex(tr, &r.here)?);
+    Some(r)
+}
+
 /// The moving vertices of the path-space lens perturbation's proposal at
 /// `raster` through media (`mlt::path_space::perturbations`): the ones
 /// [`lens_value`] retraces, x′₁ … x′_t, pushed onto `out`, x′_t at the
@@ -814,17 +834,18 @@ pub(crate) fn lens_vertices<I: Intersector>(
     out: &mut alloc::vec::Vec<PathVertex>,
 ) -> Option<()> {
     let ray = tr.camera.ray_from_lens(raster, anchor.p_lens);
-    let r = retrace(
+    let start = (ray.o, Vec3::ZERO, Vec3::ZERO);
+    let (chain, mode) = (&anchor.chain, TransportMode::Radiance);
+    retrace_vertices(
         tr,
-        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        start,
         ray.d.normalize(),
         media.camera,
-        &anchor.chain,
-        TransportMode::Radiance,
+        chain,
+        mode,
         media.scatter_at,
-        |h| out.push(specular_vertex(h)),
+        out,
     )?;
-    out.push(end_vertex(tr, &r.here)?);
     Some(())
 }
 
@@ -839,17 +860,17 @@ pub(crate) fn caustic_vertices<I: Intersector>(
     out: &mut alloc::vec::Vec<PathVertex>,
 ) -> Option<()> {
     let (start, medium) = caustic_start(tr, a, media, dir);
-    let r = retrace(
+    let mode = TransportMode::Importance;
+    retrace_vertices(
         tr,
         start,
         dir,
         medium,
         &a.chain,
-        TransportMode::Importance,
+        mode,
         media.scatter_at,
-        |h| out.push(specular_vertex(h)),
+        out,
     )?;
-    out.push(end_vertex(tr, &r.here)?);
     Some(())
 }
 
@@ -865,28 +886,28 @@ pub(crate) fn multi_chain_vertices<I: Intersector>(
     out: &mut alloc::vec::Vec<PathVertex>,
 ) -> Option<()> {
     let ray = tr.camera.ray_from_lens(raster, a.p_lens);
-    let r1 = retrace(
+    let start = (ray.o, Vec3::ZERO, Vec3::ZERO);
+    let mode = TransportMode::Radiance;
+    let r1 = retrace_vertices(
         tr,
-        (ray.o, Vec3::ZERO, Vec3::ZERO),
+        start,
         ray.d.normalize(),
         media.camera,
         &a.first,
-        TransportMode::Radiance,
+        mode,
         media.scatter_t,
-        |h| out.push(specular_vertex(h)),
+        out,
     )?;
-    out.push(end_vertex(tr, &r1.here)?);
     let (start, medium) = chain_start(tr, &r1.here, r1.around, dir)?;
-    let r2 = retrace(
+    retrace_vertices(
         tr,
         start,
         dir,
         medium,
         &a.second,
-        TransportMode::Radiance,
+        mode,
         media.scatter_u,
-        |h| out.push(specular_vertex(h)),
+        out,
     )?;
-    out.push(end_vertex(tr, &r2.here)?);
     Some(())
 }
