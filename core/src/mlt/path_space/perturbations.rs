@@ -35,6 +35,16 @@
 //! vertices and their lobes, and its anchor: the proposed path has the
 //! same class, so the same perturbation applies to it with the same
 //! anchor, and the reverse move exists.
+//!
+//! ## Through media
+//!
+//! In a scene with media the rays are retraced as level 2's targets
+//! retrace them (`perturbation/media.rs`): null boundaries crossed, and a
+//! moving medium vertex placed at the free-flight distance s its class
+//! keeps. The coordinates are then (u, s) with s fixed, level 2's target
+//! is the density in them (its Jacobian has the volume element s² of such
+//! a vertex), and the ratio above holds as it stands; the tests check it
+//! against the path's densities on `fog_box`.
 
 use alloc::vec::Vec;
 
