@@ -163,7 +163,7 @@ pub struct MltArgs {
     /// primary sample space) or path (Veach's path space with the
     /// bidirectional and lens subpath mutations and the lens, caustic and
     /// multi-chain perturbations, CMLT's level 2 over them; every kind of
-    /// light, and media).
+    /// light, and media; scenes with smooth plastic are refused).
     #[arg(long, default_value = "primary", value_parser = parse_level1)]
     pub level1: Level1,
     /// Markov chains per thread.

@@ -746,6 +746,22 @@ impl Scene {
                 .any(|id| matches!(self.materials[id.0 as usize].kind, MaterialKind::Null))
     }
 
+    /// Whether a used material has a Dirac lobe beside smooth ones
+    /// (smooth plastic's coating over its diffuse base): BSDF sampling
+    /// can take that lobe, which `eval` does not see.
+    pub fn has_mixed_dirac_lobes(&self) -> bool {
+        self.meshes
+            .iter()
+            .map(|m| m.material)
+            .chain(self.shapes.iter().map(|g| g.material))
+            .any(|id| {
+                matches!(
+                    self.materials[id.0 as usize].kind,
+                    MaterialKind::Plastic { .. }
+                )
+            })
+    }
+
     /// The medium the camera sits in.
     #[inline]
     pub fn camera_medium(&self) -> Option<MediumId> {

@@ -573,3 +573,57 @@ fn direct_allocation_keeps_the_image() {
         "walls {walls} vs {walls_all}"
     );
 }
+
+/// The path-space level 1 of MLT and CMLT refuses a scene with smooth
+/// plastic (its paths through the Dirac coating are missing from its
+/// state space, so it would render the coating's reflections dark:
+/// `renderer::check_path_space`), when asked to prepare; the same scene
+/// prepares in primary sample space, and the path-space level 1 prepares a
+/// scene without smooth plastic (the grey furnace: the refusal is about the
+/// material, not the level 1).
+#[test]
+fn path_space_level1_refuses_smooth_plastic() {
+    use cmlt::mlt::Level1;
+    use cmlt::renderer::{EstimatorKind, RenderError, RenderWorker, Renderer, RendererConfig};
+    let plastic = common::furnace_scene(
+        Material {
+            kind: MaterialKind::Plastic {
+                eta: 1.5,
+                diffuse_reflectance: Texture::Constant(Rgb::splat(0.5)),
+                specular_reflectance: Texture::Constant(Rgb::ONE),
+                nonlinear: false,
+            },
+            two_sided: false,
+            detail: Default::default(),
+        },
+        1.0,
+    );
+    let grey = diffuse_furnace(1.0);
+    for kind in [EstimatorKind::Mlt, EstimatorKind::Cmlt] {
+        for (name, scene, level1, refused) in [
+            ("plastic", &plastic, Level1::PathSpace, true),
+            ("plastic", &plastic, Level1::PrimarySample, false),
+            ("grey", &grey, Level1::PathSpace, false),
+        ] {
+            let bvh = Bvh::build(&scene.triangles().collect::<Vec<_>>());
+            let mut estimator = Estimator::default_for(kind);
+            estimator.mlt_mut().unwrap().level1 = level1;
+            let config = RendererConfig {
+                estimator,
+                ..RendererConfig::default()
+            };
+            let mut r = Renderer::new(config, scene.camera).unwrap();
+            let mut w = RenderWorker::new(&r, 0).unwrap();
+            assert!(r.begin_prepare(scene));
+            let result = r.prepare_worker(&mut w, scene, &bvh);
+            if !refused {
+                assert!(result.is_ok(), "{kind:?} {name} {level1:?}: {result:?}");
+                continue;
+            }
+            let Err(RenderError::Config(msg)) = result else {
+                panic!("{kind:?} {name} {level1:?}: {result:?}");
+            };
+            assert!(msg.contains("smooth plastic"), "{msg}");
+        }
+    }
+}

@@ -27,7 +27,9 @@
 //! perturbations retrace their rays through media as level 2 does,
 //! keeping a moving medium vertex's free-flight distance,
 //! `perturbations.rs`). Not yet: stratified raster positions for the lens
-//! subpath mutation.
+//! subpath mutation; paths through a mixed BSDF's Dirac lobe (smooth
+//! plastic's coating), which f(x̄) cannot evaluate (`state.rs`): the
+//! renderer refuses such a scene here (`renderer::check_path_space`).
 
 pub(crate) mod bidirectional;
 pub(crate) mod chain;
