@@ -60,9 +60,11 @@ use crate::integrator::bdpt::PathVertex;
 use crate::math::Rgb;
 use crate::mlt::multiple_try::{Proposal as Offset, Target};
 use crate::mlt::perturbation::{
-    Applicable, CausticState, CausticTarget, LensState, LensTarget, MultiChainState,
-    MultiChainTarget, Proposals, SpecularChain,
+    Applicable, CausticAnchor, CausticState, CausticTarget, LensAnchor, LensState, LensTarget,
+    MultiChainAnchor, MultiChainState, MultiChainTarget, Proposals, SpecularChain,
 };
+#[cfg(feature = "media")]
+use crate::mlt::perturbation::{caustic_vertices, lens_vertices, multi_chain_vertices};
 use crate::sampler::Sampler;
 
 /// The three perturbations as level-1 mutations, with their proposals and
@@ -179,43 +181,22 @@ impl Perturbations {
         to: &Coordinates,
         y: &mut Vec<PathVertex>,
     ) -> Option<()> {
-        let camera = tr.camera;
         y.clear();
         y.push(x[0]);
-        #[cfg(feature = "media")]
-        if tr.has_media() {
-            return self.build_through_media(tr, x, class, to, y);
-        }
         match (class, to) {
             (Applicable::Lens(a), Coordinates::Lens(s)) => {
-                let t = a.chain.len() + 1;
-                let ray = camera.ray_from_lens(s.raster, a.p_lens);
-                follow(tr, ray, &a.chain, TransportMode::Radiance, y)?;
-                y.extend_from_slice(x.get(t + 1..)?);
+                lens_part(tr, a, s.raster, y)?;
+                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
             }
             (Applicable::Caustic(a), Coordinates::Caustic(s)) => {
-                let j = a.chain.len() + 2;
-                let o = &a.origin.sp;
-                let ray = offset::spawn_ray(o.p, o.p_error, o.ng, s.dir);
                 self.scratch.clear();
-                follow(
-                    tr,
-                    ray,
-                    &a.chain,
-                    TransportMode::Importance,
-                    &mut self.scratch,
-                )?;
+                caustic_part(tr, a, s.dir, &mut self.scratch)?;
                 y.extend(self.scratch.iter().rev());
-                y.extend_from_slice(x.get(j..)?);
+                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
             }
             (Applicable::MultiChain(a), Coordinates::MultiChain(s)) => {
-                let u = a.first.len() + a.second.len() + 2;
-                let ray = camera.ray_from_lens(s.raster, a.p_lens);
-                follow(tr, ray, &a.first, TransportMode::Radiance, y)?;
-                let xt = &y[y.len() - 1].sp;
-                let ray = offset::spawn_ray(xt.p, xt.p_error, xt.ng, s.dir);
-                follow(tr, ray, &a.second, TransportMode::Radiance, y)?;
-                y.extend_from_slice(x.get(u + 1..)?);
+                multi_chain_part(tr, a, s.raster, s.dir, y)?;
+                y.extend_from_slice(x.get(a.first.len() + a.second.len() + 3..)?);
             }
             _ => return None,
         }
@@ -223,42 +204,61 @@ impl Perturbations {
     }
 }
 
-impl Perturbations {
-    /// [`Perturbations::build`] in a scene with media: the moving vertices
-    /// as level 2's targets retrace them through media and null
-    /// boundaries, a medium vertex at the distance the perturbation keeps
-    /// (`perturbation/media.rs`), so that ȳ is the path whose value the
-    /// ratio's p(u_y) is.
+/// The lens perturbation's moving vertices x′₁ … x′_t at `raster`, pushed
+/// onto `y`: through the specular chain, and in a scene with media as
+/// level 2's target retraces them (null boundaries crossed, a medium x′_t
+/// at its kept distance: `perturbation/media.rs`), so that ȳ is the path
+/// whose value the ratio's p(u_y) is.
+fn lens_part<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &LensAnchor,
+    raster: Vec2,
+    y: &mut Vec<PathVertex>,
+) -> Option<()> {
     #[cfg(feature = "media")]
-    fn build_through_media<I: Intersector>(
-        &mut self,
-        tr: &mut Tracer<'_, I>,
-        x: &[PathVertex],
-        class: &Applicable,
-        to: &Coordinates,
-        y: &mut Vec<PathVertex>,
-    ) -> Option<()> {
-        use crate::mlt::perturbation::{caustic_vertices, lens_vertices, multi_chain_vertices};
-        match (class, to) {
-            (Applicable::Lens(a), Coordinates::Lens(s)) => {
-                lens_vertices(tr, a, a.media.as_ref()?, s.raster, y)?;
-                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
-            }
-            (Applicable::Caustic(a), Coordinates::Caustic(s)) => {
-                self.scratch.clear();
-                caustic_vertices(tr, a, a.media.as_ref()?, s.dir, &mut self.scratch)?;
-                y.extend(self.scratch.iter().rev());
-                y.extend_from_slice(x.get(a.chain.len() + 2..)?);
-            }
-            (Applicable::MultiChain(a), Coordinates::MultiChain(s)) => {
-                let u = a.first.len() + a.second.len() + 2;
-                multi_chain_vertices(tr, a, a.media.as_ref()?, s.raster, s.dir, y)?;
-                y.extend_from_slice(x.get(u + 1..)?);
-            }
-            _ => return None,
-        }
-        Some(())
+    if tr.has_media() {
+        return lens_vertices(tr, a, a.media.as_ref()?, raster, y);
     }
+    let ray = tr.camera.ray_from_lens(raster, a.p_lens);
+    follow(tr, ray, &a.chain, TransportMode::Radiance, y)
+}
+
+/// The caustic perturbation's moving vertices along `dir` from x_j,
+/// x′_{j−1} … x′₁ in tracing order, pushed onto `out` (through media as
+/// [`lens_part`]).
+fn caustic_part<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &CausticAnchor,
+    dir: Vec3,
+    out: &mut Vec<PathVertex>,
+) -> Option<()> {
+    #[cfg(feature = "media")]
+    if tr.has_media() {
+        return caustic_vertices(tr, a, a.media.as_ref()?, dir, out);
+    }
+    let o = &a.origin.sp;
+    let ray = offset::spawn_ray(o.p, o.p_error, o.ng, dir);
+    follow(tr, ray, &a.chain, TransportMode::Importance, out)
+}
+
+/// The multi-chain perturbation's moving vertices x′₁ … x′_u at `raster`
+/// and `dir`, pushed onto `y` (through media as [`lens_part`]).
+fn multi_chain_part<I: Intersector>(
+    tr: &mut Tracer<'_, I>,
+    a: &MultiChainAnchor,
+    raster: Vec2,
+    dir: Vec3,
+    y: &mut Vec<PathVertex>,
+) -> Option<()> {
+    #[cfg(feature = "media")]
+    if tr.has_media() {
+        return multi_chain_vertices(tr, a, a.media.as_ref()?, raster, dir, y);
+    }
+    let ray = tr.camera.ray_from_lens(raster, a.p_lens);
+    follow(tr, ray, &a.first, TransportMode::Radiance, y)?;
+    let xt = &y[y.len() - 1].sp;
+    let ray = offset::spawn_ray(xt.p, xt.p_error, xt.ng, dir);
+    follow(tr, ray, &a.second, TransportMode::Radiance, y)
 }
 
 /// A path's coordinates in its perturbation's measure.
